@@ -1,0 +1,38 @@
+# areomap_cpputest(NAME SOURCES... LIBS... [LABELS ...])
+# One CppUTest executable; one CTest entry per TEST_GROUP found in its sources (`-sg GROUP`), so that
+# ctest reports every group. Sources are re-read when they change (CMAKE_CONFIGURE_DEPENDS).
+function(areomap_cpputest name)
+  cmake_parse_arguments(T "" "" "SOURCES;LIBS;LABELS" ${ARGN})
+  add_executable(${name} ${T_SOURCES} ${PROJECT_SOURCE_DIR}/tests/support/TestMain.cpp)
+  target_link_libraries(${name} PRIVATE areomap_warnings areomap_test_support PkgConfig::CPPUTEST ${T_LIBS})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  set(_groups)
+  foreach(src IN LISTS T_SOURCES)
+    get_filename_component(_abs ${src} ABSOLUTE)
+    set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${_abs})
+    file(STRINGS ${_abs} _lines REGEX "^[ \t]*TEST_GROUP(_BASE)?[ \t]*\\([ \t]*[A-Za-z0-9_]+")
+    foreach(line IN LISTS _lines)
+      string(REGEX REPLACE "^[ \t]*TEST_GROUP(_BASE)?[ \t]*\\([ \t]*([A-Za-z0-9_]+).*" "\\2" _g "${line}")
+      list(APPEND _groups ${_g})
+    endforeach()
+  endforeach()
+  list(REMOVE_DUPLICATES _groups)
+  foreach(g IN LISTS _groups)
+    add_test(NAME ${name}.${g} COMMAND ${name} -sg ${g} -v
+             WORKING_DIRECTORY ${CMAKE_BINARY_DIR})
+    set_tests_properties(${name}.${g} PROPERTIES SKIP_RETURN_CODE 77
+                         ENVIRONMENT "AREOMAP_SOURCE_DIR=${PROJECT_SOURCE_DIR};AREOMAP_BINARY_DIR=${CMAKE_BINARY_DIR}")
+    if(T_LABELS)
+      set_tests_properties(${name}.${g} PROPERTIES LABELS "${T_LABELS}")
+    endif()
+  endforeach()
+endfunction()
+
+# areomap_test_folder(NAME LIBS... [LABELS ...]): all *Test.cpp in the current folder, one executable.
+function(areomap_test_folder name)
+  cmake_parse_arguments(T "" "" "LIBS;LABELS" ${ARGN})
+  file(GLOB _srcs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*Test.cpp)
+  if(_srcs)
+    areomap_cpputest(${name} SOURCES ${_srcs} LIBS ${T_LIBS} LABELS ${T_LABELS})
+  endif()
+endfunction()

@@ -1,0 +1,83 @@
+// The paper's photogrammetric model (Di, Xu, Li §3.1; Wolf & Dewitt): interior orientation, exterior
+// orientation (X0, Y0, Z0, omega, phi, kappa) and the collinearity equations (Eq. 1) with analytic
+// Jacobians.
+//
+// Conventions (stated once, used everywhere):
+// - M = R_kappa * R_phi * R_omega rotates site-frame vectors into the camera frame (Wolf & Dewitt):
+//     m11 = cos(phi)cos(kappa)   m12 = sin(omega)sin(phi)cos(kappa)+cos(omega)sin(kappa)   m13 = ...
+//     m31 = sin(phi)             m32 = -sin(omega)cos(phi)          m33 = cos(omega)cos(phi)
+//   so omega = atan2(-m32, m33), phi = asin(m31), kappa = atan2(-m21, m11).
+// - Camera frame: x along H' (image right), y along -V' (image up), z along -A (the camera looks along -z).
+//   The rows of M are these axes in the site frame: M = [H'; -V'; -A].
+// - Collinearity in pixels: with d = M (P - C), x = -f d_x / d_z and y = -f d_y / d_z (image-plane
+//   coordinates, y up), and sample = x0 + x, line = y0 - y, where (x0, y0) = principal point in pixel
+//   coordinates (sample, line) of the delivered image. These are "ideal" pixels: distortion is handled
+//   separately (InteriorOrientation::distortion, or exactly through the CAHVOR inverse).
+// - Rotation updates in the adjusters are local: M' = exp([delta]x) M (delta in the camera frame), which
+//   has no gimbal lock; omega/phi/kappa are for input, output and reports.
+#pragma once
+
+#include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/base/Status.hpp"
+
+namespace areomap {
+
+// Image-space lens distortion about a centre (cx, cy) in pixels: radial k1..k3 and decentering p1, p2
+// (Brown), plus an affinity (scale difference and shear) that absorbs hs != vs and non-orthogonal H, V.
+// ideal = distorted + delta(distorted); all coefficients in pixel units normalised by `norm_px`.
+struct LensDistortion {
+  double cx_px = 0.0;
+  double cy_px = 0.0;
+  double norm_px = 1.0;  // radius normaliser (e.g. f), keeps coefficients well scaled
+  double k1 = 0.0, k2 = 0.0, k3 = 0.0;
+  double p1 = 0.0, p2 = 0.0;
+  double b1 = 0.0, b2 = 0.0;  // affinity: x scale difference, shear
+};
+
+struct InteriorOrientation {
+  double f_px = 0.0;             // principal distance, pixels
+  double x0_px = 0.0;            // principal point: sample of the delivered image
+  double y0_px = 0.0;            // principal point: line of the delivered image
+  double pixel_size_mm = 0.0;    // 0 = unknown (f in mm = f_px * pixel_size_mm)
+  int32_t width = 0;
+  int32_t height = 0;
+  LensDistortion distortion;
+};
+
+struct ExteriorOrientation {
+  Vec3 center_m = Vec3::Zero();  // X0, Y0, Z0 in the site frame
+  double omega_rad = 0.0;
+  double phi_rad = 0.0;
+  double kappa_rad = 0.0;
+};
+
+// M(omega, phi, kappa), site -> camera.
+Mat3 rotationFromOpk(double omega_rad, double phi_rad, double kappa_rad);
+// Angles of a rotation matrix (phi in [-pi/2, pi/2]; at phi = +-pi/2 kappa is set to 0).
+void opkFromRotation(const Mat3& m, double& omega_rad, double& phi_rad, double& kappa_rad);
+
+// Derivatives of M with respect to omega, phi and kappa.
+void rotationDerivatives(double omega_rad, double phi_rad, double kappa_rad, Mat3& d_omega, Mat3& d_phi,
+                         Mat3& d_kappa);
+
+// Collinearity (Eq. 1) in ideal pixels for a camera with centre `center`, rotation `m` (site -> camera)
+// and principal distance/point from `io`. Returns kBehindCamera if the point is not in front (d_z >= 0).
+// Optional Jacobians:
+//   d_center  : d(sample, line)/d(X0, Y0, Z0)
+//   d_rotation: d(sample, line)/d(delta) for the local update M' = exp([delta]x) M
+//   d_point   : d(sample, line)/d(XP, YP, ZP)
+[[nodiscard]] Status collinearity(const InteriorOrientation& io, const Vec3& center, const Mat3& m,
+                                  const Vec3& point, Vec2& pixel, Mat2x3* d_center = nullptr,
+                                  Mat2x3* d_rotation = nullptr, Mat2x3* d_point = nullptr);
+
+// The same with the paper's six EO unknowns: d_eo = d(sample, line)/d(X0, Y0, Z0, omega, phi, kappa).
+[[nodiscard]] Status collinearityOpk(const InteriorOrientation& io, const ExteriorOrientation& eo,
+                                     const Vec3& point, Vec2& pixel, Mat2x6* d_eo = nullptr,
+                                     Mat2x3* d_point = nullptr);
+
+// Image-space distortion: the correction of a distorted (measured) pixel to an ideal one, and its
+// inverse by bounded fixed-point iteration.
+Vec2 undistortPixel(const LensDistortion& d, const Vec2& distorted);
+[[nodiscard]] Status distortPixel(const LensDistortion& d, const Vec2& ideal, Vec2& distorted);
+
+}  // namespace areomap

@@ -1,0 +1,31 @@
+// Counts heap allocations of the whole process by interposing malloc, calloc, realloc, free and the
+// aligned variants, forwarding to glibc (__libc_*). Works in the Release build, where Eigen's
+// EIGEN_RUNTIME_NO_MALLOC is compiled out, and counts every allocation: operator new, Eigen, STL, libc.
+//
+// Linking `areomap_heap_counter` into an executable turns the counter on (its malloc definitions
+// interpose glibc's); a build with sanitizers, which own malloc themselves, compiles the interposer out and
+// heapCounterActive() is false.
+#pragma once
+
+#include <cstdint>
+
+namespace areomap {
+
+// True when allocations are being counted in this process.
+bool heapCounterActive();
+// Allocation calls (malloc, calloc, realloc, memalign, posix_memalign, aligned_alloc, valloc) so far.
+uint64_t heapAllocationCount();
+// free calls with a non-null pointer so far.
+uint64_t heapFreeCount();
+
+// Measures the allocations made between construction and allocations().
+class HeapAllocationScope {
+ public:
+  HeapAllocationScope() : start_(heapAllocationCount()) {}
+  uint64_t allocations() const { return heapAllocationCount() - start_; }
+
+ private:
+  uint64_t start_;
+};
+
+}  // namespace areomap

@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# areomap set-up: installs every Debian package the project needs (idempotent: apt runs only when something
+# is missing) and configures and builds into build/ (tools in build/bin/).
+#
+#   ./setup.sh                      native build (Release)
+#   ./setup.sh --targets aarch64,powerpc   also the cross targets (toolchains/README.md)
+#   ./setup.sh --no-build           packages only
+set -euo pipefail
+cd "$(dirname "$0")"
+
+usage() {
+  sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'
+}
+
+targets=""
+build=1
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --targets) targets="${2:-}"; shift 2 ;;
+    --targets=*) targets="${1#--targets=}"; shift ;;
+    --no-build) build=0; shift ;;
+    -h|--help) usage; exit 0 ;;
+    *) echo "setup.sh: unknown option '$1'" >&2; usage >&2; exit 2 ;;
+  esac
+done
+
+# The packages of the native build, its tests and the main job.
+packages=(
+  build-essential cmake ninja-build pkg-config git ca-certificates
+  libeigen3-dev liblcm-dev liblcm-bin libturbojpeg0-dev libjpeg62-turbo-dev
+  libcpputest-dev cpputest libopencv-dev libgdal-dev gdal-bin libceres-dev nlohmann-json3-dev
+  libpng-dev iproute2 util-linux procps python3
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+as_root=()
+if [ "$(id -u)" != 0 ]; then as_root=(sudo); fi
+
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${#missing[@]} Debian packages: ${missing[*]}"
+  "${as_root[@]}" apt-get update -q
+  DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
+else
+  echo "setup: all ${#packages[@]} Debian packages present"
+fi
+
+if [ -n "$targets" ]; then
+  if [ -x toolchains/setup-targets.sh ]; then
+    toolchains/setup-targets.sh "$targets"
+  else
+    echo "setup: cross targets ($targets) are not available yet (toolchains/setup-targets.sh missing)" >&2
+    exit 1
+  fi
+fi
+
+if [ "$build" = 1 ]; then
+  jobs=$(nproc 2>/dev/null || echo 2)
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+  cmake --build build -j "$jobs"
+  echo "setup: built into build/ (tools in build/bin/)"
+fi

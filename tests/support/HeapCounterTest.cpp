@@ -1,0 +1,71 @@
+#include <cstdlib>
+#include <vector>
+
+#include "firmware_core/base/EigenTypes.hpp"
+#include "platform/heap/HeapCounter.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using areomap::HeapAllocationScope;
+
+namespace {
+// Kept out of the optimiser's reach so that the allocations below really happen.
+void* volatile g_sink = nullptr;
+}  // namespace
+
+TEST_GROUP(HeapCounter){};
+
+TEST(HeapCounter, IsActiveInThisBuild) { CHECK_TRUE(areomap::heapCounterActive()); }
+
+TEST(HeapCounter, CatchesMallocNewAndVector) {
+  {
+    HeapAllocationScope scope;
+    void* p = std::malloc(64);
+    g_sink = p;
+    std::free(p);
+    CHECK_EQUAL(1u, scope.allocations());
+  }
+  {
+    HeapAllocationScope scope;
+    int* p = new int[16];
+    g_sink = p;
+    delete[] p;
+    CHECK_EQUAL(1u, scope.allocations());
+  }
+  {
+    HeapAllocationScope scope;
+    std::vector<double> v(1000, 1.0);
+    g_sink = v.data();
+    CHECK(scope.allocations() >= 1u);
+  }
+  {
+    HeapAllocationScope scope;
+    Eigen::MatrixXd m = Eigen::MatrixXd::Identity(20, 20);
+    g_sink = m.data();
+    CHECK(scope.allocations() >= 1u);
+  }
+  {
+    HeapAllocationScope scope;
+    void* p = std::aligned_alloc(64, 256);
+    g_sink = p;
+    std::free(p);
+    void* q = nullptr;
+    CHECK_EQUAL(0, posix_memalign(&q, 64, 256));
+    std::free(q);
+    p = std::calloc(4, 8);
+    p = std::realloc(p, 128);
+    g_sink = p;
+    std::free(p);
+    CHECK_EQUAL(4u, scope.allocations());
+  }
+}
+
+TEST(HeapCounter, ReportsZeroForFixedSizeWork) {
+  HeapAllocationScope scope;
+  areomap::Mat12 a = areomap::Mat12::Identity() * 2.0;
+  areomap::Vec12 b = areomap::Vec12::Ones();
+  areomap::Vec12 x = a.ldlt().solve(b);
+  g_sink = &x;
+  DOUBLES_EQUAL(0.5, x(3), 1e-15);
+  CHECK_EQUAL(0u, scope.allocations());
+}

@@ -1,0 +1,44 @@
+#include "tests/support/TestData.hpp"
+
+#include <sys/stat.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+namespace areomap::test {
+
+std::string sourceDir() {
+  const char* env = std::getenv("AREOMAP_SOURCE_DIR");
+  return env != nullptr ? std::string(env) : std::string(AREOMAP_SOURCE_DIR);
+}
+
+std::string sharedDataDir() {
+  const char* env = std::getenv("AREOMAP_SHARED_DATA");
+  if (env != nullptr) return env;
+  return sourceDir() + "/../shared/data";
+}
+
+std::string scratchDir(const std::string& name) {
+  const char* env = std::getenv("AREOMAP_BINARY_DIR");
+  const std::string root = (env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR)) + "/test-scratch";
+  const std::string dir = root + "/" + name;
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+  std::filesystem::create_directories(dir, ec);
+  return dir;
+}
+
+bool fileExists(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0;
+}
+
+bool requireSharedData(const std::string& folder) {
+  const std::string dir = sharedDataDir() + "/" + folder;
+  if (fileExists(dir)) return true;
+  std::printf("\nSKIP: needs real data in %s (absent here)\n", dir.c_str());
+  return false;
+}
+
+}  // namespace areomap::test
