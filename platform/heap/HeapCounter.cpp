@@ -16,6 +16,13 @@
 namespace {
 std::atomic<uint64_t> g_allocations{0};
 std::atomic<uint64_t> g_frees{0};
+// initial-exec TLS: reading it never calls into the dynamic loader (which could allocate).
+__attribute__((tls_model("initial-exec"))) thread_local uint64_t t_allocations = 0;
+
+inline void countAllocation() {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  ++t_allocations;
+}
 }  // namespace
 
 namespace areomap {
@@ -27,6 +34,7 @@ bool heapCounterActive() { return true; }
 #endif
 uint64_t heapAllocationCount() { return g_allocations.load(std::memory_order_relaxed); }
 uint64_t heapFreeCount() { return g_frees.load(std::memory_order_relaxed); }
+uint64_t heapAllocationCountThisThread() { return t_allocations; }
 
 }  // namespace areomap
 
@@ -39,15 +47,15 @@ void __libc_free(void* ptr);
 void* __libc_memalign(std::size_t alignment, std::size_t size);
 
 void* malloc(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  countAllocation();
   return __libc_malloc(size);
 }
 void* calloc(std::size_t count, std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  countAllocation();
   return __libc_calloc(count, size);
 }
 void* realloc(void* ptr, std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  countAllocation();
   return __libc_realloc(ptr, size);
 }
 void free(void* ptr) {
@@ -55,15 +63,15 @@ void free(void* ptr) {
   __libc_free(ptr);
 }
 void* memalign(std::size_t alignment, std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  countAllocation();
   return __libc_memalign(alignment, size);
 }
 void* aligned_alloc(std::size_t alignment, std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  countAllocation();
   return __libc_memalign(alignment, size);
 }
 int posix_memalign(void** out, std::size_t alignment, std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  countAllocation();
   if (alignment < sizeof(void*) || (alignment & (alignment - 1)) != 0) return EINVAL;
   void* p = __libc_memalign(alignment, size);
   if (p == nullptr) return ENOMEM;
@@ -71,7 +79,7 @@ int posix_memalign(void** out, std::size_t alignment, std::size_t size) {
   return 0;
 }
 void* valloc(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  countAllocation();
   return __libc_memalign(4096, size);
 }
 }  // extern "C"

@@ -17,6 +17,9 @@ bool heapCounterActive();
 uint64_t heapAllocationCount();
 // free calls with a non-null pointer so far.
 uint64_t heapFreeCount();
+// Allocation calls made by the calling thread so far. A node whose transport library allocates on its own
+// thread (LCM's receive thread) proves its pipeline thread heap-free with this count.
+uint64_t heapAllocationCountThisThread();
 
 // Measures the allocations made between construction and allocations().
 class HeapAllocationScope {

@@ -1,4 +1,5 @@
 #include <cstdlib>
+#include <thread>
 #include <vector>
 
 #include "firmware_core/base/EigenTypes.hpp"
@@ -68,4 +69,21 @@ TEST(HeapCounter, ReportsZeroForFixedSizeWork) {
   g_sink = &x;
   DOUBLES_EQUAL(0.5, x(3), 1e-15);
   CHECK_EQUAL(0u, scope.allocations());
+}
+
+TEST(HeapCounter, CountsPerThread) {
+  const uint64_t mine = areomap::heapAllocationCountThisThread();
+  const uint64_t all = areomap::heapAllocationCount();
+  std::thread other([] {
+    for (int i = 0; i < 10; ++i) {
+      void* p = std::malloc(32);
+      g_sink = p;
+      std::free(p);
+    }
+  });
+  other.join();
+  // Starting a thread allocates on this thread too (its control block); the other thread's ten mallocs are
+  // not counted here.
+  CHECK(areomap::heapAllocationCount() - all >= 10u);
+  CHECK(areomap::heapAllocationCountThisThread() - mine < 10u);
 }
