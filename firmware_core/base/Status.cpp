@@ -18,6 +18,7 @@ const char* statusName(Status status) {
     case Status::kNoTexture: return "no_texture";
     case Status::kIoError: return "io_error";
     case Status::kTimeout: return "timeout";
+    case Status::kEndOfStream: return "end_of_stream";
     case Status::kCount: break;
   }
   return "unknown";

@@ -21,6 +21,7 @@ enum class Status : uint8_t {
   kNoTexture,         // an image without usable texture (blank, saturated, noise only)
   kIoError,           // the operating system refused (platform layer only)
   kTimeout,           // nothing arrived in time (platform layer only)
+  kEndOfStream,       // a log replay reached its end (platform layer only)
   kCount              // number of codes; not a status
 };
 
