@@ -37,4 +37,43 @@ constexpr std::size_t kStaticMemoryBudgetBytes = 64u * 1024u * 1024u;
 static_assert(kMaxImages == 2 * kMaxPairs, "one left and one right image per pair");
 static_assert(kMaxObservations >= 2 * kMaxTiePoints, "every tie point needs two observations");
 
+// Camera model text (JPL .cahvor form): one line is a key and at most three numbers at full precision
+// (~80 chars); 512 leaves room for comments and covariance lines, which are skipped. A formatted model
+// (type, size, seven 3-vectors at 17 digits) takes under 1 KiB.
+constexpr std::size_t kMaxModelTextLineChars = 512;
+constexpr std::size_t kModelTextBytes = 1024;
+
+
+// --- Tie points and coarse DEM (firmware_core/match, firmware_core/dem; issue 6) ---
+// Förstner interest points per image: a 32-px spreading grid with at most 2 points per cell on a 1024^2
+// frame (32 x 32 cells x 2).
+constexpr int32_t kMaxInterestPoints = 2048;
+constexpr int32_t kMaxInterestPointsPerCell = 4;
+constexpr int32_t kMaxForstnerRadius = 7;  // structure-tensor window up to 15 x 15
+// NCC template: 11 x 11 pixels (radius 5) is the usual compromise of distinctiveness and foreshortening.
+constexpr int32_t kNccRadius = 5;
+constexpr int32_t kNccSide = 2 * kNccRadius + 1;
+constexpr int32_t kNccPixels = kNccSide * kNccSide;
+// Epipolar search: one sample per pixel along the curve, at most the image diagonal (1448 px), and at most
+// +-8 px across it (a-priori pointing errors of a few pixels).
+constexpr int32_t kMaxEpipolarSteps = 1536;
+constexpr int32_t kMaxEpipolarBandPx = 8;
+// Verified intra-stereo ties kept per pair after gridding: 16 x 16 cells of 64 px on a 1024^2 frame.
+constexpr int32_t kMaxTiesPerPair = 256;
+// Robust parallax-curve fit: bounded reweighting passes.
+constexpr int32_t kMaxParallaxFitIterations = 8;
+// Coarse DEM per pair: 128 x 128 cells of 0.5 m = 64 m square around the pair, the range where Navcam
+// stereo still resolves relief; elevation holes are filled by at most 4 neighbour passes.
+constexpr int32_t kCoarseDemCells = 128;
+constexpr double kCoarseDemCellM = 0.5;
+constexpr int32_t kMaxCoarseDemFillPasses = 4;
+// Ray marching through the coarse DEM: steps of half a cell across the 64 m square (diagonal ~91 m).
+constexpr int32_t kMaxDemRaySteps = 4 * kCoarseDemCells;
+// Inter-stereo search window around the DEM-predicted position: +-16 px (a-priori pointing + DEM error).
+constexpr int32_t kInterSearchRadiusPx = 16;
+
+static_assert(kMaxInterestPoints <= (kMaxImageWidth / 32) * (kMaxImageHeight / 32) * 2,
+              "spreading grid of 32 px with 2 points per cell bounds the interest points");
+static_assert(kMaxTiesPerPair * 2 * kMaxPairs <= kMaxObservations, "intra ties of every pair fit");
+
 }  // namespace areomap
