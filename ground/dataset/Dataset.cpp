@@ -1,0 +1,373 @@
+#include "ground/dataset/Dataset.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace areomap {
+namespace {
+
+using Json = nlohmann::json;
+
+// Reads panorama.json fields with errors that name the file and the field.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const std::string& field, const std::string& message) const {
+    throw DatasetError(file_, field, message);
+  }
+
+  int integer(const Json& j, const std::string& field) const {
+    if (j.is_number_integer() || j.is_number_unsigned()) {
+      const long long v = j.get<long long>();
+      if (v < -1000000000LL || v > 1000000000LL) fail(field, "integer out of range");
+      return static_cast<int>(v);
+    }
+    if (j.is_number_float()) {
+      const double d = j.get<double>();
+      if (std::isfinite(d) && d == std::floor(d) && std::fabs(d) <= 1e9) return static_cast<int>(d);
+    }
+    fail(field, "expected an integer, got " + describe(j));
+  }
+
+  double number(const Json& j, const std::string& field) const {
+    if (!j.is_number()) fail(field, "expected a number, got " + describe(j));
+    const double d = j.get<double>();
+    if (!std::isfinite(d)) fail(field, "expected a finite number");
+    return d;
+  }
+
+  Eigen::Vector3d vec3(const Json& j, const std::string& field) const {
+    if (!j.is_array() || j.size() != 3) fail(field, "expected an array [x, y, z] of 3 numbers");
+    return Eigen::Vector3d(number(j[0], field + "[0]"), number(j[1], field + "[1]"), number(j[2], field + "[2]"));
+  }
+
+  std::string string(const Json& j, const std::string& field) const {
+    if (!j.is_string()) fail(field, "expected a string, got " + describe(j));
+    return j.get<std::string>();
+  }
+
+  std::string safePath(const Json& j, const std::string& field) const {
+    const std::string path = string(j, field);
+    std::string why;
+    if (!isSafeRelativePath(path, why)) fail(field, why + ": '" + path + "'");
+    return path;
+  }
+
+  static std::string describe(const Json& j) {
+    if (j.is_null()) return "null";
+    if (j.is_string()) return "a string";
+    if (j.is_boolean()) return "a boolean";
+    if (j.is_array()) return "an array";
+    if (j.is_object()) return "an object";
+    if (j.is_number()) return "a number (" + j.dump() + ")";
+    return j.dump();
+  }
+
+ private:
+  std::string file_;
+};
+
+std::string joinPath(const std::string& root, const std::string& relative) {
+  if (root.empty()) return relative;
+  if (root.back() == '/') return root + relative;
+  return root + "/" + relative;
+}
+
+Json vecJson(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+
+ImageRef readImageRef(const Reader& r, const Json& side, const std::string& field, const std::string& root) {
+  if (!side.is_object()) r.fail(field, "expected an object with \"image\" (and optionally \"model\")");
+  if (!side.contains("image")) r.fail(field + ".image", "missing (required)");
+  const std::string image = r.safePath(side["image"], field + ".image");
+  std::optional<std::string> model;
+  if (side.contains("model") && !side["model"].is_null()) model = r.safePath(side["model"], field + ".model");
+  ImageRef ref = makeImageRef(root, image, model);
+  if (ref.stem.empty()) r.fail(field + ".image", "no file name: '" + image + "'");
+  return ref;
+}
+
+Json imageRefJson(const ImageRef& ref, const std::string& field) {
+  std::string why;
+  if (!isSafeRelativePath(ref.image, why)) throw DatasetError(kPanoramaFileName, field + ".image", why);
+  Json j = {{"image", ref.image}};
+  if (ref.model) {
+    if (!isSafeRelativePath(*ref.model, why)) throw DatasetError(kPanoramaFileName, field + ".model", why);
+    j["model"] = *ref.model;
+  }
+  return j;
+}
+
+}  // namespace
+
+int Dataset::imageCount() const {
+  int n = 0;
+  for (const Pair& p : pairs) n += p.right ? 2 : 1;
+  return n;
+}
+
+bool Dataset::findStem(const std::string& stem, int& pair_index, bool& is_right) const {
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    if (pairs[i].left.stem == stem) {
+      pair_index = static_cast<int>(i);
+      is_right = false;
+      return true;
+    }
+    if (pairs[i].right && pairs[i].right->stem == stem) {
+      pair_index = static_cast<int>(i);
+      is_right = true;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool isSafeRelativePath(const std::string& path, std::string& why) {
+  if (path.empty()) {
+    why = "empty path";
+    return false;
+  }
+  if (path.front() == '/' || path.front() == '\\' || (path.size() > 1 && path[1] == ':')) {
+    why = "absolute paths are not allowed (paths are relative to the dataset folder)";
+    return false;
+  }
+  if (path.find('\0') != std::string::npos) {
+    why = "NUL character in path";
+    return false;
+  }
+  std::size_t start = 0;
+  while (start <= path.size()) {
+    std::size_t end = path.find_first_of("/\\", start);
+    if (end == std::string::npos) end = path.size();
+    if (path.compare(start, end - start, "..") == 0 && end - start == 2) {
+      why = "'..' components are not allowed (paths must stay inside the dataset folder)";
+      return false;
+    }
+    start = end + 1;
+  }
+  return true;
+}
+
+std::string pathStem(const std::string& path) {
+  const std::size_t slash = path.find_last_of("/\\");
+  const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  const std::size_t dot = name.find_last_of('.');
+  if (dot == std::string::npos || dot == 0) return name;
+  return name.substr(0, dot);
+}
+
+ImageRef makeImageRef(const std::string& root, const std::string& image, const std::optional<std::string>& model) {
+  ImageRef ref;
+  ref.image = image;
+  ref.image_path = joinPath(root, image);
+  ref.stem = pathStem(image);
+  ref.model = model;
+  if (model) ref.model_path = joinPath(root, *model);
+  return ref;
+}
+
+Dataset readDataset(const std::string& dir) {
+  const std::string file = joinPath(dir, kPanoramaFileName);
+  const Reader r(file);
+  std::ifstream in(file, std::ios::binary);
+  if (!in) r.fail("", std::string("cannot open: ") + std::strerror(errno));
+  Json root;
+  try {
+    root = Json::parse(in);
+  } catch (const Json::parse_error& e) {
+    r.fail("", std::string("not valid JSON: ") + e.what());
+  }
+  if (!root.is_object()) r.fail("", "expected a JSON object at the top level");
+
+  Dataset ds;
+  ds.root = dir;
+  if (root.contains("name") && !root["name"].is_null()) {
+    ds.name = r.string(root["name"], "name");
+  } else {
+    ds.name = std::filesystem::path(dir).lexically_normal().filename().string();
+    if (ds.name.empty()) ds.name = std::filesystem::path(dir).lexically_normal().parent_path().filename().string();
+    ds.notes.push_back("name: absent, defaulted to the folder name '" + ds.name + "'");
+  }
+  if (root.contains("image_size") && !root["image_size"].is_null()) {
+    const Json& s = root["image_size"];
+    if (!s.is_array() || s.size() != 2) r.fail("image_size", "expected [width, height] (samples, lines)");
+    ds.width = r.integer(s[0], "image_size[0]");
+    ds.height = r.integer(s[1], "image_size[1]");
+    if (ds.width <= 0) r.fail("image_size[0]", "width must be positive");
+    if (ds.height <= 0) r.fail("image_size[1]", "height must be positive");
+  } else {
+    ds.notes.push_back("image_size: absent, to be read from the images");
+  }
+
+  if (root.contains("rig") && !root["rig"].is_null()) {
+    const Json& rig = root["rig"];
+    if (!rig.is_object()) r.fail("rig", "expected an object");
+    if (rig.contains("gimbal_m") && !rig["gimbal_m"].is_null()) {
+      const Json& g = rig["gimbal_m"];
+      if (!g.is_object()) r.fail("rig.gimbal_m", "expected an object {\"<sol>\": [x, y, z]}");
+      for (auto it = g.begin(); it != g.end(); ++it) {
+        const std::string field = "rig.gimbal_m." + it.key();
+        char* end = nullptr;
+        errno = 0;
+        const long sol = std::strtol(it.key().c_str(), &end, 10);
+        if (it.key().empty() || *end != '\0' || errno != 0 || sol < -1000000 || sol > 1000000) {
+          r.fail(field, "the key must be a sol number");
+        }
+        ds.rig.gimbal_m[static_cast<int>(sol)] = r.vec3(it.value(), field);
+      }
+    }
+    if (rig.contains("left_offset_m") && !rig["left_offset_m"].is_null())
+      ds.rig.left_offset_m = r.vec3(rig["left_offset_m"], "rig.left_offset_m");
+    if (rig.contains("right_offset_m") && !rig["right_offset_m"].is_null())
+      ds.rig.right_offset_m = r.vec3(rig["right_offset_m"], "rig.right_offset_m");
+    if (rig.contains("base_m") && !rig["base_m"].is_null()) ds.rig.base_m = r.vec3(rig["base_m"], "rig.base_m");
+    if (rig.contains("sigma_gimbal_m") && !rig["sigma_gimbal_m"].is_null()) {
+      ds.rig.sigma_gimbal_m = r.number(rig["sigma_gimbal_m"], "rig.sigma_gimbal_m");
+      if (*ds.rig.sigma_gimbal_m <= 0.0) r.fail("rig.sigma_gimbal_m", "must be positive");
+    }
+    if (rig.contains("sigma_base_m") && !rig["sigma_base_m"].is_null()) {
+      ds.rig.sigma_base_m = r.number(rig["sigma_base_m"], "rig.sigma_base_m");
+      if (*ds.rig.sigma_base_m <= 0.0) r.fail("rig.sigma_base_m", "must be positive");
+    }
+  }
+
+  if (!root.contains("pairs")) r.fail("pairs", "missing (required: a list of stereo pairs)");
+  const Json& pairs = root["pairs"];
+  if (!pairs.is_array()) r.fail("pairs", "expected an array");
+  if (pairs.empty()) r.fail("pairs", "empty: at least one pair is needed");
+  std::set<int> ids;
+  std::map<std::string, std::string> stems;  // stem -> field that used it
+  int sol_defaults = 0, tier_defaults = 0, id_defaults = 0, model_absent = 0;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const std::string field = "pairs[" + std::to_string(i) + "]";
+    const Json& p = pairs[i];
+    if (!p.is_object()) r.fail(field, "expected an object");
+    Pair pair;
+    if (p.contains("id") && !p["id"].is_null()) {
+      pair.id = r.integer(p["id"], field + ".id");
+    } else {
+      pair.id = static_cast<int>(i);
+      ++id_defaults;
+    }
+    if (!ids.insert(pair.id).second) r.fail(field + ".id", "duplicate id " + std::to_string(pair.id));
+    if (p.contains("sol") && !p["sol"].is_null()) {
+      pair.sol = r.integer(p["sol"], field + ".sol");
+    } else {
+      ++sol_defaults;
+    }
+    if (p.contains("tier") && !p["tier"].is_null()) {
+      pair.tier = r.integer(p["tier"], field + ".tier");
+      if (pair.tier < 0) r.fail(field + ".tier", "must be >= 0");
+    } else {
+      ++tier_defaults;
+    }
+    if (!p.contains("left")) r.fail(field + ".left", "missing (required)");
+    pair.left = readImageRef(r, p["left"], field + ".left", dir);
+    if (p.contains("right") && !p["right"].is_null()) pair.right = readImageRef(r, p["right"], field + ".right", dir);
+    const ImageRef* sides[2] = {&pair.left, pair.right ? &*pair.right : nullptr};
+    const char* side_names[2] = {".left", ".right"};
+    for (int s = 0; s < 2; ++s) {
+      if (sides[s] == nullptr) continue;
+      const std::string f = field + side_names[s] + ".image";
+      const auto [it, inserted] = stems.emplace(sides[s]->stem, f);
+      if (!inserted) {
+        r.fail(f, "image stem '" + sides[s]->stem + "' is already used by " + it->second +
+                      " (files are named after stems, so stems must be unique)");
+      }
+      if (!sides[s]->model) ++model_absent;
+    }
+    ds.pairs.push_back(std::move(pair));
+  }
+  if (id_defaults > 0) ds.notes.push_back("pairs[].id: absent for " + std::to_string(id_defaults) + " pair(s), defaulted to the list index");
+  if (sol_defaults > 0) ds.notes.push_back("pairs[].sol: absent for " + std::to_string(sol_defaults) + " pair(s), defaulted to 0");
+  if (tier_defaults > 0) ds.notes.push_back("pairs[].tier: absent for " + std::to_string(tier_defaults) + " pair(s), defaulted to 0");
+  if (model_absent > 0) ds.notes.push_back("model: absent for " + std::to_string(model_absent) + " image(s), to be read from the PDS3 label");
+
+  std::set<int> sols;
+  for (const Pair& p : ds.pairs) sols.insert(p.sol);
+  for (int sol : sols) {
+    if (ds.rig.gimbal_m.count(sol) == 0) {
+      ds.notes.push_back("rig.gimbal_m." + std::to_string(sol) + ": absent, to be estimated from the a-priori models");
+    }
+  }
+  if (!ds.rig.left_offset_m) ds.notes.push_back("rig.left_offset_m: absent, to be estimated from the a-priori models");
+  if (!ds.rig.right_offset_m) ds.notes.push_back("rig.right_offset_m: absent, to be estimated from the a-priori models");
+  if (!ds.rig.base_m) ds.notes.push_back("rig.base_m: absent, to be estimated from the a-priori models");
+  if (!ds.rig.sigma_gimbal_m) {
+    std::ostringstream s;
+    s << "rig.sigma_gimbal_m: absent, defaulted to " << kDefaultSigmaGimbal_m << " m";
+    ds.notes.push_back(s.str());
+  }
+  if (!ds.rig.sigma_base_m) {
+    std::ostringstream s;
+    s << "rig.sigma_base_m: absent, defaulted to " << kDefaultSigmaBase_m << " m";
+    ds.notes.push_back(s.str());
+  }
+  return ds;
+}
+
+void writeDataset(const Dataset& ds, const std::string& dir) {
+  const std::string file = joinPath(dir, kPanoramaFileName);
+  Json root = Json::object();
+  if (!ds.name.empty()) root["name"] = ds.name;
+  if (ds.width > 0 && ds.height > 0) root["image_size"] = Json::array({ds.width, ds.height});
+  Json rig = Json::object();
+  if (!ds.rig.gimbal_m.empty()) {
+    Json g = Json::object();
+    for (const auto& [sol, centre] : ds.rig.gimbal_m) g[std::to_string(sol)] = vecJson(centre);
+    rig["gimbal_m"] = g;
+  }
+  if (ds.rig.left_offset_m) rig["left_offset_m"] = vecJson(*ds.rig.left_offset_m);
+  if (ds.rig.right_offset_m) rig["right_offset_m"] = vecJson(*ds.rig.right_offset_m);
+  if (ds.rig.base_m) rig["base_m"] = vecJson(*ds.rig.base_m);
+  if (ds.rig.sigma_gimbal_m) rig["sigma_gimbal_m"] = *ds.rig.sigma_gimbal_m;
+  if (ds.rig.sigma_base_m) rig["sigma_base_m"] = *ds.rig.sigma_base_m;
+  if (!rig.empty()) root["rig"] = rig;
+  Json pairs = Json::array();
+  for (std::size_t i = 0; i < ds.pairs.size(); ++i) {
+    const Pair& p = ds.pairs[i];
+    const std::string field = "pairs[" + std::to_string(i) + "]";
+    Json j = {{"id", p.id}, {"sol", p.sol}, {"tier", p.tier}, {"left", imageRefJson(p.left, field + ".left")}};
+    if (p.right) j["right"] = imageRefJson(*p.right, field + ".right");
+    pairs.push_back(j);
+  }
+  root["pairs"] = pairs;
+
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw DatasetError(dir, "", "cannot create the folder: " + ec.message());
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  if (!out) throw DatasetError(file, "", std::string("cannot write: ") + std::strerror(errno));
+  out << root.dump(2) << '\n';
+  out.close();
+  if (!out) throw DatasetError(file, "", "write failed");
+}
+
+void checkDatasetFiles(const Dataset& ds, bool images, bool models) {
+  const std::string file = joinPath(ds.root, kPanoramaFileName);
+  for (std::size_t i = 0; i < ds.pairs.size(); ++i) {
+    const Pair& p = ds.pairs[i];
+    const ImageRef* sides[2] = {&p.left, p.right ? &*p.right : nullptr};
+    const char* side_names[2] = {".left", ".right"};
+    for (int s = 0; s < 2; ++s) {
+      if (sides[s] == nullptr) continue;
+      const std::string field = "pairs[" + std::to_string(i) + "]" + side_names[s];
+      std::error_code ec;
+      if (images && !std::filesystem::is_regular_file(sides[s]->image_path, ec)) {
+        throw DatasetError(file, field + ".image", "file not found: " + sides[s]->image_path);
+      }
+      if (models && sides[s]->model && !std::filesystem::is_regular_file(sides[s]->model_path, ec)) {
+        throw DatasetError(file, field + ".model", "file not found: " + sides[s]->model_path);
+      }
+    }
+  }
+}
+
+}  // namespace areomap
