@@ -1,0 +1,365 @@
+#include "ground/dense/DenseMatcher.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace areomap::dense {
+
+namespace {
+
+constexpr int kCensusHalfWidth = 4;   // 9 columns
+constexpr int kCensusHalfHeight = 3;  // 7 rows
+constexpr int kCensusBits = (2 * kCensusHalfWidth + 1) * (2 * kCensusHalfHeight + 1) - 1;  // 62
+constexpr uint16_t kNoMatchCost = kCensusBits;
+// Holes are filled from the nearest valid pixels at most this far away (pixels).
+constexpr int kMaxFillReachPx = 64;
+
+double seconds() { return static_cast<double>(cv::getTickCount()) / cv::getTickFrequency(); }
+
+const uint64_t* censusRow(const cv::Mat& census, int y) { return census.ptr<uint64_t>(y); }
+
+inline uint16_t hamming(uint64_t a, uint64_t b) { return static_cast<uint16_t>(__builtin_popcountll(a ^ b)); }
+
+struct Wta {
+  float disparity = std::numeric_limits<float>::quiet_NaN();
+  int integer = 0;
+  bool unique = false;
+};
+
+// Winner-takes-all with a uniqueness test and parabola sub-pixel refinement over one pixel's band.
+Wta winner(const uint16_t* s, int lo, int n, int uniqueness_percent) {
+  int best = 0;
+  for (int j = 1; j < n; ++j) {
+    if (s[j] < s[best]) best = j;
+  }
+  Wta w;
+  w.integer = lo + best;
+  w.unique = true;
+  const int min_s = s[best];
+  for (int j = 0; j < n; ++j) {
+    if (std::abs(j - best) > 1 && s[j] * (100 - uniqueness_percent) <= min_s * 100) {
+      w.unique = false;
+      break;
+    }
+  }
+  double sub = 0.0;
+  if (best > 0 && best + 1 < n) {
+    const double denom = static_cast<double>(s[best - 1]) + s[best + 1] - 2.0 * s[best];
+    if (denom > 0.0) sub = (static_cast<double>(s[best - 1]) - s[best + 1]) / (2.0 * denom);
+  }
+  w.disparity = static_cast<float>(lo + best + sub);
+  return w;
+}
+
+void checkInput(const cv::Mat& left, const cv::Mat& right, const DenseOptions& o) {
+  if (left.empty() || right.empty()) throw std::invalid_argument("dense matching: empty image");
+  if (left.type() != CV_8UC1 || right.type() != CV_8UC1) {
+    throw std::invalid_argument("dense matching: images must be 8-bit grey");
+  }
+  if (left.size() != right.size()) throw std::invalid_argument("dense matching: image sizes differ");
+  if (o.max_disparity_px < o.min_disparity_px) {
+    throw std::invalid_argument("dense matching: max disparity below min disparity");
+  }
+  if (o.coarse_step_px < 1) throw std::invalid_argument("dense matching: coarse step < 1");
+  if (left.cols < 2 * o.coarse_step_px || left.rows < 2 * o.coarse_step_px) {
+    throw std::invalid_argument("dense matching: image smaller than two coarse cells");
+  }
+}
+
+// Coarse pass on the step-px grid: returns the coarse disparity per node (CV_32F).
+cv::Mat coarsePass(const cv::Mat& left, const cv::Mat& cl, const cv::Mat& cr, const DenseOptions& o,
+                   const std::vector<RowRange>& ranges) {
+  const int step = o.coarse_step_px;
+  const int off = step / 2;
+  const int gh = (left.rows - 1 - off) / step + 1;
+  const int gw = (left.cols - 1 - off) / step + 1;
+  BandVolume v;
+  v.rows = gh;
+  v.cols = gw;
+  v.lo.resize(static_cast<std::size_t>(gh) * gw);
+  v.count.resize(v.lo.size());
+  for (int gy = 0; gy < gh; ++gy) {
+    const RowRange r = ranges[static_cast<std::size_t>(off + gy * step)];
+    for (int gx = 0; gx < gw; ++gx) {
+      const int x = off + gx * step;
+      const std::size_t p = static_cast<std::size_t>(gy) * gw + gx;
+      const int hi = std::min(r.hi, x);
+      v.lo[p] = std::min(r.lo, hi);
+      v.count[p] = hi - v.lo[p] + 1;
+    }
+  }
+  v.finishLayout();
+  const int half = step / 2;
+  const int area = (2 * half + 1) * (2 * half + 1);
+  for (int gy = 0; gy < gh; ++gy) {
+    const int y = off + gy * step;
+    for (int gx = 0; gx < gw; ++gx) {
+      const int x = off + gx * step;
+      const std::size_t p = static_cast<std::size_t>(gy) * gw + gx;
+      uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
+      for (int j = 0; j < v.count[p]; ++j) {
+        const int d = v.lo[p] + j;
+        int total = 0;
+        for (int dy = -half; dy <= half; ++dy) {
+          const int yy = std::clamp(y + dy, 0, left.rows - 1);
+          const uint64_t* a = censusRow(cl, yy);
+          const uint64_t* b = censusRow(cr, yy);
+          for (int dx = -half; dx <= half; ++dx) {
+            const int xl = std::clamp(x + dx, 0, left.cols - 1);
+            const int xr = xl - d;
+            total += (xr >= 0 && xr < left.cols) ? hamming(a[xl], b[xr]) : kNoMatchCost;
+          }
+        }
+        c[j] = static_cast<uint16_t>((total + area / 2) / area);
+      }
+    }
+  }
+  cv::Mat smooth;
+  cv::blur(left, smooth, cv::Size(step, step));
+  cv::Mat guide(gh, gw, CV_8UC1);
+  for (int gy = 0; gy < gh; ++gy) {
+    for (int gx = 0; gx < gw; ++gx) guide.at<uint8_t>(gy, gx) = smooth.at<uint8_t>(off + gy * step, off + gx * step);
+  }
+  std::vector<uint16_t> sum;
+  aggregateSemiGlobal(v, guide, o.coarse_sgm, sum);
+  cv::Mat coarse(gh, gw, CV_32FC1);
+  for (int gy = 0; gy < gh; ++gy) {
+    for (int gx = 0; gx < gw; ++gx) {
+      const std::size_t p = static_cast<std::size_t>(gy) * gw + gx;
+      const Wta w = winner(&sum[static_cast<std::size_t>(v.offset[p])], v.lo[p], v.count[p], 0);
+      coarse.at<float>(gy, gx) = static_cast<float>(w.integer);
+    }
+  }
+  return coarse;
+}
+
+// Fills holes along the row (occlusions, from the background side) or from the 8 neighbours' directions
+// (mismatches, median). `occluded` marks LR failures that are occlusions.
+void fillHoles(cv::Mat& disp, cv::Mat& valid, cv::Mat& filled, const cv::Mat& occluded) {
+  const cv::Mat src = disp.clone();
+  const cv::Mat src_valid = valid.clone();
+  static const int kDirs[8][2] = {{0, 1}, {0, -1}, {1, 0}, {-1, 0}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
+  for (int y = 0; y < disp.rows; ++y) {
+    for (int x = 0; x < disp.cols; ++x) {
+      if (src_valid.at<uint8_t>(y, x)) continue;
+      float found[8];
+      int nfound = 0;
+      const int ndirs = occluded.at<uint8_t>(y, x) ? 2 : 8;
+      for (int k = 0; k < ndirs; ++k) {
+        for (int r = 1; r <= kMaxFillReachPx; ++r) {
+          const int yy = y + kDirs[k][0] * r;
+          const int xx = x + kDirs[k][1] * r;
+          if (yy < 0 || yy >= disp.rows || xx < 0 || xx >= disp.cols) break;
+          if (src_valid.at<uint8_t>(yy, xx)) {
+            found[nfound++] = src.at<float>(yy, xx);
+            break;
+          }
+        }
+      }
+      if (nfound == 0) continue;
+      float value;
+      if (ndirs == 2) {
+        value = *std::min_element(found, found + nfound);  // the background side
+      } else {
+        for (int i = 1; i < nfound; ++i) {  // insertion sort of at most 8 values
+          for (int j = i; j > 0 && found[j - 1] > found[j]; --j) std::swap(found[j - 1], found[j]);
+        }
+        value = found[nfound / 2];
+      }
+      disp.at<float>(y, x) = value;
+      valid.at<uint8_t>(y, x) = 255;
+      filled.at<uint8_t>(y, x) = 255;
+    }
+  }
+}
+
+}  // namespace
+
+cv::Mat censusTransform(const cv::Mat& image) {
+  cv::Mat padded;
+  cv::copyMakeBorder(image, padded, kCensusHalfHeight, kCensusHalfHeight, kCensusHalfWidth, kCensusHalfWidth,
+                     cv::BORDER_REPLICATE);
+  cv::Mat out(image.rows, image.cols, CV_32SC2);
+  for (int y = 0; y < image.rows; ++y) {
+    uint64_t* o = out.ptr<uint64_t>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      const uint8_t centre = padded.at<uint8_t>(y + kCensusHalfHeight, x + kCensusHalfWidth);
+      uint64_t bits = 0;
+      for (int dy = -kCensusHalfHeight; dy <= kCensusHalfHeight; ++dy) {
+        const uint8_t* row = padded.ptr<uint8_t>(y + kCensusHalfHeight + dy) + x + kCensusHalfWidth;
+        for (int dx = -kCensusHalfWidth; dx <= kCensusHalfWidth; ++dx) {
+          if (dx == 0 && dy == 0) continue;
+          bits = (bits << 1) | (row[dx] < centre ? 1u : 0u);
+        }
+      }
+      o[x] = bits;
+    }
+  }
+  return out;
+}
+
+DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const DenseOptions& o,
+                           const std::vector<RowRange>* row_ranges) {
+  checkInput(left, right, o);
+  const int rows = left.rows;
+  const int cols = left.cols;
+  std::vector<RowRange> ranges;
+  if (row_ranges != nullptr) {
+    if (static_cast<int>(row_ranges->size()) != rows) {
+      throw std::invalid_argument("dense matching: one parallax range per row expected");
+    }
+    ranges = *row_ranges;
+    for (RowRange& r : ranges) {
+      r.lo = std::clamp(r.lo, o.min_disparity_px, o.max_disparity_px);
+      r.hi = std::clamp(r.hi, r.lo, o.max_disparity_px);
+    }
+  } else {
+    ranges.assign(static_cast<std::size_t>(rows), RowRange{o.min_disparity_px, o.max_disparity_px});
+  }
+
+  DenseResult res;
+  double t0 = seconds();
+  const cv::Mat cl = censusTransform(left);
+  const cv::Mat cr = censusTransform(right);
+  res.coarse = coarsePass(left, cl, cr, o, ranges);
+  double t1 = seconds();
+  res.coarse_seconds = t1 - t0;
+
+  // Fine band per pixel: min..max of the coarse disparities of the 4x4 nodes around it, +- the margin.
+  const int step = o.coarse_step_px;
+  const int off = step / 2;
+  cv::Mat cmin, cmax;
+  const cv::Mat kernel = cv::Mat::ones(4, 4, CV_8UC1);
+  cv::erode(res.coarse, cmin, kernel, cv::Point(1, 1), 1, cv::BORDER_REPLICATE);
+  cv::dilate(res.coarse, cmax, kernel, cv::Point(1, 1), 1, cv::BORDER_REPLICATE);
+  BandVolume v;
+  v.rows = rows;
+  v.cols = cols;
+  v.lo.resize(static_cast<std::size_t>(rows) * cols);
+  v.count.resize(v.lo.size());
+  std::vector<uint8_t> no_band(v.lo.size(), 0);
+  for (int y = 0; y < rows; ++y) {
+    const int gy = std::clamp((y - off) / step - (y < off ? 1 : 0), 0, res.coarse.rows - 1);
+    for (int x = 0; x < cols; ++x) {
+      const int gx = std::clamp((x - off) / step - (x < off ? 1 : 0), 0, res.coarse.cols - 1);
+      const std::size_t p = static_cast<std::size_t>(y) * cols + x;
+      int lo = static_cast<int>(cmin.at<float>(gy, gx)) - o.fine_margin_px;
+      int hi = static_cast<int>(cmax.at<float>(gy, gx)) + o.fine_margin_px;
+      lo = std::max(lo, o.min_disparity_px);
+      hi = std::min({hi, o.max_disparity_px, x});
+      if (hi < lo) {
+        no_band[p] = 1;
+        hi = lo;
+      }
+      v.lo[p] = lo;
+      v.count[p] = hi - lo + 1;
+    }
+  }
+  v.finishLayout();
+  res.fine_cells = v.cells();
+  for (int y = 0; y < rows; ++y) {
+    const uint64_t* a = censusRow(cl, y);
+    const uint64_t* b = censusRow(cr, y);
+    for (int x = 0; x < cols; ++x) {
+      const std::size_t p = static_cast<std::size_t>(y) * cols + x;
+      uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
+      for (int j = 0; j < v.count[p]; ++j) {
+        const int xr = x - (v.lo[p] + j);
+        c[j] = (xr >= 0 && xr < cols && !no_band[p]) ? hamming(a[x], b[xr]) : kNoMatchCost;
+      }
+    }
+  }
+  std::vector<uint16_t> sum;
+  aggregateSemiGlobal(v, left, o.fine_sgm, sum);
+  // Texture: the grey range inside the census window. Below the threshold the census bits are noise or
+  // zero and a "match" would only be the aggregation's guess.
+  cv::Mat texture;
+  {
+    const cv::Mat window = cv::Mat::ones(2 * kCensusHalfHeight + 1, 2 * kCensusHalfWidth + 1, CV_8UC1);
+    cv::Mat hi_img, lo_img;
+    cv::dilate(left, hi_img, window, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+    cv::erode(left, lo_img, window, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+    texture = (hi_img - lo_img) >= o.min_texture_grey;
+  }
+
+  // Winner per left pixel, and the right image's winner from the same aggregated volume.
+  res.disparity = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  res.valid = cv::Mat::zeros(rows, cols, CV_8UC1);
+  res.filled = cv::Mat::zeros(rows, cols, CV_8UC1);
+  cv::Mat occluded = cv::Mat::zeros(rows, cols, CV_8UC1);
+  std::vector<int> left_int(static_cast<std::size_t>(cols));
+  std::vector<uint16_t> right_cost(static_cast<std::size_t>(cols));
+  std::vector<int> right_disp(static_cast<std::size_t>(cols));
+  for (int y = 0; y < rows; ++y) {
+    std::fill(right_cost.begin(), right_cost.end(), UINT16_MAX);
+    std::fill(right_disp.begin(), right_disp.end(), INT32_MIN / 2);
+    float* drow = res.disparity.ptr<float>(y);
+    uint8_t* vrow = res.valid.ptr<uint8_t>(y);
+    for (int x = 0; x < cols; ++x) {
+      const std::size_t p = static_cast<std::size_t>(y) * cols + x;
+      const uint16_t* s = &sum[static_cast<std::size_t>(v.offset[p])];
+      const Wta w = winner(s, v.lo[p], v.count[p], o.uniqueness_percent);
+      left_int[static_cast<std::size_t>(x)] = w.integer;
+      for (int j = 0; j < v.count[p]; ++j) {
+        const int xr = x - (v.lo[p] + j);
+        if (xr >= 0 && xr < cols && s[j] < right_cost[static_cast<std::size_t>(xr)]) {
+          right_cost[static_cast<std::size_t>(xr)] = s[j];
+          right_disp[static_cast<std::size_t>(xr)] = v.lo[p] + j;
+        }
+      }
+      if (w.unique && !no_band[p] && texture.at<uint8_t>(y, x)) {
+        drow[x] = w.disparity;
+        vrow[x] = 255;
+      }
+    }
+    for (int x = 0; x < cols; ++x) {
+      if (!vrow[x]) continue;
+      const int dl = left_int[static_cast<std::size_t>(x)];
+      const int xr = x - dl;
+      const int dr = (xr >= 0 && xr < cols) ? right_disp[static_cast<std::size_t>(xr)] : INT32_MIN / 2;
+      if (std::abs(dr - dl) > o.lr_max_diff_px) {
+        vrow[x] = 0;
+        drow[x] = std::numeric_limits<float>::quiet_NaN();
+        // Hirschmüller: the right pixel belongs to a nearer surface -> this pixel is occluded.
+        if (dr > dl) occluded.at<uint8_t>(y, x) = 255;
+      }
+    }
+  }
+  double t2 = seconds();
+  res.fine_seconds = t2 - t1;
+
+  // Speckles: small connected blobs that differ from their surroundings are removed.
+  const int speckle = o.speckle_max_area_px >= 0 ? o.speckle_max_area_px : std::max(20, rows * cols / 2000);
+  if (speckle > 0) {
+    cv::Mat d16(rows, cols, CV_16SC1);
+    const int16_t invalid = static_cast<int16_t>((o.min_disparity_px - 1) * 16);
+    for (int y = 0; y < rows; ++y) {
+      for (int x = 0; x < cols; ++x) {
+        d16.at<int16_t>(y, x) = res.valid.at<uint8_t>(y, x)
+                                    ? static_cast<int16_t>(std::lround(res.disparity.at<float>(y, x) * 16.0f))
+                                    : invalid;
+      }
+    }
+    cv::filterSpeckles(d16, invalid, speckle, static_cast<int>(o.speckle_max_step_px * 16.0));
+    for (int y = 0; y < rows; ++y) {
+      for (int x = 0; x < cols; ++x) {
+        if (res.valid.at<uint8_t>(y, x) && d16.at<int16_t>(y, x) == invalid) {
+          res.valid.at<uint8_t>(y, x) = 0;
+          res.disparity.at<float>(y, x) = std::numeric_limits<float>::quiet_NaN();
+        }
+      }
+    }
+  }
+  if (o.fill_holes) fillHoles(res.disparity, res.valid, res.filled, occluded);
+  res.post_seconds = seconds() - t2;
+  res.matched_fraction = static_cast<double>(cv::countNonZero(res.valid)) / (static_cast<double>(rows) * cols);
+  return res;
+}
+
+}  // namespace areomap::dense

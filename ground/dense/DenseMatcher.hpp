@@ -1,0 +1,59 @@
+// Dense coarse-to-fine matching of a rectified (epipolar) pair, paper §4.1:
+//  1. per-row parallax ranges: from a parallax curve fitted to verified tie points (ParallaxCurve.hpp), or
+//     the whole [min, max] range when there are none;
+//  2. coarse matching on a 5-px grid inside those ranges (census cost summed over the 5x5 cell,
+//     semi-global aggregation over the grid);
+//  3. fine matching on the 1-px grid in a small range around the coarse result (min..max of the coarse
+//     disparities of the 4x4 surrounding grid nodes, +- a margin), census cost + semi-global aggregation;
+//  4. sub-pixel refinement (parabola), uniqueness and left-right consistency checks, speckle removal,
+//     and a validity mask.
+// Rows of a rectified pair are epipolar lines, so every search is restricted to the epipolar line.
+// Disparity d is positive: left pixel (x, y) matches right pixel (x - d, y).
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "ground/dense/ParallaxCurve.hpp"
+#include "ground/dense/SemiGlobal.hpp"
+
+namespace areomap::dense {
+
+struct DenseOptions {
+  int min_disparity_px = 0;
+  int max_disparity_px = 64;       // inclusive
+  int coarse_step_px = 5;          // the coarse grid (paper: 5 px)
+  int fine_margin_px = 2;          // fine band = coarse min..max of the neighbourhood +- this
+  SemiGlobalParams coarse_sgm{8, 64, 8};
+  SemiGlobalParams fine_sgm{8, 96, 8};
+  int uniqueness_percent = 5;      // best must beat every non-adjacent candidate by this much
+  int min_texture_grey = 3;        // pixels whose 9x7 window spans fewer grey levels are not matched
+  double lr_max_diff_px = 1.0;     // left-right consistency tolerance
+  int speckle_max_area_px = -1;    // connected disparity blobs smaller than this are removed (-1: auto)
+  double speckle_max_step_px = 1.0;
+  bool fill_holes = false;         // fill LR-check failures: occlusions from the background side,
+                                   // mismatches from their neighbours (marked in `filled`)
+};
+
+struct DenseResult {
+  cv::Mat disparity;  // CV_32F, left image geometry; NaN = no match
+  cv::Mat valid;      // CV_8U, 255 where disparity is a match (or a filled value, see `filled`)
+  cv::Mat filled;     // CV_8U, 255 where the value was filled rather than matched
+  cv::Mat coarse;     // CV_32F, the coarse-grid disparities (grid rows x grid cols)
+  double coarse_seconds = 0.0;
+  double fine_seconds = 0.0;
+  double post_seconds = 0.0;
+  long long fine_cells = 0;   // size of the fine banded volume (pixels x candidates)
+  double matched_fraction = 0.0;  // valid pixels / all pixels
+};
+
+// Matches a rectified pair (8-bit grey, same size). `row_ranges` (optional, one per row, e.g. from
+// parallaxRowRanges) restricts the coarse search. Throws std::invalid_argument on bad input.
+DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const DenseOptions& options,
+                           const std::vector<RowRange>* row_ranges = nullptr);
+
+// Census transform, 9x7 window (62 bits), borders replicated. Exposed for tests.
+cv::Mat censusTransform(const cv::Mat& image);
+
+}  // namespace areomap::dense

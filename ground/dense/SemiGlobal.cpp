@@ -1,0 +1,123 @@
+#include "ground/dense/SemiGlobal.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <stdexcept>
+
+namespace areomap::dense {
+
+void BandVolume::finishLayout() {
+  const std::size_t n = static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols);
+  offset.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    offset[i + 1] = offset[i] + count[i];
+  }
+  cost.assign(static_cast<std::size_t>(offset[n]), 0);
+}
+
+namespace {
+
+struct Direction {
+  int dy;
+  int dx;
+};
+
+// One pass over the image in scan order (forward) or reverse scan order (backward), carrying the path
+// costs of up to four directions whose predecessors were already visited.
+void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& prm, bool forward,
+             const std::vector<Direction>& dirs, std::vector<uint16_t>& sum) {
+  const int rows = v.rows;
+  const int cols = v.cols;
+  int64_t max_row_cells = 0;
+  for (int y = 0; y < rows; ++y) {
+    const std::size_t a = static_cast<std::size_t>(y) * cols;
+    max_row_cells = std::max(max_row_cells, v.offset[a + cols] - v.offset[a]);
+  }
+  const std::size_t nd = dirs.size();
+  std::vector<std::vector<uint16_t>> prev(nd, std::vector<uint16_t>(max_row_cells));
+  std::vector<std::vector<uint16_t>> cur(nd, std::vector<uint16_t>(max_row_cells));
+  std::vector<std::vector<uint16_t>> prev_min(nd, std::vector<uint16_t>(cols));
+  std::vector<std::vector<uint16_t>> cur_min(nd, std::vector<uint16_t>(cols));
+
+  for (int iy = 0; iy < rows; ++iy) {
+    const int y = forward ? iy : rows - 1 - iy;
+    const int py = forward ? y - 1 : y + 1;  // the row visited before this one
+    const std::size_t row_base = static_cast<std::size_t>(y) * cols;
+    const int64_t row_start = v.offset[row_base];
+    const int64_t prow_start = (py >= 0 && py < rows) ? v.offset[static_cast<std::size_t>(py) * cols] : 0;
+    const uint8_t* g = guide.ptr<uint8_t>(y);
+    const uint8_t* pg = (py >= 0 && py < rows) ? guide.ptr<uint8_t>(py) : nullptr;
+    for (int ix = 0; ix < cols; ++ix) {
+      const int x = forward ? ix : cols - 1 - ix;
+      const std::size_t p = row_base + static_cast<std::size_t>(x);
+      const int lo = v.lo[p];
+      const int n = v.count[p];
+      const uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
+      uint16_t* s = &sum[static_cast<std::size_t>(v.offset[p])];
+      const int64_t local = v.offset[p] - row_start;
+      for (std::size_t k = 0; k < nd; ++k) {
+        const int qy = y + dirs[k].dy;
+        const int qx = x + dirs[k].dx;
+        uint16_t* out = &cur[k][static_cast<std::size_t>(local)];
+        if (qy < 0 || qy >= rows || qx < 0 || qx >= cols) {
+          uint16_t m = UINT16_MAX;
+          for (int j = 0; j < n; ++j) {
+            out[j] = c[j];
+            s[j] = static_cast<uint16_t>(s[j] + c[j]);
+            m = std::min(m, c[j]);
+          }
+          cur_min[k][x] = m;
+          continue;
+        }
+        const std::size_t q = static_cast<std::size_t>(qy) * cols + static_cast<std::size_t>(qx);
+        const bool same_row = dirs[k].dy == 0;
+        const uint16_t* pl = same_row ? &cur[k][static_cast<std::size_t>(v.offset[q] - row_start)]
+                                      : &prev[k][static_cast<std::size_t>(v.offset[q] - prow_start)];
+        const int pmin = same_row ? cur_min[k][qx] : prev_min[k][qx];
+        const int plo = v.lo[q];
+        const int pn = v.count[q];
+        const int gq = same_row ? g[qx] : pg[qx];
+        const int di = std::abs(static_cast<int>(g[x]) - gq);
+        const int p2 = std::max(prm.p1 + 1, prm.p2 * 16 / (16 + di));
+        const int jump = pmin + p2;
+        uint16_t m = UINT16_MAX;
+        for (int j = 0; j < n; ++j) {
+          const int jj = lo + j - plo;  // index of the same disparity in the predecessor's band
+          int best = jump;
+          if (jj >= 0 && jj < pn) best = std::min(best, static_cast<int>(pl[jj]));
+          if (jj - 1 >= 0 && jj - 1 < pn) best = std::min(best, pl[jj - 1] + prm.p1);
+          if (jj + 1 >= 0 && jj + 1 < pn) best = std::min(best, pl[jj + 1] + prm.p1);
+          const int val = c[j] + best - pmin;
+          out[j] = static_cast<uint16_t>(val);
+          s[j] = static_cast<uint16_t>(s[j] + val);
+          m = std::min(m, out[j]);
+        }
+        cur_min[k][x] = m;
+      }
+    }
+    std::swap(prev, cur);
+    std::swap(prev_min, cur_min);
+  }
+}
+
+}  // namespace
+
+void aggregateSemiGlobal(const BandVolume& volume, const cv::Mat& guide, const SemiGlobalParams& params,
+                         std::vector<uint16_t>& sum) {
+  if (guide.type() != CV_8UC1 || guide.rows != volume.rows || guide.cols != volume.cols) {
+    throw std::invalid_argument("aggregateSemiGlobal: guide must be CV_8U of the volume's size");
+  }
+  sum.assign(volume.cost.size(), 0);
+  std::vector<Direction> fwd{{0, -1}, {-1, 0}};
+  std::vector<Direction> bwd{{0, 1}, {1, 0}};
+  if (params.paths >= 8) {
+    fwd.push_back({-1, -1});
+    fwd.push_back({-1, 1});
+    bwd.push_back({1, 1});
+    bwd.push_back({1, -1});
+  }
+  runPass(volume, guide, params, true, fwd, sum);
+  runPass(volume, guide, params, false, bwd, sum);
+}
+
+}  // namespace areomap::dense
