@@ -1,0 +1,43 @@
+// The a-priori epipolar curve of a pixel: the ray of `pixel` in camera `from` sampled between a near and a
+// far range (uniform in inverse range, so the samples are ~1 px apart in `to`) and projected into `to`
+// with the full (distorted) model. The search runs along the curve and +-band pixels across it.
+#pragma once
+
+#include <cstdint>
+
+#include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/base/ImageView.hpp"
+#include "firmware_core/base/Status.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+#include "firmware_core/match/Ncc.hpp"
+
+namespace areomap {
+
+struct EpipolarCurve {
+  float x[kMaxEpipolarSteps];
+  float y[kMaxEpipolarSteps];
+  int32_t count = 0;
+  Vec2 far_px = Vec2::Zero();  // projection of the far end (parallax origin)
+};
+
+// kBehindCamera when no sample of the range projects into `to`; samples outside the image are dropped.
+[[nodiscard]] Status epipolarCurve(const CameraModel& from, const CameraModel& to, const Vec2& pixel,
+                                   double min_range_m, double max_range_m, int32_t to_width, int32_t to_height,
+                                   EpipolarCurve& curve);
+
+struct SearchHit {
+  double score = kNccInvalid;
+  int32_t x = 0;  // integer position of the best score
+  int32_t y = 0;
+  double second = kNccInvalid;  // best score at least 3 px away from the peak (ambiguity)
+};
+
+// Best NCC of `t` along the curve within +-band_px across it (band_px <= kMaxEpipolarBandPx).
+SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
+                           int32_t band_px);
+
+// Best NCC of `t` in the square window +-radius around (cx, cy) (radius <= kInterSearchRadiusPx).
+SearchHit searchWindow(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius);
+
+}  // namespace areomap

@@ -1,0 +1,87 @@
+#include "firmware_core/match/Ncc.hpp"
+
+#include <cmath>
+
+namespace areomap {
+
+namespace {
+void finishTemplate(NccTemplate& t) {
+  int64_t s = 0, s2 = 0;
+  for (int32_t i = 0; i < kNccPixels; ++i) {
+    s += t.pixels[i];
+    s2 += static_cast<int64_t>(t.pixels[i]) * t.pixels[i];
+  }
+  t.sum = s;
+  t.sum_sq = s2;
+  const double n = kNccPixels;
+  const double var = (static_cast<double>(s2) - static_cast<double>(s) * static_cast<double>(s) / n) / n;
+  t.textured = var >= kMinNccVariance;
+}
+}  // namespace
+
+bool extractTemplate(const ImageView& image, int32_t cx, int32_t cy, NccTemplate& t) {
+  if (cx - kNccRadius < 0 || cy - kNccRadius < 0 || cx + kNccRadius >= image.width ||
+      cy + kNccRadius >= image.height) {
+    t.textured = false;
+    return false;
+  }
+  for (int32_t dy = 0; dy < kNccSide; ++dy) {
+    const uint8_t* row = image.row(cy - kNccRadius + dy) + (cx - kNccRadius);
+    for (int32_t dx = 0; dx < kNccSide; ++dx) t.pixels[dy * kNccSide + dx] = row[dx];
+  }
+  finishTemplate(t);
+  return true;
+}
+
+void templateFromPixels(const uint8_t* pixels, NccTemplate& t) {
+  for (int32_t i = 0; i < kNccPixels; ++i) t.pixels[i] = pixels[i];
+  finishTemplate(t);
+}
+
+double nccAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy) {
+  if (!t.textured || cx - kNccRadius < 0 || cy - kNccRadius < 0 || cx + kNccRadius >= image.width ||
+      cy + kNccRadius >= image.height) {
+    return kNccInvalid;
+  }
+  int64_t s = 0, s2 = 0, st = 0;
+  for (int32_t dy = 0; dy < kNccSide; ++dy) {
+    const uint8_t* row = image.row(cy - kNccRadius + dy) + (cx - kNccRadius);
+    const uint8_t* trow = t.pixels + dy * kNccSide;
+    int32_t rs = 0, rs2 = 0, rst = 0;
+    for (int32_t dx = 0; dx < kNccSide; ++dx) {
+      const int32_t v = row[dx];
+      rs += v;
+      rs2 += v * v;
+      rst += v * trow[dx];
+    }
+    s += rs;
+    s2 += rs2;
+    st += rst;
+  }
+  const double n = kNccPixels;
+  const double var_s = n * static_cast<double>(s2) - static_cast<double>(s) * static_cast<double>(s);
+  const double var_t = n * static_cast<double>(t.sum_sq) - static_cast<double>(t.sum) * static_cast<double>(t.sum);
+  if (var_s < kMinNccVariance * n * n) return kNccInvalid;
+  const double cov = n * static_cast<double>(st) - static_cast<double>(s) * static_cast<double>(t.sum);
+  return cov / std::sqrt(var_s * var_t);
+}
+
+double parabolaOffset(double minus, double centre, double plus) {
+  if (minus <= kNccInvalid || plus <= kNccInvalid) return 0.0;
+  const double curvature = minus - 2.0 * centre + plus;
+  if (curvature >= 0.0) return 0.0;
+  const double offset = 0.5 * (minus - plus) / curvature;
+  return std::fmax(-0.5, std::fmin(0.5, offset));
+}
+
+void refinePeak(const NccTemplate& t, const ImageView& image, int32_t bx, int32_t by, double best, double& x_px,
+                double& y_px) {
+  const double l = nccAt(t, image, bx - 1, by);
+  const double r = nccAt(t, image, bx + 1, by);
+  const double u = nccAt(t, image, bx, by - 1);
+  const double d = nccAt(t, image, bx, by + 1);
+  x_px = bx + parabolaOffset(l, best, r);
+  y_px = by + parabolaOffset(u, best, d);
+}
+
+}  // namespace areomap

@@ -1,0 +1,41 @@
+// Normalised cross-correlation of an 11 x 11 template (kNccSide) against an 8-bit image, with exact
+// integer sums, and the sub-pixel peak of a correlation surface (parabola in x and in y).
+#pragma once
+
+#include <cstdint>
+
+#include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/base/ImageView.hpp"
+
+namespace areomap {
+
+// Minimum template variance (grey^2 per pixel) for a patch to be correlated at all: a flat patch has no
+// defined NCC.
+constexpr double kMinNccVariance = 4.0;
+// Returned for a window that leaves the image or is flat.
+constexpr double kNccInvalid = -2.0;
+
+struct NccTemplate {
+  uint8_t pixels[kNccPixels] = {};
+  int64_t sum = 0;
+  int64_t sum_sq = 0;
+  bool textured = false;  // variance >= kMinNccVariance
+};
+
+// The template centred on pixel (cx, cy); false when the window leaves the image.
+bool extractTemplate(const ImageView& image, int32_t cx, int32_t cy, NccTemplate& t);
+// Fills a template from stored pixels (a patch kept from an earlier pair).
+void templateFromPixels(const uint8_t* pixels, NccTemplate& t);
+
+// NCC of the template with the window of `image` centred on (cx, cy); kNccInvalid when the window leaves
+// the image or is flat.
+double nccAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy);
+
+// Sub-pixel offset of a peak from the scores left/centre/right (|offset| <= 0.5; 0 when not a peak).
+double parabolaOffset(double minus, double centre, double plus);
+
+// Sub-pixel peak around the integer maximum (bx, by): evaluates the 4 neighbours and fits parabolas.
+void refinePeak(const NccTemplate& t, const ImageView& image, int32_t bx, int32_t by, double best,
+                double& x_px, double& y_px);
+
+}  // namespace areomap

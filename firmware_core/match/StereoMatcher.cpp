@@ -1,0 +1,100 @@
+#include "firmware_core/match/StereoMatcher.hpp"
+
+#include <cmath>
+#include <cstdlib>
+
+#include "firmware_core/match/Ncc.hpp"
+
+namespace areomap {
+
+Status matchStereoPair(const ImageView& left, const ImageView& right, const CameraModel& left_model,
+                       const CameraModel& right_model, const StereoParams& params, StereoWorkspace& workspace,
+                       StereoResult& result) {
+  result.tie_count = 0;
+  result.counts = StereoCounts();
+  result.curve = ParallaxCurve();
+  if (!left.valid() || !right.valid() || params.grid_cell_px < 1) return Status::kInvalidArgument;
+  if (right.width > kMaxImageWidth || right.height > kMaxImageHeight) return Status::kCapacityExceeded;
+  const int32_t cells_x = (left.width + params.grid_cell_px - 1) / params.grid_cell_px;
+  const int32_t cells_y = (left.height + params.grid_cell_px - 1) / params.grid_cell_px;
+  if (cells_x * cells_y > kMaxTiesPerPair) return Status::kCapacityExceeded;
+
+  int32_t point_count = 0;
+  const Status detected = detectInterestPoints(left, params.forstner, workspace.forstner, workspace.points,
+                                               kMaxInterestPoints, point_count);
+  result.counts.interest_points = point_count;
+  if (!ok(detected)) return detected;
+
+  // Match every interest point along its epipolar curve, then check left-right consistency.
+  int32_t match_count = 0;
+  NccTemplate left_template;
+  NccTemplate right_template;
+  for (int32_t i = 0; i < point_count; ++i) {
+    const int32_t lx = static_cast<int32_t>(std::lround(workspace.points[i].x_px));
+    const int32_t ly = static_cast<int32_t>(std::lround(workspace.points[i].y_px));
+    if (!extractTemplate(left, lx, ly, left_template) || !left_template.textured) continue;
+    const Vec2 left_px(lx, ly);
+    if (!ok(epipolarCurve(left_model, right_model, left_px, params.min_range_m, params.max_range_m, right.width,
+                          right.height, workspace.curve))) {
+      continue;
+    }
+    ++result.counts.searched;
+    const Vec2 far_px = workspace.curve.far_px;
+    const SearchHit hit = searchAlongCurve(left_template, right, workspace.curve, params.band_px);
+    if (hit.score < params.min_ncc) continue;
+    if (hit.second > params.max_second_ratio * hit.score) continue;
+    ++result.counts.ncc_passed;
+    // Left-right: the right window searched back along its own curve in the left image.
+    if (!extractTemplate(right, hit.x, hit.y, right_template) || !right_template.textured) continue;
+    if (!ok(epipolarCurve(right_model, left_model, Vec2(hit.x, hit.y), params.min_range_m, params.max_range_m,
+                          left.width, left.height, workspace.curve))) {
+      continue;
+    }
+    const SearchHit back = searchAlongCurve(right_template, left, workspace.curve, params.band_px);
+    if (back.score < params.min_ncc || std::abs(back.x - lx) > params.lr_tolerance_px ||
+        std::abs(back.y - ly) > params.lr_tolerance_px) {
+      continue;
+    }
+    ++result.counts.lr_passed;
+    StereoMatch& m = workspace.matches[match_count];
+    m.left_px = left_px;
+    double rx = 0.0, ry = 0.0;
+    refinePeak(left_template, right, hit.x, hit.y, hit.score, rx, ry);
+    m.right_px = Vec2(rx, ry);
+    m.score = hit.score;
+    m.parallax_px = (m.right_px - far_px).norm();
+    m.verified = false;
+    workspace.rows[match_count] = static_cast<float>(ly);
+    workspace.parallax[match_count] = static_cast<float>(m.parallax_px);
+    ++match_count;
+  }
+
+  // Parallax consistency.
+  const Status fitted = fitParallaxCurve(workspace.rows, workspace.parallax, match_count, params.parallax,
+                                         0.5 * (left.height - 1), 0.5 * left.height, workspace.inlier,
+                                         workspace.scratch, result.curve);
+  if (!ok(fitted)) return fitted;
+  for (int32_t i = 0; i < match_count; ++i) {
+    workspace.matches[i].verified = workspace.inlier[i];
+    result.counts.parallax_passed += workspace.inlier[i] ? 1 : 0;
+  }
+
+  // Gridding: the best verified match per cell.
+  const int32_t cells = cells_x * cells_y;
+  for (int32_t c = 0; c < cells; ++c) workspace.cell_best[c] = -1;
+  for (int32_t i = 0; i < match_count; ++i) {
+    const StereoMatch& m = workspace.matches[i];
+    if (!m.verified) continue;
+    const int32_t cx = static_cast<int32_t>(m.left_px.x()) / params.grid_cell_px;
+    const int32_t cy = static_cast<int32_t>(m.left_px.y()) / params.grid_cell_px;
+    int32_t& best = workspace.cell_best[cy * cells_x + cx];
+    if (best < 0 || workspace.matches[best].score < m.score) best = i;
+  }
+  for (int32_t c = 0; c < cells; ++c) {
+    if (workspace.cell_best[c] >= 0) result.ties[result.tie_count++] = workspace.matches[workspace.cell_best[c]];
+  }
+  result.counts.selected = result.tie_count;
+  return result.tie_count >= params.min_ties ? Status::kOk : Status::kNoTexture;
+}
+
+}  // namespace areomap

@@ -1,0 +1,78 @@
+// Intra-stereo tie points of one pair (paper §3.4): Förstner points in the left image, NCC search in the
+// right image along the a-priori epipolar curve within a range (parallax) interval and +-band pixels across
+// it, sub-pixel peak, left-right consistency (the right match searched back along its own epipolar curve
+// must land on the left point), verification by the parallax-versus-row curve, and final selection by
+// gridding (the best verified match per grid cell of the left image). Zero heap: all buffers are in the
+// caller-owned StereoWorkspace.
+#pragma once
+
+#include <cstdint>
+
+#include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/base/ImageView.hpp"
+#include "firmware_core/base/Status.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+#include "firmware_core/match/EpipolarSearch.hpp"
+#include "firmware_core/match/ForstnerDetector.hpp"
+#include "firmware_core/match/ParallaxVerifier.hpp"
+
+namespace areomap {
+
+struct StereoParams {
+  ForstnerParams forstner;
+  double min_range_m = 1.0;    // nearest surface searched (largest parallax)
+  double max_range_m = 1000.0; // farthest (parallax origin, ~infinity)
+  int32_t band_px = 4;         // across the a-priori epipolar curve
+  double min_ncc = 0.8;
+  double max_second_ratio = 0.98;  // reject when the second peak (>= 3 px away) scores this close to the best
+  int32_t lr_tolerance_px = 1;     // left-right check: integer distance back to the left point
+  ParallaxParams parallax;
+  int32_t grid_cell_px = 64;   // final selection grid (cells <= kMaxTiesPerPair)
+  int32_t min_ties = 8;        // fewer verified ties: kNoTexture
+  StereoParams() { forstner.border_px = kNccRadius + 1; }
+};
+
+struct StereoMatch {
+  Vec2 left_px = Vec2::Zero();   // integer left pixel (the template centre)
+  Vec2 right_px = Vec2::Zero();  // sub-pixel right match
+  double score = 0.0;            // NCC
+  double parallax_px = 0.0;      // distance along the epipolar curve from the far-range projection
+  bool verified = false;
+};
+
+struct StereoCounts {
+  int32_t interest_points = 0;
+  int32_t searched = 0;
+  int32_t ncc_passed = 0;
+  int32_t lr_passed = 0;
+  int32_t parallax_passed = 0;
+  int32_t selected = 0;
+};
+
+struct StereoWorkspace {
+  ForstnerWorkspace forstner;
+  InterestPoint points[kMaxInterestPoints];
+  StereoMatch matches[kMaxInterestPoints];
+  EpipolarCurve curve;
+  float rows[kMaxInterestPoints];
+  float parallax[kMaxInterestPoints];
+  bool inlier[kMaxInterestPoints];
+  double scratch[kMaxInterestPoints];
+  int32_t cell_best[kMaxTiesPerPair];
+};
+
+struct StereoResult {
+  StereoMatch ties[kMaxTiesPerPair];  // selected ties, in grid-cell order
+  int32_t tie_count = 0;
+  StereoCounts counts;
+  ParallaxCurve curve;
+};
+
+// kNoTexture for a blank, saturated or noise-only pair (too few interest points or verified matches);
+// kInvalidArgument for bad views or parameters; kCapacityExceeded for oversized images or grids.
+[[nodiscard]] Status matchStereoPair(const ImageView& left, const ImageView& right, const CameraModel& left_model,
+                                     const CameraModel& right_model, const StereoParams& params,
+                                     StereoWorkspace& workspace, StereoResult& result);
+
+}  // namespace areomap
