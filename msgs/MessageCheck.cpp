@@ -284,7 +284,11 @@ Status walkType(const Schema& schema, int32_t type_index, Cursor& cursor, int32_
         const int64_t length = cursor.readSigned(4);
         if (length < 1) return Status::kCorruptData;  // LCM writes the NUL terminator
         if (length > cursor.left()) return Status::kTruncated;
+        // LCM writes strlen + 1 bytes: exactly one NUL, at the end.
         if (cursor.data[cursor.pos + length - 1] != 0) return Status::kCorruptData;
+        if (std::memchr(cursor.data + cursor.pos, 0, static_cast<std::size_t>(length - 1)) != nullptr) {
+          return Status::kCorruptData;
+        }
         cursor.pos += length;
       }
     } else if (field.kind == Kind::kStruct) {

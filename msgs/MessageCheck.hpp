@@ -22,7 +22,8 @@ namespace areomap::msgs {
 // fingerprint is `hash`. Returns:
 //   kOk                the bytes decode completely and nothing is left over;
 //   kTruncated         the bytes end inside a field (an array or string longer than what is left);
-//   kCorruptData       wrong fingerprint (another type), negative length, string without its NUL, bytes
+//   kCorruptData       wrong fingerprint (another type), negative length, string without its final NUL or
+//                      with one inside (LCM cannot write that), bytes
 //                      left over after the message;
 //   kCapacityExceeded  size above INT32_MAX (LCM's limit);
 //   kInvalidArgument   null data, or a type name that is not in the schema;
