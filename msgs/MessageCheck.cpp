@@ -8,19 +8,30 @@ namespace {
 
 // Bounds of the schema tables (sized for msgs/*.lcm with room to grow; a schema beyond them fails to parse
 // and every check then returns kUnsupported, which the schema test catches).
-constexpr int32_t kMaxTypes = 16;        // message and nested types (9 today)
-constexpr int32_t kMaxFields = 32;       // fields per type, const members not stored (26 today)
-constexpr int32_t kMaxNameChars = 40;    // identifier length + NUL
-constexpr int32_t kMaxDims = 2;          // array dimensions per field (1 today)
-constexpr int32_t kMaxNesting = 8;       // depth of nested types (bounds the walk's recursion)
-constexpr int32_t kMaxTokens = 100000;   // tokens per schema text (bounds the parser's loops)
+constexpr int32_t kMaxTypes = 16;       // message and nested types (9 today)
+constexpr int32_t kMaxFields = 32;      // fields per type, const members not stored (26 today)
+constexpr int32_t kMaxNameChars = 40;   // identifier length + NUL
+constexpr int32_t kMaxDims = 2;         // array dimensions per field (1 today)
+constexpr int32_t kMaxNesting = 8;      // depth of nested types (bounds the walk's recursion)
+constexpr int32_t kMaxTokens = 100000;  // tokens per schema text (bounds the parser's loops)
 
 const char* const kSchemaTexts[] = {
 #include "areomap_msgs_schema.inc"
 };
 constexpr int32_t kNumSchemaTexts = static_cast<int32_t>(sizeof(kSchemaTexts) / sizeof(kSchemaTexts[0]));
 
-enum class Kind : uint8_t { kInt8, kInt16, kInt32, kInt64, kFloat, kDouble, kString, kBoolean, kByte, kStruct };
+enum class Kind : uint8_t {
+  kInt8,
+  kInt16,
+  kInt32,
+  kInt64,
+  kFloat,
+  kDouble,
+  kString,
+  kBoolean,
+  kByte,
+  kStruct
+};
 
 struct Dim {
   bool is_constant;
@@ -109,11 +120,10 @@ bool primitiveKind(const char* name, Kind& kind) {
     const char* name;
     Kind kind;
   };
-  static const Entry kTable[] = {{"int8_t", Kind::kInt8},     {"int16_t", Kind::kInt16},
-                                 {"int32_t", Kind::kInt32},   {"int64_t", Kind::kInt64},
-                                 {"float", Kind::kFloat},     {"double", Kind::kDouble},
-                                 {"string", Kind::kString},   {"boolean", Kind::kBoolean},
-                                 {"byte", Kind::kByte}};
+  static const Entry kTable[] = {
+      {"int8_t", Kind::kInt8},   {"int16_t", Kind::kInt16},   {"int32_t", Kind::kInt32},
+      {"int64_t", Kind::kInt64}, {"float", Kind::kFloat},     {"double", Kind::kDouble},
+      {"string", Kind::kString}, {"boolean", Kind::kBoolean}, {"byte", Kind::kByte}};
   for (const Entry& e : kTable) {
     if (std::strcmp(e.name, name) == 0) {
       kind = e.kind;
@@ -158,7 +168,8 @@ bool parseText(Schema& schema, const char* text) {
       for (int32_t d = 0; d <= kMaxDims; ++d) {
         if (!lex.next()) return setError(schema, "unterminated field ", field.name);
         if (lex.is(";")) break;
-        if (!lex.is("[") || field.num_dims >= kMaxDims) return setError(schema, "bad dimension of ", field.name);
+        if (!lex.is("[") || field.num_dims >= kMaxDims)
+          return setError(schema, "bad dimension of ", field.name);
         if (!lex.next()) return setError(schema, "bad dimension of ", field.name);
         Dim& dim = field.dims[field.num_dims++];
         dim.is_constant = lex.token[0] >= '0' && lex.token[0] <= '9';
@@ -251,14 +262,19 @@ int32_t primitiveBytes(Kind kind) {
   switch (kind) {
     case Kind::kInt8:
     case Kind::kBoolean:
-    case Kind::kByte: return 1;
-    case Kind::kInt16: return 2;
+    case Kind::kByte:
+      return 1;
+    case Kind::kInt16:
+      return 2;
     case Kind::kInt32:
-    case Kind::kFloat: return 4;
+    case Kind::kFloat:
+      return 4;
     case Kind::kInt64:
-    case Kind::kDouble: return 8;
+    case Kind::kDouble:
+      return 8;
     case Kind::kString:
-    case Kind::kStruct: break;
+    case Kind::kStruct:
+      break;
   }
   return 0;
 }
@@ -326,8 +342,12 @@ Status checkEncoding(const char* type_name, uint64_t hash, const uint8_t* data, 
   return cursor.pos == cursor.size ? Status::kOk : Status::kCorruptData;
 }
 
-int32_t schemaTypeCount() { return schema().num_types; }
+int32_t schemaTypeCount() {
+  return schema().num_types;
+}
 
-const char* schemaError() { return schema().error; }
+const char* schemaError() {
+  return schema().error;
+}
 
 }  // namespace areomap::msgs

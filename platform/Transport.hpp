@@ -39,11 +39,11 @@ class Transport {
 // A fixed buffer that receives one message: pass &slot as the context and MessageSlot::store as the handler.
 // A message larger than the capacity is not copied: `status` says kCapacityExceeded and `dropped` counts it.
 struct MessageSlot {
-  uint8_t* storage = nullptr;   // caller's buffer, allocated at start-up
+  uint8_t* storage = nullptr;  // caller's buffer, allocated at start-up
   std::size_t capacity = 0;
-  std::size_t size = 0;         // bytes of the last message stored
-  uint64_t received = 0;        // messages handed to store()
-  uint64_t dropped = 0;         // of which too large for the buffer
+  std::size_t size = 0;              // bytes of the last message stored
+  uint64_t received = 0;             // messages handed to store()
+  uint64_t dropped = 0;              // of which too large for the buffer
   Status status = Status::kTimeout;  // of the last store(): kOk, kCapacityExceeded
 
   static void store(void* context, const char* channel, const uint8_t* data, std::size_t size);

@@ -2,8 +2,8 @@
 //   udpm://GROUP:PORT?ttl=N&recv_buf_size=BYTES   UDP multicast. ttl=0 (stay on this host) unless the
 //                                                 operator gives ttl; recv_buf_size defaults to
 //                                                 kDefaultRecvBufBytes, because UDP multicast drops a large
-//                                                 message silently when the socket's receive buffer is smaller
-//                                                 than the burst of its fragments.
+//                                                 message silently when the socket's receive buffer is
+//                                                 smaller than the burst of its fragments.
 //   file:///path/to.log?mode=r|w[&speed=S]        log replay (speed 0 = as fast as possible) or recording.
 //   memq://                                       in-process queue, for tests.
 // The kernel caps the receive buffer at net.core.rmem_max; LcmTransport reports the size the kernel

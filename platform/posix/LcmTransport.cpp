@@ -46,7 +46,9 @@ int64_t kernelRmemMax() {
   return value;
 }
 
-LcmTransport::~LcmTransport() { close(); }
+LcmTransport::~LcmTransport() {
+  close();
+}
 
 void LcmTransport::close() {
   if (lcm_ != nullptr) lcm_destroy(static_cast<lcm_t*>(lcm_));

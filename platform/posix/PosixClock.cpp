@@ -13,7 +13,11 @@ int64_t utimeOf(clockid_t id) {
 
 }  // namespace
 
-int64_t PosixClock::monotonicUtime() const { return utimeOf(CLOCK_MONOTONIC); }
-int64_t PosixClock::wallUtime() const { return utimeOf(CLOCK_REALTIME); }
+int64_t PosixClock::monotonicUtime() const {
+  return utimeOf(CLOCK_MONOTONIC);
+}
+int64_t PosixClock::wallUtime() const {
+  return utimeOf(CLOCK_REALTIME);
+}
 
 }  // namespace areomap::platform

@@ -52,7 +52,7 @@ Status TurboJpegCodec::decodeGray(const uint8_t* jpeg, std::size_t jpeg_bytes, u
     rememberError(decompressor_);
     return endsWithEoi(jpeg, jpeg_bytes) ? Status::kCorruptData : Status::kTruncated;
   }
-  if (w <= 0 || h <= 0) return Status::kCorruptData;
+  if (w <= 0 || h <= 0) return endsWithEoi(jpeg, jpeg_bytes) ? Status::kCorruptData : Status::kTruncated;
   width = w;
   height = h;
   if (static_cast<uint64_t>(w) * static_cast<uint64_t>(h) > capacity_bytes) return Status::kCapacityExceeded;

@@ -21,7 +21,8 @@ class TurboJpegCodec final : public JpegCodec {
   [[nodiscard]] Status decodeGray(const uint8_t* jpeg, std::size_t jpeg_bytes, uint8_t* out,
                                   std::size_t capacity_bytes, int32_t& width, int32_t& height) override;
   [[nodiscard]] Status encodeGray(const uint8_t* pixels, int32_t width, int32_t height, int32_t quality,
-                                  uint8_t* out, std::size_t capacity_bytes, std::size_t& encoded_bytes) override;
+                                  uint8_t* out, std::size_t capacity_bytes,
+                                  std::size_t& encoded_bytes) override;
   std::size_t maxEncodedBytes(int32_t width, int32_t height) const override;
 
   // TurboJPEG's message for the last failure ("" when none): for logs.

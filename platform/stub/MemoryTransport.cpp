@@ -22,7 +22,8 @@ int32_t MemoryTransport::channelIndex(const char* channel, bool add) {
 }
 
 Status MemoryTransport::publish(const char* channel, const uint8_t* data, std::size_t size) {
-  if (channel == nullptr || channel[0] == '\0' || (data == nullptr && size > 0)) return Status::kInvalidArgument;
+  if (channel == nullptr || channel[0] == '\0' || (data == nullptr && size > 0))
+    return Status::kInvalidArgument;
   const int32_t index = channelIndex(channel, true);
   if (index < 0) return Status::kCapacityExceeded;
   if (queued_ == 0) head_ = tail_ = 0;

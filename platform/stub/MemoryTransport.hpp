@@ -13,7 +13,8 @@ class MemoryTransport final : public Transport {
   static constexpr int32_t kMaxSubscriptions = 16;
   static constexpr std::size_t kMaxChannelChars = 64;
 
-  MemoryTransport(uint8_t* storage, std::size_t capacity_bytes) : storage_(storage), capacity_(capacity_bytes) {}
+  MemoryTransport(uint8_t* storage, std::size_t capacity_bytes)
+      : storage_(storage), capacity_(capacity_bytes) {}
 
   [[nodiscard]] Status publish(const char* channel, const uint8_t* data, std::size_t size) override;
   [[nodiscard]] Status subscribe(const char* channel, MessageHandler handler, void* context) override;

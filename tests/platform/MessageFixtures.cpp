@@ -80,7 +80,8 @@ areomap::tiepoints_t makeTiePoints(int seed, int32_t observations) {
     t.sample_px.push_back(10.25 + i);
     t.line_px.push_back(900.5 - i);
     // Unary + : lcm-gen declares the consts without a definition, so they must not be bound to a reference.
-    t.kind.push_back(static_cast<int8_t>(i % 5 == 0 ? +areomap::tiepoints_t::KIND_INTER : +areomap::tiepoints_t::KIND_INTRA));
+    t.kind.push_back(static_cast<int8_t>(i % 5 == 0 ? +areomap::tiepoints_t::KIND_INTER
+                                                    : +areomap::tiepoints_t::KIND_INTRA));
   }
   return t;
 }

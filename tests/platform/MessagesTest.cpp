@@ -26,7 +26,8 @@ Message roundTrip(const Message& original) {
   const std::vector<uint8_t> bytes = encode(original);
   CHECK(!bytes.empty());
   Message decoded{};
-  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(decodeMessage(bytes.data(), bytes.size(), decoded)));
+  CHECK_EQUAL(static_cast<int>(Status::kOk),
+              static_cast<int>(decodeMessage(bytes.data(), bytes.size(), decoded)));
   const std::vector<uint8_t> again = encode(decoded);
   CHECK(bytes == again);
   return decoded;
@@ -191,7 +192,8 @@ TEST(MessageCheck, CorruptEncodingsGiveStatuses) {
   // A byte left over.
   std::vector<uint8_t> longer = bytes;
   longer.push_back(0);
-  CHECK_EQUAL(static_cast<int>(Status::kCorruptData), static_cast<int>(decodeMessage(longer.data(), longer.size(), pair)));
+  CHECK_EQUAL(static_cast<int>(Status::kCorruptData),
+              static_cast<int>(decodeMessage(longer.data(), longer.size(), pair)));
   // The panorama string length (after hash 8 + utime 8 + sequence 8 + kind 1) set to 0, negative, huge.
   const std::size_t string_length_at = 25;
   const uint8_t lengths[][4] = {{0, 0, 0, 0}, {0xFF, 0xFF, 0xFF, 0xF0}, {0x7F, 0xFF, 0xFF, 0xFF}};
@@ -203,19 +205,22 @@ TEST(MessageCheck, CorruptEncodingsGiveStatuses) {
   }
   // The left JPEG byte count set to a negative and to a huge value: the generated decode would resize first.
   const areomap::stereo_pair_t original = areomap::test::makeStereoPair(1, 1000);
-  const std::size_t jpeg_count_at = 25 + 4 + original.panorama.size() + 1 + 4 * 4 + 1 + 4 +
-                                    original.left.stem.size() + 1 + 4 + 4;
+  const std::size_t jpeg_count_at =
+      25 + 4 + original.panorama.size() + 1 + 4 * 4 + 1 + 4 + original.left.stem.size() + 1 + 4 + 4;
   CHECK_EQUAL(0, bytes[jpeg_count_at]);
   CHECK_EQUAL(1000, (bytes[jpeg_count_at + 2] << 8) | bytes[jpeg_count_at + 3]);
   std::vector<uint8_t> bad = bytes;
   bad[jpeg_count_at] = 0x80;
-  CHECK_EQUAL(static_cast<int>(Status::kCorruptData), static_cast<int>(decodeMessage(bad.data(), bad.size(), pair)));
+  CHECK_EQUAL(static_cast<int>(Status::kCorruptData),
+              static_cast<int>(decodeMessage(bad.data(), bad.size(), pair)));
   bad[jpeg_count_at] = 0x40;
-  CHECK_EQUAL(static_cast<int>(Status::kTruncated), static_cast<int>(decodeMessage(bad.data(), bad.size(), pair)));
+  CHECK_EQUAL(static_cast<int>(Status::kTruncated),
+              static_cast<int>(decodeMessage(bad.data(), bad.size(), pair)));
   // A string without its NUL terminator.
   bad = bytes;
   bad[string_length_at + 4 + original.panorama.size()] = 'x';
-  CHECK_EQUAL(static_cast<int>(Status::kCorruptData), static_cast<int>(decodeMessage(bad.data(), bad.size(), pair)));
+  CHECK_EQUAL(static_cast<int>(Status::kCorruptData),
+              static_cast<int>(decodeMessage(bad.data(), bad.size(), pair)));
   // Unknown type name, null data.
   CHECK_EQUAL(static_cast<int>(Status::kInvalidArgument),
               static_cast<int>(checkEncoding("no_such_t", 0, bytes.data(), bytes.size())));

@@ -25,7 +25,9 @@ using areomap::platform::MessageSlot;
 
 namespace {
 
-int code(Status s) { return static_cast<int>(s); }
+int code(Status s) {
+  return static_cast<int>(s);
+}
 
 // Collects the sequence numbers of received stereo pairs and whether each decoded intact.
 struct PairCollector {
@@ -61,12 +63,15 @@ TEST(TransportUrl, UdpmDefaultsAreSafe) {
   STRCMP_EQUAL("udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608", url);
   CHECK(ok(areomap::platform::completeUrl("udpm://239.255.76.1:7000?ttl=1", url, sizeof(url))));
   STRCMP_EQUAL("udpm://239.255.76.1:7000?ttl=1&recv_buf_size=8388608", url);  // the operator's ttl is kept
-  CHECK(ok(areomap::platform::completeUrl("udpm://239.255.76.1:7000?recv_buf_size=100000", url, sizeof(url))));
+  CHECK(
+      ok(areomap::platform::completeUrl("udpm://239.255.76.1:7000?recv_buf_size=100000", url, sizeof(url))));
   STRCMP_EQUAL("udpm://239.255.76.1:7000?recv_buf_size=100000&ttl=0", url);
   CHECK(ok(areomap::platform::completeUrl("file:///tmp/x.log?mode=w", url, sizeof(url))));
   STRCMP_EQUAL("file:///tmp/x.log?mode=w", url);
-  CHECK_EQUAL(code(Status::kInvalidArgument), code(areomap::platform::completeUrl("tcp://x", url, sizeof(url))));
-  CHECK_EQUAL(code(Status::kCapacityExceeded), code(areomap::platform::completeUrl("udpm://239.1.1.1:1", url, 20)));
+  CHECK_EQUAL(code(Status::kInvalidArgument),
+              code(areomap::platform::completeUrl("tcp://x", url, sizeof(url))));
+  CHECK_EQUAL(code(Status::kCapacityExceeded),
+              code(areomap::platform::completeUrl("udpm://239.1.1.1:1", url, 20)));
   int64_t value = 0;
   CHECK(areomap::platform::urlOption("udpm://a:1?ttl=3&recv_buf_size=77", "recv_buf_size", value));
   CHECK_EQUAL(77, value);
@@ -87,7 +92,7 @@ TEST(MemoryTransport, DeliversInOrderWithoutHeap) {
   uint8_t payload[200];
   for (int i = 0; i < 200; ++i) payload[i] = static_cast<uint8_t>(i);
   CHECK(ok(transport.publish("A", payload, 10)));
-  CHECK(ok(transport.publish("B", payload, 20)));   // nobody listens: consumed silently
+  CHECK(ok(transport.publish("B", payload, 20)));  // nobody listens: consumed silently
   CHECK(ok(transport.publish("A", payload + 1, 30)));
   CHECK(ok(transport.publish("A", payload, 200)));  // larger than the slot
   CHECK_EQUAL(code(Status::kOk), code(transport.handle(0)));

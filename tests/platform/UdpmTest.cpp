@@ -69,7 +69,8 @@ std::string exchange(bool& nothing_arrived) {
   const int port = 20000 + static_cast<int>(getpid() % 20000);
   if (std::getenv("AREOMAP_UDPM_TEST_OPTIONS") == nullptr) raiseReceiveBufferCapIfRoot();
   const char* env_url_options = std::getenv("AREOMAP_UDPM_TEST_OPTIONS");  // e.g. "?recv_buf_size=212992"
-  const std::string url = "udpm://239.255.76.67:" + std::to_string(port) + (env_url_options ? env_url_options : "");
+  const std::string url =
+      "udpm://239.255.76.67:" + std::to_string(port) + (env_url_options ? env_url_options : "");
   LcmTransport publisher;
   LcmTransport subscriber;
   if (!ok(subscriber.open(url.c_str())) || !ok(publisher.open(url.c_str()))) {
@@ -88,7 +89,8 @@ std::string exchange(bool& nothing_arrived) {
   (void)subscriber.handle(50);  // let LCM set up its receive socket before the burst
   const auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < kMessages; ++i) {
-    const std::vector<uint8_t> bytes = areomap::test::encode(areomap::test::makeStereoPair(i, kLeftJpegBytes));
+    const std::vector<uint8_t> bytes =
+        areomap::test::encode(areomap::test::makeStereoPair(i, kLeftJpegBytes));
     if (!ok(publisher.publish(areomap::channels::kStereoPair, bytes.data(), bytes.size()))) {
       nothing_arrived = i == 0;
       return "publish failed (no multicast route?)";
@@ -125,8 +127,9 @@ int runInNamespace(const char* name, std::string& why) {
     why = "cannot find this test binary (/proc/self/exe)";
     return -1;
   }
-  const std::string command = std::string("unshare -n sh -c 'ip link set lo up && ip route add 239.0.0.0/8 dev lo && ") +
-                              kInNamespaceEnv + "=1 exec \"$0\" -sg Udpm -sn " + name + "' '" + self + "'";
+  const std::string command =
+      std::string("unshare -n sh -c 'ip link set lo up && ip route add 239.0.0.0/8 dev lo && ") +
+      kInNamespaceEnv + "=1 exec \"$0\" -sg Udpm -sn " + name + "' '" + self + "'";
   std::fflush(stdout);
   const int status = std::system(command.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
@@ -140,7 +143,8 @@ TEST(Udpm, ExchangesImageSizedMessage) {
   bool nothing_arrived = false;
   const std::string failure = exchange(nothing_arrived);
   if (failure.empty()) {
-    std::printf("udpm: exchanged on %s\n", std::getenv(kInNamespaceEnv) ? "a private network namespace" : "the host network");
+    std::printf("udpm: exchanged on %s\n",
+                std::getenv(kInNamespaceEnv) ? "a private network namespace" : "the host network");
     return;
   }
   if (std::getenv(kInNamespaceEnv) != nullptr || !nothing_arrived) FAIL(failure.c_str());
