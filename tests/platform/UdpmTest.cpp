@@ -12,6 +12,7 @@
 
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
+#include "platform/heap/HeapCounter.hpp"
 #include "platform/posix/LcmTransport.hpp"
 #include "tests/platform/MessageFixtures.hpp"
 
@@ -98,6 +99,27 @@ std::string exchange(bool& nothing_arrived) {
   }
   for (int i = 0; i < 100 && static_cast<int>(received.sequences.size()) + received.bad < kMessages; ++i) {
     (void)subscriber.handle(50);
+  }
+  // Heap on this (the pipeline's) thread while handle() dispatched, and in a handle() that copies a message
+  // into a fixed slot: the figure the rover node's zero-heap test depends on.
+  const std::vector<uint8_t> one = areomap::test::encode(areomap::test::makeStereoPair(0, kLeftJpegBytes));
+  static std::vector<uint8_t> slot_storage(4u * 1024u * 1024u);
+  areomap::platform::MessageSlot slot;
+  slot.storage = slot_storage.data();
+  slot.capacity = slot_storage.size();
+  if (ok(subscriber.subscribe("AREOMAP_UDPM_SLOT", &areomap::platform::MessageSlot::store, &slot)) &&
+      ok(publisher.publish("AREOMAP_UDPM_SLOT", one.data(), one.size()))) {
+    const uint64_t before = areomap::heapAllocationCountThisThread();
+    for (int i = 0; i < 40 && slot.received == 0; ++i) (void)subscriber.handle(50);
+    const uint64_t allocations = areomap::heapAllocationCountThisThread() - before;
+    std::printf(
+        "udpm: handle() copying one %zu-byte message into a fixed slot made %llu heap allocations on "
+        "the calling thread (slot got %zu bytes)\n",
+        one.size(), static_cast<unsigned long long>(allocations), slot.size);
+    if (slot.size != one.size()) return "the slot message did not arrive";
+    if (allocations != 0) return "handle() allocated on the calling thread";
+  } else {
+    return "slot channel: subscribe or publish failed";
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf("udpm: %zu of %d messages of %zu bytes received intact (%d damaged) in %.3f s\n",
