@@ -23,6 +23,9 @@ using Mat3x6 = Eigen::Matrix<double, 3, 6>;
 using Mat3x12 = Eigen::Matrix<double, 3, 12>;
 using Mat6x3 = Eigen::Matrix<double, 6, 3>;
 using Mat12x3 = Eigen::Matrix<double, 12, 3>;
+// Camera conversion (CameraConversion.cpp): the 16-term image-space distortion fit.
+using Vec16 = Eigen::Matrix<double, 16, 1>;
+using Mat16 = Eigen::Matrix<double, 16, 16>;
 
 // Skew-symmetric matrix: skew(a) * b == a.cross(b).
 inline Mat3 skew(const Vec3& a) {

@@ -121,24 +121,34 @@ Vec2 undistortPixel(const LensDistortion& d, const Vec2& distorted) {
   const double x = (distorted.x() - d.cx_px) / d.norm_px;
   const double y = (distorted.y() - d.cy_px) / d.norm_px;
   const double r2 = x * x + y * y;
-  const double radial = d.k1 * r2 + d.k2 * r2 * r2 + d.k3 * r2 * r2 * r2;
-  const double dx = x * radial + d.p1 * (r2 + 2.0 * x * x) + 2.0 * d.p2 * x * y + d.b1 * x + d.b2 * y;
-  const double dy = y * radial + d.p2 * (r2 + 2.0 * y * y) + 2.0 * d.p1 * x * y;
+  const double tilt = (d.s1 + d.q1 * r2) * x + (d.s2 + d.q2 * r2) * y;
+  const double radial = d.k0 + r2 * (d.k1 + r2 * (d.k2 + r2 * (d.k3 + r2 * (d.k4 + r2 * d.k5)))) + tilt;
+  const double dx = x * radial + d.p1 * (r2 + 2.0 * x * x) + 2.0 * d.p2 * x * y + d.b1 * x + d.b2 * y + d.t1;
+  const double dy = y * radial + d.p2 * (r2 + 2.0 * y * y) + 2.0 * d.p1 * x * y + d.t2;
   return Vec2(distorted.x() + dx * d.norm_px, distorted.y() + dy * d.norm_px);
 }
 
 Status distortPixel(const LensDistortion& d, const Vec2& ideal, Vec2& distorted) {
-  // Fixed point: distorted = ideal - delta(distorted). Converges fast for the small corrections of
-  // real lenses (|d delta / d pixel| << 1).
+  // Newton on undistortPixel(distorted) = ideal with a forward-difference 2x2 Jacobian: converges where
+  // the plain fixed point (distorted = ideal - delta) does not, as for the large corrections of a
+  // fisheye-like model fitted to a pinhole (|d delta / d pixel| near or above 1 at the corners).
   constexpr double kTolerancePx = 1e-10;
+  constexpr double kStepPx = 1e-4;
   distorted = ideal;
   for (int32_t i = 0; i < kMaxCameraInverseIterations; ++i) {
     const Vec2 back = undistortPixel(d, distorted);
-    const Vec2 step = ideal - back;
-    distorted += step;
-    if (step.squaredNorm() < kTolerancePx * kTolerancePx) {
+    const Vec2 error = ideal - back;
+    if (error.squaredNorm() < kTolerancePx * kTolerancePx) {
       return Status::kOk;
     }
+    Mat2 j;
+    j.col(0) = (undistortPixel(d, distorted + Vec2(kStepPx, 0.0)) - back) / kStepPx;
+    j.col(1) = (undistortPixel(d, distorted + Vec2(0.0, kStepPx)) - back) / kStepPx;
+    const double det = j.determinant();
+    if (!(std::fabs(det) > 1e-12)) {
+      return Status::kDegenerate;
+    }
+    distorted += j.inverse() * error;
   }
   return Status::kNoConvergence;
 }

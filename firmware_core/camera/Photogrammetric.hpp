@@ -22,9 +22,14 @@
 
 namespace areomap {
 
-// Image-space lens distortion about a centre (cx, cy) in pixels: radial k1..k3 and decentering p1, p2
-// (Brown), plus an affinity (scale difference and shear) that absorbs hs != vs and non-orthogonal H, V.
-// ideal = distorted + delta(distorted); all coefficients in pixel units normalised by `norm_px`.
+// Image-space lens distortion about a centre (cx, cy) in pixels: radial k0..k3 and decentering p1, p2
+// (Brown), plus an affinity (scale difference and shear) that absorbs hs != vs and non-orthogonal H, V, and
+// a constant shift t1, t2. ideal = distorted + delta(distorted) with, in x = (sample - cx) / norm_px,
+// y = (line - cy) / norm_px, r2 = x^2 + y^2:
+//   delta_x = x (k0 + k1 r2 + ... + k5 r2^5 + g) + p1 (r2 + 2x^2) + 2 p2 x y + b1 x + b2 y + t1
+//   delta_y = y (k0 + k1 r2 + ... + k5 r2^5 + g) + p2 (r2 + 2y^2) + 2 p1 x y + t2
+//   with g = (s1 x + s2 y) + r2 (q1 x + q2 y)
+// (times norm_px, in pixels).
 struct LensDistortion {
   double cx_px = 0.0;
   double cy_px = 0.0;
@@ -32,6 +37,19 @@ struct LensDistortion {
   double k1 = 0.0, k2 = 0.0, k3 = 0.0;
   double p1 = 0.0, p2 = 0.0;
   double b1 = 0.0, b2 = 0.0;  // affinity: x scale difference, shear
+  // Added for the CAHVOR conversion (CameraConversion.hpp): k0 is a uniform radial scale about (cx, cy)
+  // (CAHVOR rho0, the k0 of Di & Li 2004) and t1, t2 a constant shift. With the centre on the image point of
+  // the O axis and the principal point kept at the CAHV one, a scale about the O point is a scale about the
+  // principal point plus a shift: both are needed to fit a real CAHVOR model to 0.05 px.
+  double k0 = 0.0;
+  double t1 = 0.0, t2 = 0.0;
+  // Also added for the conversion: radial terms modulated by a linear form, (x, y) (s1 x + s2 y) and
+  // (x, y) r2 (q1 x + q2 y). They are the image-space shape of a radial distortion about an axis O that
+  // is tilted against A (CAHVOR: O 7.5 deg off A on a real Spirit Navcam, 0.09 px RMS left without them).
+  double s1 = 0.0, s2 = 0.0;
+  double q1 = 0.0, q2 = 0.0;
+  // Higher radial terms r2^4, r2^5 for wide-angle (CAHVORE fisheye-type) models fitted to a pinhole.
+  double k4 = 0.0, k5 = 0.0;
 };
 
 struct InteriorOrientation {

@@ -60,23 +60,31 @@ inline CameraModel tiltedAxis() {
                        Vec3(0.39, -0.06, -1.24));
 }
 
-// An M2020 Navcam-like CAHVORE in full-resolution detector pixels (5120 x 3840), fisheye type.
+// An M2020 Navcam-like CAHVORE (the real frame's model scaled 1/4 to its 1288 x 968 browse image).
 inline CameraModel m2020Like(CahvoreKind kind, double linearity) {
-  CameraModel model = modelFromSpec({3000.0, 3001.0, 2590.0, 1940.0, 0.0005, 0.1, 1.0, -0.3, 0.1 * M_PI / 180.0,
-                                     Vec3(0.0000017, 0.0501396, -0.0171254), 5120, 3840},
+  CameraModel model = modelFromSpec({740.0, 740.3, 648.0, 485.0, 0.0005, 0.1, 1.0, -0.3, 0.1 * M_PI / 180.0,
+                                     Vec3(0.0000017, 0.0501396, -0.0171254), 1288, 968},
                                     Vec3(0.95, 0.35, -1.89));
   model.type = CameraType::kCahvore;
   model.cahvore_kind = kind;
   model.linearity = linearity;
-  model.e = Vec3(-0.002, 0.004, -0.003);  // larger than the real frame's, so that the pupil shift shows
+  model.e = Vec3(-8e-9, 1e-8, -2.9e-8);  // the real frame's magnitudes
   return model;
 }
 
-inline std::array<NamedModel, 5> syntheticModels() {
+// A CAHVORE whose entrance pupil moves by millimetres (E much larger than real), to exercise E.
+inline CameraModel largePupilShift() {
+  CameraModel model = m2020Like(CahvoreKind::kGeneral, 0.6);
+  model.e = Vec3(-0.002, 0.004, -0.003);
+  return model;
+}
+
+inline std::array<NamedModel, 6> syntheticModels() {
   return {NamedModel{"navcam-like CAHVOR", navcamLike()}, NamedModel{"tilted-O CAHVOR", tiltedAxis()},
           NamedModel{"CAHVORE fisheye", m2020Like(CahvoreKind::kFisheye, 0.0)},
           NamedModel{"CAHVORE general L=0.4", m2020Like(CahvoreKind::kGeneral, 0.4)},
-          NamedModel{"CAHVORE perspective", m2020Like(CahvoreKind::kPerspective, 1.0)}};
+          NamedModel{"CAHVORE perspective", m2020Like(CahvoreKind::kPerspective, 1.0)},
+          NamedModel{"CAHVORE large E", largePupilShift()}};
 }
 
 }  // namespace areomap::test
