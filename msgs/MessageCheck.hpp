@@ -23,8 +23,7 @@ namespace areomap::msgs {
 //   kOk                the bytes decode completely and nothing is left over;
 //   kTruncated         the bytes end inside a field (an array or string longer than what is left);
 //   kCorruptData       wrong fingerprint (another type), negative length, string without its final NUL or
-//                      with one inside (LCM cannot write that), bytes
-//                      left over after the message;
+//                      with a NUL inside (LCM cannot write either), bytes left over after the message;
 //   kCapacityExceeded  size above INT32_MAX (LCM's limit);
 //   kInvalidArgument   null data, or a type name that is not in the schema;
 //   kUnsupported       the embedded schema did not parse (a programmer error, see schemaError()).
