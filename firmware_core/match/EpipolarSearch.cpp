@@ -90,13 +90,26 @@ SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const 
   return hit;
 }
 
-SearchHit searchWindow(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius) {
+SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius,
+                             const Mat2& a) {
   SearchHit hit;
   if (radius > kInterSearchRadiusPx) radius = kInterSearchRadiusPx;
   for (int32_t dy = -radius; dy <= radius; ++dy) {
-    for (int32_t dx = -radius; dx <= radius; ++dx) consider(hit, nccAt(t, target, cx + dx, cy + dy), cx + dx, cy + dy);
+    for (int32_t dx = -radius; dx <= radius; ++dx) {
+      consider(hit, nccWarpedAt(t, target, cx + dx, cy + dy, a), cx + dx, cy + dy);
+    }
   }
   return hit;
+}
+
+void refinePeakWarped(const NccTemplate& t, const ImageView& image, int32_t bx, int32_t by, double best,
+                      const Mat2& a, double& x_px, double& y_px) {
+  const double l = nccWarpedAt(t, image, bx - 1, by, a);
+  const double r = nccWarpedAt(t, image, bx + 1, by, a);
+  const double u = nccWarpedAt(t, image, bx, by - 1, a);
+  const double d = nccWarpedAt(t, image, bx, by + 1, a);
+  x_px = bx + parabolaOffset(l, best, r);
+  y_px = by + parabolaOffset(u, best, d);
 }
 
 }  // namespace areomap

@@ -37,7 +37,11 @@ struct SearchHit {
 SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
                            int32_t band_px);
 
-// Best NCC of `t` in the square window +-radius around (cx, cy) (radius <= kInterSearchRadiusPx).
-SearchHit searchWindow(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius);
+// Best NCC of `t`, warped by the local affine map `a` (nccWarpedAt; identity = plain NCC), in the square
+// window +-radius around (cx, cy) (radius <= kInterSearchRadiusPx), and its sub-pixel peak.
+SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius,
+                             const Mat2& a);
+void refinePeakWarped(const NccTemplate& t, const ImageView& image, int32_t bx, int32_t by, double best,
+                      const Mat2& a, double& x_px, double& y_px);
 
 }  // namespace areomap

@@ -66,6 +66,39 @@ double nccAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t c
   return cov / std::sqrt(var_s * var_t);
 }
 
+double nccWarpedAt(const NccTemplate& t, const ImageView& image, double cx, double cy, const Mat2& a) {
+  if (!t.textured) return kNccInvalid;
+  // The corners of the warped window must lie inside the image (bilinear needs x + 1).
+  const double reach_x = kNccRadius * (std::fabs(a(0, 0)) + std::fabs(a(0, 1)));
+  const double reach_y = kNccRadius * (std::fabs(a(1, 0)) + std::fabs(a(1, 1)));
+  if (cx - reach_x < 0.0 || cy - reach_y < 0.0 || cx + reach_x >= image.width - 1.0 ||
+      cy + reach_y >= image.height - 1.0) {
+    return kNccInvalid;
+  }
+  double s = 0.0, s2 = 0.0, st = 0.0;
+  for (int32_t v = -kNccRadius; v <= kNccRadius; ++v) {
+    for (int32_t u = -kNccRadius; u <= kNccRadius; ++u) {
+      const double x = cx + a(0, 0) * u + a(0, 1) * v;
+      const double y = cy + a(1, 0) * u + a(1, 1) * v;
+      const int32_t x0 = static_cast<int32_t>(x);
+      const int32_t y0 = static_cast<int32_t>(y);
+      const double fx = x - x0, fy = y - y0;
+      const uint8_t* r0 = image.row(y0) + x0;
+      const uint8_t* r1 = image.row(y0 + 1) + x0;
+      const double value = (1.0 - fy) * ((1.0 - fx) * r0[0] + fx * r0[1]) + fy * ((1.0 - fx) * r1[0] + fx * r1[1]);
+      const double tv = t.pixels[(v + kNccRadius) * kNccSide + (u + kNccRadius)];
+      s += value;
+      s2 += value * value;
+      st += value * tv;
+    }
+  }
+  const double n = kNccPixels;
+  const double var_s = n * s2 - s * s;
+  const double var_t = n * static_cast<double>(t.sum_sq) - static_cast<double>(t.sum) * static_cast<double>(t.sum);
+  if (var_s < kMinNccVariance * n * n) return kNccInvalid;
+  return (n * st - s * static_cast<double>(t.sum)) / std::sqrt(var_s * var_t);
+}
+
 double parabolaOffset(double minus, double centre, double plus) {
   if (minus <= kNccInvalid || plus <= kNccInvalid) return 0.0;
   const double curvature = minus - 2.0 * centre + plus;

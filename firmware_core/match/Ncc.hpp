@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/base/EigenTypes.hpp"
 #include "firmware_core/base/ImageView.hpp"
 
 namespace areomap {
@@ -30,6 +31,11 @@ void templateFromPixels(const uint8_t* pixels, NccTemplate& t);
 // NCC of the template with the window of `image` centred on (cx, cy); kNccInvalid when the window leaves
 // the image or is flat.
 double nccAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy);
+
+// NCC of the template with `image` resampled (bilinear) through the local affine map `a` of template
+// offsets: template pixel (u, v) is compared with image(cx + a * (u, v)). This is how a patch from another
+// view is compared when perspective changes its shape (rotation, scale, foreshortening).
+double nccWarpedAt(const NccTemplate& t, const ImageView& image, double cx, double cy, const Mat2& a);
 
 // Sub-pixel offset of a peak from the scores left/centre/right (|offset| <= 0.5; 0 when not a peak).
 double parabolaOffset(double minus, double centre, double plus);

@@ -1,0 +1,207 @@
+#include "firmware_core/match/PanoramaMatcher.hpp"
+
+#include <cmath>
+
+#include "firmware_core/match/EpipolarSearch.hpp"
+#include "firmware_core/match/Ncc.hpp"
+#include "firmware_core/match/ParallaxVerifier.hpp"
+
+namespace areomap {
+namespace {
+constexpr double kWarpBasePx = 4.0;  // pixel offset used to measure the local affine map of a patch
+}  // namespace
+
+void PanoramaMatcher::reset() {
+  pair_count_ = 0;
+  observations_.reset();
+  points_.reset();
+}
+
+bool PanoramaMatcher::addObservation(int32_t point, int32_t image, double sample_px, double line_px, TieKind kind,
+                                     float score) {
+  TiePoint& p = points_[point];
+  if (p.observation_count >= kMaxObsPerPoint) return false;
+  TieObservation o;
+  o.point = point;
+  o.image = image;
+  o.sample_px = sample_px;
+  o.line_px = line_px;
+  o.kind = kind;
+  o.score = score;
+  if (!observations_.push(o)) return false;
+  ++p.observation_count;
+  return true;
+}
+
+Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, const CameraModel& left_model,
+                                const CameraModel* right_model, PairTieReport& report) {
+  report = PairTieReport();
+  if (!left.valid()) return Status::kInvalidArgument;
+  if (left.width > kMaxImageWidth || left.height > kMaxImageHeight) return Status::kCapacityExceeded;
+  if (pair_count_ >= kMaxPairs) return Status::kCapacityExceeded;
+  const bool has_right = right != nullptr && right_model != nullptr && right->valid();
+  const int32_t j = pair_count_;
+  StoredPair& stored = pairs_[j];
+  stored.model[0] = left_model;
+  stored.model[1] = has_right ? *right_model : left_model;
+  stored.has_right = has_right;
+  stored.tie_count = 0;
+
+  // 1. Intra-stereo ties.
+  stereo_result_.tie_count = 0;
+  if (has_right) {
+    report.intra_status = matchStereoPair(left, *right, left_model, *right_model, stereo, stereo_workspace_,
+                                          stereo_result_);
+    report.intra = stereo_result_.counts;
+    if (report.intra_status == Status::kInvalidArgument || report.intra_status == Status::kCapacityExceeded) {
+      return report.intra_status;
+    }
+  } else {
+    report.intra_status = Status::kMissingField;
+  }
+
+  // 2. Coarse DEM of the pair from its ties (the ground points are kept in the stereo scratch).
+  dem_.reset(left_model.c);
+  bool triangulated[kMaxTiesPerPair];
+  Vec3 ground[kMaxTiesPerPair];
+  for (int32_t i = 0; i < stereo_result_.tie_count; ++i) {
+    double miss_m = 0.0;
+    const StereoMatch& m = stereo_result_.ties[i];
+    triangulated[i] = ok(triangulateMidpoint(left_model, *right_model, m.left_px, m.right_px, ground[i], miss_m));
+    if (triangulated[i]) (void)dem_.addPoint(ground[i]);
+  }
+  dem_.finish();
+  report.dem_points = dem_.pointCount();
+  report.dem_cells = dem_.measuredCells();
+
+  // 3. Inter-stereo ties from every earlier pair into this one.
+  const ImageView* images[2] = {&left, has_right ? right : nullptr};
+  interTies(j, images, report);
+
+  // 4. The new points, their intra observations and the stored patches for later pairs.
+  for (int32_t i = 0; i < stereo_result_.tie_count; ++i) {
+    if (!triangulated[i]) continue;
+    const StereoMatch& m = stereo_result_.ties[i];
+    NccTemplate t;
+    if (!extractTemplate(left, static_cast<int32_t>(m.left_px.x()), static_cast<int32_t>(m.left_px.y()), t)) continue;
+    TiePoint p;
+    p.ground_m = ground[i];
+    p.pair = j;
+    if (!points_.push(p)) {
+      ++report.overflow;
+      continue;
+    }
+    const int32_t id = points_.size() - 1;
+    const bool ok_left = addObservation(id, 2 * j, m.left_px.x(), m.left_px.y(), TieKind::kIntra, 1.0f);
+    const bool ok_right =
+        ok_left && addObservation(id, 2 * j + 1, m.right_px.x(), m.right_px.y(), TieKind::kIntra, static_cast<float>(m.score));
+    if (!ok_right) {
+      if (ok_left) observations_.pop();
+      points_.pop();
+      ++report.overflow;
+      continue;
+    }
+    StoredTie& st = stored.ties[stored.tie_count++];
+    for (int32_t k = 0; k < kNccPixels; ++k) st.patch[k] = t.pixels[k];
+    Vec3 origin, direction, predicted;
+    st.predicted_m = ground[i];
+    const bool have_ray = ok(unproject(left_model, m.left_px, origin, direction));
+    if (have_ray && ok(dem_.intersectRay(origin, direction, predicted))) st.predicted_m = predicted;
+    // The patch's shape on the surface: where its neighbouring pixels meet the DEM (or, without a DEM there,
+    // the plane through the point facing the camera).
+    st.has_shape = have_ray;
+    for (int32_t axis = 0; axis < 2 && st.has_shape; ++axis) {
+      const Vec2 offset_px = m.left_px + (axis == 0 ? Vec2(kWarpBasePx, 0.0) : Vec2(0.0, kWarpBasePx));
+      Vec3 o2, d2, p2;
+      st.has_shape = ok(unproject(left_model, offset_px, o2, d2));
+      if (!st.has_shape) break;
+      if (!ok(dem_.intersectRay(o2, d2, p2))) {
+        const double range = (st.predicted_m - o2).dot(direction) / d2.dot(direction);
+        p2 = o2 + range * d2;
+      }
+      (axis == 0 ? st.predicted_dx_m : st.predicted_dy_m) = p2;
+    }
+    st.point = id;
+  }
+  ++pair_count_;
+  const bool any = stereo_result_.tie_count > 0 || report.inter_observations > 0;
+  return any ? Status::kOk : Status::kNoTexture;
+}
+
+void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], PairTieReport& report) {
+  const StoredPair& target = pairs_[new_pair];
+  for (int32_t i = 0; i < new_pair; ++i) {
+    const StoredPair& source = pairs_[i];
+    bool linked = false;
+    for (int32_t side = 0; side < 2; ++side) {
+      const ImageView* image = images[side];
+      if (image == nullptr) continue;
+      const CameraModel& model = target.model[side];
+      const int32_t margin = kNccRadius + 1;
+      int32_t n = 0;
+      for (int32_t k = 0; k < source.tie_count; ++k) {
+        const StoredTie& st = source.ties[k];
+        if (points_[st.point].observation_count >= kMaxObsPerPoint) continue;
+        Vec2 predicted;
+        if (!ok(project(model, st.predicted_m, predicted))) continue;
+        if (predicted.x() < margin || predicted.y() < margin || predicted.x() > image->width - 1 - margin ||
+            predicted.y() > image->height - 1 - margin) {
+          continue;
+        }
+        ++report.inter_candidates;
+        NccTemplate t;
+        templateFromPixels(st.patch, t);
+        if (!t.textured) continue;
+        const int32_t px = static_cast<int32_t>(std::lround(predicted.x()));
+        const int32_t py = static_cast<int32_t>(std::lround(predicted.y()));
+        // Local affine map of the stored patch into this view, through the surface.
+        Mat2 a = Mat2::Identity();
+        Vec2 px_dx, px_dy;
+        if (st.has_shape && ok(project(model, st.predicted_dx_m, px_dx)) && ok(project(model, st.predicted_dy_m, px_dy))) {
+          a.col(0) = (px_dx - predicted) / kWarpBasePx;
+          a.col(1) = (px_dy - predicted) / kWarpBasePx;
+          const double det = a.determinant();
+          if (!(det > 0.25 && det < 4.0)) a = Mat2::Identity();  // implausible shape: compare unwarped
+        }
+        const SearchHit hit = searchWindowWarped(t, *image, px, py, inter.search_radius_px, a);
+        if (hit.score < inter.min_ncc || hit.second > stereo.max_second_ratio * hit.score) continue;
+        double x = 0.0, y = 0.0;
+        refinePeakWarped(t, *image, hit.x, hit.y, hit.score, a, x, y);
+        ++report.inter_matched;
+        // The match is kept as its offset from the prediction; the position is rebuilt when accepted.
+        candidates_[n++] = Candidate{k, hit.score, x - predicted.x(), y - predicted.y()};
+      }
+      if (n == 0) continue;
+      if (n < inter.min_group) {
+        report.inter_rejected += n;
+        continue;
+      }
+      // Verification: the offsets from the prediction (a-priori pointing error) agree within the image.
+      for (int32_t c = 0; c < n; ++c) scratch_[c] = candidates_[c].dx;
+      const double median_dx = medianInPlace(scratch_, n);
+      for (int32_t c = 0; c < n; ++c) scratch_[c] = candidates_[c].dy;
+      const double median_dy = medianInPlace(scratch_, n);
+      for (int32_t c = 0; c < n; ++c) {
+        const Candidate& cand = candidates_[c];
+        if (std::fabs(cand.dx - median_dx) > inter.offset_tolerance_px ||
+            std::fabs(cand.dy - median_dy) > inter.offset_tolerance_px) {
+          ++report.inter_rejected;
+          continue;
+        }
+        const StoredTie& st = source.ties[cand.tie];
+        Vec2 predicted;
+        if (!ok(project(model, st.predicted_m, predicted))) continue;
+        if (addObservation(st.point, 2 * new_pair + side, predicted.x() + cand.dx, predicted.y() + cand.dy,
+                           TieKind::kInter, static_cast<float>(cand.score))) {
+          ++report.inter_observations;
+          linked = true;
+        } else {
+          ++report.overflow;
+        }
+      }
+    }
+    report.neighbours += linked ? 1 : 0;
+  }
+}
+
+}  // namespace areomap

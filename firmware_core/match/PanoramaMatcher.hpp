@@ -1,0 +1,123 @@
+// The tie-point network of a panorama, built incrementally as stereo pairs arrive (paper §3.4):
+//   1. intra-stereo ties of the new pair (StereoMatcher),
+//   2. its coarse DEM from those ties triangulated with the a-priori models (CoarseDem),
+//   3. inter-stereo ties: every stored tie of every earlier pair, predicted through that pair's coarse DEM
+//      and projected with the a-priori models into the new pair's images, is searched by NCC in a small
+//      window there; the offsets found must agree per image (verification) -- the same tie point keeps its
+//      identity, it gains observations,
+//   4. the new pair's ties are stored for later pairs: the 11 x 11 left-image patch around each tie and its
+//      DEM-predicted ground point (the full images are not kept: 256 pairs x 1 MiB would not fit).
+// Output: a neutral list of observations (point, image, sample, line, kind, score) and points (a-priori
+// ground position) that an adapter puts into the adjustment Network. Image index = 2 * pair + side.
+// Zero heap: one PanoramaMatcher (~20 MiB) is allocated statically at start-up.
+#pragma once
+
+#include <cstdint>
+
+#include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/base/FixedVector.hpp"
+#include "firmware_core/base/ImageView.hpp"
+#include "firmware_core/base/Status.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+#include "firmware_core/dem/CoarseDem.hpp"
+#include "firmware_core/match/StereoMatcher.hpp"
+
+namespace areomap {
+
+enum class TieKind : uint8_t { kIntra = 0, kInter = 1 };
+
+struct TieObservation {
+  int32_t point = -1;
+  int32_t image = -1;  // 2 * pair + (0 left, 1 right)
+  double sample_px = 0.0;
+  double line_px = 0.0;
+  TieKind kind = TieKind::kIntra;
+  float score = 0.0f;  // NCC
+};
+
+struct TiePoint {
+  Vec3 ground_m = Vec3::Zero();  // a-priori position (intra triangulation with the a-priori models)
+  int32_t pair = -1;             // the pair that found it
+  int32_t observation_count = 0;
+};
+
+struct InterParams {
+  int32_t search_radius_px = 12;  // <= kInterSearchRadiusPx
+  double min_ncc = 0.85;
+  double offset_tolerance_px = 2.0;  // departure from the median offset of the image pair
+  int32_t min_group = 3;             // fewer candidates in an image than this: not verifiable, rejected
+};
+
+struct PairTieReport {
+  Status intra_status = Status::kOk;
+  StereoCounts intra;
+  int32_t dem_points = 0;
+  int32_t dem_cells = 0;
+  int32_t neighbours = 0;        // earlier pairs with at least one inter-stereo tie to this pair
+  int32_t inter_candidates = 0;  // predicted inside this pair's images
+  int32_t inter_matched = 0;     // passed NCC
+  int32_t inter_rejected = 0;    // failed the offset verification
+  int32_t inter_observations = 0;
+  int32_t overflow = 0;          // ties lost to a full list
+};
+
+class PanoramaMatcher {
+ public:
+  void reset();
+
+  // Adds the next pair (its index is pairCount() before the call). `right` and `right_model` may be null for
+  // a single left image. Returns kOk when the pair got any tie, kNoTexture when it got none, kInvalidArgument
+  // or kCapacityExceeded for bad input (the pair is then not added).
+  [[nodiscard]] Status addPair(const ImageView& left, const ImageView* right, const CameraModel& left_model,
+                               const CameraModel* right_model, PairTieReport& report);
+
+  int32_t pairCount() const { return pair_count_; }
+  const FixedVector<TieObservation, kMaxObservations>& observations() const { return observations_; }
+  const FixedVector<TiePoint, kMaxTiePoints>& points() const { return points_; }
+  const CoarseDem& lastDem() const { return dem_; }
+
+  StereoParams stereo;
+  InterParams inter;
+
+ private:
+  // The left-image patch is centred exactly on the tie's left observation, so a match of it anywhere is an
+  // observation of the same surface point.
+  struct StoredTie {
+    uint8_t patch[kNccPixels];
+    Vec3 predicted_m;
+    // Ground points (through the DEM) of the pixels kWarpBasePx to the right of and below the tie: with
+    // predicted_m they give the local affine map of the patch into any other view.
+    Vec3 predicted_dx_m;
+    Vec3 predicted_dy_m;
+    bool has_shape;
+    int32_t point;
+  };
+  struct StoredPair {
+    CameraModel model[2];
+    bool has_right = false;
+    StoredTie ties[kMaxTiesPerPair];
+    int32_t tie_count = 0;
+  };
+  struct Candidate {
+    int32_t tie;
+    double score;
+    double dx;
+    double dy;
+  };
+
+  void interTies(int32_t new_pair, const ImageView* images[2], PairTieReport& report);
+  bool addObservation(int32_t point, int32_t image, double sample_px, double line_px, TieKind kind, float score);
+
+  StereoWorkspace stereo_workspace_;
+  StereoResult stereo_result_;
+  CoarseDem dem_;
+  StoredPair pairs_[kMaxPairs];
+  int32_t pair_count_ = 0;
+  FixedVector<TieObservation, kMaxObservations> observations_;
+  FixedVector<TiePoint, kMaxTiePoints> points_;
+  Candidate candidates_[kMaxTiesPerPair];
+  double scratch_[kMaxTiesPerPair];
+};
+
+}  // namespace areomap
