@@ -1,0 +1,165 @@
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "ground/dem/KdTree.hpp"
+#include "ground/dem/Kriging.hpp"
+#include "ground/dem/Variogram.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using namespace areomap::dem;
+
+namespace {
+
+// A smooth stationary random field: a sum of cosines with random directions, wavelengths and phases.
+struct RandomField {
+  explicit RandomField(uint32_t seed, double min_wavelength_m, double max_wavelength_m, double amplitude_m) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const int n = 60;
+    for (int i = 0; i < n; ++i) {
+      const double dir = 2.0 * M_PI * u(rng);
+      const double wl = min_wavelength_m * std::pow(max_wavelength_m / min_wavelength_m, u(rng));
+      kx.push_back(2.0 * M_PI / wl * std::cos(dir));
+      ky.push_back(2.0 * M_PI / wl * std::sin(dir));
+      ph.push_back(2.0 * M_PI * u(rng));
+    }
+    amp = amplitude_m * std::sqrt(2.0 / n);
+  }
+  double operator()(double x, double y) const {
+    double s = 0.0;
+    for (std::size_t i = 0; i < kx.size(); ++i) s += std::cos(kx[i] * x + ky[i] * y + ph[i]);
+    return amp * s;
+  }
+  std::vector<double> kx, ky, ph;
+  double amp = 0.0;
+};
+
+}  // namespace
+
+TEST_GROUP(KdTree){};
+
+TEST(KdTree, NearestMatchesBruteForce) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-50.0, 50.0);
+  std::vector<double> x(5000), y(5000);
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    x[i] = u(rng);
+    y[i] = 0.1 * u(rng);  // strongly anisotropic, as far-range stereo points are
+  }
+  const KdTree2 tree(x, y);
+  for (int q = 0; q < 200; ++q) {
+    const double qx = u(rng), qy = 0.2 * u(rng);
+    int32_t idx[10];
+    double d2[10];
+    CHECK_EQUAL(10, tree.nearest(qx, qy, 10, idx, d2));
+    std::vector<double> all(x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) all[i] = (x[i] - qx) * (x[i] - qx) + (y[i] - qy) * (y[i] - qy);
+    std::sort(all.begin(), all.end());
+    for (int j = 0; j < 10; ++j) DOUBLES_EQUAL(all[static_cast<std::size_t>(j)], d2[j], 1e-12);
+  }
+}
+
+TEST_GROUP(Variogram){};
+
+TEST(Variogram, FitRecoversModelOfExactData) {
+  for (VariogramKind kind : {VariogramKind::kSpherical, VariogramKind::kExponential, VariogramKind::kGaussian}) {
+    VariogramModel truth;
+    truth.kind = kind;
+    truth.nugget_m2 = 0.01;
+    truth.partial_sill_m2 = 0.2;
+    truth.range_m = 12.0;
+    ExperimentalVariogram ev;
+    for (int i = 1; i <= 25; ++i) {
+      ev.lag_m.push_back(i * 1.0);
+      ev.gamma_m2.push_back(truth.gamma(i * 1.0));
+      ev.pairs.push_back(1000);
+    }
+    const VariogramModel m = fitVariogram(ev);
+    std::printf("\n%s: fitted %s nugget %.4f psill %.4f range %.2f", variogramName(kind), variogramName(m.kind),
+                m.nugget_m2, m.partial_sill_m2, m.range_m);
+    CHECK(m.kind == kind);
+    DOUBLES_EQUAL(12.0, m.range_m, 12.0 * 0.05);  // the range grid is 6 % apart
+    DOUBLES_EQUAL(0.2, m.partial_sill_m2, 0.02);
+  }
+}
+
+TEST_GROUP(Kriging){};
+
+TEST(Kriging, RandomFieldSampledSparselyHonestSigma) {
+  const RandomField field(11, 6.0, 40.0, 0.5);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 60.0);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  std::vector<DemPoint> pts;
+  for (int i = 0; i < 3000; ++i) {
+    DemPoint p;
+    p.north_m = u(rng);
+    p.east_m = u(rng);
+    p.elevation_m = field(p.north_m, p.east_m) + noise(rng);
+    p.sigma_m = 0.02;
+    pts.push_back(p);
+  }
+  areomap::DemGrid grid;
+  grid.east0_m = 5.0;
+  grid.north0_m = 55.0;
+  grid.cell_m = 0.5;
+  grid.cols = 100;
+  grid.rows = 100;
+  const KrigingResult r = krigeDem(pts, grid, KrigingOptions{});
+  double ss = 0.0, ss_field = 0.0;
+  long long n = 0, within = 0;
+  for (int row = 0; row < grid.rows; ++row) {
+    for (int col = 0; col < grid.cols; ++col) {
+      const float z = r.elevation.at(col, row);
+      if (z == r.elevation.nodata) continue;
+      const double t = field(grid.northOfRow(row), grid.eastOfCol(col));
+      const double e = z - t;
+      ss += e * e;
+      ss_field += t * t;
+      ++n;
+      if (std::abs(e) <= r.sigma.at(col, row)) ++within;
+    }
+  }
+  const double rmse = std::sqrt(ss / n);
+  const double frac = static_cast<double>(within) / n;
+  std::printf("\nkriging 3000 pts over 60x60 m -> 100x100 cells: model %s (nugget %.5f psill %.4f range %.1f m), "
+              "RMSE %.4f m (field RMS %.3f m), %.1f %% of errors within 1 sigma (LOO sigma scale %.2f), %.3f s\n",
+              variogramName(r.model.kind), r.model.nugget_m2, r.model.partial_sill_m2, r.model.range_m, rmse,
+              std::sqrt(ss_field / n), 100.0 * frac, r.sigma_scale, r.kriging_seconds + r.variogram_seconds);
+  CHECK_EQUAL(10000, n);  // every cell is inside the cloud
+  CHECK(rmse < 0.1 * std::sqrt(ss_field / n));
+  CHECK(frac >= 0.5 && frac <= 0.8);
+}
+
+TEST(Kriging, ExactAtDataWithoutNoiseAndGapsStayEmpty) {
+  std::vector<DemPoint> pts;
+  for (int i = 0; i < 10; ++i) {
+    for (int j = 0; j < 10; ++j) pts.push_back(DemPoint{i * 1.0, j * 1.0, 0.3 * i - 0.1 * j, 0.0, -1});
+  }
+  VariogramModel lin;
+  lin.kind = VariogramKind::kGaussian;
+  lin.partial_sill_m2 = 1.0;
+  lin.range_m = 20.0;
+  KrigingOptions o;
+  o.model = &lin;
+  o.max_gap_m = 1.5;
+  areomap::DemGrid g;
+  g.east0_m = -0.5;
+  g.north0_m = 15.5;  // rows 0..5 lie north of the points (north > 9.5 + 1.5): no data
+  g.cell_m = 1.0;
+  g.cols = 10;
+  g.rows = 16;
+  const KrigingResult r = krigeDem(pts, g, o);
+  // Cell centres coincide with the points: a plane is reproduced exactly.
+  for (int row = 6; row < g.rows; ++row) {
+    for (int col = 0; col < g.cols; ++col) {
+      const double n = g.northOfRow(row), e = g.eastOfCol(col);
+      DOUBLES_EQUAL(0.3 * n - 0.1 * e, r.elevation.at(col, row), 1e-3);
+      CHECK(r.sigma.at(col, row) < 1e-2);
+    }
+  }
+  for (int col = 0; col < g.cols; ++col) CHECK_EQUAL(g.nodata, r.elevation.at(col, 0));
+}
