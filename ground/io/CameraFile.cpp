@@ -1,0 +1,319 @@
+#include "ground/io/CameraFile.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "firmware_core/base/Capacities.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/io/Pds3Label.hpp"
+
+namespace areomap::io {
+namespace {
+
+const char* const kGeometricGroups[] = {"GEOMETRIC_CAMERA_MODEL", "GEOMETRIC_CAMERA_MODEL_PARMS"};
+
+std::string readWhole(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw cli::InputError(path, "file", "cannot open");
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+double parseNumber(const std::string& text, const std::string& file, const std::string& field) {
+  char* end = nullptr;
+  const double x = std::strtod(text.c_str(), &end);
+  if (end == text.c_str()) throw cli::InputError(file, field, "expected a number, found '" + text + "'");
+  while (*end == ' ' || *end == '\t') ++end;
+  if (*end != '\0') throw cli::InputError(file, field, "expected a number, found '" + text + "'");
+  if (!std::isfinite(x)) throw cli::InputError(file, field, "not a finite number ('" + text + "')");
+  return x;
+}
+
+Vec3 parseVector(const std::vector<std::string>& items, const std::string& file, const std::string& field) {
+  if (items.size() != 3) {
+    throw cli::InputError(file, field, "expected 3 numbers, found " + std::to_string(items.size()));
+  }
+  return Vec3(parseNumber(items[0], file, field), parseNumber(items[1], file, field),
+              parseNumber(items[2], file, field));
+}
+
+CameraType typeFromName(const std::string& name, const std::string& file, const std::string& field) {
+  if (name == "CAHV") return CameraType::kCahv;
+  if (name == "CAHVOR") return CameraType::kCahvor;
+  if (name == "CAHVORE") return CameraType::kCahvore;
+  throw cli::InputError(file, field, "unsupported camera model type '" + name + "' (CAHV, CAHVOR, CAHVORE)");
+}
+
+int componentCount(CameraType type) { return type == CameraType::kCahv ? 4 : (type == CameraType::kCahvor ? 6 : 7); }
+
+void setKind(CameraModel& m, double type, double parameter, const std::string& file, const std::string& field) {
+  if (type != 1.0 && type != 2.0 && type != 3.0) {
+    throw cli::InputError(file, field, "CAHVORE type must be 1 (perspective), 2 (fisheye) or 3 (general)");
+  }
+  m.cahvore_kind = static_cast<CahvoreKind>(static_cast<int>(type));
+  m.linearity = m.cahvore_kind == CahvoreKind::kPerspective ? 1.0
+                : m.cahvore_kind == CahvoreKind::kFisheye  ? 0.0
+                                                           : parameter;
+}
+
+// validateModel, with its field reported through `describe` (e.g. "MODEL_COMPONENT_2 (A)").
+template <typename Describe>
+void validateOrThrow(const CameraModel& m, const std::string& file, Describe describe) {
+  const char* field = "";
+  const Status s = validateModel(m, field);
+  if (s == Status::kOk) return;
+  const std::string f = field;
+  std::string what = statusName(s);
+  if (f == "A" || f == "O") what = s == Status::kInvalidArgument ? "must be a unit vector pointing forwards" : what;
+  if ((f == "H" || f == "V") && s == Status::kDegenerate) what = "parallel to A (or H parallel to V)";
+  if (s == Status::kNotFinite) what = "not a finite number";
+  throw cli::InputError(file, describe(f), what);
+}
+
+CameraFile fromPds3(const std::string& text, const std::string& path, int width, int height) {
+  const Pds3Label label = Pds3Label::parse(text, path);
+  std::string group;
+  for (const char* g : kGeometricGroups) {
+    if (label.hasScope(g)) group = g;
+  }
+  if (group.empty()) throw cli::InputError(path, "GEOMETRIC_CAMERA_MODEL", "the label has no camera model group");
+  CameraFile out;
+  out.format = CameraFileFormat::kPds3;
+  CameraModel& m = out.file_model;
+  m.type = typeFromName(Pds3Label::unquote(label.required("MODEL_TYPE", group)), path, group + ".MODEL_TYPE");
+  const std::vector<std::string> ids = Pds3Label::tuple(label.required("MODEL_COMPONENT_ID", group));
+  const char* const names[] = {"C", "A", "H", "V", "O", "R", "E"};
+  Vec3* targets[] = {&m.c, &m.a, &m.h, &m.v, &m.o, &m.r, &m.e};
+  std::string component_of[7];
+  double cahvore_type = 1.0, cahvore_parameter = 1.0;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    const std::string key = "MODEL_COMPONENT_" + std::to_string(i + 1);
+    const std::string field = group + "." + key + " (" + ids[i] + ")";
+    const std::string* value = label.find(key, group);
+    if (value == nullptr) throw cli::InputError(path, field, "missing");
+    if (ids[i] == "T" || ids[i] == "P") {
+      (ids[i] == "T" ? cahvore_type : cahvore_parameter) = parseNumber(Pds3Label::unquote(*value), path, field);
+      continue;
+    }
+    for (int k = 0; k < 7; ++k) {
+      if (ids[i] == names[k]) {
+        *targets[k] = parseVector(Pds3Label::tuple(*value), path, field);
+        component_of[k] = key;
+      }
+    }
+  }
+  for (int k = 0; k < componentCount(m.type); ++k) {
+    if (component_of[k].empty()) {
+      throw cli::InputError(path, group + ".MODEL_COMPONENT_ID",
+                            std::string("has no component ") + names[k] + " for a " +
+                                Pds3Label::unquote(*label.find("MODEL_TYPE", group)) + " model");
+    }
+  }
+  if (m.type == CameraType::kCahvore) setKind(m, cahvore_type, cahvore_parameter, path, group + ".MODEL_COMPONENT (T)");
+  if (const std::string* frame = label.find("REFERENCE_COORD_SYSTEM_NAME", group)) {
+    out.reference_frame = Pds3Label::unquote(*frame);
+  }
+  if (label.find("LINES", "IMAGE") != nullptr && label.find("LINE_SAMPLES", "IMAGE") != nullptr) {
+    m.width = static_cast<int32_t>(label.integer("LINE_SAMPLES", "IMAGE"));
+    m.height = static_cast<int32_t>(label.integer("LINES", "IMAGE"));
+    out.size_from_file = true;
+  } else {
+    m.width = width;
+    m.height = height;
+  }
+  validateOrThrow(m, path, [&](const std::string& f) {
+    for (int k = 0; k < 7; ++k) {
+      if (f == names[k] && !component_of[k].empty()) return group + "." + component_of[k] + " (" + f + ")";
+    }
+    return group + " (" + f + ")";
+  });
+  out.model = m;
+  return out;
+}
+
+// "(1288,968)" or [1288, 968] -> two integers.
+bool pairOf(const nlohmann::json& j, double& a, double& b) {
+  if (j.is_array() && j.size() >= 2 && j[0].is_number() && j[1].is_number()) {
+    a = j[0].get<double>();
+    b = j[1].get<double>();
+    return true;
+  }
+  if (j.is_string()) {
+    const std::vector<std::string> items = Pds3Label::tuple(j.get<std::string>());
+    if (items.size() == 2) {
+      char* e1 = nullptr;
+      char* e2 = nullptr;
+      a = std::strtod(items[0].c_str(), &e1);
+      b = std::strtod(items[1].c_str(), &e2);
+      return e1 != items[0].c_str() && e2 != items[1].c_str();
+    }
+  }
+  return false;
+}
+
+CameraFile fromM2020Json(const std::string& text, const std::string& path, int width, int height) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw cli::InputError(path, "json", e.what());
+  }
+  const char* const kList = "camera_model_component_list";
+  if (!j.contains(kList) || !j[kList].is_string()) throw cli::InputError(path, kList, "missing or not a string");
+  CameraFile out;
+  out.format = CameraFileFormat::kM2020Json;
+  CameraModel& m = out.file_model;
+  std::vector<std::string> parts;
+  {
+    std::istringstream in(j[kList].get<std::string>());
+    std::string part;
+    while (std::getline(in, part, ';')) parts.push_back(part);
+  }
+  std::string type_name;
+  if (j.contains("camera_model_type") && j["camera_model_type"].is_string()) {
+    type_name = j["camera_model_type"].get<std::string>();
+  } else {
+    type_name = parts.size() >= 9 ? "CAHVORE" : parts.size() >= 6 ? "CAHVOR" : "CAHV";
+  }
+  m.type = typeFromName(type_name, path, "camera_model_type");
+  const char* const names[] = {"C", "A", "H", "V", "O", "R", "E"};
+  Vec3* targets[] = {&m.c, &m.a, &m.h, &m.v, &m.o, &m.r, &m.e};
+  const int needed = componentCount(m.type) + (m.type == CameraType::kCahvore ? 2 : 0);
+  if (static_cast<int>(parts.size()) < needed) {
+    const std::string missing = parts.size() < 7 ? names[parts.size()] : (parts.size() == 7 ? "type" : "parameter");
+    throw cli::InputError(path, std::string(kList) + " (" + missing + ")",
+                          "missing: " + std::to_string(parts.size()) + " components for a " + type_name + " model");
+  }
+  auto fieldOf = [&](const std::string& name) { return std::string(kList) + " (" + name + ")"; };
+  for (int k = 0; k < componentCount(m.type); ++k) {
+    *targets[k] = parseVector(Pds3Label::tuple(parts[static_cast<std::size_t>(k)]), path, fieldOf(names[k]));
+  }
+  if (m.type == CameraType::kCahvore) {
+    setKind(m, parseNumber(Pds3Label::unquote(parts[7]), path, fieldOf("type")),
+            parseNumber(Pds3Label::unquote(parts[8]), path, fieldOf("parameter")), path, fieldOf("type"));
+  }
+  validateOrThrow(m, path, fieldOf);
+
+  // The delivered image's size, and the frame of the model: a model whose principal point lies far outside
+  // the delivered image is in full-resolution detector pixels (the NLF frame: hc ~2595 px for a 1288 px wide
+  // image); it is scaled by the integer factor that brings the principal point nearest the image centre
+  // and shifted by the subframe origin (subframe_rect, 1-based, detector pixels): a delivered pixel's
+  // centre lies at detector (first - 1) + scale * pixel + (scale - 1) / 2.
+  double w = width, h = height;
+  if (j.contains("dimension") && pairOf(j["dimension"], w, h)) out.size_from_file = true;
+  m.width = static_cast<int32_t>(w);
+  m.height = static_cast<int32_t>(h);
+  out.model = m;
+  if (w > 0 && h > 0) {
+    const double hc = m.a.dot(m.h), vc = m.a.dot(m.v);
+    const double sx = hc / (0.5 * w), sy = vc / (0.5 * h);
+    if (sx > 1.5 || sy > 1.5) {
+      const double s = std::round(0.5 * (sx + sy));
+      if (s < 2.0 || std::fabs(sx - s) > 0.25 * s || std::fabs(sy - s) > 0.25 * s) {
+        throw cli::InputError(path, fieldOf("H"),
+                              "the principal point (" + std::to_string(hc) + ", " + std::to_string(vc) +
+                                  ") fits no integer downsampling of the " + std::to_string(m.width) + "x" +
+                                  std::to_string(m.height) + " image");
+      }
+      double first_x = 1.0, first_y = 1.0;
+      const nlohmann::json* rect = j.contains("subframe_rect") ? &j["subframe_rect"] : nullptr;
+      if (rect != nullptr && rect->is_array() && rect->size() == 4 && (*rect)[0].is_number() &&
+          (*rect)[1].is_number()) {
+        first_x = (*rect)[0].get<double>();
+        first_y = (*rect)[1].get<double>();
+      }
+      out.scale = s;
+      out.offset_px = Vec2(first_x - 1.0 + 0.5 * (s - 1.0), first_y - 1.0 + 0.5 * (s - 1.0));
+      out.model = rescaledModel(m, out.scale, out.offset_px, m.width, m.height);
+      out.file_model.width = static_cast<int32_t>(std::lround(w * s));
+      out.file_model.height = static_cast<int32_t>(std::lround(h * s));
+    }
+  }
+  return out;
+}
+
+CameraFile fromJplText(const std::string& text, const std::string& path, int width, int height) {
+  CameraFile out;
+  out.format = CameraFileFormat::kJplText;
+  const char* field = "";
+  const Status s = parseModelText(text.data(), text.size(), out.file_model, field);
+  if (s != Status::kOk) {
+    std::string what = s == Status::kMissingField ? "missing" : statusName(s);
+    if (s == Status::kCorruptData) what = "expected numbers (truncated or malformed line)";
+    if (s == Status::kNotFinite) what = "not a finite number";
+    if (s == Status::kInvalidArgument && (std::string(field) == "A" || std::string(field) == "O")) {
+      what = "must be a unit vector pointing forwards";
+    }
+    if (s == Status::kDegenerate) what = "parallel to A (or H parallel to V)";
+    throw cli::InputError(path, field, what);
+  }
+  if (out.file_model.width > 0 && out.file_model.height > 0) {
+    out.size_from_file = true;
+  } else {
+    out.file_model.width = width;
+    out.file_model.height = height;
+  }
+  out.model = out.file_model;
+  return out;
+}
+
+}  // namespace
+
+const char* formatName(CameraFileFormat format) {
+  switch (format) {
+    case CameraFileFormat::kJplText: return "jpl-text";
+    case CameraFileFormat::kPds3: return "pds3";
+    case CameraFileFormat::kM2020Json: return "m2020-json";
+  }
+  return "unknown";
+}
+
+CameraModel rescaledModel(const CameraModel& model, double scale, const Vec2& offset_px, int width, int height) {
+  CameraModel m = model;
+  m.h = (model.h - offset_px.x() * model.a) / scale;
+  m.v = (model.v - offset_px.y() * model.a) / scale;
+  m.width = width;
+  m.height = height;
+  return m;
+}
+
+CameraFile parseCameraText(const std::string& text, const std::string& path, int width, int height) {
+  std::size_t first = text.find_first_not_of(" \t\r\n");
+  if (first == std::string::npos) throw cli::InputError(path, "file", "empty");
+  if (text[first] == '{') return fromM2020Json(text, path, width, height);
+  const std::string head = text.substr(0, std::min<std::size_t>(text.size(), 1 << 20));
+  if (head.find("PDS_VERSION_ID") != std::string::npos || head.find("GEOMETRIC_CAMERA_MODEL") != std::string::npos) {
+    return fromPds3(head, path, width, height);
+  }
+  return fromJplText(text, path, width, height);
+}
+
+CameraFile readCameraFile(const std::string& path, int width, int height) {
+  std::string text = readWhole(path);
+  // An attached PDS3 label is followed by binary image data: keep the text part.
+  const std::size_t nul = text.find('\0');
+  if (nul != std::string::npos) text.resize(nul);
+  return parseCameraText(text, path, width, height);
+}
+
+CameraModel readCameraModelFile(const std::string& path, int width, int height) {
+  return readCameraFile(path, width, height).model;
+}
+
+void writeCameraModelFile(const std::string& path, const CameraModel& model) {
+  char buffer[kModelTextBytes];
+  const std::size_t n = formatModelText(model, buffer, sizeof buffer);
+  if (n == 0) throw cli::InputError(path, "model", "does not fit the text buffer");
+  std::ofstream f(path, std::ios::binary);
+  if (!f) throw cli::InputError(path, "file", "cannot write");
+  f.write(buffer, static_cast<std::streamsize>(n));
+  if (!f) throw cli::InputError(path, "file", "write failed");
+}
+
+}  // namespace areomap::io

@@ -1,0 +1,42 @@
+// Camera models from files, for the ground side and the tools: the JPL text form (.cahvor, .cahvore, …),
+// PDS3 labels (.IMG with an attached label, .LBL; GROUP = GEOMETRIC_CAMERA_MODEL), and the JSON of the
+// Mars 2020 raw-image service (camera_model_component_list = "C;A;H;V;O;R;E;type;parameter").
+// The format is told by the content, not the extension. Errors: cli::InputError naming file and field.
+#pragma once
+
+#include <string>
+
+#include "firmware_core/camera/CameraModel.hpp"
+
+namespace areomap::io {
+
+enum class CameraFileFormat { kJplText, kPds3, kM2020Json };
+const char* formatName(CameraFileFormat format);  // "jpl-text", "pds3", "m2020-json"
+
+struct CameraFile {
+  CameraFileFormat format = CameraFileFormat::kJplText;
+  // The model as the file gives it (detector pixels for a full-resolution M2020 model).
+  CameraModel file_model;
+  // The model in the pixel frame of the delivered image: pixel = (detector - offset) / scale.
+  CameraModel model;
+  double scale = 1.0;
+  Vec2 offset_px = Vec2::Zero();
+  bool size_from_file = false;  // false: width/height came from the caller (or are 0)
+  std::string reference_frame;  // PDS3 REFERENCE_COORD_SYSTEM_NAME ("ROVER_FRAME", …); "" if not given
+};
+
+// Reads a camera file. `width`/`height` are used when the file gives no image size (0 = leave unknown).
+CameraFile readCameraFile(const std::string& path, int width = 0, int height = 0);
+// The model of readCameraFile(path, width, height), in the delivered image's pixel frame.
+CameraModel readCameraModelFile(const std::string& path, int width = 0, int height = 0);
+// Parses text already in memory (`path` names it in errors).
+CameraFile parseCameraText(const std::string& text, const std::string& path, int width = 0, int height = 0);
+
+// Writes the JPL text form (formatModelText); throws cli::InputError(path, "file", …) if it cannot.
+void writeCameraModelFile(const std::string& path, const CameraModel& model);
+
+// The same camera in a resampled pixel frame: pixel' = (pixel - offset) / scale, size width x height.
+// Exact for CAHV, CAHVOR and CAHVORE (H' = (H - offset_x A) / scale, V' likewise; O, R, E unchanged).
+CameraModel rescaledModel(const CameraModel& model, double scale, const Vec2& offset_px, int width, int height);
+
+}  // namespace areomap::io

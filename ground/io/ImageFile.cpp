@@ -1,0 +1,175 @@
+#include "ground/io/ImageFile.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "ground/cli/Cli.hpp"
+#include "ground/io/Pds3Label.hpp"
+
+namespace areomap::io {
+namespace {
+
+std::size_t fileSize(const std::string& path) {
+  std::error_code ec;
+  const auto n = std::filesystem::file_size(path, ec);
+  if (ec) throw cli::InputError(path, "file", "cannot read its size");
+  return static_cast<std::size_t>(n);
+}
+
+// "2#0000111111111111#" -> 4095.
+bool parseBitMask(const std::string& text, uint32_t& mask) {
+  const std::size_t a = text.find('#');
+  const std::size_t b = text.rfind('#');
+  if (a == std::string::npos || b == a) return false;
+  const std::string base = text.substr(0, a);
+  const std::string digits = text.substr(a + 1, b - a - 1);
+  if (base != "2" && base != "16" && base != "8") return false;
+  char* end = nullptr;
+  const unsigned long v = std::strtoul(digits.c_str(), &end, std::stoi(base));
+  if (end == digits.c_str() || v == 0 || v > 0xFFFFFFFFul) return false;
+  mask = static_cast<uint32_t>(v);
+  return true;
+}
+
+}  // namespace
+
+bool isPds3File(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  char head[64] = {};
+  f.read(head, sizeof head - 1);
+  return std::strstr(head, "PDS_VERSION_ID") != nullptr;
+}
+
+Pds3ImageInfo readPds3ImageInfo(const std::string& path) {
+  const Pds3Label label = Pds3Label::read(path);
+  Pds3ImageInfo info;
+  info.lines = static_cast<int>(label.integer("LINES", "IMAGE"));
+  info.samples = static_cast<int>(label.integer("LINE_SAMPLES", "IMAGE"));
+  info.sample_bits = static_cast<int>(label.integer("SAMPLE_BITS", "IMAGE"));
+  if (label.find("BANDS", "IMAGE") != nullptr) info.bands = static_cast<int>(label.integer("BANDS", "IMAGE"));
+  if (info.lines <= 0 || info.samples <= 0 || info.bands <= 0) {
+    throw cli::InputError(path, "IMAGE.LINES", "image size must be positive");
+  }
+  if (info.sample_bits != 8 && info.sample_bits != 16) {
+    throw cli::InputError(path, "IMAGE.SAMPLE_BITS", "only 8 and 16 are supported, found " +
+                                                         std::to_string(info.sample_bits));
+  }
+  const std::string type = Pds3Label::unquote(label.required("SAMPLE_TYPE", "IMAGE"));
+  if (type.rfind("LSB", 0) == 0 || type.rfind("PC_", 0) == 0 || type.rfind("VAX", 0) == 0) {
+    info.big_endian = false;
+  } else if (type.rfind("MSB", 0) == 0 || type == "UNSIGNED_INTEGER" || type == "INTEGER" ||
+             type.rfind("SUN_", 0) == 0 || type.rfind("MAC_", 0) == 0) {
+    info.big_endian = true;
+  } else {
+    throw cli::InputError(path, "IMAGE.SAMPLE_TYPE", "unsupported sample type '" + type + "'");
+  }
+  info.is_signed = type.find("UNSIGNED") == std::string::npos && type.find("INTEGER") != std::string::npos;
+  if (info.sample_bits == 8) info.is_signed = false;  // 8-bit PDS3 images are unsigned bytes in practice
+  info.valid_max = (1u << info.sample_bits) - 1u;
+  if (const std::string* mask = label.find("SAMPLE_BIT_MASK", "IMAGE")) {
+    uint32_t m = 0;
+    if (parseBitMask(Pds3Label::unquote(*mask), m)) info.valid_max = std::min(m, info.valid_max);
+  }
+
+  // ^IMAGE = n (records, 1-based) | n <BYTES> (1-based byte) | ("FILE", n) (detached).
+  const std::string pointer = label.required("^IMAGE", "");
+  info.data_file = path;
+  std::string where = pointer;
+  if (pointer.find('(') != std::string::npos) {
+    const std::vector<std::string> items = Pds3Label::tuple(pointer);
+    if (items.empty()) throw cli::InputError(path, "^IMAGE", "malformed pointer '" + pointer + "'");
+    info.data_file = (std::filesystem::path(path).parent_path() / items[0]).string();
+    where = items.size() > 1 ? items[1] : "1";
+  } else if (!pointer.empty() && pointer[0] == '"') {
+    info.data_file = (std::filesystem::path(path).parent_path() / Pds3Label::unquote(pointer)).string();
+    where = "1";
+  }
+  char* end = nullptr;
+  const double at = std::strtod(Pds3Label::unquote(where).c_str(), &end);
+  if (!(at >= 1.0)) throw cli::InputError(path, "^IMAGE", "malformed pointer '" + pointer + "'");
+  if (where.find("<BYTES>") != std::string::npos) {
+    info.offset_bytes = static_cast<std::size_t>(at) - 1;
+  } else {
+    const long record_bytes = label.integer("RECORD_BYTES", "");
+    if (record_bytes <= 0) throw cli::InputError(path, "RECORD_BYTES", "must be positive");
+    info.offset_bytes = static_cast<std::size_t>(record_bytes) * (static_cast<std::size_t>(at) - 1);
+  }
+  const std::size_t need = info.offset_bytes + static_cast<std::size_t>(info.lines) *
+                                                   static_cast<std::size_t>(info.samples) *
+                                                   static_cast<std::size_t>(info.sample_bits / 8);
+  const std::size_t have = fileSize(info.data_file);
+  if (have < need) {
+    throw cli::InputError(info.data_file, "^IMAGE",
+                          "file truncated: the label's image (LINES " + std::to_string(info.lines) +
+                              " x LINE_SAMPLES " + std::to_string(info.samples) + " x " +
+                              std::to_string(info.sample_bits) + " bit at byte " + std::to_string(info.offset_bytes) +
+                              ") needs " + std::to_string(need) + " bytes, the file has " + std::to_string(have));
+  }
+  return info;
+}
+
+cv::Mat readPds3Image(const std::string& path) {
+  const Pds3ImageInfo info = readPds3ImageInfo(path);
+  const std::size_t bytes_per = static_cast<std::size_t>(info.sample_bits / 8);
+  const std::size_t n = static_cast<std::size_t>(info.lines) * static_cast<std::size_t>(info.samples);
+  std::vector<unsigned char> raw(n * bytes_per);
+  std::ifstream f(info.data_file, std::ios::binary);
+  f.seekg(static_cast<std::streamoff>(info.offset_bytes));
+  f.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size()));
+  if (static_cast<std::size_t>(f.gcount()) != raw.size()) {
+    throw cli::InputError(info.data_file, "^IMAGE", "short read");
+  }
+  if (info.sample_bits == 8) {
+    cv::Mat img(info.lines, info.samples, CV_8UC1);
+    std::memcpy(img.data, raw.data(), raw.size());
+    return img;
+  }
+  cv::Mat img(info.lines, info.samples, CV_16UC1);
+  uint16_t* out = img.ptr<uint16_t>(0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char b0 = raw[2 * i], b1 = raw[2 * i + 1];
+    const uint16_t v = info.big_endian ? static_cast<uint16_t>((b0 << 8) | b1) : static_cast<uint16_t>((b1 << 8) | b0);
+    out[i] = info.is_signed && (v & 0x8000u) != 0 ? 0 : v;
+  }
+  return img;
+}
+
+cv::Mat loadImage16(const std::string& path) {
+  if (isPds3File(path)) {
+    cv::Mat img = readPds3Image(path);
+    if (img.type() == CV_16UC1) return img;
+    cv::Mat wide;
+    img.convertTo(wide, CV_16UC1);
+    return wide;
+  }
+  cv::Mat img = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+  if (img.empty()) throw cli::InputError(path, "image", "cannot read as PNG/JPEG/PGM or PDS3");
+  if (img.depth() != CV_16U) {
+    cv::Mat wide;
+    img.convertTo(wide, CV_16UC1);
+    return wide;
+  }
+  return img;
+}
+
+cv::Mat loadImage8(const std::string& path) {
+  if (isPds3File(path)) {
+    const Pds3ImageInfo info = readPds3ImageInfo(path);
+    cv::Mat img = readPds3Image(path);
+    if (img.type() == CV_8UC1) return img;
+    cv::Mat out;
+    img.convertTo(out, CV_8UC1, 255.0 / static_cast<double>(info.valid_max));  // rounds and saturates
+    return out;
+  }
+  cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (img.empty()) throw cli::InputError(path, "image", "cannot read as PNG/JPEG/PGM or PDS3");
+  return img;
+}
+
+}  // namespace areomap::io

@@ -1,0 +1,44 @@
+// Images for the ground side and the tools: PNG/JPEG/PGM through OpenCV, PDS3 .IMG (attached label,
+// 8- or 16-bit, MSB or LSB integers, first band) read directly.
+//
+// 16 -> 8 bit rule (loadImage8 on a 16-bit PDS3 image): a fixed linear scale by the label's valid maximum,
+// 8-bit = round(value * 255 / max), where max comes from SAMPLE_BIT_MASK (2#0000111111111111# -> 4095 for
+// the 12-bit MER data) or else 2^SAMPLE_BITS - 1; values above max saturate. A fixed rule (no per-image
+// stretch) keeps the two images of a pair and the frames of a panorama radiometrically comparable.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+namespace areomap::io {
+
+struct Pds3ImageInfo {
+  int lines = 0;
+  int samples = 0;
+  int sample_bits = 0;   // 8 or 16
+  bool big_endian = true;
+  bool is_signed = false;
+  int bands = 1;
+  std::size_t offset_bytes = 0;  // RECORD_BYTES * (^IMAGE - 1), or the <BYTES> offset
+  uint32_t valid_max = 0;        // SAMPLE_BIT_MASK, or 2^bits - 1
+  std::string data_file;         // the file that holds the pixels (the label's own, or a detached one)
+};
+
+// The IMAGE object of a PDS3 label; checks that the file is long enough (field "^IMAGE"/"LINES").
+Pds3ImageInfo readPds3ImageInfo(const std::string& path);
+
+// The pixels of a PDS3 image: CV_8UC1 or CV_16UC1 (first band; signed data clamped at 0).
+cv::Mat readPds3Image(const std::string& path);
+
+// True for a file that starts with a PDS3 label (PDS_VERSION_ID).
+bool isPds3File(const std::string& path);
+
+// Any supported image as 8-bit grey (colour is converted to grey; 16-bit PDS3 by the rule above,
+// 16-bit PNG by >> 8). Throws cli::InputError(path, "image", …).
+cv::Mat loadImage8(const std::string& path);
+// Any supported image as 16-bit grey with its native values (8-bit images are widened, not scaled).
+cv::Mat loadImage16(const std::string& path);
+
+}  // namespace areomap::io
