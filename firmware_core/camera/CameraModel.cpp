@@ -49,18 +49,19 @@ Status projectLinear(const CameraModel& m, const Vec3& pp, Vec2& pixel, Mat2x3* 
 
 // CAHVOR: pp = p + mu * lambda (JPL cmod_cahvor_3d_to_2d).
 Status distortCahvor(const CameraModel& m, const Vec3& p, Vec3& pp, Mat3* d_pp_d_p) {
-  const double zeta = p.dot(m.o);
+  const Vec3 o = m.o.normalized();
+  const double zeta = p.dot(o);
   if (!(zeta > 0.0) || !(p.dot(m.a) > 0.0)) {
     return Status::kBehindCamera;
   }
-  const Vec3 lambda = p - zeta * m.o;
+  const Vec3 lambda = p - zeta * o;
   const double tau = lambda.squaredNorm() / (zeta * zeta);
   const double mu = m.r.x() + m.r.y() * tau + m.r.z() * tau * tau;
   pp = p + mu * lambda;
   if (d_pp_d_p != nullptr) {
-    const Mat3 d_lambda = Mat3::Identity() - m.o * m.o.transpose();
+    const Mat3 d_lambda = Mat3::Identity() - o * o.transpose();
     // d tau / dp = 2 lambda' / zeta^2 - 2 tau / zeta O'   (lambda . O = 0)
-    const Vec3 d_tau = 2.0 * lambda / (zeta * zeta) - (2.0 * tau / zeta) * m.o;
+    const Vec3 d_tau = 2.0 * lambda / (zeta * zeta) - (2.0 * tau / zeta) * o;
     const Vec3 d_mu = (m.r.y() + 2.0 * m.r.z() * tau) * d_tau;
     d_pp_d_p->noalias() = Mat3::Identity() + mu * d_lambda + lambda * d_mu.transpose();
   }
@@ -85,9 +86,10 @@ void chiOfTheta(double linearity, double theta, double& chi, double& d_chi) {
 // CAHVORE: solve for the incidence angle theta, then pp = (|lambda| / chi) O + (1 + mu) lambda
 // (JPL cmod_cahvore_3d_to_2d).
 Status distortCahvore(const CameraModel& m, const Vec3& p, Vec3& pp, Mat3* d_pp_d_p) {
+  const Vec3 o = m.o.normalized();  // labels give O to ~6 digits: |O| = 1 +- 1e-6
   const double linearity = linearityOf(m);
-  const double zeta = p.dot(m.o);
-  const Vec3 lambda = p - zeta * m.o;
+  const double zeta = p.dot(o);
+  const Vec3 lambda = p - zeta * o;
   const double l = lambda.norm();
   const double e0 = m.e.x(), e1 = m.e.y(), e2 = m.e.z();
   double theta = std::atan2(l, zeta);
@@ -121,9 +123,9 @@ Status distortCahvore(const CameraModel& m, const Vec3& p, Vec3& pp, Mat3* d_pp_
     if (!(zeta > 0.0)) {
       return Status::kBehindCamera;
     }
-    pp = zeta * m.o + (1.0 + r0) * lambda;
+    pp = zeta * o + (1.0 + r0) * lambda;
     if (d_pp_d_p != nullptr) {
-      d_pp_d_p->noalias() = m.o * m.o.transpose() + (1.0 + r0) * (Mat3::Identity() - m.o * m.o.transpose());
+      d_pp_d_p->noalias() = o * o.transpose() + (1.0 + r0) * (Mat3::Identity() - o * o.transpose());
     }
     return Status::kOk;
   }
@@ -132,17 +134,17 @@ Status distortCahvore(const CameraModel& m, const Vec3& p, Vec3& pp, Mat3* d_pp_
   const double chi2 = chi * chi;
   const double mu = r0 + r1 * chi2 + r2 * chi2 * chi2;
   const double scale = l / chi;
-  pp = scale * m.o + (1.0 + mu) * lambda;
+  pp = scale * o + (1.0 + mu) * lambda;
   if (d_pp_d_p != nullptr) {
     // Implicit function theorem on F(theta, zeta, l) = zeta sin - l cos - (theta - sin) g = 0.
-    const Vec3 d_zeta = m.o;
+    const Vec3 d_zeta = o;
     const Vec3 d_l = lambda / l;
     const Vec3 d_theta = -(std::sin(theta) * d_zeta - std::cos(theta) * d_l) / f_theta;
     const Vec3 d_chi = d_chi_d_theta * d_theta;
     const Vec3 d_scale = d_l / chi - (l / chi2) * d_chi;
     const Vec3 d_mu = (2.0 * r1 * chi + 4.0 * r2 * chi2 * chi) * d_chi;
-    d_pp_d_p->noalias() = m.o * d_scale.transpose() + lambda * d_mu.transpose() +
-                          (1.0 + mu) * (Mat3::Identity() - m.o * m.o.transpose());
+    d_pp_d_p->noalias() = o * d_scale.transpose() + lambda * d_mu.transpose() +
+                          (1.0 + mu) * (Mat3::Identity() - o * o.transpose());
   }
   return Status::kOk;
 }
@@ -159,11 +161,12 @@ Status linearRay(const CameraModel& m, const Vec2& pixel, Vec3& ray) {
 
 // CAHVOR inverse: solve k5 u^5 + k3 u^3 + k1 u = 1 (JPL cmod_cahvor_2d_to_3d) and remove the distortion.
 Status undistortCahvorRay(const CameraModel& m, const Vec3& rr, Vec3& direction) {
-  const double omega = rr.dot(m.o);
+  const Vec3 o = m.o.normalized();  // labels give O to ~6 digits: |O| = 1 +- 1e-6
+  const double omega = rr.dot(o);
   if (!(omega > 0.0)) {
     return Status::kDegenerate;
   }
-  const Vec3 lambda = rr - omega * m.o;
+  const Vec3 lambda = rr - omega * o;
   const double tau = lambda.squaredNorm() / (omega * omega);
   const double k1 = 1.0 + m.r.x();
   const double k3 = m.r.y() * tau;
@@ -193,8 +196,9 @@ Status undistortCahvorRay(const CameraModel& m, const Vec3& rr, Vec3& direction)
 
 // CAHVORE inverse (JPL cmod_cahvore_2d_to_3d): chi by Newton, theta from chi, entrance-pupil shift.
 Status undistortCahvoreRay(const CameraModel& m, const Vec3& rp, Vec3& origin, Vec3& direction) {
-  const double zeta = rp.dot(m.o);
-  const Vec3 lambda = rp - zeta * m.o;
+  const Vec3 o = m.o.normalized();  // labels give O to ~6 digits: |O| = 1 +- 1e-6
+  const double zeta = rp.dot(o);
+  const Vec3 lambda = rp - zeta * o;
   const double l = lambda.norm();
   if (!(zeta > 0.0)) {
     return Status::kDegenerate;
@@ -202,7 +206,7 @@ Status undistortCahvoreRay(const CameraModel& m, const Vec3& rp, Vec3& origin, V
   const double chip = l / zeta;
   if (chip < kSmallAngleRad) {
     origin = m.c;
-    direction = m.o;
+    direction = o;
     return Status::kOk;
   }
   const double r0 = m.r.x(), r1 = m.r.y(), r2 = m.r.z();
@@ -237,8 +241,8 @@ Status undistortCahvoreRay(const CameraModel& m, const Vec3& rp, Vec3& origin, V
   const double t2 = theta * theta;
   const double s_theta = std::sin(theta);
   const double shift = (theta / s_theta - 1.0) * (m.e.x() + m.e.y() * t2 + m.e.z() * t2 * t2);
-  origin = m.c + shift * m.o;
-  direction = (s_theta / l) * lambda + std::cos(theta) * m.o;
+  origin = m.c + shift * o;
+  direction = (s_theta / l) * lambda + std::cos(theta) * o;
   direction.normalize();
   return Status::kOk;
 }
