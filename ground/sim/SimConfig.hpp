@@ -1,0 +1,85 @@
+// Configuration of the simulator (issue 4): terrain, camera head, panorama plan, rendering. Presets
+// `navcam`, `imp` and `tiny` fill every field; the tool overrides single fields from the command line,
+// then validatePlan() rejects what cannot be made (cli::UsageError naming the option).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace areomap::sim {
+
+struct TierPlan {
+  double tilt_deg = -25.0;      // head elevation, up positive
+  int pairs = 8;                // stereo pairs (or single images) in this tier
+  double pan0_deg = 0.0;        // azimuth of the first pair, clockwise from north
+  double pan_step_deg = 45.0;   // azimuth step between pairs
+  bool left_only = false;       // single left images (IMP's extra frame)
+};
+
+struct SimConfig {
+  std::string preset = "tiny";
+  uint64_t seed = 1;
+  int sol = 1;
+
+  // Cameras (identical left and right): delivered size, horizontal field of view, CAHVOR distortion.
+  int width = 256;
+  int height = 192;
+  double hfov_deg = 60.0;
+  double rho1 = 0.004;              // CAHVOR R = (0, rho1, rho2)
+  double rho2 = -0.002;
+  double o_tilt_deg = 0.3;          // angle between O and A
+
+  // Head: camera centres relative to the gimbal in the head frame (x forward, y right, z down) at pan 0,
+  // tilt 0; the stereo base is their distance. Small toe-in (each camera yawed inwards).
+  double base_m = 0.20;
+  double head_forward_m = 0.08;
+  double head_up_m = 0.05;
+  double toe_in_deg = 0.5;
+  double mast_m = 1.5;              // gimbal height above the ground at the rover
+
+  std::vector<TierPlan> tiers;
+  double pointing_min_px = 3.0;     // a-priori pointing error per pair (pan/tilt of the head), pixels
+  double pointing_max_px = 15.0;
+
+  // Terrain around the rover (site origin): half extent of the square, grid cell, relief and rocks.
+  double half_extent_m = 20.0;
+  double cell_m = 0.03;
+  double relief_m = 0.25;           // RMS of the multi-octave relief
+  double rock_k = 0.08;             // Golombek cumulative fractional area of rocks
+  double crater_density_per_km2 = 800.0;
+  double min_rock_m = 0.06;         // smallest rock diameter near the rover (grows with range)
+
+  // Rendering.
+  int supersample = 2;              // s x s rays per pixel
+  double noise_dn = 1.5;            // sensor noise sigma
+  int jpeg_quality = 0;             // 0 = no JPEG round trip
+  double sun_azimuth_deg = 120.0;
+  double sun_elevation_deg = 40.0;
+  bool shadows = true;
+  int threads = 0;                  // 0 = all cores
+
+  // Truth check points.
+  int check_points = 400;           // wanted points seen by two or more images
+  double min_range_m = 1.5;
+  double max_range_m = 15.0;
+
+  double focalPx() const;           // principal distance from width and hfov
+  int pairCount() const;            // all pairs of all tiers
+};
+
+// The named presets; throws cli::UsageError for an unknown name.
+SimConfig presetConfig(const std::string& name);
+
+// Sets the total pair count over the full-circle tiers (left-only tiers are kept): each tier keeps its
+// preset pan step when the pairs no longer close the circle (an arc), else spreads them over 360 degrees.
+void setPairCount(SimConfig& config, int pairs);
+
+// Checks that the plan can be made: sizes, field of view, pairs (1..kMaxPairs), no horizontal gap between
+// neighbouring pairs of a tier, no vertical gap between tiers, sane terrain and rendering values.
+// Throws cli::UsageError naming the option and the reason.
+void validatePlan(const SimConfig& config);
+
+}  // namespace areomap::sim

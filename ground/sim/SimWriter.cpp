@@ -1,0 +1,108 @@
+#include "ground/sim/SimWriter.hpp"
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "ground/dataset/DemRaster.hpp"
+#include "ground/sim/Renderer.hpp"
+
+namespace areomap::sim {
+namespace {
+
+void makeFolder(const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec || !std::filesystem::is_directory(dir)) {
+    throw DatasetError(dir, "", "cannot create the folder: " + (ec ? ec.message() : std::string("not a folder")));
+  }
+}
+
+void writeTextFile(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw DatasetError(path, "", std::string("cannot write: ") + std::strerror(errno));
+  out << text;
+  out.close();
+  if (!out) throw DatasetError(path, "", "write failed");
+}
+
+nlohmann::json configJson(const SimConfig& c) {
+  nlohmann::json tiers = nlohmann::json::array();
+  for (const TierPlan& t : c.tiers) {
+    tiers.push_back({{"tilt_deg", t.tilt_deg}, {"pairs", t.pairs}, {"pan0_deg", t.pan0_deg},
+                     {"pan_step_deg", t.pan_step_deg}, {"left_only", t.left_only}});
+  }
+  return {{"preset", c.preset}, {"seed", c.seed}, {"sol", c.sol}, {"image_size", {c.width, c.height}},
+          {"hfov_deg", c.hfov_deg}, {"focal_px", c.focalPx()}, {"rho1", c.rho1}, {"rho2", c.rho2},
+          {"o_tilt_deg", c.o_tilt_deg}, {"base_m", c.base_m}, {"head_forward_m", c.head_forward_m},
+          {"head_up_m", c.head_up_m}, {"toe_in_deg", c.toe_in_deg}, {"mast_m", c.mast_m}, {"tiers", tiers},
+          {"pointing_error_px", {c.pointing_min_px, c.pointing_max_px}}, {"half_extent_m", c.half_extent_m},
+          {"cell_m", c.cell_m}, {"relief_m", c.relief_m}, {"rock_k", c.rock_k},
+          {"crater_density_per_km2", c.crater_density_per_km2}, {"min_rock_m", c.min_rock_m},
+          {"supersample", c.supersample}, {"noise_dn", c.noise_dn}, {"jpeg_quality", c.jpeg_quality},
+          {"sun_azimuth_deg", c.sun_azimuth_deg}, {"sun_elevation_deg", c.sun_elevation_deg},
+          {"shadows", c.shadows}, {"check_points", c.check_points}, {"range_m", {c.min_range_m, c.max_range_m}}};
+}
+
+}  // namespace
+
+void writeModelFile(const std::string& path, const CameraModel& model) {
+  char buffer[4096];
+  const std::size_t n = formatModelText(model, buffer, sizeof(buffer));
+  if (n == 0) throw DatasetError(path, "", "camera model does not format");
+  writeTextFile(path, std::string(buffer, n));
+}
+
+void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::string& out, const WriteOptions& options) {
+  makeFolder(out);
+  makeFolder(out + "/models");
+  makeFolder(out + "/" + kTruthModelsFolder);
+  if (options.images) makeFolder(out + "/images");
+  const Dataset ds = g.dataset(out);
+  writeDataset(ds, out);
+
+  nlohmann::json pairs = nlohmann::json::array();
+  for (const SimPair& p : g.pairs) {
+    pairs.push_back({{"id", p.id}, {"tier", p.tier}, {"pan_deg", p.pan_deg}, {"tilt_deg", p.tilt_deg},
+                     {"pan_error_rad", p.pan_error_rad}, {"tilt_error_rad", p.tilt_error_rad},
+                     {"pointing_error_px", p.pointing_error_px}});
+  }
+  const nlohmann::json sim = {{"config", configJson(g.config)},
+                              {"terrain", {{"nodes", terrain.nodes()}, {"rocks", terrain.rockCount()}, {"craters", terrain.craterCount()}}},
+                              {"pairs", pairs},
+                              {"check_points", g.points.size()},
+                              {"observations", g.observations.size()}};
+  writeTextFile(out + "/" + kTruthFolder + "/sim.json", sim.dump(2) + "\n");
+
+  const std::vector<const SimCamera*> cams = g.cameras();
+  for (const SimCamera* c : cams) {
+    writeModelFile(out + "/models/" + c->stem + ".cahvor", c->apriori);
+    writeModelFile(out + "/" + kTruthModelsFolder + "/" + c->stem + ".cahvor", c->truth);
+  }
+  writePointsCsv(out + "/" + kTruthPointsFile, g.points);
+  writeObservationsCsv(out + "/" + kTruthObservationsFile, g.observations);
+  writeDemGeoTiff(out + "/" + kTruthDemFile, terrain.dem());
+
+  if (!options.images) return;
+  const std::vector<int> png_params = {cv::IMWRITE_PNG_COMPRESSION, 6, cv::IMWRITE_PNG_STRATEGY,
+                                       cv::IMWRITE_PNG_STRATEGY_DEFAULT};
+  for (std::size_t i = 0; i < cams.size(); ++i) {
+    const RenderedImage image = renderImage(terrain, g.config, cams[i]->truth, static_cast<int>(i));
+    const cv::Mat view(image.height, image.width, CV_8UC1, const_cast<uint8_t*>(image.pixels.data()));
+    const std::string path = out + "/images/" + cams[i]->stem + ".png";
+    bool written = false;
+    try {
+      written = cv::imwrite(path, view, png_params);
+    } catch (const cv::Exception& e) {
+      throw DatasetError(path, "", std::string("cannot write PNG: ") + e.what());
+    }
+    if (!written) throw DatasetError(path, "", "cannot write PNG");
+    if (options.on_image) options.on_image(static_cast<int>(i + 1), static_cast<int>(cams.size()));
+  }
+}
+
+}  // namespace areomap::sim

@@ -1,0 +1,416 @@
+#include "ground/sim/Terrain.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "ground/sim/Noise.hpp"
+#include "ground/sim/Parallel.hpp"
+
+namespace areomap::sim {
+
+struct Terrain::GridRay {
+  double u0, v0, du, dv;  // node coordinates (row ix along u = north, column iy along v = east)
+  double e0, de;          // elevation up along the ray
+  double u(double t) const { return u0 + t * du; }
+  double v(double t) const { return v0 + t * dv; }
+  double e(double t) const { return e0 + t * de; }
+};
+
+namespace {
+
+constexpr int kMaxRaySteps = 1 << 22;      // bound of the mip-map walk (a ray crosses at most ~4 n cells)
+constexpr double kRockTileM = 1.0;         // rocks are drawn per 1 m x 1 m tile
+constexpr double kMaxRockM = 2.5;          // largest rock diameter
+constexpr double kRockFreeRadiusM = 1.2;   // the rover's footprint stays clear
+constexpr int kMaxRocksPerTile = 4000;
+
+// Expected number of rocks per square metre with diameter in [d_min, d_max] (Golombek): the number density
+// n(D) = -dF/dD / (pi D^2 / 4) = 4 k q exp(-q D) / (pi D^2), integrated in log D.
+double rockDensity(double k, double d_min, double d_max) {
+  if (k <= 0.0 || d_min >= d_max) return 0.0;
+  const double q = 1.79 + 0.152 / k;
+  constexpr int kSteps = 96;
+  const double l0 = std::log(d_min), l1 = std::log(d_max);
+  double sum = 0.0;
+  for (int i = 0; i < kSteps; ++i) {
+    const double d = std::exp(l0 + (i + 0.5) * (l1 - l0) / kSteps);
+    sum += 4.0 * k * q * std::exp(-q * d) / (M_PI * d * d) * d;  // dD = D dlogD
+  }
+  return sum * (l1 - l0) / kSteps;
+}
+
+// Diameter from n(D) on [d_min, d_max]: proposal ~ 1/D^2 (inverse CDF), accepted with exp(-q (D - d_min)).
+double drawRockDiameter(std::mt19937_64& rng, double k, double d_min, double d_max) {
+  const double q = 1.79 + 0.152 / k;
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double d = d_min;
+  for (int i = 0; i < 1000; ++i) {
+    d = 1.0 / (1.0 / d_min - u(rng) * (1.0 / d_min - 1.0 / d_max));
+    if (u(rng) < std::exp(-q * (d - d_min))) break;
+  }
+  return d;
+}
+
+int drawPoisson(std::mt19937_64& rng, double lambda) {
+  if (lambda <= 0.0) return 0;
+  if (lambda > 50.0) {
+    std::normal_distribution<double> g(lambda, std::sqrt(lambda));
+    return std::max(0, static_cast<int>(std::lround(g(rng))));
+  }
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double limit = std::exp(-lambda);
+  double p = 1.0;
+  int k = 0;
+  while (k < kMaxRocksPerTile) {
+    p *= u(rng);
+    if (p <= limit) break;
+    ++k;
+  }
+  return k;
+}
+
+struct Rock {
+  double x, y, radius, height, bury, albedo, phase1, phase2, squash;
+};
+
+}  // namespace
+
+Terrain Terrain::build(const SimConfig& config) {
+  Terrain t;
+  t.seed_ = mix64(config.seed ^ 0x7e88a1dULL);
+  t.cell_ = config.cell_m;
+  t.n_ = static_cast<int>(std::lround(2.0 * config.half_extent_m / config.cell_m)) + 1;
+  t.x0_ = -0.5 * (t.n_ - 1) * t.cell_;
+  t.y0_ = t.x0_;
+  t.fine_texture_range_m_ = 0.5 * config.max_range_m;
+  const int n = t.n_;
+  t.h_.assign(static_cast<std::size_t>(n) * n, 0.0f);
+  t.albedo_.assign(static_cast<std::size_t>(n) * n, 0.0f);
+
+  // Relief and albedo: multi-octave value noise down to ~4 cells, a regional slope, albedo patches.
+  std::mt19937_64 rng(t.seed_);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const double slope_az = 2.0 * M_PI * uni(rng);
+  const double slope = 0.01 + 0.02 * uni(rng);
+  int octaves = 0;
+  for (double w = 32.0; w >= 4.0 * t.cell_ && octaves < 14; w *= 0.5) ++octaves;
+  const uint64_t s_relief = t.seed_ + 1, s_patch = t.seed_ + 2, s_dust = t.seed_ + 3, s_mottle = t.seed_ + 4;
+  const double relief_scale = 2.6 * config.relief_m;  // value-noise fBm has an RMS of ~0.38
+  parallelFor(n, config.threads, [&](int ix) {
+    const double x = t.x0_ + ix * t.cell_;
+    for (int iy = 0; iy < n; ++iy) {
+      const double y = t.y0_ + iy * t.cell_;
+      const double relief = relief_scale * fbm(s_relief, x, y, 32.0, octaves, 0.55);
+      const double regional = slope * (x * std::cos(slope_az) + y * std::sin(slope_az));
+      t.h_[static_cast<std::size_t>(ix) * n + iy] = static_cast<float>(relief + regional);
+      // Bright and dark patches (smooth threshold of low-frequency noise), dust mottling, fine variation.
+      const double patch = fbm(s_patch, x, y, 8.0, 3, 0.5);
+      const double patches = std::tanh(4.0 * patch) * 0.22;
+      const double dust = 0.15 * fbm(s_dust, x, y, 1.5, 3, 0.6);
+      const double mottle = 0.12 * fbm(s_mottle, x, y, 0.25, 3, 0.6);
+      t.albedo_[static_cast<std::size_t>(ix) * n + iy] =
+          static_cast<float>(0.24 * (1.0 + patches) * (1.0 + dust) * (1.0 + mottle));
+    }
+  });
+
+  // Craters: a bowl with a raised rim; radii from a cumulative power law N(>R) ~ R^-2 on [1.5, 10] m.
+  const double area_km2 = std::pow(2.0 * config.half_extent_m / 1000.0, 2);
+  const int crater_count = drawPoisson(rng, config.crater_density_per_km2 * area_km2);
+  for (int c = 0; c < crater_count; ++c) {
+    const double r_min = 1.5, r_max = 10.0;
+    const double radius = 1.0 / std::sqrt(1.0 / (r_min * r_min) - uni(rng) * (1.0 / (r_min * r_min) - 1.0 / (r_max * r_max)));
+    const double cx = (2.0 * uni(rng) - 1.0) * config.half_extent_m;
+    const double cy = (2.0 * uni(rng) - 1.0) * config.half_extent_m;
+    if (std::hypot(cx, cy) < radius * 3.0 + 2.0) continue;  // keep the rover off crater walls
+    const double depth = radius * (0.06 + 0.08 * uni(rng));  // degraded craters
+    const double rim = radius * (0.015 + 0.02 * uni(rng));
+    const int i0 = std::max(0, static_cast<int>((cx - 3.0 * radius - t.x0_) / t.cell_));
+    const int i1 = std::min(n - 1, static_cast<int>((cx + 3.0 * radius - t.x0_) / t.cell_) + 1);
+    const int j0 = std::max(0, static_cast<int>((cy - 3.0 * radius - t.y0_) / t.cell_));
+    const int j1 = std::min(n - 1, static_cast<int>((cy + 3.0 * radius - t.y0_) / t.cell_) + 1);
+    if (i0 > i1 || j0 > j1) continue;
+    parallelFor(i1 - i0 + 1, config.threads, [&](int k) {
+      const int ix = i0 + k;
+      const double x = t.x0_ + ix * t.cell_;
+      for (int iy = j0; iy <= j1; ++iy) {
+        const double s = std::hypot(x - cx, t.y0_ + iy * t.cell_ - cy) / radius;
+        double delta = 0.0;
+        if (s < 1.0) {
+          delta = (depth + rim) * s * s - depth;
+        } else if (s < 3.0) {
+          delta = rim * std::pow(s, -3.0) * (1.0 - 0.5 * (s - 1.0));
+        }
+        t.h_[static_cast<std::size_t>(ix) * n + iy] += static_cast<float>(delta);
+      }
+    });
+    ++t.craters_;
+  }
+
+  // Rocks: per tile, the Golombek density above a minimum diameter that grows with range (centimetre
+  // detail near the rover, coarser far away) and never below three cells (a rock must be resolved).
+  std::vector<Rock> rocks;
+  const int tiles = static_cast<int>(std::ceil(2.0 * config.half_extent_m / kRockTileM));
+  for (int tx = 0; tx < tiles; ++tx) {
+    for (int ty = 0; ty < tiles; ++ty) {
+      const double ax = -config.half_extent_m + tx * kRockTileM, ay = -config.half_extent_m + ty * kRockTileM;
+      const double range = std::hypot(ax + 0.5 * kRockTileM, ay + 0.5 * kRockTileM);
+      const double d_min = std::max({config.min_rock_m, 3.0 * t.cell_, 0.006 * range});
+      std::mt19937_64 tile_rng(hash3(t.seed_ + 5, tx, ty));
+      const int count = drawPoisson(tile_rng, rockDensity(config.rock_k, d_min, kMaxRockM) * kRockTileM * kRockTileM);
+      std::uniform_real_distribution<double> u(0.0, 1.0);
+      for (int r = 0; r < count; ++r) {
+        Rock rock;
+        rock.x = ax + u(tile_rng) * kRockTileM;
+        rock.y = ay + u(tile_rng) * kRockTileM;
+        const double d = drawRockDiameter(tile_rng, config.rock_k, d_min, kMaxRockM);
+        rock.radius = 0.5 * d;
+        rock.height = d * (0.25 + 0.3 * u(tile_rng));
+        rock.bury = rock.height * 0.15 * u(tile_rng);
+        rock.albedo = 0.55 + 0.8 * u(tile_rng);
+        rock.phase1 = 2.0 * M_PI * u(tile_rng);
+        rock.phase2 = 2.0 * M_PI * u(tile_rng);
+        rock.squash = 0.7 + 0.3 * u(tile_rng);
+        if (std::hypot(rock.x, rock.y) < kRockFreeRadiusM + rock.radius) continue;
+        rocks.push_back(rock);
+      }
+    }
+  }
+  // Larger rocks last, so that they stand over the small ones (painter's order, deterministic).
+  std::stable_sort(rocks.begin(), rocks.end(), [](const Rock& a, const Rock& b) { return a.radius < b.radius; });
+  const uint64_t s_rock = t.seed_ + 6;
+  for (const Rock& rock : rocks) {
+    const double reach = rock.radius * 1.3;
+    const int i0 = std::max(0, static_cast<int>(std::floor((rock.x - reach - t.x0_) / t.cell_)));
+    const int i1 = std::min(n - 1, static_cast<int>(std::ceil((rock.x + reach - t.x0_) / t.cell_)));
+    const int j0 = std::max(0, static_cast<int>(std::floor((rock.y - reach - t.y0_) / t.cell_)));
+    const int j1 = std::min(n - 1, static_cast<int>(std::ceil((rock.y + reach - t.y0_) / t.cell_)));
+    if (i0 > i1 || j0 > j1) continue;
+    const int ci = std::clamp(static_cast<int>(std::lround((rock.x - t.x0_) / t.cell_)), 0, n - 1);
+    const int cj = std::clamp(static_cast<int>(std::lround((rock.y - t.y0_) / t.cell_)), 0, n - 1);
+    const double base = t.h_[static_cast<std::size_t>(ci) * n + cj];
+    const double cos_a = std::cos(rock.phase1), sin_a = std::sin(rock.phase1);
+    for (int ix = i0; ix <= i1; ++ix) {
+      for (int iy = j0; iy <= j1; ++iy) {
+        const double dx = t.x0_ + ix * t.cell_ - rock.x, dy = t.y0_ + iy * t.cell_ - rock.y;
+        // Elongated, irregular outline.
+        const double along = dx * cos_a + dy * sin_a, across = (-dx * sin_a + dy * cos_a) / rock.squash;
+        const double theta = std::atan2(across, along);
+        const double outline = rock.radius * (1.0 + 0.12 * std::sin(3.0 * theta + rock.phase2) + 0.07 * std::sin(5.0 * theta + rock.phase1));
+        const double rho = std::hypot(along, across) / outline;
+        if (rho >= 1.0) continue;
+        const double bump = 0.08 * rock.height * valueNoise(s_rock, dx / (0.3 * rock.radius) + rock.x, dy / (0.3 * rock.radius) + rock.y);
+        const double top = base - rock.bury + rock.height * std::pow(1.0 - rho * rho, 0.6) + bump * (1.0 - rho);
+        float& h = t.h_[static_cast<std::size_t>(ix) * n + iy];
+        if (top > h) {
+          h = static_cast<float>(top);
+          float& a = t.albedo_[static_cast<std::size_t>(ix) * n + iy];
+          a = static_cast<float>(0.22 * rock.albedo * (1.0 + 0.25 * valueNoise(s_rock + 1, dx / 0.04, dy / 0.04)));
+        }
+      }
+    }
+  }
+  t.rocks_ = static_cast<int>(rocks.size());
+
+  // Elevation range and the far plane (mean of the edge nodes).
+  const auto [lo, hi] = std::minmax_element(t.h_.begin(), t.h_.end());
+  t.h_min_ = *lo;
+  t.h_max_ = *hi;
+  double edge = 0.0;
+  for (int i = 0; i < n; ++i) edge += t.node(0, i) + t.node(n - 1, i) + t.node(i, 0) + t.node(i, n - 1);
+  t.h_far_ = static_cast<float>(edge / (4.0 * n));
+  t.buildMaxMipmap();
+  return t;
+}
+
+void Terrain::buildMaxMipmap() {
+  const int cells = n_ - 1;
+  mip_.clear();
+  mip_size_.clear();
+  std::vector<float> level(static_cast<std::size_t>(cells) * cells);
+  for (int i = 0; i < cells; ++i) {
+    for (int j = 0; j < cells; ++j) {
+      level[static_cast<std::size_t>(i) * cells + j] = std::max({node(i, j), node(i + 1, j), node(i, j + 1), node(i + 1, j + 1)});
+    }
+  }
+  mip_.push_back(std::move(level));
+  mip_size_.push_back(cells);
+  while (mip_size_.back() > 1) {
+    const int s = mip_size_.back();
+    const int s2 = (s + 1) / 2;
+    const std::vector<float>& prev = mip_.back();
+    std::vector<float> next(static_cast<std::size_t>(s2) * s2);
+    for (int i = 0; i < s2; ++i) {
+      for (int j = 0; j < s2; ++j) {
+        float m = prev[static_cast<std::size_t>(2 * i) * s + 2 * j];
+        if (2 * i + 1 < s) m = std::max(m, prev[static_cast<std::size_t>(2 * i + 1) * s + 2 * j]);
+        if (2 * j + 1 < s) m = std::max(m, prev[static_cast<std::size_t>(2 * i) * s + 2 * j + 1]);
+        if (2 * i + 1 < s && 2 * j + 1 < s) m = std::max(m, prev[static_cast<std::size_t>(2 * i + 1) * s + 2 * j + 1]);
+        next[static_cast<std::size_t>(i) * s2 + j] = m;
+      }
+    }
+    mip_.push_back(std::move(next));
+    mip_size_.push_back(s2);
+  }
+}
+
+bool Terrain::inside(double x_m, double y_m) const {
+  const double u = (x_m - x0_) / cell_, v = (y_m - y0_) / cell_;
+  return u >= 0.0 && v >= 0.0 && u <= n_ - 1 && v <= n_ - 1;
+}
+
+double Terrain::elevation(double x_m, double y_m) const {
+  const double u = std::clamp((x_m - x0_) / cell_, 0.0, n_ - 1.0), v = std::clamp((y_m - y0_) / cell_, 0.0, n_ - 1.0);
+  const int i = std::min(static_cast<int>(u), n_ - 2), j = std::min(static_cast<int>(v), n_ - 2);
+  const double fu = u - i, fv = v - j;
+  return node(i, j) * (1 - fu) * (1 - fv) + node(i + 1, j) * fu * (1 - fv) + node(i, j + 1) * (1 - fu) * fv +
+         node(i + 1, j + 1) * fu * fv;
+}
+
+Eigen::Vector3d Terrain::normal(double x_m, double y_m) const {
+  const double u = std::clamp((x_m - x0_) / cell_, 0.0, n_ - 1.0), v = std::clamp((y_m - y0_) / cell_, 0.0, n_ - 1.0);
+  const int i = std::min(static_cast<int>(u), n_ - 2), j = std::min(static_cast<int>(v), n_ - 2);
+  const double fu = u - i, fv = v - j;
+  const double hx = ((node(i + 1, j) - node(i, j)) * (1 - fv) + (node(i + 1, j + 1) - node(i, j + 1)) * fv) / cell_;
+  const double hy = ((node(i, j + 1) - node(i, j)) * (1 - fu) + (node(i + 1, j + 1) - node(i + 1, j)) * fu) / cell_;
+  return Eigen::Vector3d(-hx, -hy, -1.0).normalized();
+}
+
+double Terrain::albedo(double x_m, double y_m) const {
+  const double u = std::clamp((x_m - x0_) / cell_, 0.0, n_ - 1.0), v = std::clamp((y_m - y0_) / cell_, 0.0, n_ - 1.0);
+  const int i = std::min(static_cast<int>(u), n_ - 2), j = std::min(static_cast<int>(v), n_ - 2);
+  const double fu = u - i, fv = v - j;
+  auto a = [&](int ii, int jj) { return static_cast<double>(albedo_[static_cast<std::size_t>(ii) * n_ + jj]); };
+  double value = a(i, j) * (1 - fu) * (1 - fv) + a(i + 1, j) * fu * (1 - fv) + a(i, j + 1) * (1 - fu) * fv + a(i + 1, j + 1) * fu * fv;
+  // Fine texture (pebbles and grain below the grid cell), fading out with range from the rover so that
+  // far pixels do not alias it.
+  const double range = std::hypot(x_m, y_m);
+  const double fade = std::clamp(1.5 - range / fine_texture_range_m_, 0.0, 1.0);
+  if (fade > 0.0) {
+    const double grain = 0.10 * valueNoise(seed_ + 11, x_m / 0.012, y_m / 0.012);
+    constexpr double kPebbleCellM = 0.03;
+    const double px = x_m / kPebbleCellM, py = y_m / kPebbleCellM;
+    const int64_t pi = static_cast<int64_t>(std::floor(px)), pj = static_cast<int64_t>(std::floor(py));
+    const uint64_t h = hash3(seed_ + 12, pi, pj);
+    double pebble = 0.0;
+    if (unit(h) < 0.25) {
+      const double cx = pi + 0.25 + 0.5 * unit(mix64(h + 1)), cy = pj + 0.25 + 0.5 * unit(mix64(h + 2));
+      const double radius = 0.12 + 0.13 * unit(mix64(h + 3));
+      const double d = std::hypot(px - cx, py - cy) / radius;
+      if (d < 1.0) pebble = (unit(mix64(h + 4)) < 0.5 ? -0.45 : 0.5) * (1.0 - d * d);
+    }
+    value *= 1.0 + fade * (grain + pebble);
+  }
+  return std::clamp(value, 0.01, 1.0);
+}
+
+bool Terrain::intersectCell(int ci, int cj, const GridRay& ray, double ta, double tb, double& t_hit) const {
+  const double h00 = node(ci, cj), h10 = node(ci + 1, cj), h01 = node(ci, cj + 1), h11 = node(ci + 1, cj + 1);
+  auto g = [&](double t) {
+    const double fu = ray.u(t) - ci, fv = ray.v(t) - cj;
+    return ray.e(t) - (h00 * (1 - fu) * (1 - fv) + h10 * fu * (1 - fv) + h01 * (1 - fu) * fv + h11 * fu * fv);
+  };
+  // Along the ray the bilinear surface is quadratic in t: fit g(s) = a s^2 + b s + c exactly from 3 samples.
+  const double g0 = g(ta);
+  if (g0 <= 0.0) {
+    t_hit = ta;
+    return true;
+  }
+  const double gm = g(0.5 * (ta + tb)), g1 = g(tb);
+  const double a = 2.0 * g1 + 2.0 * g0 - 4.0 * gm, b = 4.0 * gm - 3.0 * g0 - g1, c = g0;
+  double s = 2.0;
+  if (std::fabs(a) < 1e-12 * (std::fabs(b) + std::fabs(c))) {
+    if (b < 0.0) s = -c / b;
+  } else {
+    const double disc = b * b - 4.0 * a * c;
+    if (disc >= 0.0) {
+      const double sq = std::sqrt(disc);
+      const double q = -0.5 * (b + (b >= 0.0 ? sq : -sq));
+      const double r1 = q / a, r2 = q != 0.0 ? c / q : 2.0;
+      const double lo = std::min(r1, r2), hi = std::max(r1, r2);
+      s = lo >= 0.0 ? lo : hi;
+    }
+  }
+  if (s < 0.0 || s > 1.0) return false;
+  t_hit = ta + s * (tb - ta);
+  return true;
+}
+
+bool Terrain::castRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double& t_hit, double t_max) const {
+  GridRay ray{(origin.x() - x0_) / cell_, (origin.y() - y0_) / cell_, direction.x() / cell_, direction.y() / cell_,
+              -origin.z(), -direction.z()};
+  const int cells = n_ - 1;
+  double t0 = 0.0, t1 = t_max;
+  // Clip to the grid square.
+  const double uv0[2] = {ray.u0, ray.v0}, duv[2] = {ray.du, ray.dv};
+  for (int k = 0; k < 2; ++k) {
+    if (std::fabs(duv[k]) < 1e-15) {
+      if (uv0[k] < 0.0 || uv0[k] > cells) return false;
+      continue;
+    }
+    double a = (0.0 - uv0[k]) / duv[k], b = (cells - uv0[k]) / duv[k];
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+  }
+  // Clip to the elevation range: above the highest node going up, or below the lowest, nothing is hit.
+  if (ray.de > 0.0) {
+    t1 = std::min(t1, (h_max_ - ray.e0) / ray.de);
+  } else if (ray.de < 0.0) {
+    t1 = std::min(t1, (h_min_ - 1e-3 - ray.e0) / ray.de);
+  } else if (ray.e0 > h_max_) {
+    return false;
+  }
+  if (!(t0 < t1)) return false;
+
+  const int top = static_cast<int>(mip_.size()) - 1;
+  int level = top;
+  double t = t0;
+  const double nudge_u = ray.du > 0.0 ? 1e-7 : (ray.du < 0.0 ? -1e-7 : 0.0);
+  const double nudge_v = ray.dv > 0.0 ? 1e-7 : (ray.dv < 0.0 ? -1e-7 : 0.0);
+  for (int step = 0; step < kMaxRaySteps && t < t1; ++step) {
+    const int ci = std::clamp(static_cast<int>(std::floor(ray.u(t) + nudge_u)), 0, cells - 1);
+    const int cj = std::clamp(static_cast<int>(std::floor(ray.v(t) + nudge_v)), 0, cells - 1);
+    const int bi = ci >> level, bj = cj >> level;
+    const double lo_u = static_cast<double>(bi << level), hi_u = std::min(static_cast<double>((bi + 1) << level), static_cast<double>(cells));
+    const double lo_v = static_cast<double>(bj << level), hi_v = std::min(static_cast<double>((bj + 1) << level), static_cast<double>(cells));
+    double tx = t1;
+    if (ray.du > 0.0) tx = std::min(tx, (hi_u - ray.u0) / ray.du);
+    if (ray.du < 0.0) tx = std::min(tx, (lo_u - ray.u0) / ray.du);
+    if (ray.dv > 0.0) tx = std::min(tx, (hi_v - ray.v0) / ray.dv);
+    if (ray.dv < 0.0) tx = std::min(tx, (lo_v - ray.v0) / ray.dv);
+    tx = std::max(tx, t);
+    const double e_min = std::min(ray.e(t), ray.e(tx));
+    const float block_max = mip_[static_cast<std::size_t>(level)][static_cast<std::size_t>(bi) * mip_size_[static_cast<std::size_t>(level)] + bj];
+    if (e_min > block_max) {
+      t = tx;
+      if (level < top) ++level;
+      continue;
+    }
+    if (level > 0) {
+      --level;
+      continue;
+    }
+    if (intersectCell(ci, cj, ray, t, tx, t_hit)) return true;
+    t = tx;
+    if (level < top) ++level;
+  }
+  return false;
+}
+
+DemGrid Terrain::dem() const {
+  DemGrid g;
+  g.cols = n_;
+  g.rows = n_;
+  g.cell_m = cell_;
+  g.east0_m = y0_ - 0.5 * cell_;
+  g.north0_m = x0_ + (n_ - 1) * cell_ + 0.5 * cell_;
+  g.values.resize(static_cast<std::size_t>(n_) * n_);
+  for (int row = 0; row < n_; ++row) {
+    const int ix = n_ - 1 - row;
+    for (int col = 0; col < n_; ++col) g.values[static_cast<std::size_t>(row) * n_ + col] = node(ix, col);
+  }
+  return g;
+}
+
+}  // namespace areomap::sim

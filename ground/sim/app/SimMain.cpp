@@ -1,0 +1,186 @@
+// areomap-sim: synthetic Mars panoramas with known truth (issue 4).
+#include <cstdio>
+#include <sstream>
+#include <string>
+
+#include "ground/cli/Cli.hpp"
+#include "ground/sim/SimGeometry.hpp"
+#include "ground/sim/SimWriter.hpp"
+#include "ground/sim/Terrain.hpp"
+
+namespace {
+
+const char* const kUsage = R"(areomap-sim: synthetic Mars panoramas with known truth
+
+Usage: areomap-sim --preset navcam|imp|tiny --out DIR [options]
+
+Writes DIR/panorama.json, DIR/images/<stem>.png (8-bit), DIR/models/<stem>.cahvor (a-priori models,
+pointing off by a pan/tilt error of the mast head per pair) and the truth: DIR/truth/models/<stem>.cahvor,
+DIR/truth/dem.tif (GeoTIFF, site frame, elevation up), DIR/truth/points.csv (point,x_m,y_m,z_m),
+DIR/truth/observations.csv (point,image,sample_px,line_px) and DIR/truth/sim.json (the configuration).
+The same seed gives the same files, whatever the number of threads.
+
+Presets: navcam  MER Navcam-like, 1024x1024, 45 deg, 20 cm base, one 360-deg tier of 18 pairs
+         imp     Pathfinder IMP-like, 256x256, 14.4 deg, 15 cm base, 2 tiers x 32 pairs + 1 single image
+         tiny    8 small pairs (256x192, 60 deg), made in seconds, for tests
+
+Options (each overrides the preset):
+  --seed N                   random seed (default 1)
+  --pairs N                  total stereo pairs (spread over the 360-degree tiers; fewer than a full
+                             circle make an arc at the preset's pan step)
+  --pointing-error-px MIN MAX  a-priori pointing error per pair at the image centre (default 3 15)
+  --size W H                 image size in pixels
+  --fov-deg F                horizontal field of view
+  --base-m B                 stereo base
+  --mast-m H                 gimbal height above the ground
+  --toe-in-deg T             toe-in of each camera
+  --tilts T1,T2,...          tilt of each 360-degree tier (degrees, up positive)
+  --pan-step-deg S           pan step between pairs of every tier
+  --extent-m E               half width of the terrain square around the rover
+  --cell-m C                 terrain grid cell
+  --relief-m R               RMS of the multi-octave relief
+  --rock-k K                 Golombek rock abundance k (cumulative fractional area)
+  --supersample S            S x S rays per pixel (1..4)
+  --noise-dn N               sensor noise sigma in DN
+  --jpeg-quality Q           JPEG round trip at quality Q before saving (0 = none)
+  --sun-az-deg A --sun-el-deg E   sun direction
+  --no-shadows               no cast shadows
+  --check-points N           wanted true check points seen by two or more images
+  --range-m MIN MAX          range of the check points from the rover
+  --threads N                worker threads (default: all cores)
+  --no-images                geometry and truth only (no rendering)
+  --help                     this text
+
+Exit codes: 0 done, 2 usage error or impossible plan, 1 other error (e.g. an unwritable folder).
+)";
+
+std::vector<double> parseList(const std::string& option, const std::string& text) {
+  std::vector<double> values;
+  std::stringstream s(text);
+  std::string item;
+  while (std::getline(s, item, ',')) {
+    try {
+      std::size_t used = 0;
+      values.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw areomap::cli::UsageError(option + ": expected numbers separated by commas, got '" + text + "'");
+    }
+  }
+  if (values.empty()) throw areomap::cli::UsageError(option + ": empty list");
+  return values;
+}
+
+int integerOption(areomap::cli::Args& args, const std::string& name, int fallback) {
+  const int64_t v = args.integer(name, fallback);
+  if (v < -1000000000LL || v > 1000000000LL) throw areomap::cli::UsageError(name + ": out of range");
+  return static_cast<int>(v);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace areomap;
+  return cli::runTool("areomap-sim", argc, argv, kUsage, [](cli::Args& args) {
+    sim::SimConfig c = sim::presetConfig(args.required("--preset"));
+    const std::string out = args.required("--out");
+    const int64_t seed = args.integer("--seed", 1);
+    if (seed < 0) throw cli::UsageError("--seed: must be >= 0");
+    c.seed = static_cast<uint64_t>(seed);
+    if (const auto tilts = args.option("--tilts")) {
+      const std::vector<double> t = parseList("--tilts", *tilts);
+      std::vector<sim::TierPlan> full, single;
+      for (const sim::TierPlan& tier : c.tiers) (tier.left_only ? single : full).push_back(tier);
+      const int total = [&] {
+        int n = 0;
+        for (const sim::TierPlan& tier : full) n += tier.pairs;
+        return n;
+      }();
+      std::vector<sim::TierPlan> tiers;
+      for (std::size_t i = 0; i < t.size(); ++i) {
+        sim::TierPlan tier = full.empty() ? sim::TierPlan{} : full[std::min(i, full.size() - 1)];
+        tier.tilt_deg = t[i];
+        tiers.push_back(tier);
+      }
+      tiers.insert(tiers.end(), single.begin(), single.end());
+      c.tiers = tiers;
+      if (!args.option("--pairs")) {
+        int fixed = 0;
+        for (const sim::TierPlan& tier : single) fixed += tier.pairs;
+        sim::setPairCount(c, std::max(total / static_cast<int>(full.size() == 0 ? 1 : full.size()), 1) * static_cast<int>(t.size()) + fixed);
+      }
+    }
+    if (const auto pairs = args.option("--pairs")) {
+      int n = 0;
+      try {
+        std::size_t used = 0;
+        n = std::stoi(*pairs, &used);
+        if (used != pairs->size()) throw std::invalid_argument(*pairs);
+      } catch (const std::exception&) {
+        throw cli::UsageError("--pairs: expected an integer, got '" + *pairs + "'");
+      }
+      sim::setPairCount(c, n);
+    }
+    if (const auto e = args.numbers("--pointing-error-px", 2)) {
+      c.pointing_min_px = (*e)[0];
+      c.pointing_max_px = (*e)[1];
+    }
+    if (const auto s = args.numbers("--size", 2)) {
+      c.width = static_cast<int>((*s)[0]);
+      c.height = static_cast<int>((*s)[1]);
+    }
+    c.hfov_deg = args.number("--fov-deg", c.hfov_deg);
+    c.base_m = args.number("--base-m", c.base_m);
+    c.mast_m = args.number("--mast-m", c.mast_m);
+    c.toe_in_deg = args.number("--toe-in-deg", c.toe_in_deg);
+    if (const auto step = args.option("--pan-step-deg")) {
+      const double s = parseList("--pan-step-deg", *step).front();
+      for (sim::TierPlan& tier : c.tiers) {
+        if (!tier.left_only) tier.pan_step_deg = s;
+      }
+    }
+    c.half_extent_m = args.number("--extent-m", c.half_extent_m);
+    c.cell_m = args.number("--cell-m", c.cell_m);
+    c.relief_m = args.number("--relief-m", c.relief_m);
+    c.rock_k = args.number("--rock-k", c.rock_k);
+    c.supersample = integerOption(args, "--supersample", c.supersample);
+    c.noise_dn = args.number("--noise-dn", c.noise_dn);
+    c.jpeg_quality = integerOption(args, "--jpeg-quality", c.jpeg_quality);
+    c.sun_azimuth_deg = args.number("--sun-az-deg", c.sun_azimuth_deg);
+    c.sun_elevation_deg = args.number("--sun-el-deg", c.sun_elevation_deg);
+    if (args.flag("--no-shadows")) c.shadows = false;
+    c.check_points = integerOption(args, "--check-points", c.check_points);
+    if (const auto r = args.numbers("--range-m", 2)) {
+      c.min_range_m = (*r)[0];
+      c.max_range_m = (*r)[1];
+    }
+    c.threads = integerOption(args, "--threads", c.threads);
+    const bool images = !args.flag("--no-images");
+    args.finish();
+    sim::validatePlan(c);
+
+    const double t0 = cli::nowSeconds();
+    cli::info("preset " + c.preset + ", seed " + std::to_string(c.seed) + ": building the terrain");
+    const sim::Terrain terrain = sim::Terrain::build(c);
+    cli::info("terrain " + std::to_string(terrain.nodes()) + " x " + std::to_string(terrain.nodes()) + " nodes, " +
+              std::to_string(terrain.rockCount()) + " rocks, " + std::to_string(terrain.craterCount()) + " craters");
+    const sim::SimGeometry g = sim::makeGeometry(c, terrain);
+    cli::info(std::to_string(g.pairs.size()) + " pairs, " + std::to_string(g.cameras().size()) + " images, " +
+              std::to_string(g.points.size()) + " check points, " + std::to_string(g.observations.size()) +
+              " observations");
+    if (static_cast<int>(g.points.size()) < c.check_points) {
+      cli::warn("only " + std::to_string(g.points.size()) + " of " + std::to_string(c.check_points) +
+                " check points are seen by two or more images");
+    }
+    sim::WriteOptions options;
+    options.images = images;
+    cli::Progress progress("rendering", g.cameras().size());
+    options.on_image = [&](int, int) { progress.step(); };
+    sim::writeSimDataset(g, terrain, out, options);
+    progress.done();
+    char line[128];
+    std::snprintf(line, sizeof(line), "wrote %s in %.1f s", out.c_str(), cli::nowSeconds() - t0);
+    cli::info(line);
+    return 0;
+  });
+}
