@@ -1,0 +1,139 @@
+#include "firmware_core/adjust/Constraints.hpp"
+
+#include <cmath>
+
+namespace areomap {
+
+namespace {
+
+// g = C - XG - M^T c; dg/dC = I, dg/ddelta = d(-M'^T c) with M'^T = M^T exp(-[delta]x): -M^T [c]x.
+void gimbalRows(const Vec3& c, const Mat3& m, const Vec3& xg, const Vec3& offset, Vec3& g, Mat3x6& j) {
+  Vec3 rc;
+  rc.noalias() = m.transpose() * offset;
+  g = c - xg - rc;
+  j.block<3, 3>(0, 0).setIdentity();
+  j.block<3, 3>(0, 3).noalias() = -(m.transpose() * skew(offset));
+}
+
+}  // namespace
+
+int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left, const Mat3& m_left,
+                           const Vec3& c_right, const Mat3& m_right, ConstraintRows& rows,
+                           ConstraintJacobian& jacobian, ConstraintMisfit* misfit) {
+  rows.setZero();
+  jacobian.setZero();
+  if (misfit != nullptr) *misfit = ConstraintMisfit{};
+  const RigConstraints& rig = net.rig;
+  const NetPair& p = net.pair(pair);
+  const bool has_right = p.right >= 0;
+  const NetImage& left = net.image(p.left);
+  int32_t n = 0;
+  const int32_t sides = has_right ? 2 : 1;
+  const Vec3* centers[2] = {&c_left, &c_right};
+  const Mat3* ms[2] = {&m_left, &m_right};
+  const Vec3* offsets[2] = {&rig.left_offset_m, &rig.right_offset_m};
+  const double distances[2] = {rig.left_distance_m, rig.right_distance_m};
+
+  if (rig.use_gimbal && rig.gimbal_set[left.sol] && rig.sigma_gimbal_m > 0.0) {
+    const double w = 1.0 / rig.sigma_gimbal_m;
+    for (int32_t s = 0; s < sides; ++s) {
+      Vec3 g;
+      Mat3x6 j;
+      gimbalRows(*centers[s], *ms[s], rig.gimbal_m[left.sol], *offsets[s], g, j);
+      rows.segment<3>(n) = g * w;
+      jacobian.block<3, 6>(n, 6 * s) = j * w;
+      n += 3;
+      if (misfit != nullptr) misfit->gimbal_m = std::fmax(misfit->gimbal_m, g.norm());
+    }
+  }
+  if (has_right && rig.use_base && rig.sigma_base_m > 0.0) {
+    const double w = 1.0 / rig.sigma_base_m;
+    Vec3 re;
+    re.noalias() = m_left.transpose() * rig.base_m;
+    const Vec3 g = c_right - c_left - re;
+    rows.segment<3>(n) = g * w;
+    jacobian.block<3, 3>(n, 0) = -Mat3::Identity() * w;
+    jacobian.block<3, 3>(n, 3).noalias() = -(m_left.transpose() * skew(rig.base_m)) * w;
+    jacobian.block<3, 3>(n, 6) = Mat3::Identity() * w;
+    n += 3;
+    if (misfit != nullptr) misfit->base_m = g.norm();
+  }
+  if (rig.use_spin_centre && rig.spin_centre_set[left.tier] && rig.sigma_distance_m > 0.0) {
+    const double w = 1.0 / rig.sigma_distance_m;
+    for (int32_t s = 0; s < sides; ++s) {
+      const Vec3 d = *centers[s] - rig.spin_centre_m[left.tier];
+      const double len = d.norm();
+      if (len > 0.0) {
+        rows(n) = (len - distances[s]) * w;
+        jacobian.block<1, 3>(n, 6 * s) = d.transpose() / len * w;
+        if (misfit != nullptr) misfit->distance_m = std::fmax(misfit->distance_m, std::fabs(len - distances[s]));
+      }
+      n += 1;
+    }
+  }
+  if (has_right && rig.use_lr_distance && rig.sigma_distance_m > 0.0) {
+    const double w = 1.0 / rig.sigma_distance_m;
+    const Vec3 d = c_right - c_left;
+    const double len = d.norm();
+    if (len > 0.0) {
+      rows(n) = (len - rig.lr_distance_m) * w;
+      jacobian.block<1, 3>(n, 0) = -d.transpose() / len * w;
+      jacobian.block<1, 3>(n, 6) = d.transpose() / len * w;
+      if (misfit != nullptr) misfit->distance_m = std::fmax(misfit->distance_m, std::fabs(len - rig.lr_distance_m));
+    }
+    n += 1;
+  }
+  if (rig.use_datum_prior && rig.sigma_datum_rad > 0.0) {
+    const double w = 1.0 / rig.sigma_datum_rad;
+    const int32_t images[2] = {p.left, p.right};
+    for (int32_t s = 0; s < sides; ++s) {
+      Mat3 d;
+      d.noalias() = (*ms[s]) * net.image(images[s]).m_apriori.transpose();
+      rows.segment<3>(n) = rotationVector(d) * w;
+      jacobian.block<3, 3>(n, 6 * s + 3) = Mat3::Identity() * w;
+      n += 3;
+    }
+  }
+  return n;
+}
+
+int32_t currentPairConstraintRows(const Network& net, int32_t pair, ConstraintRows& rows,
+                                  ConstraintJacobian& jacobian, ConstraintMisfit* misfit) {
+  const NetPair& pr = net.pair(pair);
+  const NetImage& l = net.image(pr.left);
+  const NetImage& r = net.image(pr.right >= 0 ? pr.right : pr.left);
+  return pairConstraintRows(net, pair, l.center_m, l.m, r.center_m, r.m, rows, jacobian, misfit);
+}
+
+Status observationRow(const NetObservation& obs, const NetImage& image, const Vec3& center, const Mat3& m,
+                      const Vec3& point, Vec2& residual, Mat2x6* d_image, Mat2x3* d_point) {
+  Vec2 pixel;
+  Mat2x3 d_center, d_rotation;
+  const Status s = collinearity(image.io, center, m, point, pixel, d_image != nullptr ? &d_center : nullptr,
+                                d_image != nullptr ? &d_rotation : nullptr, d_point);
+  if (!ok(s)) {
+    return s;
+  }
+  const double w = 1.0 / obs.sigma_px;
+  residual = (obs.ideal_px - pixel) * w;
+  if (d_image != nullptr) {
+    d_image->block<2, 3>(0, 0) = d_center * w;
+    d_image->block<2, 3>(0, 3) = d_rotation * w;
+  }
+  if (d_point != nullptr) {
+    *d_point *= w;
+  }
+  return Status::kOk;
+}
+
+void applyCameraUpdate(const Vec6& update, Vec3& center, Mat3& m) {
+  center += update.head<3>();
+  const Mat3 r = rotationFromVector(update.tail<3>());
+  const Mat3 m_old = m;
+  m.noalias() = r * m_old;
+  // Re-orthonormalise against drift over thousands of updates.
+  const Eigen::Quaterniond q(m);
+  m = q.normalized().toRotationMatrix();
+}
+
+}  // namespace areomap

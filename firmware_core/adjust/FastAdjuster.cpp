@@ -1,0 +1,452 @@
+#include "firmware_core/adjust/FastAdjuster.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace areomap {
+
+namespace {
+
+using MatHist = Eigen::Matrix<double, kMaxAndersonDepth, kMaxAndersonDepth>;
+using VecHist = Eigen::Matrix<double, kMaxAndersonDepth, 1>;
+
+bool usable(const Network& net, const NetObservation& o) { return !o.rejected && net.point(o.point).solvable; }
+
+}  // namespace
+
+const char* stopRuleName(StopRule rule) {
+  switch (rule) {
+    case StopRule::kCostAndStep:
+      return "cost_and_step";
+    case StopRule::kMaxSweeps:
+      return "max_sweeps";
+    default:
+      return "none";
+  }
+}
+
+double eoPixelEquivalent(double f_px, const Vec3& d_center_m, double angle_rad, double nominal_range_m) {
+  return f_px * (std::fabs(angle_rad) + d_center_m.norm() / nominal_range_m);
+}
+
+void FastAdjuster::buildImageIndex(const Network& net) {
+  const int32_t n_img = net.imageCount();
+  for (int32_t i = 0; i <= n_img; ++i) image_obs_start_[i] = 0;
+  for (int32_t k = 0; k < net.observationCount(); ++k) ++image_obs_start_[net.observation(k).image + 1];
+  for (int32_t i = 0; i < n_img; ++i) image_obs_start_[i + 1] += image_obs_start_[i];
+  // Fill using image_obs_start_ shifted by one as running cursors, then restore.
+  for (int32_t k = 0; k < net.observationCount(); ++k) {
+    const int32_t img = net.observation(k).image;
+    image_obs_[image_obs_start_[img]++] = k;
+  }
+  for (int32_t i = n_img; i > 0; --i) image_obs_start_[i] = image_obs_start_[i - 1];
+  image_obs_start_[0] = 0;
+}
+
+Status FastAdjuster::checkNetwork(Network& net, int32_t& bad_image) {
+  bad_image = -1;
+  // Points: at least two active rays.
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    NetPoint& pt = net.point(p);
+    int32_t active = 0;
+    for (int32_t k = 0; k < pt.obs_count; ++k) active += net.observation(pt.obs[k]).rejected ? 0 : 1;
+    if (active < 2) pt.solvable = false;
+    if (!pt.xyz_m.allFinite()) pt.solvable = false;
+  }
+  buildImageIndex(net);
+  for (int32_t i = 0; i < net.imageCount(); ++i) {
+    int32_t n = 0;
+    Vec3 mean = Vec3::Zero();
+    for (int32_t k = image_obs_start_[i]; k < image_obs_start_[i + 1]; ++k) {
+      const NetObservation& o = net.observation(image_obs_[k]);
+      if (!usable(net, o)) continue;
+      mean += net.point(o.point).xyz_m;
+      ++n;
+    }
+    if (n < kMinObservationsPerImage) {
+      bad_image = i;
+      return Status::kDegenerate;
+    }
+    mean /= static_cast<double>(n);
+    Mat3 cov = Mat3::Zero();
+    for (int32_t k = image_obs_start_[i]; k < image_obs_start_[i + 1]; ++k) {
+      const NetObservation& o = net.observation(image_obs_[k]);
+      if (!usable(net, o)) continue;
+      const Vec3 d = net.point(o.point).xyz_m - mean;
+      cov.noalias() += d * d.transpose();
+    }
+    Eigen::SelfAdjointEigenSolver<Mat3> eig(cov, Eigen::EigenvaluesOnly);
+    // All points on one line: the middle eigenvalue vanishes (1e-10 relative ~ 10 um spread over 1 m).
+    if (!(eig.eigenvalues()(1) > 1e-10 * eig.eigenvalues()(2))) {
+      bad_image = i;
+      return Status::kDegenerate;
+    }
+  }
+  return Status::kOk;
+}
+
+double FastAdjuster::evaluateCost(const Network& net, double* rms_px, int32_t* active) const {
+  double cost = 0.0;
+  double sq_px = 0.0;
+  int32_t n = 0;
+  for (int32_t k = 0; k < net.observationCount(); ++k) {
+    const NetObservation& o = net.observation(k);
+    if (!usable(net, o)) continue;
+    const NetImage& im = net.image(o.image);
+    Vec2 r;
+    if (!ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, r, nullptr, nullptr))) {
+      continue;
+    }
+    cost += r.squaredNorm();
+    sq_px += r.squaredNorm() * o.sigma_px * o.sigma_px;
+    ++n;
+  }
+  for (int32_t p = 0; p < net.pairCount(); ++p) {
+    ConstraintRows rows;
+    ConstraintJacobian jac;
+    currentPairConstraintRows(net, p, rows, jac);
+    cost += rows.squaredNorm();
+  }
+  if (rms_px != nullptr) *rms_px = n > 0 ? std::sqrt(sq_px / (2.0 * n)) : 0.0;
+  if (active != nullptr) *active = n;
+  return cost;
+}
+
+Status FastAdjuster::pairStep(Network& net, bool keep_normals) {
+  for (int32_t p = 0; p < net.pairCount(); ++p) {
+    const NetPair& pr = net.pair(p);
+    const int32_t images[2] = {pr.left, pr.right};
+    const int32_t sides = pr.right >= 0 ? 2 : 1;
+    Mat12 n = Mat12::Zero();
+    Vec12 b = Vec12::Zero();
+    for (int32_t s = 0; s < sides; ++s) {
+      const NetImage& im = net.image(images[s]);
+      for (int32_t k = image_obs_start_[images[s]]; k < image_obs_start_[images[s] + 1]; ++k) {
+        const NetObservation& o = net.observation(image_obs_[k]);
+        if (!usable(net, o)) continue;
+        Vec2 r;
+        Mat2x6 j;
+        if (!ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, r, &j, nullptr))) continue;
+        n.block<6, 6>(6 * s, 6 * s).noalias() += j.transpose() * j;
+        b.segment<6>(6 * s).noalias() += j.transpose() * r;
+      }
+    }
+    const NetImage& left = net.image(pr.left);
+    const NetImage& right = net.image(sides == 2 ? pr.right : pr.left);
+    ConstraintRows rows;
+    ConstraintJacobian jac;
+    const int32_t used = pairConstraintRows(net, p, left.center_m, left.m, right.center_m, right.m, rows, jac);
+    if (used > 0) {
+      n.noalias() += jac.transpose() * jac;
+      b.noalias() -= jac.transpose() * rows;
+    }
+    if (sides == 1) {
+      // A single image: the 6x6 system; the unused block is the identity with a zero right-hand side.
+      n.block<6, 6>(6, 6).setIdentity();
+      n.block<6, 6>(0, 6).setZero();
+      n.block<6, 6>(6, 0).setZero();
+      b.segment<6>(6).setZero();
+    }
+    const Eigen::LDLT<Mat12> ldlt(n);
+    const Vec12 d = ldlt.vectorD();
+    if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-12 * d.maxCoeff())) {
+      pair_normal_ok_[p] = false;
+      return Status::kDegenerate;
+    }
+    if (keep_normals) {
+      pair_normal_[p] = n;
+      pair_normal_ok_[p] = true;
+      continue;
+    }
+    const Vec12 delta = ldlt.solve(b);
+    if (!delta.allFinite()) {
+      return Status::kNotFinite;
+    }
+    for (int32_t s = 0; s < sides; ++s) {
+      NetImage& im = net.image(images[s]);
+      applyCameraUpdate(delta.segment<6>(6 * s), im.center_m, im.m);
+    }
+  }
+  return Status::kOk;
+}
+
+void FastAdjuster::pointStep(Network& net) {
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    NetPoint& pt = net.point(p);
+    if (!pt.solvable) continue;
+    Mat3 n = Mat3::Zero();
+    Vec3 b = Vec3::Zero();
+    int32_t rays = 0;
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const NetObservation& o = net.observation(pt.obs[k]);
+      if (o.rejected) continue;
+      const NetImage& im = net.image(o.image);
+      Vec2 r;
+      Mat2x3 j;
+      if (!ok(observationRow(o, im, im.center_m, im.m, pt.xyz_m, r, nullptr, &j))) continue;
+      n.noalias() += j.transpose() * j;
+      b.noalias() += j.transpose() * r;
+      ++rays;
+    }
+    if (rays < 2) continue;  // behind a camera this sweep; tried again next sweep
+    const Eigen::LDLT<Mat3> ldlt(n);
+    const Vec3 d = ldlt.vectorD();
+    if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-14 * d.maxCoeff())) {
+      pt.solvable = false;
+      continue;
+    }
+    const Vec3 delta = ldlt.solve(b);
+    if (delta.allFinite()) pt.xyz_m += delta;
+  }
+}
+
+void FastAdjuster::readTangent(const Network& net, double* x) const {
+  for (int32_t i = 0; i < net.imageCount(); ++i) {
+    const NetImage& im = net.image(i);
+    Mat3 d;
+    d.noalias() = im.m * im.m_apriori.transpose();
+    const Vec3 c = im.center_m - im.center_apriori_m;
+    const Vec3 w = rotationVector(d);
+    for (int32_t k = 0; k < 3; ++k) {
+      x[6 * i + k] = c(k);
+      x[6 * i + 3 + k] = w(k);
+    }
+  }
+}
+
+void FastAdjuster::writeTangent(Network& net, const double* x) const {
+  for (int32_t i = 0; i < net.imageCount(); ++i) {
+    NetImage& im = net.image(i);
+    const Vec3 c(x[6 * i], x[6 * i + 1], x[6 * i + 2]);
+    const Vec3 w(x[6 * i + 3], x[6 * i + 4], x[6 * i + 5]);
+    im.center_m = im.center_apriori_m + c;
+    im.m.noalias() = rotationFromVector(w) * im.m_apriori;
+  }
+}
+
+bool FastAdjuster::andersonCandidate(int32_t dim, const double* g, double* candidate) {
+  const int32_t m = hist_count_ - 1;  // number of differences
+  if (m < 1) return false;
+  const int32_t newest = hist_count_ - 1;
+  MatHist a = MatHist::Identity();
+  VecHist rhs = VecHist::Zero();
+  // Differences dF_j = F_{j+1} - F_j, j = 0..m-1, in the scaled (pixel-equivalent) inner product.
+  for (int32_t i = 0; i < m; ++i) {
+    for (int32_t j = i; j < m; ++j) {
+      double s = 0.0;
+      for (int32_t d = 0; d < dim; ++d) {
+        const double sc = scale_[d] * scale_[d];
+        s += sc * (hist_f_[i + 1][d] - hist_f_[i][d]) * (hist_f_[j + 1][d] - hist_f_[j][d]);
+      }
+      a(i, j) = s;
+      a(j, i) = s;
+    }
+    double r = 0.0;
+    for (int32_t d = 0; d < dim; ++d) {
+      r += scale_[d] * scale_[d] * (hist_f_[i + 1][d] - hist_f_[i][d]) * hist_f_[newest][d];
+    }
+    rhs(i) = r;
+  }
+  double trace = 0.0;
+  for (int32_t i = 0; i < m; ++i) trace += a(i, i);
+  if (!(trace > 0.0)) return false;
+  for (int32_t i = 0; i < m; ++i) a(i, i) += 1e-10 * trace;
+  const Eigen::LDLT<MatHist> ldlt(a);
+  const VecHist gamma = ldlt.solve(rhs);
+  if (ldlt.info() != Eigen::Success || !gamma.allFinite()) return false;
+  for (int32_t d = 0; d < dim; ++d) {
+    double v = g[d];
+    for (int32_t i = 0; i < m; ++i) v -= gamma(i) * (hist_g_[i + 1][d] - hist_g_[i][d]);
+    candidate[d] = v;
+  }
+  return true;
+}
+
+Status FastAdjuster::solve(Network& net, const FastAdjustOptions& options, FastAdjustResult& result) {
+  const int32_t dim = 6 * net.imageCount();
+  const int32_t max_sweeps = std::min(std::max(options.max_sweeps, 1), kMaxFastSweeps);
+  const int32_t window = std::min(std::max(options.window, 1), kMaxStopWindow);
+  depth_ = std::min(std::max(options.anderson_depth, 1), kMaxAndersonDepth);
+  hist_count_ = 0;
+  for (int32_t i = 0; i < net.imageCount(); ++i) {
+    const double f = net.image(i).io.f_px;
+    for (int32_t k = 0; k < 3; ++k) {
+      scale_[6 * i + k] = f / options.nominal_range_m;
+      scale_[6 * i + 3 + k] = f;
+    }
+  }
+  double cost_window[kMaxStopWindow + 1] = {};
+  pointStep(net);
+  double cost = evaluateCost(net);
+  if (!std::isfinite(cost)) return Status::kNotFinite;
+  readTangent(net, x_);
+  result.stop_rule = StopRule::kMaxSweeps;
+  result.sweeps = 0;
+  for (int32_t sweep = 0; sweep < max_sweeps; ++sweep) {
+    for (int32_t w = window; w > 0; --w) cost_window[w] = cost_window[w - 1];
+    cost_window[0] = cost;
+    const Status s = pairStep(net, false);
+    if (!ok(s)) return s;
+    readTangent(net, g_);
+    // Largest EO update of this plain sweep, pixel equivalent.
+    double step_px = 0.0;
+    for (int32_t i = 0; i < net.imageCount(); ++i) {
+      const Vec3 dc(g_[6 * i] - x_[6 * i], g_[6 * i + 1] - x_[6 * i + 1], g_[6 * i + 2] - x_[6 * i + 2]);
+      const Vec3 dw(g_[6 * i + 3] - x_[6 * i + 3], g_[6 * i + 4] - x_[6 * i + 4], g_[6 * i + 5] - x_[6 * i + 5]);
+      step_px = std::max(step_px, eoPixelEquivalent(net.image(i).io.f_px, dc, dw.norm(), options.nominal_range_m));
+    }
+    // History of (F = G(x) - x, G(x)), oldest first.
+    if (hist_count_ == depth_ + 1) {
+      for (int32_t h = 0; h < depth_; ++h) {
+        for (int32_t d = 0; d < dim; ++d) {
+          hist_f_[h][d] = hist_f_[h + 1][d];
+          hist_g_[h][d] = hist_g_[h + 1][d];
+        }
+      }
+      --hist_count_;
+    }
+    for (int32_t d = 0; d < dim; ++d) {
+      hist_f_[hist_count_][d] = g_[d] - x_[d];
+      hist_g_[hist_count_][d] = g_[d];
+    }
+    ++hist_count_;
+
+    bool accelerated = false;
+    if (options.anderson && andersonCandidate(dim, g_, candidate_)) {
+      writeTangent(net, candidate_);
+      pointStep(net);
+      const double c = evaluateCost(net);
+      if (std::isfinite(c) && c < cost) {
+        accelerated = true;
+        ++result.anderson_accepted;
+        cost = c;
+        for (int32_t d = 0; d < dim; ++d) x_[d] = candidate_[d];
+      } else {
+        ++result.anderson_rejected;
+      }
+    }
+    if (!accelerated) {
+      writeTangent(net, g_);
+      pointStep(net);
+      cost = evaluateCost(net);
+      for (int32_t d = 0; d < dim; ++d) x_[d] = g_[d];
+    }
+    if (!std::isfinite(cost)) return Status::kNotFinite;
+    result.sweeps = sweep + 1;
+    ++result.sweeps_total;
+    result.last_step_px = step_px;
+    if (sweep + 1 >= window) {
+      const double decrease = cost_window[window - 1] - cost;
+      if (decrease <= options.relative_cost_tolerance * cost && step_px < options.eo_step_tolerance_px) {
+        result.stop_rule = StopRule::kCostAndStep;
+        break;
+      }
+    }
+  }
+  return Status::kOk;
+}
+
+int32_t FastAdjuster::rejectOutliers(Network& net, const FastAdjustOptions& options) {
+  int32_t n = 0;
+  for (int32_t k = 0; k < net.observationCount(); ++k) {
+    const NetObservation& o = net.observation(k);
+    if (!usable(net, o)) continue;
+    const NetImage& im = net.image(o.image);
+    Vec2 r;
+    if (!ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, r, nullptr, nullptr))) continue;
+    scratch_[n++] = std::fabs(r.x());
+    scratch_[n++] = std::fabs(r.y());
+  }
+  if (n == 0) return 0;
+  std::nth_element(scratch_, scratch_ + n / 2, scratch_ + n);
+  const double robust_sigma = 1.4826 * scratch_[n / 2];
+  const double threshold = std::max(options.reject_k * robust_sigma, options.reject_floor_sigma);
+  int32_t rejected = 0;
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    NetPoint& pt = net.point(p);
+    if (!pt.solvable) continue;
+    int32_t worst = -1;
+    double worst_norm = threshold;
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const NetObservation& o = net.observation(pt.obs[k]);
+      if (o.rejected) continue;
+      const NetImage& im = net.image(o.image);
+      Vec2 r;
+      const Status s = observationRow(o, im, im.center_m, im.m, pt.xyz_m, r, nullptr, nullptr);
+      const double norm = ok(s) ? r.norm() : 1e300;  // a ray behind its camera is an outlier too
+      if (norm > worst_norm) {
+        worst_norm = norm;
+        worst = pt.obs[k];
+      }
+    }
+    if (worst >= 0) {
+      net.observation(worst).rejected = true;
+      ++rejected;
+      if (!ok(net.triangulate(p))) pt.solvable = false;
+    }
+  }
+  return rejected;
+}
+
+Status FastAdjuster::adjust(Network& net, const FastAdjustOptions& options, FastAdjustResult& result) {
+  result = FastAdjustResult{};
+  if (net.imageCount() == 0) {
+    result.status = Status::kMissingField;
+    return result.status;
+  }
+  for (int32_t round = 0; round <= kMaxRejectionRounds; ++round) {
+    Status s = checkNetwork(net, result.degenerate_image);
+    if (ok(s)) s = solve(net, options, result);
+    if (!ok(s)) {
+      result.status = s;
+      return s;
+    }
+    if (!options.robust || round == kMaxRejectionRounds) break;
+    const int32_t rejected = rejectOutliers(net, options);
+    if (rejected == 0) break;
+    result.rejected_observations += rejected;
+    ++result.rejection_rounds;
+  }
+  // Precision: sigma naught from the redundancy, EO sigmas from the pair normal matrices (points fixed).
+  const Status s = pairStep(net, true);
+  if (!ok(s)) {
+    result.status = s;
+    return s;
+  }
+  result.cost = evaluateCost(net, &result.rms_px, &result.active_observations);
+  int32_t constraint_rows = 0;
+  for (int32_t p = 0; p < net.pairCount(); ++p) {
+    const NetPair& pr = net.pair(p);
+    ConstraintRows rows;
+    ConstraintJacobian jac;
+    ConstraintMisfit misfit;
+    constraint_rows += currentPairConstraintRows(net, p, rows, jac, &misfit);
+    if (net.rig.use_datum_prior) constraint_rows -= 3 * (pr.right >= 0 ? 2 : 1);
+    result.max_misfit.gimbal_m = std::max(result.max_misfit.gimbal_m, misfit.gimbal_m);
+    result.max_misfit.base_m = std::max(result.max_misfit.base_m, misfit.base_m);
+    result.max_misfit.distance_m = std::max(result.max_misfit.distance_m, misfit.distance_m);
+  }
+  int32_t points = 0;
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    if (net.point(p).solvable) {
+      ++points;
+    } else {
+      ++result.unsolvable_points;
+    }
+  }
+  // The prior fixes the datum's 3 rotations; it is not counted as observations.
+  result.redundancy = 2 * result.active_observations + constraint_rows - 6 * net.imageCount() - 3 * points +
+                      (net.rig.use_datum_prior ? 3 : 0);
+  result.sigma0 = result.redundancy > 0 ? std::sqrt(result.cost / result.redundancy) : 0.0;
+  for (int32_t p = 0; p < net.pairCount(); ++p) {
+    const NetPair& pr = net.pair(p);
+    const Eigen::LDLT<Mat12> ldlt(pair_normal_[p]);
+    const Mat12 cov = ldlt.solve(Mat12::Identity());
+    net.image(pr.left).sigma = result.sigma0 * cov.diagonal().head<6>().cwiseSqrt();
+    if (pr.right >= 0) net.image(pr.right).sigma = result.sigma0 * cov.diagonal().tail<6>().cwiseSqrt();
+  }
+  result.status = Status::kOk;
+  return Status::kOk;
+}
+
+}  // namespace areomap

@@ -1,0 +1,123 @@
+// The fast constrained bundle adjustment (Di, Xu, Li §3.3): alternate (a) per-stereo-pair solves of the 12
+// EO unknowns with the pair's ground points fixed (12x12 normal matrix; 6x6 for a single image) and (b)
+// per-point solves of the 3 ground coordinates with all EO fixed (3x3). Plain alternation is a nonlinear
+// block Gauss-Seidel iteration that stalls on a panorama (shared/reference/fast-adjustment.md), so the
+// sweep map is Anderson-accelerated over the stacked EO vector in the tangent space (fixed-size history;
+// the extrapolated EO is kept only if the total weighted cost goes down, else the plain sweep is taken).
+//
+// Stop rule (both must hold): the total weighted cost decreased by less than `relative_cost_tolerance`
+// (relative) over the last `window` sweeps AND the largest EO update of the last sweep is below
+// `eo_step_tolerance_px` (pixel equivalent, see eoPixelEquivalent). Otherwise the sweep bound fires.
+//
+// Robust rejection: after a converged solve the whitened residual norms are compared with
+// max(reject_k x 1.4826 MAD, reject_floor_sigma); per point only the worst observation above it is
+// rejected per round (a point left with < 2 rays becomes unsolvable), and the solve is repeated, at most
+// kMaxRejectionRounds times. Every rejection is counted.
+//
+// Memory: the workspace lives in the adjuster object (~2 MiB, allocate it once, e.g. static); adjust()
+// makes no heap allocation, throws nothing, and every loop is bounded by a named constant.
+#pragma once
+
+#include <cstdint>
+
+#include "firmware_core/adjust/Constraints.hpp"
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/base/Status.hpp"
+
+namespace areomap {
+
+constexpr int32_t kMaxFastSweeps = 2000;          // one sweep = all pairs + all points; ~80 usually suffice
+constexpr int32_t kMaxAndersonDepth = 12;         // history of the accelerated sweep map
+constexpr int32_t kMaxRejectionRounds = 5;        // robust re-solves
+constexpr int32_t kMaxStopWindow = 16;            // sweeps of the relative-cost stop window
+constexpr int32_t kMaxEoUnknowns = 6 * kMaxImages;
+constexpr int32_t kMinObservationsPerImage = 3;   // a camera needs at least 3 rays to be resected
+
+enum class StopRule : uint8_t {
+  kNone = 0,
+  kCostAndStep,  // relative cost decrease over the window and the largest EO step both below tolerance
+  kMaxSweeps,    // the sweep bound fired
+};
+const char* stopRuleName(StopRule rule);
+
+struct FastAdjustOptions {
+  int32_t max_sweeps = 500;               // <= kMaxFastSweeps
+  bool anderson = true;
+  int32_t anderson_depth = 10;            // <= kMaxAndersonDepth
+  int32_t window = 5;                     // <= kMaxStopWindow
+  double relative_cost_tolerance = 1e-9;
+  double eo_step_tolerance_px = 1e-4;
+  double nominal_range_m = 5.0;           // range of the pixel-equivalent measure
+  bool robust = true;
+  double reject_k = 5.0;
+  double reject_floor_sigma = 4.5;        // never reject below 4.5 sigma (whitened norm, P ~ 4e-5)
+};
+
+struct FastAdjustResult {
+  Status status = Status::kOk;
+  StopRule stop_rule = StopRule::kNone;
+  int32_t sweeps = 0;            // of the final solve
+  int32_t sweeps_total = 0;      // over all rejection rounds
+  int32_t rejection_rounds = 0;
+  int32_t anderson_accepted = 0;
+  int32_t anderson_rejected = 0;
+  int32_t rejected_observations = 0;  // rejected in this call (flags already set before are kept)
+  int32_t unsolvable_points = 0;
+  int32_t active_observations = 0;
+  int32_t degenerate_image = -1;      // the image that made the network degenerate, if any
+  int32_t redundancy = 0;
+  double cost = 0.0;                  // total weighted cost (sum of whitened squares)
+  double sigma0 = 0.0;                // a-posteriori sigma naught
+  double rms_px = 0.0;                // RMS of the image residuals (per coordinate), pixels
+  double last_step_px = 0.0;          // largest EO update of the last sweep, pixel equivalent
+  ConstraintMisfit max_misfit;        // largest constraint misfits after the adjustment
+};
+
+// "Pixel equivalent" of an EO difference (one definition for the whole project): f x (rotation angle +
+// centre difference / nominal range), i.e. the image displacement of a point at the nominal range.
+double eoPixelEquivalent(double f_px, const Vec3& d_center_m, double angle_rad, double nominal_range_m);
+
+class FastAdjuster {
+ public:
+  // Checks that every image has enough rays of solvable points and that they are not all on a line, and
+  // marks points with fewer than 2 active rays unsolvable. kDegenerate names the image in bad_image.
+  [[nodiscard]] Status checkNetwork(Network& net, int32_t& bad_image);
+
+  // Adjusts the network in place from its current EO and points (a warm start when called again after
+  // adding pairs). EO sigmas are written into each NetImage.
+  [[nodiscard]] Status adjust(Network& net, const FastAdjustOptions& options, FastAdjustResult& result);
+
+  // Total weighted cost and image RMS of the current state, no update.
+  double evaluateCost(const Network& net, double* rms_px = nullptr, int32_t* active = nullptr) const;
+
+ private:
+  void buildImageIndex(const Network& net);
+  [[nodiscard]] Status solve(Network& net, const FastAdjustOptions& options, FastAdjustResult& result);
+  [[nodiscard]] Status pairStep(Network& net, bool keep_normals);
+  void pointStep(Network& net);
+  int32_t rejectOutliers(Network& net, const FastAdjustOptions& options);
+  void readTangent(const Network& net, double* x) const;
+  void writeTangent(Network& net, const double* x) const;
+  bool andersonCandidate(int32_t dim, const double* g, double* candidate);
+
+  int32_t image_obs_start_[kMaxImages + 1] = {};
+  int32_t image_obs_[kMaxObservations] = {};
+  Mat12 pair_normal_[kMaxPairs];
+  bool pair_normal_ok_[kMaxPairs] = {};
+
+  double scale_[kMaxEoUnknowns] = {};  // tangent -> pixel-equivalent radians (Anderson inner product)
+  double x_[kMaxEoUnknowns] = {};
+  double g_[kMaxEoUnknowns] = {};
+  double candidate_[kMaxEoUnknowns] = {};
+  double hist_f_[kMaxAndersonDepth + 1][kMaxEoUnknowns] = {};
+  double hist_g_[kMaxAndersonDepth + 1][kMaxEoUnknowns] = {};
+  int32_t hist_count_ = 0;
+  int32_t hist_head_ = 0;  // index of the newest entry
+  int32_t depth_ = 0;
+
+  double scratch_[2 * kMaxObservations] = {};
+};
+
+}  // namespace areomap

@@ -1,0 +1,151 @@
+// The image network of one panorama (Di, Xu, Li §3.1-§3.3): images, stereo pairs, tie points with their
+// observations, and the rig constraints (Eq. 3, Eq. 4 and the FIDO-style variants). Fixed arrays sized by
+// firmware_core/base/Capacities.hpp, no heap: the network is a caller-owned object allocated once (it is
+// several MiB: make it static or a member of a static workspace). Issue 6 builds it incrementally as pairs
+// arrive; the adjusters (FastAdjuster here, the integrated ones on the ground) read and update it.
+//
+// Observations are IDEAL pixels of a distortion-free pinhole (the measured pixel mapped once through the
+// exact camera inverse), so every adjuster uses collinearity() of firmware_core/camera/Photogrammetric.hpp.
+#pragma once
+
+#include <cstdint>
+
+#include <Eigen/Eigenvalues>  // fixed-size 3x3 eigen solver (no heap)
+
+#include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/base/Status.hpp"
+#include "firmware_core/camera/Photogrammetric.hpp"
+
+namespace areomap {
+
+enum class Side : uint8_t { kLeft = 0, kRight = 1 };
+
+struct NetImage {
+  int32_t pair = -1;
+  Side side = Side::kLeft;
+  int32_t sol = 0;   // index into RigConstraints::gimbal_m
+  int32_t tier = 0;  // index into RigConstraints::spin_centre_m
+  InteriorOrientation io;
+  Vec3 center_m = Vec3::Zero();           // current X0, Y0, Z0 (site frame)
+  Mat3 m = Mat3::Identity();              // current rotation, site -> camera
+  Vec3 center_apriori_m = Vec3::Zero();   // a-priori (pointing-derived) values
+  Mat3 m_apriori = Mat3::Identity();
+  Vec6 sigma = Vec6::Zero();              // a-posteriori sigmas: centre (m), rotation (rad, camera frame)
+};
+
+struct NetPair {
+  int32_t left = -1;
+  int32_t right = -1;  // -1: a single image
+};
+
+struct NetPoint {
+  Vec3 xyz_m = Vec3::Zero();
+  int32_t obs[kMaxObsPerPoint] = {};
+  int32_t obs_count = 0;
+  bool solvable = true;  // false when its rays do not fix it (fewer than 2 active rays, parallel rays)
+};
+
+struct NetObservation {
+  int32_t point = -1;
+  int32_t image = -1;
+  Vec2 ideal_px = Vec2::Zero();
+  double sigma_px = 0.3;  // a-priori standard deviation (Eq. 2 weight = 1 / sigma^2)
+  bool rejected = false;  // set by the robust rejection; rejected observations carry no weight
+};
+
+// The rig constraints as pseudo-observations with very small variances (§3.2). Each can be switched off.
+// Eq. 3 (per image):  C_i - XG_sol - M_i^T c_side = 0   (c = camera centre minus gimbal centre, camera frame)
+// Eq. 4 (per pair):   C_R - C_L - M_L^T e = 0           (e = C_R - C_L in the left camera frame)
+// FIDO variants (rigs without a calibration report): |C_i - S_tier| = d_side (a virtual spin centre per
+// tier), |C_R - C_L| = d_LR. A weak prior on every rotation towards its a-priori value keeps the datum of
+// the free network (the common rotation about the gimbal centre has zero curvature otherwise).
+struct RigConstraints {
+  bool use_gimbal = true;
+  bool use_base = true;
+  bool use_spin_centre = false;
+  bool use_lr_distance = false;
+  bool use_datum_prior = true;
+
+  Vec3 gimbal_m[kMaxSols] = {};
+  bool gimbal_set[kMaxSols] = {};
+  Vec3 left_offset_m = Vec3::Zero();
+  Vec3 right_offset_m = Vec3::Zero();
+  Vec3 base_m = Vec3::Zero();
+  double sigma_gimbal_m = 0.001;
+  double sigma_base_m = 0.0005;
+
+  Vec3 spin_centre_m[kMaxTiers] = {};
+  bool spin_centre_set[kMaxTiers] = {};
+  double left_distance_m = 0.0;   // |C_L - S_tier|
+  double right_distance_m = 0.0;  // |C_R - S_tier|
+  double lr_distance_m = 0.0;     // |C_R - C_L|
+  double sigma_distance_m = 0.001;
+
+  // Datum prior: sigma of each image's rotation about its a-priori value. Large (0.1 rad = ~100x the
+  // pointing error) so that it only fixes the zero-curvature direction and biases nothing measurable.
+  double sigma_datum_rad = 0.1;
+};
+
+class Network {
+ public:
+  void clear();
+
+  // Adds a stereo pair (right_io == nullptr: a single left image). Cameras start at their a-priori values.
+  [[nodiscard]] Status addPair(int32_t sol, int32_t tier, const InteriorOrientation& left_io,
+                               const Vec3& left_center_m, const Mat3& left_m,
+                               const InteriorOrientation* right_io, const Vec3& right_center_m,
+                               const Mat3& right_m, int32_t& pair_index);
+  // Adds a tie point (its position is set by triangulate() or by the caller).
+  [[nodiscard]] Status addPoint(const Vec3& xyz_m, int32_t& point_index);
+  // Adds an observation of `point` in `image` (ideal pixels). kInvalidArgument for bad indices or a second
+  // observation of the same point in the same image; kCapacityExceeded when full.
+  [[nodiscard]] Status addObservation(int32_t point, int32_t image, const Vec2& ideal_px, double sigma_px);
+
+  // Multi-ray least-squares intersection of the point's active rays with the current EO (the network
+  // builder's initial values). kDegenerate for fewer than 2 rays or rays that do not intersect in front.
+  [[nodiscard]] Status triangulate(int32_t point);
+  [[nodiscard]] Status triangulateAll(int32_t& failed_count);
+
+  // Restores every camera to its a-priori values and clears the rejection flags.
+  void resetToApriori();
+
+  int32_t imageCount() const { return image_count_; }
+  int32_t pairCount() const { return pair_count_; }
+  int32_t pointCount() const { return point_count_; }
+  int32_t observationCount() const { return observation_count_; }
+
+  NetImage& image(int32_t i) { return images_[i]; }
+  const NetImage& image(int32_t i) const { return images_[i]; }
+  NetPair& pair(int32_t i) { return pairs_[i]; }
+  const NetPair& pair(int32_t i) const { return pairs_[i]; }
+  NetPoint& point(int32_t i) { return points_[i]; }
+  const NetPoint& point(int32_t i) const { return points_[i]; }
+  NetObservation& observation(int32_t i) { return observations_[i]; }
+  const NetObservation& observation(int32_t i) const { return observations_[i]; }
+
+  RigConstraints rig;
+
+ private:
+  NetImage images_[kMaxImages];
+  NetPair pairs_[kMaxPairs];
+  NetPoint points_[kMaxTiePoints];
+  NetObservation observations_[kMaxObservations];
+  int32_t image_count_ = 0;
+  int32_t pair_count_ = 0;
+  int32_t point_count_ = 0;
+  int32_t observation_count_ = 0;
+};
+
+// Multi-ray intersection of `count` rays (centre, unit direction): the point minimising the sum of squared
+// perpendicular distances. kDegenerate when the rays are (nearly) parallel.
+[[nodiscard]] Status intersectRays(const Vec3* origins, const Vec3* directions, int32_t count, Vec3& point);
+
+// The unit ray (site frame) of an ideal pixel of a camera.
+Vec3 rayOfIdealPixel(const InteriorOrientation& io, const Mat3& m, const Vec2& ideal_px);
+
+// Rotation vector of a rotation matrix (log map), and the angle between two rotations.
+Vec3 rotationVector(const Mat3& r);
+double rotationAngle(const Mat3& a, const Mat3& b);
+
+}  // namespace areomap

@@ -1,0 +1,232 @@
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "firmware_core/adjust/Constraints.hpp"
+#include "firmware_core/adjust/FastAdjuster.hpp"
+#include "firmware_core/adjust/Network.hpp"
+#include "platform/heap/HeapCounter.hpp"
+#include "tests/firmware_core/adjust/SyntheticPanorama.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using namespace areomap;
+using areomap::test::PanoramaTruth;
+
+namespace {
+
+// Caller-owned, allocated once (several MiB each).
+Network g_net;
+FastAdjuster g_adjuster;
+
+// The paper's "very small variances" (§3.2): the synthetic rig is exactly rigid, so 10 um sigmas.
+void makeScene(const test::PanoramaConfig& config, PanoramaTruth& truth) {
+  test::makePanorama(config, g_net, truth);
+  g_net.rig.sigma_gimbal_m = 1e-5;
+  g_net.rig.sigma_base_m = 1e-5;
+}
+
+double maxMisfit(const FastAdjustResult& r) {
+  return std::fmax(r.max_misfit.gimbal_m, std::fmax(r.max_misfit.base_m, r.max_misfit.distance_m));
+}
+
+void printResult(const char* name, const FastAdjustResult& r, const test::TruthError& raw,
+                 const test::TruthError& aligned) {
+  std::printf(
+      "\n  %s: status=%s stop=%s sweeps=%d (total %d) anderson acc/rej=%d/%d rejected=%d rms=%.4f px "
+      "sigma0=%.3f eo_vs_truth aligned=%.4f px raw=%.4f px ground aligned=%.5f m raw=%.5f m "
+      "misfit gimbal=%.2e base=%.2e m\n",
+      name, statusName(r.status), stopRuleName(r.stop_rule), r.sweeps, r.sweeps_total, r.anderson_accepted,
+      r.anderson_rejected, r.rejected_observations, r.rms_px, r.sigma0, aligned.eo_px, raw.eo_px,
+      aligned.ground_m, raw.ground_m, r.max_misfit.gimbal_m, r.max_misfit.base_m);
+}
+
+}  // namespace
+
+TEST_GROUP(FastAdjuster){};
+
+TEST(FastAdjuster, NavcamMeetsTheIssueBounds) {
+  PanoramaTruth truth;
+  makeScene(test::navcamConfig(), truth);
+  const test::TruthError before = test::truthError(g_net, truth, true);
+  FastAdjustResult r;
+  CHECK(ok(g_adjuster.adjust(g_net, FastAdjustOptions{}, r)));
+  const test::TruthError raw = test::truthError(g_net, truth, false);
+  const test::TruthError aligned = test::truthError(g_net, truth, true);
+  std::printf("\n  navcam: %d images %d points %d observations; before: eo aligned %.3f px\n",
+              g_net.imageCount(), g_net.pointCount(), g_net.observationCount(), before.eo_px);
+  printResult("navcam fast", r, raw, aligned);
+  CHECK(r.stop_rule == StopRule::kCostAndStep);
+  CHECK(r.rms_px <= 0.35);
+  CHECK(aligned.eo_px <= 0.3);
+  CHECK(maxMisfit(r) <= 1e-4);
+  CHECK(before.eo_px > 3.0 * aligned.eo_px);
+  // sigma0 of a correct weight model is ~1.
+  CHECK(r.sigma0 > 0.8 && r.sigma0 < 1.2);
+  for (int32_t i = 0; i < g_net.imageCount(); ++i) {
+    CHECK(g_net.image(i).sigma.allFinite());
+    CHECK(g_net.image(i).sigma.maxCoeff() > 0.0);
+  }
+}
+
+TEST(FastAdjuster, ConstraintsMakeTheNetworkRigid) {
+  PanoramaTruth truth;
+  makeScene(test::navcamConfig(), truth);
+  FastAdjustResult with;
+  CHECK(ok(g_adjuster.adjust(g_net, FastAdjustOptions{}, with)));
+  const test::TruthError e_with = test::truthError(g_net, truth, true);
+
+  makeScene(test::navcamConfig(), truth);
+  g_net.rig.use_gimbal = false;
+  g_net.rig.use_base = false;
+  FastAdjustResult without;
+  FastAdjustOptions options;
+  options.max_sweeps = 1000;
+  CHECK(ok(g_adjuster.adjust(g_net, options, without)));
+  const test::TruthError e_without = test::truthError(g_net, truth, true);
+  std::printf("\n  constraints on: eo %.4f px ground %.5f m; off: eo %.4f px ground %.5f m (aligned)\n",
+              e_with.eo_px, e_with.ground_m, e_without.eo_px, e_without.ground_m);
+  CHECK(e_without.eo_px > 1.5 * e_with.eo_px);
+}
+
+TEST(FastAdjuster, GrossOutliersAreRejected) {
+  test::PanoramaConfig cfg = test::navcamConfig();
+  cfg.outlier_fraction = 0.05;
+  cfg.seed = 7;
+  PanoramaTruth truth;
+  makeScene(cfg, truth);
+  FastAdjustResult r;
+  CHECK(ok(g_adjuster.adjust(g_net, FastAdjustOptions{}, r)));
+  int32_t outliers = 0, caught = 0, false_rejections = 0;
+  for (int32_t k = 0; k < g_net.observationCount(); ++k) {
+    if (truth.outlier[k]) ++outliers;
+    if (truth.outlier[k] && g_net.observation(k).rejected) ++caught;
+    if (!truth.outlier[k] && g_net.observation(k).rejected) ++false_rejections;
+  }
+  const test::TruthError aligned = test::truthError(g_net, truth, true);
+  printResult("navcam 5% outliers", r, test::truthError(g_net, truth, false), aligned);
+  std::printf("  outliers %d, rejected %d of them, %d good observations rejected (of %d)\n", outliers, caught,
+              false_rejections, g_net.observationCount());
+  // An outlier along the epipolar line of a two-ray point is absorbed in its depth and cannot be seen;
+  // all others must go.
+  CHECK(caught >= (9 * outliers) / 10);
+  CHECK(false_rejections <= g_net.observationCount() / 200);
+  CHECK(r.rms_px <= 0.35);
+  CHECK(aligned.eo_px <= 0.3);
+}
+
+TEST(FastAdjuster, WholeImpAdjustmentMakesNoHeapAllocation) {
+  PanoramaTruth truth;
+  makeScene(test::impConfig(), truth);
+  FastAdjustResult r;
+  Status s = Status::kOk;
+  {
+    HeapAllocationScope scope;
+    s = g_adjuster.adjust(g_net, FastAdjustOptions{}, r);
+    CHECK_EQUAL(0u, scope.allocations());
+  }
+  CHECK(heapCounterActive());
+  CHECK(ok(s));
+  printResult("imp fast", r, test::truthError(g_net, truth, false), test::truthError(g_net, truth, true));
+  std::printf("  imp: %d pairs %d images %d points %d observations\n", g_net.pairCount(), g_net.imageCount(),
+              g_net.pointCount(), g_net.observationCount());
+  CHECK(r.rms_px <= 0.35);
+}
+
+TEST(FastAdjuster, PairWithoutTiePointsIsDegenerate) {
+  PanoramaTruth truth;
+  makeScene(test::navcamConfig(), truth);
+  // Reject every observation of pair 3's left image.
+  const int32_t img = g_net.pair(3).left;
+  for (int32_t k = 0; k < g_net.observationCount(); ++k) {
+    if (g_net.observation(k).image == img) g_net.observation(k).rejected = true;
+  }
+  FastAdjustResult r;
+  CHECK(Status::kDegenerate == g_adjuster.adjust(g_net, FastAdjustOptions{}, r));
+  CHECK_EQUAL(img, r.degenerate_image);
+  for (int32_t i = 0; i < g_net.imageCount(); ++i) {
+    CHECK(g_net.image(i).center_m.allFinite());
+    CHECK(g_net.image(i).m.allFinite());
+  }
+}
+
+TEST(FastAdjuster, PointsOnALineAreDegenerate) {
+  g_net.clear();
+  g_net.rig = RigConstraints{};
+  InteriorOrientation io;
+  io.f_px = 1000.0;
+  io.x0_px = 511.5;
+  io.y0_px = 511.5;
+  const Mat3 m = (Mat3() << 0, 1, 0, 0, 0, -1, -1, 0, 0).finished();  // looking north, horizontal
+  int32_t pair = 0;
+  CHECK(ok(g_net.addPair(0, 0, io, Vec3(0, -0.1, 0), m, &io, Vec3(0, 0.1, 0), m, pair)));
+  for (int32_t k = 0; k < 10; ++k) {
+    const Vec3 x(5.0 + k, 0.3 * k, 0.0);  // all on one line
+    int32_t p = 0;
+    CHECK(ok(g_net.addPoint(x, p)));
+    for (int32_t side = 0; side < 2; ++side) {
+      Vec2 q;
+      CHECK(ok(collinearity(io, g_net.image(side).center_m, m, x, q)));
+      CHECK(ok(g_net.addObservation(p, side, q, 0.3)));
+    }
+  }
+  FastAdjustResult r;
+  CHECK(Status::kDegenerate == g_adjuster.adjust(g_net, FastAdjustOptions{}, r));
+  CHECK(r.degenerate_image >= 0);
+}
+
+TEST(FastAdjuster, CapacityIsReported) {
+  g_net.clear();
+  InteriorOrientation io;
+  io.f_px = 1000.0;
+  int32_t pair = 0;
+  Status s = Status::kOk;
+  for (int32_t i = 0; i <= kMaxPairs && ok(s); ++i) {
+    s = g_net.addPair(0, 0, io, Vec3::Zero(), Mat3::Identity(), &io, Vec3::Zero(), Mat3::Identity(), pair);
+  }
+  CHECK(Status::kCapacityExceeded == s);
+  CHECK_EQUAL(kMaxPairs, g_net.pairCount());
+}
+
+TEST_GROUP(Constraints){};
+
+TEST(Constraints, JacobiansMatchNumericDerivatives) {
+  PanoramaTruth truth;
+  makeScene(test::navcamConfig(), truth);
+  g_net.rig.use_spin_centre = true;
+  g_net.rig.use_lr_distance = true;
+  g_net.rig.spin_centre_m[0] = truth.gimbal_m + Vec3(0.01, 0.02, 0.0);
+  g_net.rig.spin_centre_set[0] = true;
+  g_net.rig.left_distance_m = 0.1;
+  g_net.rig.right_distance_m = 0.12;
+  g_net.rig.lr_distance_m = 0.2;
+  const NetPair& p = g_net.pair(0);
+  const Vec3 cl = g_net.image(p.left).center_m + Vec3(0.01, -0.02, 0.005);
+  const Vec3 cr = g_net.image(p.right).center_m;
+  const Mat3 ml = rotationFromVector(Vec3(0.01, 0.02, -0.01)) * g_net.image(p.left).m;
+  const Mat3 mr = g_net.image(p.right).m;
+  ConstraintRows rows;
+  ConstraintJacobian jac;
+  const int32_t n = pairConstraintRows(g_net, 0, cl, ml, cr, mr, rows, jac);
+  CHECK_EQUAL(kMaxPairConstraintRows, n);
+  const double h = 1e-7;
+  for (int32_t k = 0; k < 12; ++k) {
+    Vec12 d = Vec12::Zero();
+    d(k) = h;
+    Vec3 cl2 = cl, cr2 = cr;
+    Mat3 ml2 = ml, mr2 = mr;
+    applyCameraUpdate(d.head<6>(), cl2, ml2);
+    applyCameraUpdate(d.tail<6>(), cr2, mr2);
+    ConstraintRows rows2;
+    ConstraintJacobian jac2;
+    (void)pairConstraintRows(g_net, 0, cl2, ml2, cr2, mr2, rows2, jac2);
+    const ConstraintRows numeric = (rows2 - rows) / h;
+    for (int32_t i = 0; i < n; ++i) {
+      // The datum prior's Jacobian is the small-angle one (identity); the exact one differs by
+      // J_l^-1(phi) - I ~ [phi]x / 2, harmless for a prior that only fixes the datum.
+      const double tol = i >= n - 6 ? 1e-3 + 0.6 * rows.segment<6>(n - 6).cwiseAbs().maxCoeff()
+                                    : 1e-3 * std::fmax(1.0, std::fabs(jac(i, k)));
+      DOUBLES_EQUAL(numeric(i), jac(i, k), tol);
+    }
+  }
+}

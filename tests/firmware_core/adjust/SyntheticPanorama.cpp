@@ -1,0 +1,208 @@
+#include "tests/firmware_core/adjust/SyntheticPanorama.hpp"
+
+#include <cmath>
+#include <random>
+
+#include "firmware_core/adjust/FastAdjuster.hpp"
+
+namespace areomap::test {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+double terrainZ(double x, double y) {
+  // Gentle undulations about Z = 0 (site frame, +Z down).
+  return 0.15 * std::sin(0.7 * x) * std::cos(0.5 * y) + 0.05 * std::sin(2.3 * x + 1.1 * y);
+}
+
+Mat3 lookRotation(double azimuth_rad, double elevation_down_rad) {
+  const Vec3 d(std::cos(elevation_down_rad) * std::cos(azimuth_rad),
+               std::cos(elevation_down_rad) * std::sin(azimuth_rad), std::sin(elevation_down_rad));
+  const Vec3 z = -d;
+  const Vec3 x(-std::sin(azimuth_rad), std::cos(azimuth_rad), 0.0);
+  const Vec3 y = z.cross(x);
+  Mat3 m;
+  m.row(0) = x.transpose();
+  m.row(1) = y.transpose();
+  m.row(2) = z.transpose();
+  return m;
+}
+
+bool intersectTerrain(const Vec3& origin, const Vec3& dir, double max_range, Vec3& hit) {
+  if (dir.z() <= 1e-3) return false;
+  double t = (0.0 - origin.z()) / dir.z();
+  for (int i = 0; i < 30; ++i) {
+    const Vec3 p = origin + t * dir;
+    const double f = p.z() - terrainZ(p.x(), p.y());
+    if (std::fabs(f) < 1e-10) break;
+    const double h = 1e-6;
+    const Vec3 p2 = origin + (t + h) * dir;
+    const double f2 = p2.z() - terrainZ(p2.x(), p2.y());
+    const double df = (f2 - f) / h;
+    if (std::fabs(df) < 1e-12) return false;
+    t -= f / df;
+  }
+  hit = origin + t * dir;
+  return t > 0.5 && t < max_range && std::fabs(hit.z() - terrainZ(hit.x(), hit.y())) < 1e-8;
+}
+
+}  // namespace
+
+PanoramaConfig navcamConfig() { return PanoramaConfig{}; }
+
+PanoramaConfig impConfig() {
+  PanoramaConfig c;
+  c.tiers = 4;
+  c.azimuths = 16;
+  c.azimuth_step_deg = 12.0;
+  c.first_elevation_deg = 12.0;
+  c.elevation_step_deg = 11.0;
+  c.width = 256;
+  c.height = 256;
+  c.f_px = 1000.0;
+  c.baseline_m = 0.15;
+  c.mast_height_m = 1.2;
+  c.grid = 4;
+  c.max_range_m = 30.0;
+  c.single_image = true;
+  return c;
+}
+
+void makePanorama(const PanoramaConfig& cfg, Network& net, PanoramaTruth& truth) {
+  net.clear();
+  truth = PanoramaTruth{};
+  std::mt19937 rng(cfg.seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+
+  const Vec3 gimbal(0.0, 0.0, -cfg.mast_height_m);
+  truth.gimbal_m = gimbal;
+  const Vec3 left_offset(-0.5 * cfg.baseline_m, 0.02, 0.03);
+  const Vec3 right_offset(0.5 * cfg.baseline_m, 0.02, 0.03);
+  // A small toe-in of the right camera: M_R = toe * M_L.
+  const Mat3 toe = rotationFromVector(Vec3(0.0, 0.004, 0.001));
+
+  RigConstraints& rig = net.rig;
+  rig = RigConstraints{};
+  rig.gimbal_m[0] = gimbal;
+  rig.gimbal_set[0] = true;
+  rig.left_offset_m = left_offset;
+  rig.right_offset_m = right_offset;
+
+  InteriorOrientation io;
+  io.f_px = cfg.f_px;
+  io.x0_px = 0.5 * (cfg.width - 1);
+  io.y0_px = 0.5 * (cfg.height - 1);
+  io.width = cfg.width;
+  io.height = cfg.height;
+
+  const int32_t n_pairs = cfg.tiers * cfg.azimuths + (cfg.single_image ? 1 : 0);
+  for (int32_t p = 0; p < n_pairs; ++p) {
+    const bool single = p == cfg.tiers * cfg.azimuths;
+    const int32_t tier = single ? 0 : p / cfg.azimuths;
+    const int32_t az = single ? cfg.azimuths : p % cfg.azimuths;
+    const Mat3 ml = lookRotation(az * cfg.azimuth_step_deg * kPi / 180.0,
+                                 (cfg.first_elevation_deg + tier * cfg.elevation_step_deg) * kPi / 180.0);
+    const Mat3 mr = toe * ml;
+    const Vec3 cl = gimbal + ml.transpose() * left_offset;
+    const Vec3 cr = gimbal + mr.transpose() * right_offset;
+    if (p == 0) rig.base_m = ml * (cr - cl);
+    // Pointing error: a rigid rotation of the pair about the gimbal centre, 3-15 px.
+    Vec3 axis(gauss(rng), gauss(rng), gauss(rng));
+    axis.normalize();
+    const double err_px = cfg.pointing_min_px + (cfg.pointing_max_px - cfg.pointing_min_px) * uni(rng);
+    const Mat3 q = rotationFromVector(axis * (err_px / cfg.f_px));
+    const Mat3 ml_ap = ml * q.transpose();
+    const Mat3 mr_ap = mr * q.transpose();
+    const Vec3 cl_ap = gimbal + q * (cl - gimbal);
+    const Vec3 cr_ap = gimbal + q * (cr - gimbal);
+    int32_t index = 0;
+    const Status s = net.addPair(0, tier, io, cl_ap, ml_ap, single ? nullptr : &io, cr_ap, mr_ap, index);
+    (void)s;
+    truth.centers.push_back(cl);
+    truth.rotations.push_back(ml);
+    if (!single) {
+      truth.centers.push_back(cr);
+      truth.rotations.push_back(mr);
+    }
+  }
+  // Tie points from a grid in each left image.
+  for (int32_t p = 0; p < net.pairCount(); ++p) {
+    const int32_t li = net.pair(p).left;
+    for (int32_t gy = 0; gy < cfg.grid; ++gy) {
+      for (int32_t gx = 0; gx < cfg.grid; ++gx) {
+        const Vec2 px((gx + 0.3 + 0.4 * uni(rng)) * cfg.width / cfg.grid,
+                      (gy + 0.3 + 0.4 * uni(rng)) * cfg.height / cfg.grid);
+        const Vec3 ray = rayOfIdealPixel(io, truth.rotations[li], px);
+        Vec3 xyz;
+        if (!intersectTerrain(truth.centers[li], ray, cfg.max_range_m, xyz)) continue;
+        // Observed in every image that sees it.
+        int32_t seen[kMaxObsPerPoint];
+        Vec2 pix[kMaxObsPerPoint];
+        int32_t n = 0;
+        for (int32_t i = 0; i < net.imageCount() && n < kMaxObsPerPoint; ++i) {
+          Vec2 q;
+          if (!ok(collinearity(io, truth.centers[i], truth.rotations[i], xyz, q))) continue;
+          if (q.x() < 0.0 || q.y() < 0.0 || q.x() > cfg.width - 1 || q.y() > cfg.height - 1) continue;
+          seen[n] = i;
+          pix[n] = q;
+          ++n;
+        }
+        if (n < 2) continue;
+        int32_t point = 0;
+        if (!ok(net.addPoint(xyz, point))) return;
+        truth.points.push_back(xyz);
+        for (int32_t k = 0; k < n; ++k) {
+          Vec2 obs = pix[k] + cfg.noise_px * Vec2(gauss(rng), gauss(rng));
+          bool outlier = false;
+          if (uni(rng) < cfg.outlier_fraction) {
+            const double a = 2.0 * kPi * uni(rng);
+            obs += (10.0 + 40.0 * uni(rng)) * Vec2(std::cos(a), std::sin(a));
+            outlier = true;
+          }
+          if (ok(net.addObservation(point, seen[k], obs, cfg.noise_px))) truth.outlier.push_back(outlier);
+        }
+      }
+    }
+  }
+  int32_t failed = 0;
+  (void)net.triangulateAll(failed);
+}
+
+TruthError truthError(const Network& net, const PanoramaTruth& truth, bool aligned, double range_m) {
+  // Best-fit common rotation about the gimbal centre: chordal mean of R_i = M_true^T M_est, projected to
+  // SO(3); an estimated camera/point maps to truth as M_est R^T and XG + R (P - XG).
+  Mat3 r = Mat3::Identity();
+  if (aligned) {
+    Mat3 sum = Mat3::Zero();
+    for (int32_t i = 0; i < net.imageCount(); ++i) sum += truth.rotations[i].transpose() * net.image(i).m;
+    Eigen::JacobiSVD<Mat3> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Mat3 d = Mat3::Identity();
+    d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+    r = svd.matrixU() * d * svd.matrixV().transpose();
+  }
+  TruthError e;
+  double sum_eo = 0.0;
+  for (int32_t i = 0; i < net.imageCount(); ++i) {
+    const NetImage& im = net.image(i);
+    const Mat3 m = im.m * r.transpose();
+    const Vec3 c = truth.gimbal_m + r * (im.center_m - truth.gimbal_m);
+    const double px = eoPixelEquivalent(im.io.f_px, c - truth.centers[i], rotationAngle(m, truth.rotations[i]),
+                                        range_m);
+    sum_eo += px * px;
+  }
+  e.eo_px = std::sqrt(sum_eo / std::max(1, net.imageCount()));
+  double sum_p = 0.0;
+  int32_t n = 0;
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    if (!net.point(p).solvable) continue;
+    const Vec3 x = truth.gimbal_m + r * (net.point(p).xyz_m - truth.gimbal_m);
+    sum_p += (x - truth.points[p]).squaredNorm();
+    ++n;
+  }
+  e.ground_m = std::sqrt(sum_p / std::max(1, n));
+  return e;
+}
+
+}  // namespace areomap::test
