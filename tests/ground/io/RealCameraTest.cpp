@@ -105,6 +105,35 @@ TEST(RealCameras, BackProjectionThenProjectionReturnsThePixel) {
 // (hc - cols/2) * pixel, y0 = -(vc - rows/2) * pixel, angles in degrees. Its own forward and reverse
 // examples disagree by 0.006 mm in f and 0.008 deg in kappa; it takes f = hs while we take f = vs
 // (|hs - vs| = 0.61 px = 0.011 mm here). Tolerances: f 0.02 mm, x0/y0 0.002 mm, angles 0.02 deg.
+// Analytic d(pixel)/d(point) of CAHVOR/CAHVORE against central differences, 1e-6 relative.
+TEST(RealCameras, ProjectionJacobiansMatchCentralDifferences) {
+  if (!haveAll()) return;
+  for (const Named& n : realModels()) {
+    for (double fx : {0.05, 0.5, 0.95}) {
+      for (double fy : {0.05, 0.5, 0.95}) {
+        Vec3 origin, dir;
+        CHECK(unproject(n.model, Vec2(fx * n.model.width, fy * n.model.height), origin, dir) == Status::kOk);
+        const Vec3 point = origin + 6.0 * dir;
+        Vec2 px;
+        Mat2x3 jac;
+        CHECK(project(n.model, point, px, &jac) == Status::kOk);
+        for (int k = 0; k < 3; ++k) {
+          Vec3 d = Vec3::Zero();
+          d(k) = 1e-5;
+          Vec2 a, b;
+          CHECK(project(n.model, point + d, a) == Status::kOk);
+          CHECK(project(n.model, point - d, b) == Status::kOk);
+          const Vec2 numeric = (a - b) / 2e-5;
+          for (int r = 0; r < 2; ++r) {
+            const double scale = std::fmax(1.0, std::fabs(jac(r, k)));
+            CHECK(std::fabs(numeric(r) - jac(r, k)) / scale < 1e-6);
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST(RealCameras, ReproducesTheConversionOracle) {
   if (!haveAll()) return;
   const CameraModel m = io::readCameraModelFile(data(kOracle), 762, 506);
