@@ -76,4 +76,10 @@ static_assert(kMaxInterestPoints <= (kMaxImageWidth / 32) * (kMaxImageHeight / 3
               "spreading grid of 32 px with 2 points per cell bounds the interest points");
 static_assert(kMaxTiesPerPair * 2 * kMaxPairs <= kMaxObservations, "intra ties of every pair fit");
 
+// Inter-stereo offset probe: a-priori pointing errors of up to ~15 px per pair (MER mast-head pan/tilt)
+// differ by up to ~30 px between two pairs; a few strong ties per image pair are searched +-48 px to
+// measure that common offset before the +-kInterSearchRadiusPx search around the corrected prediction.
+constexpr int32_t kInterOffsetSearchRadiusPx = 48;
+constexpr int32_t kMaxInterOffsetProbes = 24;
+
 }  // namespace areomap

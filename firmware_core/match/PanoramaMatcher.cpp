@@ -9,6 +9,10 @@
 namespace areomap {
 namespace {
 constexpr double kWarpBasePx = 4.0;  // pixel offset used to measure the local affine map of a patch
+constexpr double kOffsetScalePx = 512.0;  // normalises image positions in the offset field
+constexpr int32_t kMinAffineOffsets = 6;  // fewer inliers: a constant offset field
+
+Vec3 offsetBasis(const Vec2& px) { return Vec3(1.0, px.x() / kOffsetScalePx, px.y() / kOffsetScalePx); }
 }  // namespace
 
 void PanoramaMatcher::reset() {
@@ -122,26 +126,107 @@ Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, c
       (axis == 0 ? st.predicted_dx_m : st.predicted_dy_m) = p2;
     }
     st.point = id;
+    st.source_px = m.left_px;
   }
+  if (!has_right) storeSingleImagePoints(left, left_model, stored);
   ++pair_count_;
   const bool any = stereo_result_.tie_count > 0 || report.inter_observations > 0;
   return any ? Status::kOk : Status::kNoTexture;
 }
 
+void PanoramaMatcher::fitOffsets(int32_t n, double initial_tolerance_px, double tolerance_px, Vec3& fx, Vec3& fy) {
+  for (int32_t c = 0; c < n; ++c) scratch_[c] = candidates_[c].dx;
+  const double mdx = medianInPlace(scratch_, n);
+  for (int32_t c = 0; c < n; ++c) scratch_[c] = candidates_[c].dy;
+  const double mdy = medianInPlace(scratch_, n);
+  fx = Vec3(mdx, 0.0, 0.0);
+  fy = Vec3(mdy, 0.0, 0.0);
+  double tolerance = initial_tolerance_px;
+  for (int32_t iteration = 0; iteration <= kMaxParallaxFitIterations; ++iteration) {
+    int32_t inliers = 0;
+    bool changed = false;
+    for (int32_t c = 0; c < n; ++c) {
+      const Vec3 b = offsetBasis(candidates_[c].px);
+      const bool in = std::fabs(candidates_[c].dx - fx.dot(b)) <= tolerance &&
+                      std::fabs(candidates_[c].dy - fy.dot(b)) <= tolerance;
+      changed = changed || in != inlier_[c] || iteration == 0;
+      inlier_[c] = in;
+      inliers += in ? 1 : 0;
+    }
+    if ((!changed && tolerance == tolerance_px) || iteration == kMaxParallaxFitIterations) break;
+    tolerance = tolerance_px;
+    if (inliers < kMinAffineOffsets) continue;  // keep the constant (median) field
+    Mat3 normal = Mat3::Zero();
+    Vec3 rx = Vec3::Zero(), ry = Vec3::Zero();
+    for (int32_t c = 0; c < n; ++c) {
+      if (!inlier_[c]) continue;
+      const Vec3 b = offsetBasis(candidates_[c].px);
+      normal.noalias() += b * b.transpose();
+      rx.noalias() += b * candidates_[c].dx;
+      ry.noalias() += b * candidates_[c].dy;
+    }
+    const Eigen::LDLT<Mat3> ldlt(normal);
+    if (ldlt.info() != Eigen::Success || ldlt.rcond() < 1e-9) continue;
+    fx = ldlt.solve(rx);
+    fy = ldlt.solve(ry);
+  }
+}
+
+void PanoramaMatcher::storeSingleImagePoints(const ImageView& left, const CameraModel& model, StoredPair& stored) {
+  int32_t count = 0;
+  if (!ok(detectInterestPoints(left, stereo.forstner, stereo_workspace_.forstner, stereo_workspace_.points,
+                               kMaxInterestPoints, count))) {
+    if (count == 0) return;
+  }
+  // Gridding as for stereo ties: the strongest point per cell.
+  const int32_t cell = stereo.grid_cell_px;
+  const int32_t cells_x = (left.width + cell - 1) / cell;
+  const int32_t cells_y = (left.height + cell - 1) / cell;
+  if (cell < 1 || cells_x * cells_y > kMaxTiesPerPair) return;
+  int32_t* best = stereo_workspace_.cell_best;
+  for (int32_t c = 0; c < cells_x * cells_y; ++c) best[c] = -1;
+  for (int32_t i = 0; i < count; ++i) {
+    const InterestPoint& p = stereo_workspace_.points[i];
+    const int32_t c = (p.pixel_y / cell) * cells_x + p.pixel_x / cell;
+    if (best[c] < 0 || stereo_workspace_.points[best[c]].weight < p.weight) best[c] = i;
+  }
+  for (int32_t c = 0; c < cells_x * cells_y; ++c) {
+    if (best[c] < 0) continue;
+    const InterestPoint& p = stereo_workspace_.points[best[c]];
+    const int32_t x = static_cast<int32_t>(std::lround(p.x_px));
+    const int32_t y = static_cast<int32_t>(std::lround(p.y_px));
+    NccTemplate t;
+    Vec3 origin, direction;
+    if (!extractTemplate(left, x, y, t) || !t.textured || !ok(unproject(model, Vec2(x, y), origin, direction))) {
+      continue;
+    }
+    double range = inter.single_max_range_m;
+    if (direction.z() > 1e-6) range = (inter.ground_z_m - origin.z()) / direction.z();
+    range = std::fmax(inter.single_min_range_m, std::fmin(inter.single_max_range_m, range));
+    StoredTie& st = stored.ties[stored.tie_count++];
+    for (int32_t k = 0; k < kNccPixels; ++k) st.patch[k] = t.pixels[k];
+    st.predicted_m = origin + range * direction;
+    st.has_shape = false;
+    st.source_px = Vec2(x, y);
+    st.point = -1;
+  }
+}
+
 void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], PairTieReport& report) {
   const StoredPair& target = pairs_[new_pair];
   for (int32_t i = 0; i < new_pair; ++i) {
-    const StoredPair& source = pairs_[i];
+    StoredPair& source = pairs_[i];
     bool linked = false;
     for (int32_t side = 0; side < 2; ++side) {
       const ImageView* image = images[side];
       if (image == nullptr) continue;
       const CameraModel& model = target.model[side];
       const int32_t margin = kNccRadius + 1;
-      int32_t n = 0;
+      // Predictions inside this image, with the local shape of each patch.
+      int32_t np = 0;
       for (int32_t k = 0; k < source.tie_count; ++k) {
         const StoredTie& st = source.ties[k];
-        if (points_[st.point].observation_count >= kMaxObsPerPoint) continue;
+        if (st.point >= 0 && points_[st.point].observation_count >= kMaxObsPerPoint) continue;
         Vec2 predicted;
         if (!ok(project(model, st.predicted_m, predicted))) continue;
         if (predicted.x() < margin || predicted.y() < margin || predicted.x() > image->width - 1 - margin ||
@@ -149,12 +234,6 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
           continue;
         }
         ++report.inter_candidates;
-        NccTemplate t;
-        templateFromPixels(st.patch, t);
-        if (!t.textured) continue;
-        const int32_t px = static_cast<int32_t>(std::lround(predicted.x()));
-        const int32_t py = static_cast<int32_t>(std::lround(predicted.y()));
-        // Local affine map of the stored patch into this view, through the surface.
         Mat2 a = Mat2::Identity();
         Vec2 px_dx, px_dy;
         if (st.has_shape && ok(project(model, st.predicted_dx_m, px_dx)) && ok(project(model, st.predicted_dy_m, px_dy))) {
@@ -163,34 +242,76 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
           const double det = a.determinant();
           if (!(det > 0.25 && det < 4.0)) a = Mat2::Identity();  // implausible shape: compare unwarped
         }
-        const SearchHit hit = searchWindowWarped(t, *image, px, py, inter.search_radius_px, a);
+        predictions_[np++] = Prediction{k, predicted, a};
+      }
+      if (np == 0) continue;
+      // Probe: a few predictions spread over the list, searched in a wide window, measure the common
+      // offset (the difference of the two pairs' a-priori pointing errors).
+      const int32_t probes = np < kMaxInterOffsetProbes ? np : kMaxInterOffsetProbes;
+      int32_t found = 0;
+      for (int32_t q = 0; q < probes; ++q) {
+        const Prediction& pr = predictions_[(q * np) / probes];
+        NccTemplate t;
+        templateFromPixels(source.ties[pr.tie].patch, t);
+        const SearchHit hit = searchWindowWarped(t, *image, static_cast<int32_t>(std::lround(pr.px.x())),
+                                                 static_cast<int32_t>(std::lround(pr.px.y())),
+                                                 inter.probe_radius_px, pr.shape);
+        if (hit.score < inter.min_ncc || hit.second > stereo.max_second_ratio * hit.score) continue;
+        candidates_[found++] = Candidate{pr.tie, pr.px, hit.score, hit.x - pr.px.x(), hit.y - pr.px.y()};
+      }
+      if (found < inter.min_group) continue;
+      Vec3 field_x, field_y;
+      fitOffsets(found, inter.probe_radius_px, inter.search_radius_px, field_x, field_y);
+
+      // Search every prediction around its corrected position.
+      int32_t n = 0;
+      for (int32_t c = 0; c < np; ++c) {
+        const Prediction& pr = predictions_[c];
+        NccTemplate t;
+        templateFromPixels(source.ties[pr.tie].patch, t);
+        if (!t.textured) continue;
+        const Vec3 basis = offsetBasis(pr.px);
+        const int32_t px = static_cast<int32_t>(std::lround(pr.px.x() + field_x.dot(basis)));
+        const int32_t py = static_cast<int32_t>(std::lround(pr.px.y() + field_y.dot(basis)));
+        const SearchHit hit = searchWindowWarped(t, *image, px, py, inter.search_radius_px, pr.shape);
         if (hit.score < inter.min_ncc || hit.second > stereo.max_second_ratio * hit.score) continue;
         double x = 0.0, y = 0.0;
-        refinePeakWarped(t, *image, hit.x, hit.y, hit.score, a, x, y);
+        refinePeakWarped(t, *image, hit.x, hit.y, hit.score, pr.shape, x, y);
         ++report.inter_matched;
         // The match is kept as its offset from the prediction; the position is rebuilt when accepted.
-        candidates_[n++] = Candidate{k, hit.score, x - predicted.x(), y - predicted.y()};
+        candidates_[n++] = Candidate{pr.tie, pr.px, hit.score, x - pr.px.x(), y - pr.px.y()};
       }
       if (n == 0) continue;
       if (n < inter.min_group) {
         report.inter_rejected += n;
         continue;
       }
-      // Verification: the offsets from the prediction (a-priori pointing error) agree within the image.
-      for (int32_t c = 0; c < n; ++c) scratch_[c] = candidates_[c].dx;
-      const double median_dx = medianInPlace(scratch_, n);
-      for (int32_t c = 0; c < n; ++c) scratch_[c] = candidates_[c].dy;
-      const double median_dy = medianInPlace(scratch_, n);
+      // Verification: the offsets from the prediction (a-priori pointing errors) follow one smooth (affine)
+      // field over the image.
+      fitOffsets(n, inter.search_radius_px + inter.offset_tolerance_px, inter.offset_tolerance_px, field_x, field_y);
       for (int32_t c = 0; c < n; ++c) {
         const Candidate& cand = candidates_[c];
-        if (std::fabs(cand.dx - median_dx) > inter.offset_tolerance_px ||
-            std::fabs(cand.dy - median_dy) > inter.offset_tolerance_px) {
+        if (!inlier_[c]) {
           ++report.inter_rejected;
           continue;
         }
-        const StoredTie& st = source.ties[cand.tie];
-        Vec2 predicted;
-        if (!ok(project(model, st.predicted_m, predicted))) continue;
+        StoredTie& st = source.ties[cand.tie];
+        const Vec2 predicted = cand.px;
+        if (st.point < 0) {
+          // First match of a single image's interest point: the point is born with both observations.
+          TiePoint p;
+          p.ground_m = st.predicted_m;
+          p.pair = i;
+          if (!points_.push(p)) {
+            ++report.overflow;
+            continue;
+          }
+          st.point = points_.size() - 1;
+          if (!addObservation(st.point, 2 * i, st.source_px.x(), st.source_px.y(), TieKind::kInter, 1.0f)) {
+            ++report.overflow;
+            continue;
+          }
+        }
         if (addObservation(st.point, 2 * new_pair + side, predicted.x() + cand.dx, predicted.y() + cand.dy,
                            TieKind::kInter, static_cast<float>(cand.score))) {
           ++report.inter_observations;

@@ -3,7 +3,9 @@
 //   2. its coarse DEM from those ties triangulated with the a-priori models (CoarseDem),
 //   3. inter-stereo ties: every stored tie of every earlier pair, predicted through that pair's coarse DEM
 //      and projected with the a-priori models into the new pair's images, is searched by NCC in a small
-//      window there; the offsets found must agree per image (verification) -- the same tie point keeps its
+//      window there (after a probe of a few strong ties in a wide window has measured the common offset that
+//      the a-priori pointing errors cause); the offsets found must agree per image (verification) -- the
+//      same tie point keeps its
 //      identity, it gains observations,
 //   4. the new pair's ties are stored for later pairs: the 11 x 11 left-image patch around each tie and its
 //      DEM-predicted ground point (the full images are not kept: 256 pairs x 1 MiB would not fit).
@@ -43,9 +45,15 @@ struct TiePoint {
 };
 
 struct InterParams {
-  int32_t search_radius_px = 12;  // <= kInterSearchRadiusPx
+  // A single image has no DEM: its interest points are predicted on the plane Z = ground_z_m (site frame,
+  // Z down) at a range clamped to [min, max], which is close enough for frames turned about one mast.
+  double ground_z_m = 0.0;
+  double single_min_range_m = 2.0;
+  double single_max_range_m = 50.0;
+  int32_t probe_radius_px = kInterOffsetSearchRadiusPx;  // offset probe (a-priori pointing differences)
+  int32_t search_radius_px = 4;   // around the prediction corrected by the probed offset, <= kInterSearchRadiusPx
   double min_ncc = 0.85;
-  double offset_tolerance_px = 2.0;  // departure from the median offset of the image pair
+  double offset_tolerance_px = 2.0;  // departure from the offset field (affine in the image) of the image pair
   int32_t min_group = 3;             // fewer candidates in an image than this: not verifiable, rejected
 };
 
@@ -91,6 +99,9 @@ class PanoramaMatcher {
     Vec3 predicted_dx_m;
     Vec3 predicted_dy_m;
     bool has_shape;
+    Vec2 source_px;  // its observation in the left image of the pair that stored it
+    // -1 for an interest point of a single image (no stereo partner): the point is created by its first
+    // inter-stereo match.
     int32_t point;
   };
   struct StoredPair {
@@ -99,14 +110,23 @@ class PanoramaMatcher {
     StoredTie ties[kMaxTiesPerPair];
     int32_t tie_count = 0;
   };
+  struct Prediction {
+    int32_t tie;
+    Vec2 px;
+    Mat2 shape;  // local affine map of the stored patch into the target view
+  };
   struct Candidate {
     int32_t tie;
+    Vec2 px;  // prediction
     double score;
     double dx;
     double dy;
   };
 
   void interTies(int32_t new_pair, const ImageView* images[2], PairTieReport& report);
+  // Robust affine field of the offsets (found - predicted) over the image: inlier_[c] per candidate.
+  void fitOffsets(int32_t n, double initial_tolerance_px, double tolerance_px, Vec3& fx, Vec3& fy);
+  void storeSingleImagePoints(const ImageView& left, const CameraModel& model, StoredPair& stored);
   bool addObservation(int32_t point, int32_t image, double sample_px, double line_px, TieKind kind, float score);
 
   StereoWorkspace stereo_workspace_;
@@ -116,8 +136,10 @@ class PanoramaMatcher {
   int32_t pair_count_ = 0;
   FixedVector<TieObservation, kMaxObservations> observations_;
   FixedVector<TiePoint, kMaxTiePoints> points_;
+  Prediction predictions_[kMaxTiesPerPair];
   Candidate candidates_[kMaxTiesPerPair];
   double scratch_[kMaxTiesPerPair];
+  bool inlier_[kMaxTiesPerPair];
 };
 
 }  // namespace areomap

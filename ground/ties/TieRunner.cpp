@@ -1,0 +1,117 @@
+#include "ground/ties/TieRunner.hpp"
+
+#include <filesystem>
+#include <memory>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "ground/cli/Cli.hpp"
+#include "ground/io/CameraFile.hpp"
+#include "ground/io/ImageFile.hpp"
+
+namespace areomap {
+namespace {
+
+struct LoadedImage {
+  cv::Mat pixels;
+  CameraModel model;
+};
+
+LoadedImage loadImage(const ImageRef& ref) {
+  LoadedImage out;
+  out.pixels = io::loadImage8(ref.image_path);
+  if (!out.pixels.isContinuous()) out.pixels = out.pixels.clone();
+  if (out.pixels.cols > kMaxImageWidth || out.pixels.rows > kMaxImageHeight) {
+    throw cli::InputError(ref.image_path, "image", "larger than the rover's " + std::to_string(kMaxImageWidth) + "x" +
+                                                       std::to_string(kMaxImageHeight) + " capacity");
+  }
+  const std::string model_path = ref.model_path.empty() ? ref.image_path : ref.model_path;
+  out.model = io::readCameraModelFile(model_path, out.pixels.cols, out.pixels.rows);
+  return out;
+}
+
+ImageView viewOf(const cv::Mat& m) {
+  return ImageView{m.ptr<uint8_t>(0), m.cols, m.rows, static_cast<int32_t>(m.step[0])};
+}
+
+}  // namespace
+
+TieRun runTiePoints(const Dataset& dataset, bool progress) {
+  if (static_cast<int32_t>(dataset.pairs.size()) > kMaxPairs) {
+    throw cli::InputError(dataset.root + "/panorama.json", "pairs",
+                          std::to_string(dataset.pairs.size()) + " pairs exceed the rover's " +
+                              std::to_string(kMaxPairs));
+  }
+  // ~20 MiB of fixed workspaces, as on the rover (heap here only because the ground owns its memory).
+  auto matcher = std::make_unique<PanoramaMatcher>();
+  matcher->reset();
+  TieRun run;
+  const double start = cli::nowSeconds();
+  for (size_t k = 0; k < dataset.pairs.size(); ++k) {
+    const Pair& pair = dataset.pairs[k];
+    const LoadedImage left = loadImage(pair.left);
+    LoadedImage right;
+    if (pair.right) right = loadImage(*pair.right);
+    run.stems.push_back(pair.left.stem);
+    run.stems.push_back(pair.right ? pair.right->stem : std::string());
+    const ImageView lv = viewOf(left.pixels);
+    const ImageView rv = pair.right ? viewOf(right.pixels) : ImageView{};
+    PairTieReport report;
+    const Status s = matcher->addPair(lv, pair.right ? &rv : nullptr, left.model, pair.right ? &right.model : nullptr,
+                                      report);
+    if (s == Status::kInvalidArgument || s == Status::kCapacityExceeded) {
+      throw cli::InputError(pair.left.image_path, "image", std::string("rejected by the matcher: ") + statusName(s));
+    }
+    run.reports.push_back(report);
+    if (progress) {
+      cli::info("pair " + std::to_string(k + 1) + "/" + std::to_string(dataset.pairs.size()) + " (" + pair.left.stem +
+                "): " + statusName(s) + ", intra " + std::to_string(report.intra.selected) + ", inter " +
+                std::to_string(report.inter_observations) + " observations to " + std::to_string(report.neighbours) +
+                " earlier pairs");
+    }
+  }
+  run.seconds = cli::nowSeconds() - start;
+  const auto& obs = matcher->observations();
+  for (int32_t i = 0; i < obs.size(); ++i) {
+    ImageObservation o;
+    o.point = obs[i].point;
+    o.image = run.stems[static_cast<size_t>(obs[i].image)];
+    o.sample_px = obs[i].sample_px;
+    o.line_px = obs[i].line_px;
+    o.kind = obs[i].kind == TieKind::kIntra ? "intra" : "inter";
+    (obs[i].kind == TieKind::kIntra ? run.intra_observations : run.inter_observations) += 1;
+    run.observations.push_back(o);
+  }
+  for (int32_t i = 0; i < matcher->points().size(); ++i) run.points_m.push_back(matcher->points()[i].ground_m);
+  return run;
+}
+
+void writeTiePoints(const std::string& out_dir, const TieRun& run) {
+  std::filesystem::create_directories(out_dir);
+  writeObservationsCsv(out_dir + "/tiepoints.csv", run.observations, true);
+}
+
+void writeOverlays(const std::string& out_dir, const Dataset& dataset, const TieRun& run) {
+  const std::string dir = out_dir + "/overlays";
+  std::filesystem::create_directories(dir);
+  for (const Pair& pair : dataset.pairs) {
+    for (const ImageRef* ref : {&pair.left, pair.right ? &*pair.right : nullptr}) {
+      if (ref == nullptr) continue;
+      cv::Mat grey = io::loadImage8(ref->image_path);
+      cv::Mat colour;
+      cv::cvtColor(grey, colour, cv::COLOR_GRAY2BGR);
+      for (const ImageObservation& o : run.observations) {
+        if (o.image != ref->stem) continue;
+        const cv::Scalar c = o.kind == "intra" ? cv::Scalar(255, 0, 0) : cv::Scalar(0, 0, 255);  // BGR
+        const cv::Point p(static_cast<int>(std::lround(o.sample_px)), static_cast<int>(std::lround(o.line_px)));
+        cv::drawMarker(colour, p, c, cv::MARKER_CROSS, 9, 1);
+      }
+      const std::string path = dir + "/" + ref->stem + ".png";
+      if (!cv::imwrite(path, colour)) throw cli::InputError(path, "overlay", "cannot write");
+    }
+  }
+}
+
+}  // namespace areomap

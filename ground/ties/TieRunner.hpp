@@ -1,0 +1,34 @@
+// The rover's tie-point pipeline (firmware_core/match PanoramaMatcher) run on a dataset folder on the
+// ground: pairs in panorama.json order, each image loaded as 8-bit grey (PNG/JPEG/PGM/PDS3) with its
+// a-priori model (the .cahvor file, or the PDS3 label), the observations named by image stem.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "firmware_core/match/PanoramaMatcher.hpp"
+#include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/TruthFiles.hpp"
+
+namespace areomap {
+
+struct TieRun {
+  std::vector<ImageObservation> observations;  // point, image stem, sample, line, kind
+  std::vector<Eigen::Vector3d> points_m;       // a-priori ground position per point id
+  std::vector<PairTieReport> reports;          // per pair
+  std::vector<std::string> stems;              // image index (2 * pair + side) -> stem ("" when absent)
+  int intra_observations = 0;
+  int inter_observations = 0;
+  double seconds = 0.0;
+};
+
+// Runs the matcher on every pair. `progress` prints a line per pair on stderr. Throws cli::InputError for
+// unreadable images/models or images larger than the rover's capacity.
+TieRun runTiePoints(const Dataset& dataset, bool progress);
+
+// DIR/tiepoints.csv (point,image,sample_px,line_px,kind).
+void writeTiePoints(const std::string& out_dir, const TieRun& run);
+// DIR/overlays/<stem>.png: the image with blue crosses on intra-stereo and red on inter-stereo observations.
+void writeOverlays(const std::string& out_dir, const Dataset& dataset, const TieRun& run);
+
+}  // namespace areomap
