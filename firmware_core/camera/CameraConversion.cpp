@@ -304,6 +304,11 @@ Status photogrammetricToCahvor(const PhotogrammetricCamera& camera, CameraModel&
   return Status::kOk;
 }
 
+Status photogrammetricToCahvor(const PhotogrammetricCamera& camera, CameraModel& model) {
+  ConversionResidual ignored;
+  return photogrammetricToCahvor(camera, model, ignored);
+}
+
 CameraModel adjustedModel(const CameraModel& apriori, const Mat3& m_old, const Mat3& m_new, const Vec3& center_new) {
   Mat3 rotation;
   rotation.noalias() = m_new.transpose() * m_old;

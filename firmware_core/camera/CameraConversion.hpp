@@ -60,6 +60,8 @@ constexpr int32_t kConversionFitGrid = 33;
 // `residual` compares the written model with the photogrammetric projection over the 32 x 32 grid.
 [[nodiscard]] Status photogrammetricToCahvor(const PhotogrammetricCamera& camera, CameraModel& model,
                                              ConversionResidual& residual);
+// The same without the residual (the lead's original signature).
+[[nodiscard]] Status photogrammetricToCahvor(const PhotogrammetricCamera& camera, CameraModel& model);
 
 // The exact observation maps of the adjuster (see the header comment).
 [[nodiscard]] Status pixelToIdeal(const CameraModel& model, const PhotogrammetricCamera& camera,

@@ -116,6 +116,9 @@ TEST(CameraConversion, AdjustedModelEqualsTheLinearPartWrittenBack) {
   CHECK((moved.a - written.a).norm() < 1e-12);
   CHECK((moved.h - written.h).norm() < 1e-9);
   CHECK((moved.v - written.v).norm() < 1e-9);
+  CameraModel written2;
+  CHECK(photogrammetricToCahvor(adjusted, written2) == Status::kOk);
+  CHECK((written2.h - written.h).norm() == 0.0 && written2.r == written.r);
   // And the moved model still carries the a-priori distortion, rotated with the camera.
   CHECK((moved.o - adjusted.m.transpose() * cam.m * apriori.o).norm() < 1e-12);
 }
