@@ -82,9 +82,10 @@ struct RigConstraints {
   double lr_distance_m = 0.0;     // |C_R - C_L|
   double sigma_distance_m = 0.001;
 
-  // Datum prior: sigma of each image's rotation about its a-priori value. Large (0.1 rad = ~100x the
-  // pointing error) so that it only fixes the zero-curvature direction and biases nothing measurable.
-  double sigma_datum_rad = 0.1;
+  // Datum prior: sigma of each image's rotation about its a-priori value. Weak (0.01 rad = ~10x the
+  // pointing error, 1e-5 of the weight of a pair's image data) so that it fixes the zero-curvature
+  // direction (to the mean a-priori pointing) and biases nothing measurable.
+  double sigma_datum_rad = 0.01;
 };
 
 class Network {

@@ -1,0 +1,108 @@
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "firmware_core/adjust/FastAdjuster.hpp"
+#include "ground/adjust/IntegratedAdjuster.hpp"
+#include "platform/heap/HeapCounter.hpp"
+#include "tests/firmware_core/adjust/SyntheticPanorama.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using namespace areomap;
+
+namespace {
+
+Network g_net;
+Network g_reference;
+FastAdjuster g_fast;
+
+struct Difference {
+  double eo_px = 0.0;     // largest EO difference, pixel equivalent at 5 m
+  double ground_m = 0.0;  // largest 3-D point difference
+};
+
+Difference largestDifference(const Network& a, const Network& b) {
+  Difference d;
+  for (int i = 0; i < a.imageCount(); ++i) {
+    const double px = eoPixelEquivalent(a.image(i).io.f_px, a.image(i).center_m - b.image(i).center_m,
+                                        rotationAngle(a.image(i).m, b.image(i).m), 5.0);
+    d.eo_px = std::fmax(d.eo_px, px);
+  }
+  for (int p = 0; p < a.pointCount(); ++p) {
+    if (!a.point(p).solvable) continue;
+    d.ground_m = std::fmax(d.ground_m, (a.point(p).xyz_m - b.point(p).xyz_m).norm());
+  }
+  return d;
+}
+
+// A smaller navcam panorama (the dense SVD is O(n^3)), exactly rigid rig with the paper's tiny sigmas.
+test::PanoramaConfig smallNavcam() {
+  test::PanoramaConfig cfg = test::navcamConfig();
+  cfg.grid = 4;
+  cfg.max_range_m = 25.0;
+  return cfg;
+}
+
+void makeScene(const test::PanoramaConfig& cfg, test::PanoramaTruth& truth) {
+  test::makePanorama(cfg, g_net, truth);
+  g_net.rig.sigma_gimbal_m = 1e-5;
+  g_net.rig.sigma_base_m = 1e-5;
+}
+
+FastAdjustOptions tightFast() {
+  FastAdjustOptions o;
+  o.eo_step_tolerance_px = 1e-7;
+  o.relative_cost_tolerance = 1e-12;
+  o.max_sweeps = 2000;
+  return o;
+}
+
+}  // namespace
+
+TEST_GROUP(IntegratedAdjuster){};
+
+TEST(IntegratedAdjuster, CeresAndFastAgree) {
+  test::PanoramaTruth truth;
+  makeScene(test::navcamConfig(), truth);
+  FastAdjustResult fr;
+  CHECK(ok(g_fast.adjust(g_net, tightFast(), fr)));
+  g_reference = g_net;  // same rejection flags; restart the integrated one from the a-priori EO
+  g_reference.resetToApriori();
+  for (int k = 0; k < g_net.observationCount(); ++k) {
+    g_reference.observation(k).rejected = g_net.observation(k).rejected;
+  }
+  int32_t failed = 0;
+  (void)g_reference.triangulateAll(failed);
+  const ground::IntegratedResult cr = ground::adjustCeres(g_reference);
+  const Difference d = largestDifference(g_net, g_reference);
+  std::printf("\n  navcam fast: %d sweeps cost %.6f | ceres: %d iterations cost %.6f %.3f s (%s)\n"
+              "  largest difference fast-ceres: EO %.5f px equivalent, ground %.6f m\n",
+              fr.sweeps, fr.cost, cr.iterations, cr.cost, cr.seconds, cr.message.c_str(), d.eo_px, d.ground_m);
+  CHECK(cr.converged);
+  CHECK(d.eo_px <= 0.05);
+  CHECK(d.ground_m <= 0.001);
+  DOUBLES_EQUAL(cr.cost, fr.cost, 1e-6 * cr.cost);
+}
+
+TEST(IntegratedAdjuster, SvdAndFastAgree) {
+  test::PanoramaTruth truth;
+  makeScene(smallNavcam(), truth);
+  FastAdjustResult fr;
+  CHECK(ok(g_fast.adjust(g_net, tightFast(), fr)));
+  g_reference = g_net;
+  g_reference.resetToApriori();
+  for (int k = 0; k < g_net.observationCount(); ++k) {
+    g_reference.observation(k).rejected = g_net.observation(k).rejected;
+  }
+  int32_t failed = 0;
+  (void)g_reference.triangulateAll(failed);
+  const ground::IntegratedResult sr = ground::adjustSvd(g_reference);
+  const Difference d = largestDifference(g_net, g_reference);
+  std::printf("\n  small navcam (%d unknowns) fast: %d sweeps cost %.6f | svd: %d iterations cost %.6f %.3f s\n"
+              "  largest difference fast-svd: EO %.6f px equivalent, ground %.7f m\n",
+              sr.unknowns, fr.sweeps, fr.cost, sr.iterations, sr.cost, sr.seconds, d.eo_px, d.ground_m);
+  CHECK(sr.converged);
+  CHECK(d.eo_px <= 0.05);
+  CHECK(d.ground_m <= 0.001);
+}
