@@ -174,12 +174,14 @@ void PanoramaMatcher::fitOffsets(int32_t n, double initial_tolerance_px, double 
 
 void PanoramaMatcher::storeSingleImagePoints(const ImageView& left, const CameraModel& model, StoredPair& stored) {
   int32_t count = 0;
-  if (!ok(detectInterestPoints(left, stereo.forstner, stereo_workspace_.forstner, stereo_workspace_.points,
+  ForstnerParams forstner = stereo.forstner;
+  forstner.cell_px = spreadingGridPx(stereo, left.width, left.height);
+  if (!ok(detectInterestPoints(left, forstner, stereo_workspace_.forstner, stereo_workspace_.points,
                                kMaxInterestPoints, count))) {
     if (count == 0) return;
   }
   // Gridding as for stereo ties: the strongest point per cell.
-  const int32_t cell = stereo.grid_cell_px;
+  const int32_t cell = selectionGridPx(stereo, left.width, left.height);
   const int32_t cells_x = (left.width + cell - 1) / cell;
   const int32_t cells_y = (left.height + cell - 1) / cell;
   if (cell < 1 || cells_x * cells_y > kMaxTiesPerPair) return;

@@ -7,20 +7,37 @@
 
 namespace areomap {
 
+int32_t selectionGridPx(const StereoParams& params, int32_t width, int32_t height) {
+  if (params.grid_cell_px > 0) return params.grid_cell_px;
+  const int32_t side = width > height ? width : height;
+  const int32_t cell = (side + 15) / 16;
+  return cell < 16 ? 16 : cell;
+}
+
+int32_t spreadingGridPx(const StereoParams& params, int32_t width, int32_t height) {
+  if (params.forstner.cell_px > 0) return params.forstner.cell_px;
+  const int32_t side = width > height ? width : height;
+  const int32_t cell = (side + 31) / 32;
+  return cell < 16 ? 16 : cell;
+}
+
 Status matchStereoPair(const ImageView& left, const ImageView& right, const CameraModel& left_model,
                        const CameraModel& right_model, const StereoParams& params, StereoWorkspace& workspace,
                        StereoResult& result) {
   result.tie_count = 0;
   result.counts = StereoCounts();
   result.curve = ParallaxCurve();
-  if (!left.valid() || !right.valid() || params.grid_cell_px < 1) return Status::kInvalidArgument;
+  if (!left.valid() || !right.valid() || params.grid_cell_px < 0) return Status::kInvalidArgument;
   if (right.width > kMaxImageWidth || right.height > kMaxImageHeight) return Status::kCapacityExceeded;
-  const int32_t cells_x = (left.width + params.grid_cell_px - 1) / params.grid_cell_px;
-  const int32_t cells_y = (left.height + params.grid_cell_px - 1) / params.grid_cell_px;
+  const int32_t grid = selectionGridPx(params, left.width, left.height);
+  const int32_t cells_x = (left.width + grid - 1) / grid;
+  const int32_t cells_y = (left.height + grid - 1) / grid;
   if (cells_x * cells_y > kMaxTiesPerPair) return Status::kCapacityExceeded;
 
   int32_t point_count = 0;
-  const Status detected = detectInterestPoints(left, params.forstner, workspace.forstner, workspace.points,
+  ForstnerParams forstner = params.forstner;
+  forstner.cell_px = spreadingGridPx(params, left.width, left.height);
+  const Status detected = detectInterestPoints(left, forstner, workspace.forstner, workspace.points,
                                                kMaxInterestPoints, point_count);
   result.counts.interest_points = point_count;
   if (!ok(detected)) return detected;
@@ -85,8 +102,8 @@ Status matchStereoPair(const ImageView& left, const ImageView& right, const Came
   for (int32_t i = 0; i < match_count; ++i) {
     const StereoMatch& m = workspace.matches[i];
     if (!m.verified) continue;
-    const int32_t cx = static_cast<int32_t>(m.left_px.x()) / params.grid_cell_px;
-    const int32_t cy = static_cast<int32_t>(m.left_px.y()) / params.grid_cell_px;
+    const int32_t cx = static_cast<int32_t>(m.left_px.x()) / grid;
+    const int32_t cy = static_cast<int32_t>(m.left_px.y()) / grid;
     int32_t& best = workspace.cell_best[cy * cells_x + cx];
     if (best < 0 || workspace.matches[best].score < m.score) best = i;
   }

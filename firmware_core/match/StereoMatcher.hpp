@@ -28,9 +28,12 @@ struct StereoParams {
   double max_second_ratio = 0.98;  // reject when the second peak (>= 3 px away) scores this close to the best
   int32_t lr_tolerance_px = 1;     // left-right check: integer distance back to the left point
   ParallaxParams parallax;
-  int32_t grid_cell_px = 64;   // final selection grid (cells <= kMaxTiesPerPair)
+  int32_t grid_cell_px = 0;    // final selection grid (cells <= kMaxTiesPerPair); 0: 1/16 of the larger side
   int32_t min_ties = 8;        // fewer verified ties: kNoTexture
-  StereoParams() { forstner.border_px = kNccRadius + 1; }
+  StereoParams() {
+    forstner.border_px = kNccRadius + 1;
+    forstner.cell_px = 0;  // 0: 1/32 of the larger side (at least 16 px)
+  }
 };
 
 struct StereoMatch {
@@ -68,6 +71,11 @@ struct StereoResult {
   StereoCounts counts;
   ParallaxCurve curve;
 };
+
+// The effective selection grid and Förstner spreading grid for an image size (the automatic values when
+// the parameters hold 0).
+int32_t selectionGridPx(const StereoParams& params, int32_t width, int32_t height);
+int32_t spreadingGridPx(const StereoParams& params, int32_t width, int32_t height);
 
 // kNoTexture for a blank, saturated or noise-only pair (too few interest points or verified matches);
 // kInvalidArgument for bad views or parameters; kCapacityExceeded for oversized images or grids.

@@ -4,7 +4,10 @@
 
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/Dataset.hpp"
+#include "ground/ties/TieCheck.hpp"
 #include "ground/ties/TieRunner.hpp"
+#include "ground/dataset/TruthFiles.hpp"
+#include <filesystem>
 
 namespace {
 
@@ -17,7 +20,9 @@ constexpr const char* kUsage =
     "earlier pair. Pairs are processed in panorama.json order, as they would arrive on the rover.\n"
     "\n"
     "Writes DIR/tiepoints.csv (point,image,sample_px,line_px,kind; kind intra or inter; image = the image\n"
-    "file's stem) and DIR/overlays/<stem>.png (blue crosses intra-stereo, red inter-stereo).\n"
+    "file's stem) and DIR/overlays/<stem>.png (blue crosses intra-stereo, red inter-stereo). On a synthetic\n"
+    "dataset (truth/dem.tif and truth/models present) it also prints how many observations lie within 1 px\n"
+    "of the truth projection of the surface point they claim, and the weakest link between adjacent pairs.\n"
     "\n"
     "  --out DIR   output folder (created)\n"
     "  --adjust    then run the fast adjustment on these ties (not available yet in this build)\n"
@@ -31,12 +36,20 @@ int main(int argc, char** argv) {
     const std::string out = args.required("--out");
     const bool adjust = args.flag("--adjust");
     const std::string dataset_dir = args.positional(0, "DATASET");
-    args.finish();
     if (adjust) throw areomap::cli::UsageError("--adjust: the fast adjustment is not wired into areomap-ties yet");
     const areomap::Dataset dataset = areomap::readDataset(dataset_dir);
     const areomap::TieRun run = areomap::runTiePoints(dataset, true);
     areomap::writeTiePoints(out, run);
     areomap::writeOverlays(out, dataset, run);
+    if (std::filesystem::exists(dataset.root + "/" + areomap::kTruthDemFile) &&
+        std::filesystem::exists(dataset.root + "/" + areomap::kTruthModelsFolder)) {
+      const areomap::TieCheck c = areomap::checkTiesAgainstTruth(dataset, run);
+      std::printf("truth: %.2f %% of %d observations within 1 px (inter %.2f %% of %d), rms %.3f px; %d adjacent "
+                  "pairs, weakest link %s\n",
+                  100.0 * c.within_1px / std::max(1, c.checked), c.checked,
+                  100.0 * c.inter_within_1px / std::max(1, c.inter_checked), c.inter_checked, c.rms_px,
+                  c.adjacent_pairs, c.worst_link.c_str());
+    }
     std::printf("tie points: %zu points, %d intra and %d inter observations, %.1f s; %s/tiepoints.csv\n",
                 run.points_m.size(), run.intra_observations, run.inter_observations, run.seconds, out.c_str());
     return 0;

@@ -1,0 +1,33 @@
+// Checks automatic tie points against the truth of a synthetic dataset (areomap-sim): the surface point a
+// tie point claims is where the truth ray of its first observation meets truth/dem.tif; every further
+// observation is compared with that point's projection by the image's truth model. Pairs are adjacent when
+// they see common truth check points (truth/observations.csv); their link is the number of tie points
+// observed in both.
+#pragma once
+
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ground/dataset/Dataset.hpp"
+#include "ground/ties/TieRunner.hpp"
+
+namespace areomap {
+
+struct TieCheck {
+  int checked = 0;        // observations compared (all but each point's first)
+  int within_1px = 0;
+  int inter_checked = 0;
+  int inter_within_1px = 0;
+  int no_surface = 0;     // points whose first ray does not meet the truth DEM (not counted)
+  double rms_px = 0.0;
+  std::map<std::pair<int, int>, int> links;  // adjacent pair indices -> tie points shared
+  int adjacent_pairs = 0;
+  int min_link = 0;
+  std::string worst_link;  // "a-b: n"
+};
+
+TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run);
+
+}  // namespace areomap
