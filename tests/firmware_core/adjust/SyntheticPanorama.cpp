@@ -161,7 +161,7 @@ void makePanorama(const PanoramaConfig& cfg, Network& net, PanoramaTruth& truth)
             obs += (10.0 + 40.0 * uni(rng)) * Vec2(std::cos(a), std::sin(a));
             outlier = true;
           }
-          if (ok(net.addObservation(point, seen[k], obs, cfg.noise_px))) truth.outlier.push_back(outlier);
+          if (ok(net.addObservation(point, seen[k], obs, cfg.noise_px > 0.0 ? cfg.noise_px : 0.3))) truth.outlier.push_back(outlier);
         }
       }
     }
