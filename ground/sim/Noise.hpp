@@ -18,6 +18,11 @@ inline uint64_t hash3(uint64_t seed, int64_t a, int64_t b, uint64_t c = 0) {
   return mix64(seed ^ mix64(static_cast<uint64_t>(a) ^ mix64(static_cast<uint64_t>(b) ^ mix64(c))));
 }
 
+// A cheap lattice hash (one finaliser) for noise lattices.
+inline uint64_t latticeHash(uint64_t seed, int64_t a, int64_t b) {
+  return mix64(seed ^ (static_cast<uint64_t>(a) * 0x9e3779b97f4a7c15ULL) ^ (static_cast<uint64_t>(b) * 0xc2b2ae3d27d4eb4fULL));
+}
+
 // Uniform in [0, 1) from a hash.
 inline double unit(uint64_t h) { return static_cast<double>(h >> 11) * (1.0 / 9007199254740992.0); }
 
@@ -35,8 +40,8 @@ inline double valueNoise(uint64_t seed, double x, double y) {
   const double tx = x - fx, ty = y - fy;
   const double sx = tx * tx * tx * (tx * (tx * 6.0 - 15.0) + 10.0);
   const double sy = ty * ty * ty * (ty * (ty * 6.0 - 15.0) + 10.0);
-  const double v00 = unit(hash3(seed, ix, iy)), v10 = unit(hash3(seed, ix + 1, iy));
-  const double v01 = unit(hash3(seed, ix, iy + 1)), v11 = unit(hash3(seed, ix + 1, iy + 1));
+  const double v00 = unit(latticeHash(seed, ix, iy)), v10 = unit(latticeHash(seed, ix + 1, iy));
+  const double v01 = unit(latticeHash(seed, ix, iy + 1)), v11 = unit(latticeHash(seed, ix + 1, iy + 1));
   const double a = v00 + (v10 - v00) * sx, b = v01 + (v11 - v01) * sx;
   return 2.0 * (a + (b - a) * sy) - 1.0;
 }

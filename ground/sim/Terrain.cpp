@@ -83,7 +83,7 @@ Terrain Terrain::build(const SimConfig& config) {
   t.n_ = static_cast<int>(std::lround(2.0 * config.half_extent_m / config.cell_m)) + 1;
   t.x0_ = -0.5 * (t.n_ - 1) * t.cell_;
   t.y0_ = t.x0_;
-  t.fine_texture_range_m_ = 0.5 * config.max_range_m;
+  t.texture_ifov_rad_ = 1.0 / config.focalPx();
   const int n = t.n_;
   t.h_.assign(static_cast<std::size_t>(n) * n, 0.0f);
   t.albedo_.assign(static_cast<std::size_t>(n) * n, 0.0f);
@@ -94,7 +94,7 @@ Terrain Terrain::build(const SimConfig& config) {
   const double slope_az = 2.0 * M_PI * uni(rng);
   const double slope = 0.01 + 0.02 * uni(rng);
   int octaves = 0;
-  for (double w = 32.0; w >= 4.0 * t.cell_ && octaves < 14; w *= 0.5) ++octaves;
+  for (double w = 32.0; w >= 6.0 * t.cell_ && octaves < 14; w *= 0.5) ++octaves;
   const uint64_t s_relief = t.seed_ + 1, s_patch = t.seed_ + 2, s_dust = t.seed_ + 3, s_mottle = t.seed_ + 4;
   const double relief_scale = 2.6 * config.relief_m;  // value-noise fBm has an RMS of ~0.38
   parallelFor(n, config.threads, [&](int ix) {
@@ -108,7 +108,7 @@ Terrain Terrain::build(const SimConfig& config) {
       const double patch = fbm(s_patch, x, y, 8.0, 3, 0.5);
       const double patches = std::tanh(4.0 * patch) * 0.22;
       const double dust = 0.15 * fbm(s_dust, x, y, 1.5, 3, 0.6);
-      const double mottle = 0.12 * fbm(s_mottle, x, y, 0.25, 3, 0.6);
+      const double mottle = 0.2 * fbm(s_mottle, x, y, 0.4, 3, 0.7);
       t.albedo_[static_cast<std::size_t>(ix) * n + iy] =
           static_cast<float>(0.24 * (1.0 + patches) * (1.0 + dust) * (1.0 + mottle));
     }
@@ -282,25 +282,29 @@ double Terrain::albedo(double x_m, double y_m) const {
   const double fu = u - i, fv = v - j;
   auto a = [&](int ii, int jj) { return static_cast<double>(albedo_[static_cast<std::size_t>(ii) * n_ + jj]); };
   double value = a(i, j) * (1 - fu) * (1 - fv) + a(i + 1, j) * fu * (1 - fv) + a(i, j + 1) * (1 - fu) * fv + a(i + 1, j + 1) * fu * fv;
-  // Fine texture (pebbles and grain below the grid cell), fading out with range from the rover so that
-  // far pixels do not alias it.
-  const double range = std::hypot(x_m, y_m);
-  const double fade = std::clamp(1.5 - range / fine_texture_range_m_, 0.0, 1.0);
-  if (fade > 0.0) {
-    const double grain = 0.10 * valueNoise(seed_ + 11, x_m / 0.012, y_m / 0.012);
-    constexpr double kPebbleCellM = 0.03;
+  // Fine texture (grain and pebbles below the grid cell), band-limited like a mip-map: an octave of
+  // wavelength L fades out where L < 3 pixel footprints at that range (so views alias it alike).
+  const double footprint_m = std::max(1e-3, std::hypot(x_m, y_m) * texture_ifov_rad_);
+  double fine = 0.0;
+  double wavelength = 0.012;
+  for (int octave = 0; octave < 5; ++octave, wavelength *= 2.0) {
+    const double weight = std::clamp(wavelength / (1.5 * footprint_m) - 1.0, 0.0, 1.0);
+    if (weight > 0.0) fine += weight * 0.16 * valueNoise(seed_ + 20 + octave, x_m / wavelength, y_m / wavelength);
+  }
+  constexpr double kPebbleCellM = 0.03;
+  const double pebble_weight = std::clamp(kPebbleCellM / (1.5 * footprint_m) - 1.0, 0.0, 1.0);
+  if (pebble_weight > 0.0) {
     const double px = x_m / kPebbleCellM, py = y_m / kPebbleCellM;
     const int64_t pi = static_cast<int64_t>(std::floor(px)), pj = static_cast<int64_t>(std::floor(py));
     const uint64_t h = hash3(seed_ + 12, pi, pj);
-    double pebble = 0.0;
-    if (unit(h) < 0.25) {
-      const double cx = pi + 0.25 + 0.5 * unit(mix64(h + 1)), cy = pj + 0.25 + 0.5 * unit(mix64(h + 2));
-      const double radius = 0.12 + 0.13 * unit(mix64(h + 3));
+    if (unit(h) < 0.3) {
+      const double cx = pi + 0.3 + 0.4 * unit(mix64(h + 1)), cy = pj + 0.3 + 0.4 * unit(mix64(h + 2));
+      const double radius = 0.15 + 0.15 * unit(mix64(h + 3));
       const double d = std::hypot(px - cx, py - cy) / radius;
-      if (d < 1.0) pebble = (unit(mix64(h + 4)) < 0.5 ? -0.45 : 0.5) * (1.0 - d * d);
+      if (d < 1.0) fine += pebble_weight * (unit(mix64(h + 4)) < 0.5 ? -0.4 : 0.45) * (1.0 - d * d);
     }
-    value *= 1.0 + fade * (grain + pebble);
   }
+  value *= 1.0 + fine;
   return std::clamp(value, 0.01, 1.0);
 }
 

@@ -58,7 +58,7 @@ class Terrain {
   double x0_ = 0.0;   // site x (north) of node row 0
   double y0_ = 0.0;   // site y (east) of node column 0
   double cell_ = 1.0;
-  double fine_texture_range_m_ = 10.0;
+  double texture_ifov_rad_ = 0.005;  // the finest pixel angle of the cameras: texture octaves fade below it
   std::vector<float> h_;       // [ix * n + iy], elevation up
   std::vector<float> albedo_;  // same layout
   std::vector<std::vector<float>> mip_;  // level L: max over blocks of 2^L x 2^L cells

@@ -1,0 +1,247 @@
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "ground/dataset/Dataset.hpp"
+#include "ground/sim/Renderer.hpp"
+#include "ground/sim/SimGeometry.hpp"
+#include "ground/sim/SimWriter.hpp"
+#include "ground/sim/Terrain.hpp"
+#include "tests/support/TestData.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using namespace areomap;
+using namespace areomap::sim;
+
+namespace {
+
+struct TinyScene {
+  SimConfig config = presetConfig("tiny");
+  Terrain terrain = Terrain::build(config);
+  SimGeometry geometry = makeGeometry(config, terrain);
+  std::map<std::string, RenderedImage> images;
+  TinyScene() {
+    const std::vector<const SimCamera*> cams = geometry.cameras();
+    for (std::size_t i = 0; i < cams.size(); ++i) {
+      images[cams[i]->stem] = renderImage(terrain, config, cams[i]->truth, static_cast<int>(i));
+    }
+  }
+};
+
+const TinyScene& tinyScene() {
+  static const TinyScene scene;
+  return scene;
+}
+
+double bilinear(const RenderedImage& im, double x, double y) {
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  auto at = [&](int c, int r) {
+    c = std::clamp(c, 0, im.width - 1);
+    r = std::clamp(r, 0, im.height - 1);
+    return static_cast<double>(im.pixels[static_cast<std::size_t>(r) * im.width + c]);
+  };
+  return at(x0, y0) * (1 - fx) * (1 - fy) + at(x0 + 1, y0) * fx * (1 - fy) + at(x0, y0 + 1) * (1 - fx) * fy +
+         at(x0 + 1, y0 + 1) * fx * fy;
+}
+
+// NCC of (2 half + 1)^2 patches centred on sub-pixel positions.
+double ncc(const RenderedImage& a, const Vec2& pa, const RenderedImage& b, const Vec2& pb, int half) {
+  std::vector<double> va, vb;
+  for (int dy = -half; dy <= half; ++dy) {
+    for (int dx = -half; dx <= half; ++dx) {
+      va.push_back(bilinear(a, pa.x() + dx, pa.y() + dy));
+      vb.push_back(bilinear(b, pb.x() + dx, pb.y() + dy));
+    }
+  }
+  const double n = static_cast<double>(va.size());
+  double ma = 0, mb = 0;
+  for (std::size_t i = 0; i < va.size(); ++i) {
+    ma += va[i] / n;
+    mb += vb[i] / n;
+  }
+  double sab = 0, saa = 0, sbb = 0;
+  for (std::size_t i = 0; i < va.size(); ++i) {
+    sab += (va[i] - ma) * (vb[i] - mb);
+    saa += (va[i] - ma) * (va[i] - ma);
+    sbb += (vb[i] - mb) * (vb[i] - mb);
+  }
+  return sab / std::sqrt(std::max(1e-12, saa * sbb));
+}
+
+// NCC of the patch around `pa` in image A with the same surface seen in image B: every pixel of A's patch
+// is cast onto the terrain and the hit projected into B (so perspective differences do not count).
+bool warpedNcc(const Terrain& terrain, const CameraModel& ma, const RenderedImage& a, const Vec2& pa,
+               const CameraModel& mb, const RenderedImage& b, int half, double& value) {
+  std::vector<double> va, vb;
+  for (int dy = -half; dy <= half; ++dy) {
+    for (int dx = -half; dx <= half; ++dx) {
+      Vec3 origin, dir;
+      double t = 0.0;
+      Vec2 pb;
+      if (unproject(ma, Vec2(pa.x() + dx, pa.y() + dy), origin, dir) != Status::kOk || !terrain.castRay(origin, dir, t) ||
+          project(mb, origin + t * dir, pb) != Status::kOk) {
+        return false;
+      }
+      va.push_back(bilinear(a, pa.x() + dx, pa.y() + dy));
+      vb.push_back(bilinear(b, pb.x(), pb.y()));
+    }
+  }
+  const double n = static_cast<double>(va.size());
+  double ma_ = 0, mb_ = 0;
+  for (std::size_t i = 0; i < va.size(); ++i) {
+    ma_ += va[i] / n;
+    mb_ += vb[i] / n;
+  }
+  double sab = 0, saa = 0, sbb = 0;
+  for (std::size_t i = 0; i < va.size(); ++i) {
+    sab += (va[i] - ma_) * (vb[i] - mb_);
+    saa += (va[i] - ma_) * (va[i] - ma_);
+    sbb += (vb[i] - mb_) * (vb[i] - mb_);
+  }
+  value = sab / std::sqrt(std::max(1e-12, saa * sbb));
+  return true;
+}
+
+std::string readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Runs build/bin/areomap-sim with arguments; returns the exit code, stderr in `err`.
+int runSim(const std::string& args, std::string& err) {
+  const char* bin = std::getenv("AREOMAP_BINARY_DIR");
+  const std::string dir = test::scratchDir("sim-tool-stderr");
+  const std::string command = std::string(bin != nullptr ? bin : ".") + "/bin/areomap-sim " + args + " 2> " + dir + "/err.txt > /dev/null";
+  const int status = std::system(command.c_str());
+  err = readBytes(dir + "/err.txt");
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
+}  // namespace
+
+TEST_GROUP(SimImages){};
+
+TEST(SimImages, TrueProjectionsOfAPointMarkTheSameSurface) {
+  const TinyScene& scene = tinyScene();
+  std::map<int64_t, std::vector<const ImageObservation*>> by_point;
+  for (const ImageObservation& o : scene.geometry.observations) by_point[o.point].push_back(&o);
+  std::map<std::string, const CameraModel*> models;
+  for (const SimCamera* c : scene.geometry.cameras()) models[c->stem] = &c->truth;
+  std::vector<double> stereo, inter, warped;
+  for (const auto& [point, obs] : by_point) {
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      for (std::size_t j = i + 1; j < obs.size(); ++j) {
+        const Vec2 pi(obs[i]->sample_px, obs[i]->line_px), pj(obs[j]->sample_px, obs[j]->line_px);
+        const RenderedImage& ii = scene.images.at(obs[i]->image);
+        const RenderedImage& ij = scene.images.at(obs[j]->image);
+        const double v = ncc(ii, pi, ij, pj, 5);
+        (obs[i]->image.substr(0, 4) == obs[j]->image.substr(0, 4) ? stereo : inter).push_back(v);
+        double w = 0.0;
+        if (warpedNcc(scene.terrain, *models.at(obs[i]->image), ii, pi, *models.at(obs[j]->image), ij, 5, w)) {
+          warped.push_back(w);
+        }
+      }
+    }
+  }
+  auto summary = [](std::vector<double> v, const char* what) {
+    std::sort(v.begin(), v.end());
+    const double above = static_cast<double>(std::count_if(v.begin(), v.end(), [](double x) { return x >= 0.9; })) / v.size();
+    printf("%s: %zu patch pairs, NCC median %.3f, 10th percentile %.3f, %.1f %% >= 0.9\n", what, v.size(),
+           v[v.size() / 2], v[v.size() / 10], 100.0 * above);
+    return std::make_pair(v[v.size() / 2], above);
+  };
+  printf("\n11x11 patches around the true projections of %zu check points:\n", by_point.size());
+  const auto [stereo_median, stereo_above] = summary(stereo, "plain windows, stereo (same pair)");
+  const auto [inter_median, inter_above] = summary(inter, "plain windows, inter-stereo (other pairs)");
+  const auto [warped_median, warped_above] = summary(warped, "same surface (B sampled where A's pixels land)");
+  CHECK(stereo.size() >= 200u);
+  CHECK(inter.size() >= 50u);
+  CHECK(warped.size() >= 300u);
+  CHECK(stereo_median >= 0.9);
+  CHECK(warped_median >= 0.9);
+  CHECK(warped_above >= 0.8);
+  (void)inter_median;
+  (void)inter_above;
+  (void)stereo_above;
+}
+
+TEST(SimImages, ImagesHaveTextureAndSky) {
+  const TinyScene& scene = tinyScene();
+  for (const auto& [stem, im] : scene.images) {
+    double mean = 0, var = 0;
+    for (uint8_t p : im.pixels) mean += p;
+    mean /= im.pixels.size();
+    for (uint8_t p : im.pixels) var += (p - mean) * (p - mean);
+    const double sd = std::sqrt(var / im.pixels.size());
+    CHECK(mean > 40.0 && mean < 200.0);
+    CHECK(sd > 8.0);
+  }
+}
+
+TEST(SimImages, SameSeedSameBytesWhateverTheThreadCount) {
+  SimConfig c = presetConfig("tiny");
+  setPairCount(c, 2);
+  c.width = 128;
+  c.height = 96;
+  c.half_extent_m = 12.0;
+  c.check_points = 50;
+  c.jpeg_quality = 90;
+  const std::string a = test::scratchDir("sim-same-a"), b = test::scratchDir("sim-same-b"), d = test::scratchDir("sim-same-c");
+  c.threads = 1;
+  writeSimDataset(makeGeometry(c), Terrain::build(c), a, WriteOptions{});
+  c.threads = 3;
+  writeSimDataset(makeGeometry(c), Terrain::build(c), b, WriteOptions{});
+  c.seed = 2;
+  writeSimDataset(makeGeometry(c), Terrain::build(c), d, WriteOptions{});
+  int files = 0, differ_other_seed = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(a)) {
+    if (!entry.is_regular_file()) continue;
+    const std::string rel = std::filesystem::relative(entry.path(), a).string();
+    const std::string bytes = readBytes(entry.path().string());
+    CHECK(!bytes.empty());
+    if (bytes != readBytes(b + "/" + rel)) FAIL(("differs between 1 and 3 threads: " + rel).c_str());
+    if (rel.rfind("images/", 0) == 0 && bytes != readBytes(d + "/" + rel)) ++differ_other_seed;
+    ++files;
+  }
+  printf("\n%d files byte-identical for the same seed (1 and 3 threads); %d images differ with another seed\n", files,
+         differ_other_seed);
+  CHECK_EQUAL(4, differ_other_seed);
+  // The dataset reads back through the contract reader.
+  const Dataset ds = readDataset(a);
+  CHECK_EQUAL(2u, ds.pairs.size());
+  checkDatasetFiles(ds, true, true);
+  CHECK(test::fileExists(a + "/truth/models/p001_R.cahvor"));
+  CHECK(test::fileExists(a + "/truth/dem.tif"));
+}
+
+TEST(SimImages, ToolRejectsImpossiblePlansAndUnwritableFolders) {
+  std::string err;
+  const std::string out = test::scratchDir("sim-tool");
+  CHECK_EQUAL(2, runSim("--preset tiny --pan-step-deg 80 --out " + out + "/x", err));
+  printf("\n%s", err.c_str());
+  CHECK(err.find("impossible plan: --pan-step-deg") != std::string::npos);
+  CHECK_EQUAL(2, runSim("--preset tiny --tilts 40 --out " + out + "/x", err));
+  CHECK(err.find("--tilts") != std::string::npos);
+  CHECK_EQUAL(2, runSim("--preset mars --out " + out + "/x", err));
+  CHECK_EQUAL(2, runSim("--preset tiny --pairs many --out " + out + "/x", err));
+  CHECK_EQUAL(2, runSim("--preset tiny", err));
+  std::ofstream(out + "/file") << "x";
+  CHECK_EQUAL(1, runSim("--preset tiny --pairs 1 --no-images --check-points 10 --out " + out + "/file/sub", err));
+  printf("%s", err.c_str());
+  CHECK(err.find(out + "/file/sub") != std::string::npos);
+  CHECK_EQUAL(0, runSim("--help", err));
+  CHECK_EQUAL(0, runSim("--preset tiny --pairs 2 --size 96 64 --no-images --check-points 20 --out " + out + "/ok", err));
+  CHECK(test::fileExists(out + "/ok/panorama.json"));
+  CHECK(test::fileExists(out + "/ok/truth/observations.csv"));
+  CHECK_FALSE(test::fileExists(out + "/ok/images"));
+}
