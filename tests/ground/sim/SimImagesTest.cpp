@@ -54,15 +54,7 @@ double bilinear(const RenderedImage& im, double x, double y) {
          at(x0 + 1, y0 + 1) * fx * fy;
 }
 
-// NCC of (2 half + 1)^2 patches centred on sub-pixel positions.
-double ncc(const RenderedImage& a, const Vec2& pa, const RenderedImage& b, const Vec2& pb, int half) {
-  std::vector<double> va, vb;
-  for (int dy = -half; dy <= half; ++dy) {
-    for (int dx = -half; dx <= half; ++dx) {
-      va.push_back(bilinear(a, pa.x() + dx, pa.y() + dy));
-      vb.push_back(bilinear(b, pb.x() + dx, pb.y() + dy));
-    }
-  }
+double nccOf(const std::vector<double>& va, const std::vector<double>& vb) {
   const double n = static_cast<double>(va.size());
   double ma = 0, mb = 0;
   for (std::size_t i = 0; i < va.size(); ++i) {
@@ -76,6 +68,18 @@ double ncc(const RenderedImage& a, const Vec2& pa, const RenderedImage& b, const
     sbb += (vb[i] - mb) * (vb[i] - mb);
   }
   return sab / std::sqrt(std::max(1e-12, saa * sbb));
+}
+
+// NCC of (2 half + 1)^2 patches centred on sub-pixel positions.
+double ncc(const RenderedImage& a, const Vec2& pa, const RenderedImage& b, const Vec2& pb, int half) {
+  std::vector<double> va, vb;
+  for (int dy = -half; dy <= half; ++dy) {
+    for (int dx = -half; dx <= half; ++dx) {
+      va.push_back(bilinear(a, pa.x() + dx, pa.y() + dy));
+      vb.push_back(bilinear(b, pb.x() + dx, pb.y() + dy));
+    }
+  }
+  return nccOf(va, vb);
 }
 
 // NCC of the patch around `pa` in image A with the same surface seen in image B: every pixel of A's patch
@@ -96,19 +100,7 @@ bool warpedNcc(const Terrain& terrain, const CameraModel& ma, const RenderedImag
       vb.push_back(bilinear(b, pb.x(), pb.y()));
     }
   }
-  const double n = static_cast<double>(va.size());
-  double ma_ = 0, mb_ = 0;
-  for (std::size_t i = 0; i < va.size(); ++i) {
-    ma_ += va[i] / n;
-    mb_ += vb[i] / n;
-  }
-  double sab = 0, saa = 0, sbb = 0;
-  for (std::size_t i = 0; i < va.size(); ++i) {
-    sab += (va[i] - ma_) * (vb[i] - mb_);
-    saa += (va[i] - ma_) * (va[i] - ma_);
-    sbb += (vb[i] - mb_) * (vb[i] - mb_);
-  }
-  value = sab / std::sqrt(std::max(1e-12, saa * sbb));
+  value = nccOf(va, vb);
   return true;
 }
 
