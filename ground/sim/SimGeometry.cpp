@@ -11,7 +11,7 @@ namespace areomap::sim {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-constexpr double kCheckPointMarginPx = 12.0;        // room for a matching window around each point
+constexpr double kCheckPointMarginPx = 0.0;         // every image that sees the point, up to its edge
 constexpr double kMinIncidenceDeg = 8.0;            // grazing views are not check points
 constexpr int kCheckPointBatch = 2048;              // candidates per parallel batch (deterministic order)
 constexpr int kMaxCandidatesPerPoint = 60;          // bound of the candidate search
@@ -111,6 +111,24 @@ bool pointVisible(const Terrain& terrain, const CameraModel& model, const Eigen:
   const double tolerance = std::max(0.003, 0.002 * dist);
   if (terrain.castRay(model.c, dir, t_hit, dist + 0.05) && t_hit < dist - tolerance) return false;
   return true;
+}
+
+int camerasSeeingBeyondTerrain(const SimGeometry& g, const Terrain& terrain) {
+  constexpr int kSamples = 9;  // along the top row and the upper corners of each image
+  int count = 0;
+  for (const SimCamera* cam : g.cameras()) {
+    bool beyond = false;
+    for (int k = 0; k < kSamples && !beyond; ++k) {
+      const Vec2 pixel((cam->truth.width - 1) * k / (kSamples - 1.0), 0.0);
+      Vec3 origin, dir;
+      double t = 0.0;
+      if (unproject(cam->truth, pixel, origin, dir) == Status::kOk && dir.z() > 0.0 && !terrain.castRay(origin, dir, t)) {
+        beyond = true;
+      }
+    }
+    if (beyond) ++count;
+  }
+  return count;
 }
 
 std::vector<const SimCamera*> SimGeometry::cameras() const {

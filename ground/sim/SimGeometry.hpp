@@ -75,4 +75,8 @@ CameraModel makeCahvor(const Eigen::Vector3d& center_m, const Eigen::Matrix3d& s
 bool pointVisible(const Terrain& terrain, const CameraModel& model, const Eigen::Vector3d& point_m,
                   double margin_px, Vec2& pixel);
 
+// How many true cameras see ground beyond the terrain grid (rendered as a flat far plane that truth/dem.tif
+// does not cover): 0 when the grid covers all that the cameras see.
+int camerasSeeingBeyondTerrain(const SimGeometry& geometry, const Terrain& terrain);
+
 }  // namespace areomap::sim

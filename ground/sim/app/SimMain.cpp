@@ -172,6 +172,10 @@ int main(int argc, char** argv) {
       cli::warn("only " + std::to_string(g.points.size()) + " of " + std::to_string(c.check_points) +
                 " check points are seen by two or more images");
     }
+    if (const int beyond = sim::camerasSeeingBeyondTerrain(g, terrain); beyond > 0) {
+      cli::warn(std::to_string(beyond) + " image(s) see ground beyond the terrain grid (rendered flat, not in "
+                "truth/dem.tif): raise --extent-m or tilt down");
+    }
     sim::WriteOptions options;
     options.images = images;
     cli::Progress progress("rendering", g.cameras().size());

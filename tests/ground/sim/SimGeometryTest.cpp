@@ -184,6 +184,14 @@ TEST(SimGeometry, ImpossiblePlansAreRejected) {
   CHECK_THROWS(cli::UsageError, presetConfig("hirise"));
 }
 
+TEST(SimGeometry, TheTruthDemCoversAllThatTheCamerasSee) {
+  CHECK_EQUAL(0, camerasSeeingBeyondTerrain(tinyGeometry(), tinyTerrain()));
+  SimConfig c = presetConfig("tiny");
+  c.tiers[0].tilt_deg = -26.0;  // the top row looks ~33 m out: beyond the 20 m grid
+  c.check_points = 0;
+  CHECK(camerasSeeingBeyondTerrain(makeGeometry(c, tinyTerrain()), tinyTerrain()) > 0);
+}
+
 TEST(SimGeometry, PresetsHaveTheRequestedShape) {
   const SimConfig navcam = presetConfig("navcam");
   validatePlan(navcam);
