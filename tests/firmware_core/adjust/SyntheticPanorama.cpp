@@ -3,6 +3,7 @@
 #include <cmath>
 #include <random>
 
+#include "firmware_core/adjust/Datum.hpp"
 #include "firmware_core/adjust/FastAdjuster.hpp"
 
 namespace areomap::test {
@@ -171,38 +172,9 @@ void makePanorama(const PanoramaConfig& cfg, Network& net, PanoramaTruth& truth)
 }
 
 TruthError truthError(const Network& net, const PanoramaTruth& truth, bool aligned, double range_m) {
-  // Best-fit common rotation about the gimbal centre: chordal mean of R_i = M_true^T M_est, projected to
-  // SO(3); an estimated camera/point maps to truth as M_est R^T and XG + R (P - XG).
-  Mat3 r = Mat3::Identity();
-  if (aligned) {
-    Mat3 sum = Mat3::Zero();
-    for (int32_t i = 0; i < net.imageCount(); ++i) sum += truth.rotations[i].transpose() * net.image(i).m;
-    Eigen::JacobiSVD<Mat3> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Mat3 d = Mat3::Identity();
-    d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-    r = svd.matrixU() * d * svd.matrixV().transpose();
-  }
-  TruthError e;
-  double sum_eo = 0.0;
-  for (int32_t i = 0; i < net.imageCount(); ++i) {
-    const NetImage& im = net.image(i);
-    const Mat3 m = im.m * r.transpose();
-    const Vec3 c = truth.gimbal_m + r * (im.center_m - truth.gimbal_m);
-    const double px = eoPixelEquivalent(im.io.f_px, c - truth.centers[i], rotationAngle(m, truth.rotations[i]),
-                                        range_m);
-    sum_eo += px * px;
-  }
-  e.eo_px = std::sqrt(sum_eo / std::max(1, net.imageCount()));
-  double sum_p = 0.0;
-  int32_t n = 0;
-  for (int32_t p = 0; p < net.pointCount(); ++p) {
-    if (!net.point(p).solvable) continue;
-    const Vec3 x = truth.gimbal_m + r * (net.point(p).xyz_m - truth.gimbal_m);
-    sum_p += (x - truth.points[p]).squaredNorm();
-    ++n;
-  }
-  e.ground_m = std::sqrt(sum_p / std::max(1, n));
-  return e;
+  const TruthErrors e = truthErrors(net, truth.centers.data(), truth.rotations.data(), truth.points.data(),
+                                    truth.gimbal_m, aligned, range_m);
+  return TruthError{e.eo_px, e.ground_m};
 }
 
 }  // namespace areomap::test

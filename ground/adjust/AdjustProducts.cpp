@@ -1,0 +1,105 @@
+#include "ground/adjust/AdjustProducts.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "firmware_core/camera/CameraConversion.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/dataset/TruthFiles.hpp"
+#include "ground/io/CameraFile.hpp"
+
+namespace areomap::ground {
+
+namespace {
+
+nlohmann::json imageJson(const ImageDifferences& d) {
+  return {{"x", d.x}, {"y", d.y}, {"dist", d.dist}, {"count", d.count}};
+}
+
+nlohmann::json groundJson(const GroundDifferences& d) {
+  return {{"x", d.x}, {"y", d.y}, {"z", d.z}, {"count", d.count}};
+}
+
+template <typename T>
+nlohmann::json optionalJson(const std::optional<T>& v) {
+  return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
+
+std::ofstream openOut(const std::string& path) {
+  const std::filesystem::path p(path);
+  std::error_code ec;
+  if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path(), ec);
+  std::ofstream out(path);
+  if (!out) throw cli::InputError(path, "file", "cannot be written");
+  return out;
+}
+
+}  // namespace
+
+void writeReportJson(const std::string& path, const AdjustReport& r) {
+  nlohmann::json j;
+  j["method1_px"] = {{"before", imageJson(r.method1_before)}, {"after", imageJson(r.method1_after)}};
+  j["method2_m"] = {{"before", groundJson(r.method2_before)}, {"after", groundJson(r.method2_after)}};
+  j["method3_px"] = {{"before", imageJson(r.method3_before)}, {"after", imageJson(r.method3_after)}};
+  j["figures"] = "method1_px, method2_m, method3_px: mean absolute differences; rms_px: RMS per coordinate; "
+                 "truth: RMS, eo in pixel equivalent f x (angle + |dC| / 5 m), datum rotation removed";
+  j["rms_px"] = r.rms_px;
+  j["sigma0"] = r.sigma0;
+  j["iterations"] = r.iterations;
+  j["tie_points"] = {{"intra", r.tie_points.intra}, {"inter", r.tie_points.inter}, {"rejected", r.tie_points.rejected}};
+  nlohmann::json seconds = nlohmann::json::object();
+  for (const auto& [stage, s] : r.seconds) seconds[stage] = s;
+  j["seconds"] = seconds;
+  if (r.truth) {
+    j["truth"] = {{"eo_px", r.truth->eo_px},
+                  {"ground_m", optionalJson(r.truth->ground_m)},
+                  {"dem_rmse_m", optionalJson(r.truth->dem_rmse_m)},
+                  {"eo_px_raw", r.truth->eo_px_raw},
+                  {"ground_m_raw", optionalJson(r.truth->ground_m_raw)},
+                  {"eo_px_before", optionalJson(r.truth->eo_px_before)}};
+  }
+  j["warnings"] = r.warnings;
+  j["adjustment"] = {{"solver", r.solver},
+                     {"stop_rule", r.stop_rule},
+                     {"constraints", r.constraints},
+                     {"estimated", r.estimated},
+                     {"max_gimbal_misfit_m", r.max_gimbal_misfit_m},
+                     {"max_base_misfit_m", r.max_base_misfit_m}};
+  std::ofstream out = openOut(path);
+  out << j.dump(2) << "\n";
+  if (!out) throw cli::InputError(path, "file", "write failed");
+}
+
+void writeEoCsv(const std::string& path, const Network& net, const std::vector<std::string>& stems) {
+  std::ofstream out = openOut(path);
+  // Rotation sigmas are about the camera axes (the local update M' = exp([delta]x) M), radians.
+  out << "image,pair,side,x_m,y_m,z_m,omega_rad,phi_rad,kappa_rad,sigma_x_m,sigma_y_m,sigma_z_m,"
+         "sigma_rot_x_rad,sigma_rot_y_rad,sigma_rot_z_rad\n";
+  for (int i = 0; i < net.imageCount(); ++i) {
+    const NetImage& im = net.image(i);
+    double o = 0.0, p = 0.0, k = 0.0;
+    opkFromRotation(im.m, o, p, k);
+    out << stems[i] << "," << im.pair << "," << (im.side == Side::kLeft ? "L" : "R");
+    for (const double v : {im.center_m.x(), im.center_m.y(), im.center_m.z(), o, p, k}) out << "," << formatDouble(v);
+    for (int c = 0; c < 6; ++c) out << "," << formatDouble(im.sigma(c));
+    out << "\n";
+  }
+  if (!out) throw cli::InputError(path, "file", "write failed");
+}
+
+CameraModel adjustedModelOf(const Network& net, int image, const CameraModel& apriori) {
+  const NetImage& im = net.image(image);
+  return adjustedModel(apriori, im.m_apriori, im.m, im.center_m);
+}
+
+void writeAdjustedModels(const std::string& dir, const Network& net, const std::vector<CameraModel>& apriori,
+                         const std::vector<std::string>& stems) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  for (int i = 0; i < net.imageCount(); ++i) {
+    io::writeCameraModelFile(dir + "/" + stems[i] + ".cahvor", adjustedModelOf(net, i, apriori[i]));
+  }
+}
+
+}  // namespace areomap::ground

@@ -1,0 +1,59 @@
+// The adjustment products (DESIGN.md "Products"), reusable by areomap-adjust, areomap-ties and
+// areomap-ground: DIR/models/<stem>.cahvor (the a-priori model moved rigidly to the adjusted EO), DIR/eo.csv
+// (EO and its a-posteriori sigmas, column `image` = stem) and DIR/report.json.
+//
+// Figures: method1_px, method3_px (x, y, dist) and method2_m (x, y, z) are MEAN ABSOLUTE differences (the
+// paper's averages of absolute differences); rms_px is the RMS of the image residuals per coordinate;
+// truth.eo_px / ground_m are RMS over images / points (eo in pixel equivalent: f x (angle + |dC| / 5 m)),
+// after removing the common datum rotation about the gimbal centre, with the raw values beside them.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/adjust/Precision.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+
+namespace areomap::ground {
+
+struct TruthFigures {
+  double eo_px = 0.0;
+  std::optional<double> ground_m;    // absent when no tie point has a true position
+  std::optional<double> dem_rmse_m;  // absent: no DEM is made by the adjustment alone
+  double eo_px_raw = 0.0;
+  std::optional<double> ground_m_raw;
+  std::optional<double> eo_px_before;  // a-priori, aligned
+};
+
+struct AdjustReport {
+  ImageDifferences method1_before, method1_after, method3_before, method3_after;
+  GroundDifferences method2_before, method2_after;
+  double rms_px = 0.0;
+  double sigma0 = 0.0;
+  int iterations = 0;
+  TiePointCounts tie_points;
+  std::vector<std::pair<std::string, double>> seconds;  // per stage, in order
+  std::optional<TruthFigures> truth;
+  std::vector<std::string> warnings;
+  // Extra description of the run (solver, stop rule, constraints, estimated rig values).
+  std::string solver;
+  std::string stop_rule;
+  std::map<std::string, bool> constraints;
+  std::vector<std::string> estimated;
+  double max_gimbal_misfit_m = 0.0;
+  double max_base_misfit_m = 0.0;
+};
+
+// Each throws cli::InputError naming the file when it cannot be written.
+void writeReportJson(const std::string& path, const AdjustReport& report);
+void writeEoCsv(const std::string& path, const Network& net, const std::vector<std::string>& stems);
+// `apriori[i]` is image i's a-priori model; the adjusted one is written to dir/<stem>.cahvor.
+void writeAdjustedModels(const std::string& dir, const Network& net, const std::vector<CameraModel>& apriori,
+                         const std::vector<std::string>& stems);
+// The adjusted model of image i (the a-priori model moved by M_new^T M_old to the new centre).
+CameraModel adjustedModelOf(const Network& net, int image, const CameraModel& apriori);
+
+}  // namespace areomap::ground

@@ -1,0 +1,46 @@
+// From a dataset (panorama.json + a-priori models) and image observations (stem, measured pixel) to the
+// adjustment Network: models converted to the photogrammetric form, measured pixels mapped once through the
+// exact CAHVOR inverse to ideal pixels, points triangulated from the a-priori EO, and the rig constants taken
+// from panorama.json or, where missing, estimated from the a-priori models (reported in `estimated`).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/camera/CameraConversion.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+#include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/TruthFiles.hpp"
+
+namespace areomap::ground {
+
+struct NetworkSource {
+  std::vector<std::string> stems;                 // per network image
+  std::vector<CameraModel> apriori_models;        // per network image
+  std::vector<PhotogrammetricCamera> cameras;     // per network image, a-priori
+  std::vector<int64_t> point_ids;                 // per network point
+  std::vector<int> sol_of_index;                  // network sol index -> dataset sol number
+  std::vector<std::string> estimated;             // sentences: which rig values were estimated and how
+  std::vector<std::string> warnings;              // dropped observations, unknown stems, ...
+  int dropped_observations = 0;
+};
+
+struct RigChoice {
+  bool gimbal = true;
+  bool base = true;
+  bool fido = false;         // virtual spin centre per tier + camera-to-centre and left-right distances
+  bool datum_prior = true;
+  double sigma_px = 0.3;     // a-priori sigma of every image observation
+};
+
+// Loads the models and fills `net` (cleared first). Throws cli::InputError naming the file and field.
+void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& observations,
+                  const RigChoice& choice, Network& net, NetworkSource& source);
+
+// Rig constants missing from panorama.json, estimated from the network's a-priori cameras by linear least
+// squares of Eq. 3 (C_i = XG_sol + M_i^T c_side) and Eq. 4; FIDO values by a sphere fit per tier.
+void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bool fido);
+
+}  // namespace areomap::ground
