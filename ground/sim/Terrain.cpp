@@ -25,9 +25,9 @@ constexpr double kMaxRockM = 2.5;          // largest rock diameter
 constexpr double kRockFreeRadiusM = 1.2;   // the rover's footprint stays clear
 constexpr int kMaxRocksPerTile = 4000;
 
-// Expected number of rocks per square metre with diameter in [d_min, d_max] (Golombek): the number density
-// n(D) = -dF/dD / (pi D^2 / 4) = 4 k q exp(-q D) / (pi D^2), integrated in log D.
-double rockDensity(double k, double d_min, double d_max) {
+}  // namespace
+
+double golombekRockDensity(double k, double d_min, double d_max) {
   if (k <= 0.0 || d_min >= d_max) return 0.0;
   const double q = 1.79 + 0.152 / k;
   constexpr int kSteps = 96;
@@ -39,6 +39,8 @@ double rockDensity(double k, double d_min, double d_max) {
   }
   return sum * (l1 - l0) / kSteps;
 }
+
+namespace {
 
 // Diameter from n(D) on [d_min, d_max]: proposal ~ 1/D^2 (inverse CDF), accepted with exp(-q (D - d_min)).
 double drawRockDiameter(std::mt19937_64& rng, double k, double d_min, double d_max) {
@@ -157,7 +159,7 @@ Terrain Terrain::build(const SimConfig& config) {
       const double range = std::hypot(ax + 0.5 * kRockTileM, ay + 0.5 * kRockTileM);
       const double d_min = std::max({config.min_rock_m, 3.0 * t.cell_, 0.006 * range});
       std::mt19937_64 tile_rng(hash3(t.seed_ + 5, tx, ty));
-      const int count = drawPoisson(tile_rng, rockDensity(config.rock_k, d_min, kMaxRockM) * kRockTileM * kRockTileM);
+      const int count = drawPoisson(tile_rng, golombekRockDensity(config.rock_k, d_min, kMaxRockM) * kRockTileM * kRockTileM);
       std::uniform_real_distribution<double> u(0.0, 1.0);
       for (int r = 0; r < count; ++r) {
         Rock rock;

@@ -17,6 +17,10 @@
 
 namespace areomap::sim {
 
+// Expected rocks per square metre with diameter in [d_min, d_max] (Golombek): the number density
+// n(D) = -dF/dD / (pi D^2 / 4) = 4 k q exp(-q D) / (pi D^2), integrated numerically in log D.
+double golombekRockDensity(double k, double d_min_m, double d_max_m);
+
 class Terrain {
  public:
   // Builds the surface of `config` (half_extent_m, cell_m, relief_m, rock_k, crater density, seed).

@@ -192,6 +192,25 @@ TEST(SimGeometry, TheTruthDemCoversAllThatTheCamerasSee) {
   CHECK(camerasSeeingBeyondTerrain(makeGeometry(c, tinyTerrain()), tinyTerrain()) > 0);
 }
 
+TEST(SimGeometry, RocksFollowGolombeksSizeFrequency) {
+  // Closed form of the integral of 4 k q exp(-q D) / (pi D^2) with the exponential integral E1(x) = -Ei(-x).
+  const double k = 0.08, q = 1.79 + 0.152 / k, d0 = 0.3, d1 = 2.5;
+  auto e1 = [](double x) { return -std::expint(-x); };
+  const double exact = 4.0 * k * q / M_PI *
+                       (std::exp(-q * d0) / d0 - std::exp(-q * d1) / d1 - q * (e1(q * d0) - e1(q * d1)));
+  const double numeric = golombekRockDensity(k, d0, d1);
+  printf("\nrocks >= 0.3 m per m^2 (k = 0.08): %.5f numeric, %.5f closed form\n", numeric, exact);
+  DOUBLES_EQUAL(exact, numeric, 1e-3 * exact);
+  // A terrain whose minimum rock is 0.3 m everywhere holds the expected number (Poisson, 4 sigma).
+  SimConfig c = presetConfig("tiny");
+  c.min_rock_m = 0.3;
+  c.cell_m = 0.06;
+  const Terrain t = Terrain::build(c);
+  const double expected = numeric * (4.0 * c.half_extent_m * c.half_extent_m - M_PI * 1.6 * 1.6);
+  printf("rocks in the 40 m square: %d, expected %.0f +- %.0f\n", t.rockCount(), expected, std::sqrt(expected));
+  DOUBLES_EQUAL(expected, t.rockCount(), 4.0 * std::sqrt(expected));
+}
+
 TEST(SimGeometry, PresetsHaveTheRequestedShape) {
   const SimConfig navcam = presetConfig("navcam");
   validatePlan(navcam);
