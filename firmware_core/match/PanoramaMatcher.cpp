@@ -21,6 +21,11 @@ void PanoramaMatcher::reset() {
   points_.reset();
 }
 
+void PanoramaMatcher::planForPairs(int32_t pairs) {
+  const int32_t share = pairs > 0 ? (kMaxTiePoints * 4 / 5) / pairs : kMaxTiesPerPair;
+  stereo.tie_budget = share < 16 ? 16 : (share > kMaxTiesPerPair ? kMaxTiesPerPair : share);
+}
+
 bool PanoramaMatcher::addObservation(int32_t point, int32_t image, double sample_px, double line_px, TieKind kind,
                                      float score) {
   TiePoint& p = points_[point];
@@ -258,7 +263,8 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
         const SearchHit hit = searchWindowWarped(t, *image, static_cast<int32_t>(std::lround(pr.px.x())),
                                                  static_cast<int32_t>(std::lround(pr.px.y())),
                                                  inter.probe_radius_px, pr.shape);
-        if (hit.score < inter.min_ncc || hit.second > stereo.max_second_ratio * hit.score) continue;
+        // No ambiguity test here: the probes only feed the robust offset field, which drops strays.
+        if (hit.score < inter.min_ncc) continue;
         candidates_[found++] = Candidate{pr.tie, pr.px, hit.score, hit.x - pr.px.x(), hit.y - pr.px.y()};
       }
       if (found < inter.min_group) continue;

@@ -73,6 +73,9 @@ struct PairTieReport {
 class PanoramaMatcher {
  public:
   void reset();
+  // Shares kMaxTiePoints among the pairs of a panorama of `pairs` pairs (80 %, leaving room for the
+  // points that single images create): sets stereo.tie_budget.
+  void planForPairs(int32_t pairs);
 
   // Adds the next pair (its index is pairCount() before the call). `right` and `right_model` may be null for
   // a single left image. Returns kOk when the pair got any tie, kNoTexture when it got none, kInvalidArgument

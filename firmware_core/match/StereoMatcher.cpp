@@ -10,7 +10,9 @@ namespace areomap {
 int32_t selectionGridPx(const StereoParams& params, int32_t width, int32_t height) {
   if (params.grid_cell_px > 0) return params.grid_cell_px;
   const int32_t side = width > height ? width : height;
-  const int32_t cell = (side + 15) / 16;
+  int32_t per_side = 1;
+  while ((per_side + 1) * (per_side + 1) <= params.tie_budget && per_side < 16) ++per_side;
+  const int32_t cell = (side + per_side - 1) / per_side;
   return cell < 16 ? 16 : cell;
 }
 

@@ -28,7 +28,8 @@ struct StereoParams {
   double max_second_ratio = 0.98;  // reject when the second peak (>= 3 px away) scores this close to the best
   int32_t lr_tolerance_px = 1;     // left-right check: integer distance back to the left point
   ParallaxParams parallax;
-  int32_t grid_cell_px = 0;    // final selection grid (cells <= kMaxTiesPerPair); 0: 1/16 of the larger side
+  int32_t grid_cell_px = 0;    // final selection grid (cells <= kMaxTiesPerPair); 0: from tie_budget
+  int32_t tie_budget = kMaxTiesPerPair;  // automatic grid: at most this many cells (a square number of them)
   int32_t min_ties = 8;        // fewer verified ties: kNoTexture
   StereoParams() {
     forstner.border_px = kNccRadius + 1;
@@ -73,7 +74,8 @@ struct StereoResult {
 };
 
 // The effective selection grid and Förstner spreading grid for an image size (the automatic values when
-// the parameters hold 0).
+// the parameters hold 0: the selection grid has floor(sqrt(tie_budget)) cells along the larger side, at
+// least 16 px; the spreading grid 32 cells, at least 16 px).
 int32_t selectionGridPx(const StereoParams& params, int32_t width, int32_t height);
 int32_t spreadingGridPx(const StereoParams& params, int32_t width, int32_t height);
 

@@ -1,5 +1,6 @@
 #include "ground/ties/TieRunner.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 
@@ -38,7 +39,7 @@ ImageView viewOf(const cv::Mat& m) {
 
 }  // namespace
 
-TieRun runTiePoints(const Dataset& dataset, bool progress) {
+TieRun runTiePoints(const Dataset& dataset, bool progress, TieNetwork* network) {
   if (static_cast<int32_t>(dataset.pairs.size()) > kMaxPairs) {
     throw cli::InputError(dataset.root + "/panorama.json", "pairs",
                           std::to_string(dataset.pairs.size()) + " pairs exceed the rover's " +
@@ -47,6 +48,11 @@ TieRun runTiePoints(const Dataset& dataset, bool progress) {
   // ~20 MiB of fixed workspaces, as on the rover (heap here only because the ground owns its memory).
   auto matcher = std::make_unique<PanoramaMatcher>();
   matcher->reset();
+  matcher->planForPairs(static_cast<int32_t>(dataset.pairs.size()));
+  if (network != nullptr) {
+    network->net->clear();
+    network->adapter->reset();
+  }
   TieRun run;
   const double start = cli::nowSeconds();
   for (size_t k = 0; k < dataset.pairs.size(); ++k) {
@@ -65,9 +71,37 @@ TieRun runTiePoints(const Dataset& dataset, bool progress) {
       throw cli::InputError(pair.left.image_path, "image", std::string("rejected by the matcher: ") + statusName(s));
     }
     run.reports.push_back(report);
+    if (network != nullptr) {
+      auto it = std::find(network->sol_of_index.begin(), network->sol_of_index.end(), pair.sol);
+      if (it == network->sol_of_index.end()) {
+        if (static_cast<int32_t>(network->sol_of_index.size()) >= kMaxSols) {
+          throw cli::InputError(dataset.root + "/panorama.json", "pairs[" + std::to_string(k) + "].sol",
+                                "more than " + std::to_string(kMaxSols) + " sols");
+        }
+        network->sol_of_index.push_back(pair.sol);
+        it = network->sol_of_index.end() - 1;
+      }
+      const int sol_index = static_cast<int>(it - network->sol_of_index.begin());
+      const int tier = std::max(0, std::min(kMaxTiers - 1, pair.tier));
+      int32_t failed = 0;
+      const Status ns = network->adapter->syncPair(*matcher, sol_index, tier, left.model,
+                                                   pair.right ? &right.model : nullptr, *network->net, failed);
+      if (!ok(ns)) {
+        throw cli::InputError(pair.left.image_path, "model", std::string("cannot enter the network: ") + statusName(ns));
+      }
+      network->failed_observations += failed;
+      network->stem_of_image.push_back(pair.left.stem);
+      network->apriori_of_image.push_back(left.model);
+      if (pair.right) {
+        network->stem_of_image.push_back(pair.right->stem);
+        network->apriori_of_image.push_back(right.model);
+      }
+    }
     if (progress) {
       cli::info("pair " + std::to_string(k + 1) + "/" + std::to_string(dataset.pairs.size()) + " (" + pair.left.stem +
                 "): " + statusName(s) + ", intra " + std::to_string(report.intra.selected) + ", inter " +
+                std::to_string(report.inter_candidates) + " predicted, " + std::to_string(report.inter_matched) +
+                " matched, " + std::to_string(report.inter_rejected) + " rejected, " +
                 std::to_string(report.inter_observations) + " observations to " + std::to_string(report.neighbours) +
                 " earlier pairs");
     }

@@ -3,9 +3,12 @@
 // a-priori model (the .cahvor file, or the PDS3 label), the observations named by image stem.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/match/NetworkAdapter.hpp"
 #include "firmware_core/match/PanoramaMatcher.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/TruthFiles.hpp"
@@ -22,9 +25,20 @@ struct TieRun {
   double seconds = 0.0;
 };
 
-// Runs the matcher on every pair. `progress` prints a line per pair on stderr. Throws cli::InputError for
-// unreadable images/models or images larger than the rover's capacity.
-TieRun runTiePoints(const Dataset& dataset, bool progress);
+// The adjustment network built alongside (NetworkAdapter after every pair).
+struct TieNetwork {
+  std::unique_ptr<Network> net = std::make_unique<Network>();
+  std::unique_ptr<NetworkAdapter> adapter = std::make_unique<NetworkAdapter>();
+  std::vector<int> sol_of_index;               // network sol index -> panorama.json sol
+  std::vector<std::string> stem_of_image;      // network image -> stem
+  std::vector<CameraModel> apriori_of_image;   // network image -> a-priori model
+  int failed_observations = 0;
+};
+
+// Runs the matcher on every pair. `progress` prints a line per pair on stderr; `network` (optional) is
+// built as the pairs arrive. Throws cli::InputError for unreadable images/models or images larger than the
+// rover's capacity.
+TieRun runTiePoints(const Dataset& dataset, bool progress, TieNetwork* network = nullptr);
 
 // DIR/tiepoints.csv (point,image,sample_px,line_px,kind).
 void writeTiePoints(const std::string& out_dir, const TieRun& run);

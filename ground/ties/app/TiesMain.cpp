@@ -8,8 +8,17 @@
 #include "ground/ties/TieRunner.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "firmware_core/camera/CameraConversion.hpp"
+#include "ground/io/CameraFile.hpp"
+#include "ground/ties/TieAdjust.hpp"
 
 namespace {
+
+using json = nlohmann::json;
 
 constexpr const char* kUsage =
     "usage: areomap-ties DATASET --out DIR [--adjust]\n"
@@ -25,9 +34,54 @@ constexpr const char* kUsage =
     "of the truth projection of the surface point they claim, and the weakest link between adjacent pairs.\n"
     "\n"
     "  --out DIR   output folder (created)\n"
-    "  --adjust    then run the fast adjustment on these ties (not available yet in this build)\n"
+    "  --adjust    then run the fast constrained adjustment (12x12 per pair, 3x3 per point) on these ties and\n"
+    "              write DIR/models/<stem>.cahvor (adjusted) and DIR/report.json (method1_px before/after,\n"
+    "              rms_px, sigma0, iterations, tie_points, seconds, warnings); rig values missing from\n"
+    "              panorama.json are estimated from the a-priori models (named in warnings)\n"
     "\n"
     "Exit: 0 ok, 2 usage error, 1 bad input (the message names the file and the field).\n";
+
+json method1(const areomap::BackProjection& b) {
+  return json{{"x", b.mean_x_px}, {"y", b.mean_y_px}, {"dist", b.mean_dist_px}};
+}
+
+// The fast adjustment of the ties: DIR/models/<stem>.cahvor (adjusted) and DIR/report.json (method 1
+// before/after, rms_px, sigma0, iterations, tie point counts, timings, warnings).
+void writeAdjustment(const std::string& out, const areomap::Dataset& dataset, const areomap::TieRun& run,
+                     areomap::TieNetwork& network) {
+  std::vector<std::string> notes;
+  areomap::setRigConstraints(dataset, network.sol_of_index, *network.net, notes);
+  areomap::cli::info("adjusting " + std::to_string(network.net->imageCount()) + " images, " +
+                     std::to_string(network.net->pointCount()) + " points");
+  const double start = areomap::cli::nowSeconds();
+  const areomap::AdjustOutcome o = areomap::adjustNetwork(*network.net, areomap::FastAdjustOptions{});
+  const double seconds = areomap::cli::nowSeconds() - start;
+  if (!areomap::ok(o.result.status)) {
+    throw areomap::cli::InputError(dataset.root + "/panorama.json", "pairs",
+                                   std::string("the adjustment failed: ") + areomap::statusName(o.result.status));
+  }
+  std::filesystem::create_directories(out + "/models");
+  for (int32_t i = 0; i < network.net->imageCount(); ++i) {
+    const areomap::NetImage& im = network.net->image(i);
+    const areomap::CameraModel adjusted =
+        areomap::adjustedModel(network.apriori_of_image[i], im.m_apriori, im.m, im.center_m);
+    areomap::io::writeCameraModelFile(out + "/models/" + network.stem_of_image[i] + ".cahvor", adjusted);
+  }
+  json report;
+  report["method1_px"] = {{"before", method1(o.before)}, {"after", method1(o.after)}};
+  report["rms_px"] = o.result.rms_px;
+  report["sigma0"] = o.result.sigma0;
+  report["iterations"] = o.result.sweeps_total;
+  report["tie_points"] = {{"intra", run.intra_observations}, {"inter", run.inter_observations},
+                          {"rejected", o.result.rejected_observations}};
+  report["seconds"] = {{"ties", run.seconds}, {"adjust", seconds}};
+  report["warnings"] = notes;
+  std::ofstream(out + "/report.json") << report.dump(2) << "\n";
+  std::printf("adjustment: method 1 mean distance %.3f px before, %.3f px after (rms %.3f px, sigma0 %.3f, %d sweeps); "
+              "%s/report.json\n",
+              o.before.mean_dist_px, o.after.mean_dist_px, o.after.rms_px, o.result.sigma0, o.result.sweeps_total,
+              out.c_str());
+}
 
 }  // namespace
 
@@ -36,9 +90,9 @@ int main(int argc, char** argv) {
     const std::string out = args.required("--out");
     const bool adjust = args.flag("--adjust");
     const std::string dataset_dir = args.positional(0, "DATASET");
-    if (adjust) throw areomap::cli::UsageError("--adjust: the fast adjustment is not wired into areomap-ties yet");
     const areomap::Dataset dataset = areomap::readDataset(dataset_dir);
-    const areomap::TieRun run = areomap::runTiePoints(dataset, true);
+    areomap::TieNetwork network;
+    const areomap::TieRun run = areomap::runTiePoints(dataset, true, adjust ? &network : nullptr);
     areomap::writeTiePoints(out, run);
     areomap::writeOverlays(out, dataset, run);
     if (std::filesystem::exists(dataset.root + "/" + areomap::kTruthDemFile) &&
@@ -50,6 +104,7 @@ int main(int argc, char** argv) {
                   100.0 * c.inter_within_1px / std::max(1, c.inter_checked), c.inter_checked, c.rms_px,
                   c.adjacent_pairs, c.worst_link.c_str());
     }
+    if (adjust) writeAdjustment(out, dataset, run, network);
     std::printf("tie points: %zu points, %d intra and %d inter observations, %.1f s; %s/tiepoints.csv\n",
                 run.points_m.size(), run.intra_observations, run.inter_observations, run.seconds, out.c_str());
     return 0;

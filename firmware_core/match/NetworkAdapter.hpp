@@ -1,0 +1,42 @@
+// Puts the matcher's neutral tie list into the adjustment Network (firmware_core/adjust), incrementally:
+// after PanoramaMatcher::addPair, syncPair adds the pair's cameras (a-priori models converted to the
+// photogrammetric form) and every point and observation the matcher has made since the last call
+// (intra ties of the new pair and inter ties that earlier points gained in it). Observations enter as ideal
+// pixels through the exact camera inverse (pixelToIdeal). Zero heap; ~0.3 MiB of fixed tables.
+#pragma once
+
+#include <cstdint>
+
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/camera/CameraConversion.hpp"
+#include "firmware_core/match/PanoramaMatcher.hpp"
+
+namespace areomap {
+
+class NetworkAdapter {
+ public:
+  void reset();
+
+  // Call once per pair, right after matcher.addPair for the same pair, with the same models.
+  // `failed_observations` counts observations that could not be mapped or added (kept out of the network).
+  [[nodiscard]] Status syncPair(const PanoramaMatcher& matcher, int32_t sol, int32_t tier, const CameraModel& left,
+                                const CameraModel* right, Network& net, int32_t& failed_observations);
+
+  // The network image of a matcher image index (2 * pair + side); -1 when absent.
+  int32_t networkImage(int32_t matcher_image) const;
+  // The photogrammetric camera of a network image (a-priori) and its model.
+  const PhotogrammetricCamera& camera(int32_t net_image) const { return cameras_[net_image]; }
+  const CameraModel& model(int32_t net_image) const { return models_[net_image]; }
+  double sigma_px = 0.3;  // a-priori observation sigma given to the network
+
+ private:
+  PhotogrammetricCamera cameras_[kMaxImages];
+  CameraModel models_[kMaxImages];
+  int32_t net_image_of_[kMaxImages];
+  int32_t net_point_of_[kMaxTiePoints];
+  int32_t synced_observations_ = 0;
+  int32_t synced_points_ = 0;
+};
+
+}  // namespace areomap

@@ -1,0 +1,101 @@
+#include "ground/ties/TieAdjust.hpp"
+
+#include <cmath>
+#include <map>
+
+#include <Eigen/Dense>
+
+namespace areomap {
+
+BackProjection backProjection(const Network& net) {
+  BackProjection b;
+  double sum_sq = 0.0;
+  for (int32_t k = 0; k < net.observationCount(); ++k) {
+    const NetObservation& o = net.observation(k);
+    if (o.rejected || !net.point(o.point).solvable) continue;
+    const NetImage& im = net.image(o.image);
+    Vec2 px;
+    if (!ok(collinearity(im.io, im.center_m, im.m, net.point(o.point).xyz_m, px))) continue;
+    const Vec2 r = px - o.ideal_px;
+    b.mean_x_px += std::fabs(r.x());
+    b.mean_y_px += std::fabs(r.y());
+    b.mean_dist_px += r.norm();
+    sum_sq += r.squaredNorm();
+    ++b.observations;
+  }
+  if (b.observations > 0) {
+    b.mean_x_px /= b.observations;
+    b.mean_y_px /= b.observations;
+    b.mean_dist_px /= b.observations;
+    b.rms_px = std::sqrt(sum_sq / (2.0 * b.observations));
+  }
+  return b;
+}
+
+void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
+                       std::vector<std::string>& notes) {
+  RigConstraints& rig = net.rig;
+  rig.sigma_gimbal_m = dataset.rig.sigma_gimbal_m.value_or(kDefaultSigmaGimbal_m);
+  rig.sigma_base_m = dataset.rig.sigma_base_m.value_or(kDefaultSigmaBase_m);
+  // Least squares for (G per sol, c_L, c_R): C_i = G_sol + M_i^T c_side, minimum norm (a rotation about a
+  // single axis leaves the offset along it free).
+  const int nsol = static_cast<int>(sol_of_index.size());
+  const int unknowns = 3 * nsol + 6;
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(3 * net.imageCount(), unknowns);
+  Eigen::VectorXd y(3 * net.imageCount());
+  bool has_right = false;
+  for (int32_t i = 0; i < net.imageCount(); ++i) {
+    const NetImage& im = net.image(i);
+    const int side = im.side == Side::kLeft ? 0 : 1;
+    has_right = has_right || side == 1;
+    a.block<3, 3>(3 * i, 3 * im.sol) = Eigen::Matrix3d::Identity();
+    a.block<3, 3>(3 * i, 3 * nsol + 3 * side) = im.m_apriori.transpose();
+    y.segment<3>(3 * i) = im.center_apriori_m;
+  }
+  const Eigen::VectorXd x = a.completeOrthogonalDecomposition().solve(y);
+  const bool offsets_given = dataset.rig.left_offset_m.has_value() && (!has_right || dataset.rig.right_offset_m);
+  rig.left_offset_m = offsets_given ? *dataset.rig.left_offset_m : Vec3(x.segment<3>(3 * nsol));
+  rig.right_offset_m = offsets_given && has_right ? *dataset.rig.right_offset_m : Vec3(x.segment<3>(3 * nsol + 3));
+  if (!offsets_given) notes.push_back("camera offsets estimated from the a-priori models");
+  for (int s = 0; s < nsol; ++s) {
+    auto it = dataset.rig.gimbal_m.find(sol_of_index[s]);
+    rig.gimbal_set[s] = true;
+    if (it != dataset.rig.gimbal_m.end() && offsets_given) {
+      rig.gimbal_m[s] = it->second;
+    } else {
+      rig.gimbal_m[s] = x.segment<3>(3 * s);
+      notes.push_back("gimbal centre of sol " + std::to_string(sol_of_index[s]) + " estimated from the a-priori models");
+    }
+  }
+  rig.use_base = has_right;
+  if (has_right) {
+    if (dataset.rig.base_m) {
+      rig.base_m = *dataset.rig.base_m;
+    } else {
+      Vec3 sum = Vec3::Zero();
+      int n = 0;
+      for (int32_t p = 0; p < net.pairCount(); ++p) {
+        if (net.pair(p).right < 0) continue;
+        const NetImage& l = net.image(net.pair(p).left);
+        const NetImage& r = net.image(net.pair(p).right);
+        sum += l.m_apriori * (r.center_apriori_m - l.center_apriori_m);
+        ++n;
+      }
+      rig.base_m = n > 0 ? Vec3(sum / n) : Vec3::Zero();
+      notes.push_back("stereo base estimated from the a-priori models");
+    }
+  }
+}
+
+AdjustOutcome adjustNetwork(Network& net, const FastAdjustOptions& options) {
+  AdjustOutcome out;
+  int32_t failed = 0;
+  (void)net.triangulateAll(failed);
+  out.before = backProjection(net);
+  auto adjuster = std::make_unique<FastAdjuster>();
+  (void)adjuster->adjust(net, options, out.result);
+  out.after = backProjection(net);
+  return out;
+}
+
+}  // namespace areomap

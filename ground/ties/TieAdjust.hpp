@@ -1,0 +1,42 @@
+// The fast constrained adjustment (firmware_core/adjust FastAdjuster) of the automatic tie points: the
+// network built pair by pair by NetworkAdapter, the rig constraints from panorama.json or, where missing,
+// estimated from the a-priori models (gimbal centre and camera offsets by least squares over the images
+// of a sol, Eq. 3; stereo base as the mean of C_R - C_L in the left frame, Eq. 4).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "firmware_core/adjust/FastAdjuster.hpp"
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/match/NetworkAdapter.hpp"
+#include "ground/dataset/Dataset.hpp"
+
+namespace areomap {
+
+// Method 1 of the paper (§3.5): back-projection residuals of the tie points, in ideal pixels.
+struct BackProjection {
+  double mean_x_px = 0.0;
+  double mean_y_px = 0.0;
+  double mean_dist_px = 0.0;
+  double rms_px = 0.0;  // per coordinate
+  int observations = 0;
+};
+BackProjection backProjection(const Network& net);
+
+// Fills net.rig (sols of the network images must index dataset.rig.gimbal_m keys in order, as
+// runTiePoints assigns them). `notes` receives what was estimated.
+void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
+                       std::vector<std::string>& notes);
+
+struct AdjustOutcome {
+  BackProjection before;
+  BackProjection after;
+  FastAdjustResult result;
+};
+
+// Triangulates every point with the a-priori cameras, measures, adjusts, measures again.
+AdjustOutcome adjustNetwork(Network& net, const FastAdjustOptions& options);
+
+}  // namespace areomap
