@@ -81,6 +81,14 @@ std::string joinPath(const std::string& root, const std::string& relative) {
   return root + "/" + relative;
 }
 
+// The absolute, normalised path of a file under the dataset folder.
+std::string resolvePath(const std::string& root, const std::string& relative) {
+  std::error_code ec;
+  std::filesystem::path base = std::filesystem::absolute(root.empty() ? std::string(".") : root, ec);
+  if (ec) base = root;
+  return (base / relative).lexically_normal().string();
+}
+
 Json vecJson(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
 ImageRef readImageRef(const Reader& r, const Json& side, const std::string& field, const std::string& root) {
@@ -166,10 +174,10 @@ std::string pathStem(const std::string& path) {
 ImageRef makeImageRef(const std::string& root, const std::string& image, const std::optional<std::string>& model) {
   ImageRef ref;
   ref.image = image;
-  ref.image_path = joinPath(root, image);
+  ref.image_path = resolvePath(root, image);
   ref.stem = pathStem(image);
   ref.model = model;
-  if (model) ref.model_path = joinPath(root, *model);
+  if (model) ref.model_path = resolvePath(root, *model);
   return ref;
 }
 

@@ -20,7 +20,7 @@ namespace areomap {
 
 struct ImageRef {
   std::string image;                 // as written in panorama.json (relative to the dataset folder)
-  std::string image_path;            // resolved: root + "/" + image
+  std::string image_path;            // resolved: absolute path of root / image
   std::string stem;                  // the image file's name without folder and extension
   std::optional<std::string> model;  // a-priori model as written; absent = from the PDS3 label
   std::string model_path;            // resolved model path; empty when absent

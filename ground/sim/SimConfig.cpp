@@ -57,7 +57,7 @@ SimConfig presetConfig(const std::string& name) {
     c.rho2 = -0.004;
     c.base_m = 0.20;
     c.mast_m = 1.5;
-    c.tiers = {fullTier(-25.0, 18)};
+    c.tiers = {fullTier(-26.0, 18)};
     c.half_extent_m = 48.0;
     c.cell_m = 0.02;
     c.min_rock_m = 0.05;
@@ -80,14 +80,14 @@ SimConfig presetConfig(const std::string& name) {
     c.head_up_m = 0.03;
     c.toe_in_deg = 0.3;
     c.mast_m = 1.5;
-    c.tiers = {fullTier(-10.0, 32), fullTier(-22.0, 32)};
+    c.tiers = {fullTier(-11.0, 32), fullTier(-23.0, 32)};
     TierPlan single;
     single.tilt_deg = -34.0;
     single.pairs = 1;
     single.pan_step_deg = 0.0;
     single.left_only = true;
     c.tiers.push_back(single);
-    c.half_extent_m = 36.0;
+    c.half_extent_m = 38.0;
     c.cell_m = 0.02;
     c.min_rock_m = 0.05;
     c.check_points = 3000;
@@ -129,6 +129,8 @@ void validatePlan(const SimConfig& c) {
   if (c.width < 16 || c.width > 4096) planError("--size", "width " + std::to_string(c.width) + " outside 16..4096");
   if (c.height < 16 || c.height > 4096) planError("--size", "height " + std::to_string(c.height) + " outside 16..4096");
   if (!(c.hfov_deg >= 5.0 && c.hfov_deg <= 120.0)) planError("--fov-deg", num(c.hfov_deg) + " outside 5..120 degrees");
+  if (!(std::fabs(c.rho1) <= 0.5 && std::fabs(c.rho2) <= 0.5)) planError("--distortion", "|rho| above 0.5");
+  if (c.sol < 0 || c.sol > 100000) planError("--sol", "outside 0..100000");
   if (!(c.base_m > 0.0 && c.base_m <= 2.0)) planError("--base-m", num(c.base_m) + " outside (0, 2] m");
   if (!(c.mast_m >= 0.2 && c.mast_m <= 5.0)) planError("--mast-m", num(c.mast_m) + " outside 0.2..5 m");
   if (!(std::fabs(c.toe_in_deg) <= 10.0)) planError("--toe-in-deg", "more than 10 degrees");

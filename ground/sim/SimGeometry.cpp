@@ -12,6 +12,7 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kCheckPointMarginPx = 0.0;         // every image that sees the point, up to its edge
+constexpr double kMaxRayMismatchRad = 1e-6;        // pixel ray vs. direction to the point
 constexpr double kMinIncidenceDeg = 8.0;            // grazing views are not check points
 constexpr int kCheckPointBatch = 2048;              // candidates per parallel batch (deterministic order)
 constexpr int kMaxCandidatesPerPoint = 60;          // bound of the candidate search
@@ -105,6 +106,10 @@ bool pointVisible(const Terrain& terrain, const CameraModel& model, const Eigen:
   const Eigen::Vector3d d = point_m - model.c;
   const double dist = d.norm();
   const Eigen::Vector3d dir = d / dist;
+  // CAHVOR's polynomial folds points far outside the field of view back into the image: the pixel's own
+  // ray must point at the point.
+  Vec3 origin, ray;
+  if (unproject(model, pixel, origin, ray) != Status::kOk || ray.dot(dir) < std::cos(kMaxRayMismatchRad)) return false;
   const Eigen::Vector3d n = terrain.normal(point_m.x(), point_m.y());
   if (-n.dot(dir) < std::sin(kMinIncidenceDeg * kDeg)) return false;  // back-facing or grazing
   double t_hit = 0.0;

@@ -94,7 +94,7 @@ Terrain Terrain::build(const SimConfig& config) {
   std::mt19937_64 rng(t.seed_);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   const double slope_az = 2.0 * M_PI * uni(rng);
-  const double slope = 0.01 + 0.02 * uni(rng);
+  const double slope = 0.003 + 0.009 * uni(rng);
   int octaves = 0;
   for (double w = 32.0; w >= 6.0 * t.cell_ && octaves < 14; w *= 0.5) ++octaves;
   const uint64_t s_relief = t.seed_ + 1, s_patch = t.seed_ + 2, s_dust = t.seed_ + 3, s_mottle = t.seed_ + 4;

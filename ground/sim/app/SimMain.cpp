@@ -31,6 +31,8 @@ Options (each overrides the preset):
   --pointing-error-px MIN MAX  a-priori pointing error per pair at the image centre (default 3 15)
   --size W H                 image size in pixels
   --fov-deg F                horizontal field of view
+  --distortion RHO1 RHO2     CAHVOR radial terms R = (0, RHO1, RHO2)
+  --sol N                    sol number of the panorama (default 1)
   --base-m B                 stereo base
   --mast-m H                 gimbal height above the ground
   --toe-in-deg T             toe-in of each camera
@@ -130,6 +132,11 @@ int main(int argc, char** argv) {
       c.height = static_cast<int>((*s)[1]);
     }
     c.hfov_deg = args.number("--fov-deg", c.hfov_deg);
+    if (const auto r = args.numbers("--distortion", 2)) {
+      c.rho1 = (*r)[0];
+      c.rho2 = (*r)[1];
+    }
+    c.sol = integerOption(args, "--sol", c.sol);
     c.base_m = args.number("--base-m", c.base_m);
     c.mast_m = args.number("--mast-m", c.mast_m);
     c.toe_in_deg = args.number("--toe-in-deg", c.toe_in_deg);

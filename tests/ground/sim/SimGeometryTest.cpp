@@ -109,6 +109,11 @@ TEST(SimGeometry, CheckPointsAreOnTheSurfaceAndSeenByTwoOrMoreImages) {
     if (pairs.size() >= 2) ++inter;
   }
   for (const ImageObservation& o : g.observations) {
+    // The observation's pixel ray points at the check point (no fold-back of far off-axis points).
+    Vec3 origin, ray;
+    CHECK(unproject(*models.at(o.image), Vec2(o.sample_px, o.line_px), origin, ray) == Status::kOk);
+    const Eigen::Vector3d to_point = (g.points[static_cast<std::size_t>(o.point)].site_m - origin).normalized();
+    CHECK(ray.dot(to_point) > std::cos(1e-5));
     Vec2 px;
     CHECK(project(*models.at(o.image), g.points[static_cast<std::size_t>(o.point)].site_m, px) == Status::kOk);
     worst_px = std::max(worst_px, (px - Vec2(o.sample_px, o.line_px)).norm());
