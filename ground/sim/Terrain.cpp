@@ -72,11 +72,12 @@ int drawPoisson(std::mt19937_64& rng, double lambda) {
   return k;
 }
 
-struct Rock {
-  double x, y, radius, height, bury, albedo, phase1, phase2, squash;
-};
-
 }  // namespace
+
+struct Terrain::Rock {
+  double x, y, radius, height, bury, albedo, phase1, phase2, squash;
+  double base;  // surface elevation under the centre before any rock
+};
 
 Terrain Terrain::build(const SimConfig& config) {
   Terrain t;
@@ -151,7 +152,7 @@ Terrain Terrain::build(const SimConfig& config) {
 
   // Rocks: per tile, the Golombek density above a minimum diameter that grows with range (centimetre
   // detail near the rover, coarser far away) and never below three cells (a rock must be resolved).
-  std::vector<Rock> rocks;
+  std::vector<Terrain::Rock> rocks;
   const int tiles = static_cast<int>(std::ceil(2.0 * config.half_extent_m / kRockTileM));
   for (int tx = 0; tx < tiles; ++tx) {
     for (int ty = 0; ty < tiles; ++ty) {
@@ -162,7 +163,7 @@ Terrain Terrain::build(const SimConfig& config) {
       const int count = drawPoisson(tile_rng, golombekRockDensity(config.rock_k, d_min, kMaxRockM) * kRockTileM * kRockTileM);
       std::uniform_real_distribution<double> u(0.0, 1.0);
       for (int r = 0; r < count; ++r) {
-        Rock rock;
+        Terrain::Rock rock;
         rock.x = ax + u(tile_rng) * kRockTileM;
         rock.y = ay + u(tile_rng) * kRockTileM;
         const double d = drawRockDiameter(tile_rng, config.rock_k, d_min, kMaxRockM);
@@ -180,38 +181,27 @@ Terrain Terrain::build(const SimConfig& config) {
   }
   // Larger rocks last, so that they stand over the small ones (painter's order, deterministic).
   std::stable_sort(rocks.begin(), rocks.end(), [](const Rock& a, const Rock& b) { return a.radius < b.radius; });
-  const uint64_t s_rock = t.seed_ + 6;
-  for (const Rock& rock : rocks) {
-    const double reach = rock.radius * 1.3;
-    const int i0 = std::max(0, static_cast<int>(std::floor((rock.x - reach - t.x0_) / t.cell_)));
-    const int i1 = std::min(n - 1, static_cast<int>(std::ceil((rock.x + reach - t.x0_) / t.cell_)));
-    const int j0 = std::max(0, static_cast<int>(std::floor((rock.y - reach - t.y0_) / t.cell_)));
-    const int j1 = std::min(n - 1, static_cast<int>(std::ceil((rock.y + reach - t.y0_) / t.cell_)));
-    if (i0 > i1 || j0 > j1) continue;
+  // Each rock stands on the surface under its centre before any rock is placed (so bases do not depend on
+  // the order of work); bands of rows are rasterised in parallel, every band taking the rocks in order.
+  for (Rock& rock : rocks) {
     const int ci = std::clamp(static_cast<int>(std::lround((rock.x - t.x0_) / t.cell_)), 0, n - 1);
     const int cj = std::clamp(static_cast<int>(std::lround((rock.y - t.y0_) / t.cell_)), 0, n - 1);
-    const double base = t.h_[static_cast<std::size_t>(ci) * n + cj];
-    const double cos_a = std::cos(rock.phase1), sin_a = std::sin(rock.phase1);
-    for (int ix = i0; ix <= i1; ++ix) {
-      for (int iy = j0; iy <= j1; ++iy) {
-        const double dx = t.x0_ + ix * t.cell_ - rock.x, dy = t.y0_ + iy * t.cell_ - rock.y;
-        // Elongated, irregular outline.
-        const double along = dx * cos_a + dy * sin_a, across = (-dx * sin_a + dy * cos_a) / rock.squash;
-        const double theta = std::atan2(across, along);
-        const double outline = rock.radius * (1.0 + 0.12 * std::sin(3.0 * theta + rock.phase2) + 0.07 * std::sin(5.0 * theta + rock.phase1));
-        const double rho = std::hypot(along, across) / outline;
-        if (rho >= 1.0) continue;
-        const double bump = 0.08 * rock.height * valueNoise(s_rock, dx / (0.3 * rock.radius) + rock.x, dy / (0.3 * rock.radius) + rock.y);
-        const double top = base - rock.bury + rock.height * std::pow(1.0 - rho * rho, 0.6) + bump * (1.0 - rho);
-        float& h = t.h_[static_cast<std::size_t>(ix) * n + iy];
-        if (top > h) {
-          h = static_cast<float>(top);
-          float& a = t.albedo_[static_cast<std::size_t>(ix) * n + iy];
-          a = static_cast<float>(0.22 * rock.albedo * (1.0 + 0.25 * valueNoise(s_rock + 1, dx / 0.04, dy / 0.04)));
-        }
-      }
-    }
+    rock.base = t.h_[static_cast<std::size_t>(ci) * n + cj];
   }
+  const uint64_t s_rock = t.seed_ + 6;
+  constexpr int kBandRows = 64;
+  parallelFor((n + kBandRows - 1) / kBandRows, config.threads, [&](int band) {
+    const int band_lo = band * kBandRows, band_hi = std::min(n - 1, band_lo + kBandRows - 1);
+    for (const Rock& rock : rocks) {
+      const double reach = rock.radius * 1.3;
+      const int i0 = std::max(band_lo, static_cast<int>(std::floor((rock.x - reach - t.x0_) / t.cell_)));
+      const int i1 = std::min(band_hi, static_cast<int>(std::ceil((rock.x + reach - t.x0_) / t.cell_)));
+      const int j0 = std::max(0, static_cast<int>(std::floor((rock.y - reach - t.y0_) / t.cell_)));
+      const int j1 = std::min(n - 1, static_cast<int>(std::ceil((rock.y + reach - t.y0_) / t.cell_)));
+      if (i0 > i1 || j0 > j1) continue;
+      rasterRock(t, rock, s_rock, i0, i1, j0, j1);
+    }
+  });
   t.rocks_ = static_cast<int>(rocks.size());
 
   // Elevation range and the far plane (mean of the edge nodes).
@@ -223,6 +213,31 @@ Terrain Terrain::build(const SimConfig& config) {
   t.h_far_ = static_cast<float>(edge / (4.0 * n));
   t.buildMaxMipmap();
   return t;
+}
+
+void Terrain::rasterRock(Terrain& t, const Rock& rock, uint64_t s_rock, int i0, int i1, int j0, int j1) {
+  const int n = t.n_;
+  const double base = rock.base;
+  const double cos_a = std::cos(rock.phase1), sin_a = std::sin(rock.phase1);
+  for (int ix = i0; ix <= i1; ++ix) {
+    for (int iy = j0; iy <= j1; ++iy) {
+      const double dx = t.x0_ + ix * t.cell_ - rock.x, dy = t.y0_ + iy * t.cell_ - rock.y;
+      // Elongated, irregular outline.
+      const double along = dx * cos_a + dy * sin_a, across = (-dx * sin_a + dy * cos_a) / rock.squash;
+      const double theta = std::atan2(across, along);
+      const double outline = rock.radius * (1.0 + 0.12 * std::sin(3.0 * theta + rock.phase2) + 0.07 * std::sin(5.0 * theta + rock.phase1));
+      const double rho = std::hypot(along, across) / outline;
+      if (rho >= 1.0) continue;
+      const double bump = 0.08 * rock.height * valueNoise(s_rock, dx / (0.3 * rock.radius) + rock.x, dy / (0.3 * rock.radius) + rock.y);
+      const double top = base - rock.bury + rock.height * std::pow(1.0 - rho * rho, 0.6) + bump * (1.0 - rho);
+      float& h = t.h_[static_cast<std::size_t>(ix) * n + iy];
+      if (top > h) {
+        h = static_cast<float>(top);
+        float& a = t.albedo_[static_cast<std::size_t>(ix) * n + iy];
+        a = static_cast<float>(0.22 * rock.albedo * (1.0 + 0.25 * valueNoise(s_rock + 1, dx / 0.04, dy / 0.04)));
+      }
+    }
+  }
 }
 
 void Terrain::buildMaxMipmap() {

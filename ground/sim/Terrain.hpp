@@ -54,6 +54,8 @@ class Terrain {
  private:
   float node(int ix, int iy) const { return h_[static_cast<std::size_t>(ix) * n_ + iy]; }
   struct GridRay;
+  struct Rock;
+  static void rasterRock(Terrain& t, const Rock& rock, uint64_t seed, int i0, int i1, int j0, int j1);
   bool intersectCell(int ci, int cj, const GridRay& ray, double ta, double tb, double& t_hit) const;
   void buildMaxMipmap();
 
