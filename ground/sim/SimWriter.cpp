@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "ground/dataset/DemRaster.hpp"
+#include "ground/dataset/ModelFile.hpp"
 #include "ground/sim/Renderer.hpp"
 
 namespace areomap::sim {
@@ -49,13 +50,6 @@ nlohmann::json configJson(const SimConfig& c) {
 }
 
 }  // namespace
-
-void writeModelFile(const std::string& path, const CameraModel& model) {
-  char buffer[4096];
-  const std::size_t n = formatModelText(model, buffer, sizeof(buffer));
-  if (n == 0) throw DatasetError(path, "", "camera model does not format");
-  writeTextFile(path, std::string(buffer, n));
-}
 
 void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::string& out, const WriteOptions& options) {
   makeFolder(out);

@@ -22,7 +22,4 @@ struct WriteOptions {
 void writeSimDataset(const SimGeometry& geometry, const Terrain& terrain, const std::string& out_dir,
                      const WriteOptions& options);
 
-// Writes a camera model in the JPL text form.
-void writeModelFile(const std::string& path, const CameraModel& model);
-
 }  // namespace areomap::sim

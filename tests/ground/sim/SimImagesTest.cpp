@@ -11,6 +11,8 @@
 #include <vector>
 
 #include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/ModelFile.hpp"
+#include "ground/dataset/TruthFiles.hpp"
 #include "ground/sim/Renderer.hpp"
 #include "ground/sim/SimGeometry.hpp"
 #include "ground/sim/SimWriter.hpp"
@@ -219,7 +221,20 @@ TEST(SimImages, SameSeedSameBytesWhateverTheThreadCount) {
   const Dataset ds = readDataset(a);
   CHECK_EQUAL(2u, ds.pairs.size());
   checkDatasetFiles(ds, true, true);
-  CHECK(test::fileExists(a + "/truth/models/p001_R.cahvor"));
+  // The truth files read back: every true observation re-projects through its truth/models file.
+  const std::vector<CheckPoint> points = readPointsCsv(a + "/" + kTruthPointsFile);
+  const std::vector<ImageObservation> observations = readObservationsCsv(a + "/" + kTruthObservationsFile);
+  CHECK(points.size() >= 20u);
+  double worst = 0.0;
+  for (const ImageObservation& o : observations) {
+    const CameraModel m = readModelFile(a + "/" + kTruthModelsFolder + "/" + o.image + ".cahvor");
+    Vec2 px;
+    CHECK(project(m, points[static_cast<std::size_t>(o.point)].site_m, px) == Status::kOk);
+    worst = std::max(worst, (px - Vec2(o.sample_px, o.line_px)).norm());
+  }
+  printf("worst re-projection through the written truth models: %.2g px over %zu observations\n", worst,
+         observations.size());
+  CHECK(worst < 1e-6);
   CHECK(test::fileExists(a + "/truth/dem.tif"));
 }
 

@@ -1,0 +1,55 @@
+#include <string>
+
+#include "ground/dataset/ModelFile.hpp"
+#include "tests/ground/dataset/TextFiles.hpp"
+#include "tests/support/TestData.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using namespace areomap;
+using areomap::test::contains;
+using areomap::test::writeText;
+
+TEST_GROUP(ModelFile){};
+
+TEST(ModelFile, RoundTripsACahvorModelExactly) {
+  CameraModel m;
+  m.type = CameraType::kCahvor;
+  m.c = Vec3(0.1234567890123, -0.2, -1.5);
+  m.a = Vec3(0.6, 0.8, 0.0);
+  m.h = Vec3(-987.6543210987, 740.7, 0.1) + 511.5 * m.a;
+  m.v = Vec3(0.0, 0.0, 1234.5) + 511.5 * m.a;
+  m.o = Vec3(0.6, 0.79, 0.1).normalized();
+  m.r = Vec3(0.0, 0.006, -0.004);
+  m.width = 1024;
+  m.height = 1024;
+  const std::string path = test::scratchDir("model-file") + "/models/p000_L.cahvor";
+  writeModelFile(path, m);
+  const CameraModel back = readModelFile(path);
+  CHECK(back.type == CameraType::kCahvor);
+  CHECK(back.c == m.c);
+  CHECK(back.a == m.a);
+  CHECK(back.h == m.h);
+  CHECK(back.v == m.v);
+  CHECK(back.o == m.o);
+  CHECK(back.r == m.r);
+  CHECK_EQUAL(1024, back.width);
+}
+
+TEST(ModelFile, BadFilesNameTheFileAndTheComponent) {
+  const std::string dir = test::scratchDir("model-file-bad");
+  try {
+    (void)readModelFile(dir + "/absent.cahvor");
+    FAIL("no error");
+  } catch (const DatasetError& e) {
+    CHECK(contains(e.what(), "absent.cahvor: cannot open"));
+  }
+  writeText(dir + "/bad.cahvor", "C = 0 0 0\nA = 1 0 0\nH = 0 1000 0\n");
+  try {
+    (void)readModelFile(dir + "/bad.cahvor");
+    FAIL("no error");
+  } catch (const DatasetError& e) {
+    printf("\n%s\n", e.what());
+    CHECK(contains(e.what(), "bad.cahvor: V"));
+  }
+}
