@@ -12,6 +12,21 @@ using VecHist = Eigen::Matrix<double, kMaxAndersonDepth, 1>;
 
 bool usable(const Network& net, const NetObservation& o) { return !o.rejected && net.point(o.point).solvable; }
 
+// Whitened cost charged for an observation whose point is behind its camera: far above any real residual,
+// so that an extrapolated (Anderson) step that flips a point is never taken for a cost decrease.
+constexpr double kBehindCameraCost = 1e8;
+
+// Every active ray of point p sees `xyz` in front of its camera.
+bool inFrontOfAll(const Network& net, const NetPoint& pt, const Vec3& xyz) {
+  for (int32_t k = 0; k < pt.obs_count; ++k) {
+    const NetObservation& o = net.observation(pt.obs[k]);
+    if (o.rejected) continue;
+    const NetImage& im = net.image(o.image);
+    if (!(im.m.row(2).dot(xyz - im.center_m) < 0.0)) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 const char* stopRuleName(StopRule rule) {
@@ -95,6 +110,7 @@ double FastAdjuster::evaluateCost(const Network& net, double* rms_px, int32_t* a
     const NetImage& im = net.image(o.image);
     Vec2 r;
     if (!ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, r, nullptr, nullptr))) {
+      cost += kBehindCameraCost;
       continue;
     }
     cost += r.squaredNorm();
@@ -137,7 +153,7 @@ Status FastAdjuster::pairStep(Network& net, bool keep_normals) {
     ConstraintJacobian jac;
     const int32_t used = pairConstraintRows(net, p, left.center_m, left.m, right.center_m, right.m, rows, jac);
     if (used > 0) {
-      n.noalias() += jac.transpose() * jac;
+      n.noalias() += jac.transpose().lazyProduct(jac);
       b.noalias() -= jac.transpose() * rows;
     }
     if (sides == 1) {
@@ -170,6 +186,119 @@ Status FastAdjuster::pairStep(Network& net, bool keep_normals) {
   return Status::kOk;
 }
 
+Status FastAdjuster::reducedSweep(Network& net) {
+  // 1. Every point's 3x3 normal block and right-hand side over all its rays at the current state.
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    NetPoint& pt = net.point(p);
+    point_eliminated_[p] = false;
+    mark_[p] = -1;
+    if (!pt.solvable) continue;
+    Mat3 n = Mat3::Zero();
+    Vec3 b = Vec3::Zero();
+    int32_t rays = 0;
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const int32_t oi = pt.obs[k];
+      const NetObservation& o = net.observation(oi);
+      obs_valid_[oi] = false;
+      if (o.rejected) continue;
+      const NetImage& im = net.image(o.image);
+      Vec2& r = obs_residual_[oi];
+      Mat2x3& j = obs_d_point_[oi];
+      if (!ok(observationRow(o, im, im.center_m, im.m, pt.xyz_m, r, &obs_d_image_[oi], &j))) continue;
+      obs_valid_[oi] = true;
+      n.noalias() += j.transpose() * j;
+      b.noalias() += j.transpose() * r;
+      ++rays;
+    }
+    if (rays < 2) continue;
+    // Closed-form 3x3 inverse; parallel rays make the determinant vanish against the scale of n.
+    const double scale = n.trace();
+    const double det = n.determinant();
+    if (!(det > 1e-14 * scale * scale * scale)) continue;
+    point_inverse_[p] = n.inverse();
+    point_rhs_[p] = b;
+    point_eliminated_[p] = true;
+  }
+  // 2. Pair after pair: the reduced 12x12 system, its solve, and the points' right-hand sides updated for
+  //    the pair's step (so that the next pair sees it: Gauss-Seidel on the reduced camera system).
+  for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
+    const NetPair& pr = net.pair(pi);
+    const int32_t images[2] = {pr.left, pr.right};
+    const int32_t sides = pr.right >= 0 ? 2 : 1;
+    Mat12 n = Mat12::Zero();
+    Vec12 b = Vec12::Zero();
+    int32_t n_touched = 0;
+    for (int32_t s = 0; s < sides; ++s) {
+      for (int32_t k = image_obs_start_[images[s]]; k < image_obs_start_[images[s] + 1]; ++k) {
+        const int32_t index = image_obs_[k];
+        const NetObservation& o = net.observation(index);
+        if (!usable(net, o) || !obs_valid_[index]) continue;
+        const Vec2& r = obs_residual_[index];
+        const Mat2x6& j = obs_d_image_[index];
+        const Mat2x3& jp = obs_d_point_[index];
+        n.block<6, 6>(6 * s, 6 * s).noalias() += j.transpose() * j;
+        b.segment<6>(6 * s).noalias() += j.transpose() * r;
+        if (!point_eliminated_[o.point]) continue;
+        if (mark_[o.point] != pi) {
+          mark_[o.point] = pi;
+          coupling_[o.point].setZero();
+          touched_[n_touched++] = o.point;
+        }
+        coupling_[o.point].block<6, 3>(6 * s, 0).noalias() += j.transpose() * jp;
+      }
+    }
+    for (int32_t t = 0; t < n_touched; ++t) {
+      const int32_t p = touched_[t];
+      Mat12x3 wn;
+      wn.noalias() = coupling_[p] * point_inverse_[p];
+      n.noalias() -= wn.lazyProduct(coupling_[p].transpose());  // coefficient-based: no GEMM kernel
+      b.noalias() -= wn * point_rhs_[p];
+    }
+    const NetImage& left = net.image(pr.left);
+    const NetImage& right = net.image(sides == 2 ? pr.right : pr.left);
+    ConstraintRows rows;
+    ConstraintJacobian jac;
+    const int32_t used = pairConstraintRows(net, pi, left.center_m, left.m, right.center_m, right.m, rows, jac);
+    if (used > 0) {
+      n.noalias() += jac.transpose().lazyProduct(jac);
+      b.noalias() -= jac.transpose() * rows;
+    }
+    if (sides == 1) {
+      n.block<6, 6>(6, 6).setIdentity();
+      n.block<6, 6>(0, 6).setZero();
+      n.block<6, 6>(6, 0).setZero();
+      b.segment<6>(6).setZero();
+    }
+    // A pair whose points are all its own is only held by the constraints and the datum prior after the
+    // elimination: a relative damping of 1e-9 keeps the solve defined without moving the solution.
+    n.diagonal() *= 1.0 + 1e-9;
+    const Eigen::LDLT<Mat12> ldlt(n);
+    const Vec12 d = ldlt.vectorD();
+    if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-15 * d.maxCoeff())) {
+      return Status::kDegenerate;
+    }
+    const Vec12 delta = ldlt.solve(b);
+    if (!delta.allFinite()) return Status::kNotFinite;
+    for (int32_t s = 0; s < sides; ++s) {
+      NetImage& im = net.image(images[s]);
+      applyCameraUpdate(delta.segment<6>(6 * s), im.center_m, im.m);
+    }
+    for (int32_t t = 0; t < n_touched; ++t) {
+      const int32_t p = touched_[t];
+      point_rhs_[p].noalias() -= coupling_[p].transpose() * delta;
+    }
+  }
+  // 3. Back-substitution of the points (3x3).
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    if (!point_eliminated_[p]) continue;
+    Vec3 delta;
+    delta.noalias() = point_inverse_[p] * point_rhs_[p];
+    const Vec3 moved = net.point(p).xyz_m + delta;
+    if (delta.allFinite() && inFrontOfAll(net, net.point(p), moved)) net.point(p).xyz_m = moved;
+  }
+  return Status::kOk;
+}
+
 void FastAdjuster::pointStep(Network& net) {
   for (int32_t p = 0; p < net.pointCount(); ++p) {
     NetPoint& pt = net.point(p);
@@ -196,7 +325,8 @@ void FastAdjuster::pointStep(Network& net) {
       continue;
     }
     const Vec3 delta = ldlt.solve(b);
-    if (delta.allFinite()) pt.xyz_m += delta;
+    const Vec3 moved = pt.xyz_m + delta;
+    if (delta.allFinite() && inFrontOfAll(net, pt, moved)) pt.xyz_m = moved;
   }
 }
 
@@ -285,7 +415,7 @@ Status FastAdjuster::solve(Network& net, const FastAdjustOptions& options, FastA
   for (int32_t sweep = 0; sweep < max_sweeps; ++sweep) {
     for (int32_t w = window; w > 0; --w) cost_window[w] = cost_window[w - 1];
     cost_window[0] = cost;
-    const Status s = pairStep(net, false);
+    const Status s = options.reduced_pair_solves ? reducedSweep(net) : pairStep(net, false);
     if (!ok(s)) return s;
     readTangent(net, g_);
     // Largest EO update of this plain sweep, pixel equivalent.
@@ -335,6 +465,10 @@ Status FastAdjuster::solve(Network& net, const FastAdjustOptions& options, FastA
     result.sweeps = sweep + 1;
     ++result.sweeps_total;
     result.last_step_px = step_px;
+    if (sweep < options.trace_capacity) {
+      if (options.cost_trace != nullptr) options.cost_trace[sweep] = cost;
+      if (options.step_trace != nullptr) options.step_trace[sweep] = step_px;
+    }
     if (sweep + 1 >= window) {
       const double decrease = cost_window[window - 1] - cost;
       if (decrease <= options.relative_cost_tolerance * cost && step_px < options.eo_step_tolerance_px) {

@@ -44,6 +44,11 @@ const char* stopRuleName(StopRule rule);
 
 struct FastAdjustOptions {
   int32_t max_sweeps = 500;               // <= kMaxFastSweeps
+  // true: each pair's 12x12 block is the REDUCED one (its points eliminated by their 3x3 blocks, the
+  // other pairs fixed), solved pair after pair (block Gauss-Seidel on the reduced camera system), then the
+  // points are back-substituted (3x3). false: the paper's plain alternation (pair with points fixed, then
+  // points with EO fixed). Both use only 12x12 and 3x3 solves and fixed memory.
+  bool reduced_pair_solves = true;
   bool anderson = true;
   int32_t anderson_depth = 10;            // <= kMaxAndersonDepth
   int32_t window = 5;                     // <= kMaxStopWindow
@@ -53,6 +58,10 @@ struct FastAdjustOptions {
   bool robust = true;
   double reject_k = 5.0;
   double reject_floor_sigma = 4.5;        // never reject below 4.5 sigma (whitened norm, P ~ 4e-5)
+  // Optional caller-owned trace of the final solve: total cost and largest EO step (px) after each sweep.
+  double* cost_trace = nullptr;
+  double* step_trace = nullptr;
+  int32_t trace_capacity = 0;
 };
 
 struct FastAdjustResult {
@@ -96,6 +105,7 @@ class FastAdjuster {
   void buildImageIndex(const Network& net);
   [[nodiscard]] Status solve(Network& net, const FastAdjustOptions& options, FastAdjustResult& result);
   [[nodiscard]] Status pairStep(Network& net, bool keep_normals);
+  [[nodiscard]] Status reducedSweep(Network& net);
   void pointStep(Network& net);
   int32_t rejectOutliers(Network& net, const FastAdjustOptions& options);
   void readTangent(const Network& net, double* x) const;
@@ -118,6 +128,21 @@ class FastAdjuster {
   int32_t depth_ = 0;
 
   double scratch_[2 * kMaxObservations] = {};
+
+  // Reduced pair solves: per point its 3x3 inverse normal block, right-hand side and coupling to the pair
+  // being solved; `mark_` holds the last pair that touched a point.
+  Mat3 point_inverse_[kMaxTiePoints];
+  Vec3 point_rhs_[kMaxTiePoints];
+  Mat12x3 coupling_[kMaxTiePoints];
+  bool point_eliminated_[kMaxTiePoints] = {};
+  int32_t mark_[kMaxTiePoints] = {};
+  int32_t touched_[kMaxTiePoints] = {};
+  // Per observation, from the point pass of a reduced sweep (a pair's own observations do not change until
+  // the pair is solved): whitened residual and Jacobians (~10 MiB at full capacity).
+  Vec2 obs_residual_[kMaxObservations];
+  Mat2x6 obs_d_image_[kMaxObservations];
+  Mat2x3 obs_d_point_[kMaxObservations];
+  bool obs_valid_[kMaxObservations] = {};
 };
 
 }  // namespace areomap

@@ -2,6 +2,8 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <filesystem>
+#include <random>
 #include <map>
 #include <sstream>
 
@@ -261,6 +263,43 @@ void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bo
   source.estimated.push_back("FIDO: camera-to-centre distances " + std::to_string(rig.left_distance_m) + " / " +
                              std::to_string(rig.right_distance_m) + " m and left-right distance " +
                              std::to_string(rig.lr_distance_m) + " m from the a-priori models.");
+}
+
+std::vector<ImageObservation> noisyTruthObservations(const Dataset& dataset, double noise_px, uint64_t seed) {
+  std::vector<ImageObservation> observations = readObservationsCsv(dataset.root + "/" + kTruthObservationsFile);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  for (ImageObservation& o : observations) {
+    o.sample_px += noise_px * gauss(rng);
+    o.line_px += noise_px * gauss(rng);
+  }
+  return observations;
+}
+
+NetworkTruth loadNetworkTruth(const Dataset& dataset, const NetworkSource& source, bool with_points) {
+  NetworkTruth truth;
+  for (const std::string& stem : source.stems) {
+    const std::string path = dataset.root + "/" + kTruthModelsFolder + "/" + stem + ".cahvor";
+    if (!std::filesystem::exists(path)) return NetworkTruth{};
+    PhotogrammetricCamera cam;
+    ConversionResidual residual;
+    if (!ok(cahvorToPhotogrammetric(io::readCameraModelFile(path, dataset.width, dataset.height), cam, residual))) {
+      throw cli::InputError(path, "model", "cannot convert the true model");
+    }
+    truth.centers.push_back(cam.eo.center_m);
+    truth.rotations.push_back(cam.m);
+  }
+  truth.available = true;
+  const std::string points_path = dataset.root + "/" + kTruthPointsFile;
+  if (with_points && std::filesystem::exists(points_path)) {
+    std::map<int64_t, Vec3> truth_of_id;
+    for (const CheckPoint& c : readPointsCsv(points_path)) truth_of_id[c.point] = c.site_m;
+    for (int64_t id : source.point_ids) {
+      const auto it = truth_of_id.find(id);
+      truth.points.push_back(it != truth_of_id.end() ? it->second : Vec3::Constant(std::nan("")));
+    }
+  }
+  return truth;
 }
 
 }  // namespace areomap::ground

@@ -43,4 +43,17 @@ void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& o
 // squares of Eq. 3 (C_i = XG_sol + M_i^T c_side) and Eq. 4; FIDO values by a sphere fit per tier.
 void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bool fido);
 
+// DATASET/truth/observations.csv with Gaussian noise of `noise_px` per coordinate (seeded).
+std::vector<ImageObservation> noisyTruthObservations(const Dataset& dataset, double noise_px, uint64_t seed);
+
+// The true EO of every network image (from truth/models/<stem>.cahvor) and, when `with_points` and
+// truth/points.csv exist, the true position of every network point by point id (NaN when unknown).
+struct NetworkTruth {
+  bool available = false;  // false when any true model is missing
+  std::vector<Vec3> centers;
+  std::vector<Mat3> rotations;
+  std::vector<Vec3> points;  // empty when not available
+};
+NetworkTruth loadNetworkTruth(const Dataset& dataset, const NetworkSource& source, bool with_points);
+
 }  // namespace areomap::ground

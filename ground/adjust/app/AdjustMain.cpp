@@ -4,7 +4,6 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -86,18 +85,9 @@ int main(int argc, char** argv) {
     auto t0 = Clock::now();
     const Dataset dataset = readDataset(dataset_dir);
     for (const std::string& note : dataset.notes) report.warnings.push_back(note);
-    std::vector<ImageObservation> observations;
-    if (truth_ties) {
-      observations = readObservationsCsv(dataset.root + "/" + kTruthObservationsFile);
-      std::mt19937_64 rng(static_cast<uint64_t>(seed));
-      std::normal_distribution<double> gauss(0.0, 1.0);
-      for (ImageObservation& o : observations) {
-        o.sample_px += noise_px * gauss(rng);
-        o.line_px += noise_px * gauss(rng);
-      }
-    } else {
-      observations = readTiePointsCsv(*ties);
-    }
+    const std::vector<ImageObservation> observations =
+        truth_ties ? ground::noisyTruthObservations(dataset, noise_px, static_cast<uint64_t>(seed))
+                   : readTiePointsCsv(*ties);
     ground::NetworkSource source;
     ground::buildNetwork(dataset, observations, choice, g_net, source);
     for (const std::string& w : source.warnings) report.warnings.push_back(w);
@@ -115,33 +105,11 @@ int main(int argc, char** argv) {
     report.method3_before = precisionMethod3(g_net);
 
     // Truth: true models (and true points for --truth-ties).
-    std::vector<Vec3> true_centers;
-    std::vector<Mat3> true_rotations;
-    std::vector<Vec3> true_points;
-    bool have_truth = true;
-    for (const std::string& stem : source.stems) {
-      const std::string path = dataset.root + "/" + kTruthModelsFolder + "/" + stem + ".cahvor";
-      if (!std::filesystem::exists(path)) {
-        have_truth = false;
-        break;
-      }
-      PhotogrammetricCamera cam;
-      ConversionResidual residual;
-      if (!ok(cahvorToPhotogrammetric(io::readCameraModelFile(path, dataset.width, dataset.height), cam, residual))) {
-        throw cli::InputError(path, "model", "cannot convert the true model");
-      }
-      true_centers.push_back(cam.eo.center_m);
-      true_rotations.push_back(cam.m);
-    }
-    const std::string points_path = dataset.root + "/" + kTruthPointsFile;
-    if (have_truth && truth_ties && std::filesystem::exists(points_path)) {
-      std::map<int64_t, Vec3> truth_of_id;
-      for (const CheckPoint& c : readPointsCsv(points_path)) truth_of_id[c.point] = c.site_m;
-      for (int64_t id : source.point_ids) {
-        const auto it = truth_of_id.find(id);
-        true_points.push_back(it != truth_of_id.end() ? it->second : Vec3::Constant(std::nan("")));
-      }
-    }
+    const ground::NetworkTruth truth = ground::loadNetworkTruth(dataset, source, truth_ties);
+    const bool have_truth = truth.available;
+    const std::vector<Vec3>& true_centers = truth.centers;
+    const std::vector<Mat3>& true_rotations = truth.rotations;
+    const std::vector<Vec3>& true_points = truth.points;
     std::optional<double> eo_before;
     if (have_truth) {
       eo_before = truthErrors(g_net, true_centers.data(), true_rotations.data(), nullptr, g_net.rig.gimbal_m[0], true,
