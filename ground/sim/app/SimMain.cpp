@@ -1,5 +1,6 @@
 // areomap-sim: synthetic Mars panoramas with known truth (issue 4).
 #include <cstdio>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -89,15 +90,13 @@ int main(int argc, char** argv) {
     const int64_t seed = args.integer("--seed", 1);
     if (seed < 0) throw cli::UsageError("--seed: must be >= 0");
     c.seed = static_cast<uint64_t>(seed);
+    const std::optional<std::string> pairs = args.option("--pairs");
     if (const auto tilts = args.option("--tilts")) {
+      // One 360-degree tier per tilt, each like the preset's tier of the same index (or its last one);
+      // the preset's single images are kept.
       const std::vector<double> t = parseList("--tilts", *tilts);
       std::vector<sim::TierPlan> full, single;
       for (const sim::TierPlan& tier : c.tiers) (tier.left_only ? single : full).push_back(tier);
-      const int total = [&] {
-        int n = 0;
-        for (const sim::TierPlan& tier : full) n += tier.pairs;
-        return n;
-      }();
       std::vector<sim::TierPlan> tiers;
       for (std::size_t i = 0; i < t.size(); ++i) {
         sim::TierPlan tier = full.empty() ? sim::TierPlan{} : full[std::min(i, full.size() - 1)];
@@ -106,13 +105,8 @@ int main(int argc, char** argv) {
       }
       tiers.insert(tiers.end(), single.begin(), single.end());
       c.tiers = tiers;
-      if (!args.option("--pairs")) {
-        int fixed = 0;
-        for (const sim::TierPlan& tier : single) fixed += tier.pairs;
-        sim::setPairCount(c, std::max(total / static_cast<int>(full.size() == 0 ? 1 : full.size()), 1) * static_cast<int>(t.size()) + fixed);
-      }
     }
-    if (const auto pairs = args.option("--pairs")) {
+    if (pairs) {
       int n = 0;
       try {
         std::size_t used = 0;

@@ -258,4 +258,13 @@ TEST(SimImages, ToolRejectsImpossiblePlansAndUnwritableFolders) {
   CHECK(test::fileExists(out + "/ok/panorama.json"));
   CHECK(test::fileExists(out + "/ok/truth/observations.csv"));
   CHECK_FALSE(test::fileExists(out + "/ok/images"));
+  // Overrides combine: two tiers by --tilts, four pairs by --pairs (two per tier).
+  CHECK_EQUAL(0, runSim("--preset tiny --tilts=-30,-50 --pairs 4 --size 96 64 --no-images --check-points 20 --out " +
+                            out + "/tiers",
+                        err));
+  const Dataset ds = readDataset(out + "/tiers");
+  CHECK_EQUAL(4u, ds.pairs.size());
+  CHECK_EQUAL(0, ds.pairs[1].tier);
+  CHECK_EQUAL(1, ds.pairs[2].tier);
+  CHECK_EQUAL(96, ds.width);
 }
