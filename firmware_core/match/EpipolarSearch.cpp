@@ -93,7 +93,7 @@ SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const 
 SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius,
                              const Mat2& a) {
   SearchHit hit;
-  if (radius > kInterSearchRadiusPx) radius = kInterSearchRadiusPx;
+  if (radius > kInterOffsetSearchRadiusPx) radius = kInterOffsetSearchRadiusPx;
   for (int32_t dy = -radius; dy <= radius; ++dy) {
     for (int32_t dx = -radius; dx <= radius; ++dx) {
       consider(hit, nccWarpedAt(t, target, cx + dx, cy + dy, a), cx + dx, cy + dy);

@@ -38,7 +38,7 @@ SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const 
                            int32_t band_px);
 
 // Best NCC of `t`, warped by the local affine map `a` (nccWarpedAt; identity = plain NCC), in the square
-// window +-radius around (cx, cy) (radius <= kInterSearchRadiusPx), and its sub-pixel peak.
+// window +-radius around (cx, cy) (radius <= kInterOffsetSearchRadiusPx), and its sub-pixel peak.
 SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius,
                              const Mat2& a);
 void refinePeakWarped(const NccTemplate& t, const ImageView& image, int32_t bx, int32_t by, double best,

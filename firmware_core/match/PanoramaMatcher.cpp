@@ -135,7 +135,8 @@ Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, c
   }
   if (!has_right) storeSingleImagePoints(left, left_model, stored);
   ++pair_count_;
-  const bool any = stereo_result_.tie_count > 0 || report.inter_observations > 0;
+  // A single image has done its part when it has stored interest points for the pairs that follow.
+  const bool any = stereo_result_.tie_count > 0 || report.inter_observations > 0 || (!has_right && stored.tie_count > 0);
   return any ? Status::kOk : Status::kNoTexture;
 }
 
@@ -213,7 +214,12 @@ void PanoramaMatcher::storeSingleImagePoints(const ImageView& left, const Camera
     StoredTie& st = stored.ties[stored.tie_count++];
     for (int32_t k = 0; k < kNccPixels; ++k) st.patch[k] = t.pixels[k];
     st.predicted_m = origin + range * direction;
-    st.has_shape = false;
+    // Shape: the neighbouring pixels' rays at the same range (exact for frames turned about the mast).
+    Vec3 o2, d2;
+    st.has_shape = ok(unproject(model, Vec2(x + kWarpBasePx, y), o2, d2));
+    st.predicted_dx_m = o2 + range * d2;
+    st.has_shape = st.has_shape && ok(unproject(model, Vec2(x, y + kWarpBasePx), o2, d2));
+    st.predicted_dy_m = o2 + range * d2;
     st.source_px = Vec2(x, y);
     st.point = -1;
   }

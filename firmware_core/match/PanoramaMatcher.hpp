@@ -52,8 +52,8 @@ struct InterParams {
   double single_max_range_m = 50.0;
   int32_t probe_radius_px = kInterOffsetSearchRadiusPx;  // offset probe (a-priori pointing differences)
   int32_t search_radius_px = 4;   // around the prediction corrected by the probed offset, <= kInterSearchRadiusPx
-  double min_ncc = 0.85;
-  double offset_tolerance_px = 2.0;  // departure from the offset field (affine in the image) of the image pair
+  double min_ncc = 0.8;
+  double offset_tolerance_px = 1.5;  // departure from the offset field (affine in the image) of the image pair
   int32_t min_group = 3;             // fewer candidates in an image than this: not verifiable, rejected
 };
 

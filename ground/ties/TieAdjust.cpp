@@ -7,31 +7,6 @@
 
 namespace areomap {
 
-BackProjection backProjection(const Network& net) {
-  BackProjection b;
-  double sum_sq = 0.0;
-  for (int32_t k = 0; k < net.observationCount(); ++k) {
-    const NetObservation& o = net.observation(k);
-    if (o.rejected || !net.point(o.point).solvable) continue;
-    const NetImage& im = net.image(o.image);
-    Vec2 px;
-    if (!ok(collinearity(im.io, im.center_m, im.m, net.point(o.point).xyz_m, px))) continue;
-    const Vec2 r = px - o.ideal_px;
-    b.mean_x_px += std::fabs(r.x());
-    b.mean_y_px += std::fabs(r.y());
-    b.mean_dist_px += r.norm();
-    sum_sq += r.squaredNorm();
-    ++b.observations;
-  }
-  if (b.observations > 0) {
-    b.mean_x_px /= b.observations;
-    b.mean_y_px /= b.observations;
-    b.mean_dist_px /= b.observations;
-    b.rms_px = std::sqrt(sum_sq / (2.0 * b.observations));
-  }
-  return b;
-}
-
 void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
                        std::vector<std::string>& notes) {
   RigConstraints& rig = net.rig;
@@ -91,10 +66,11 @@ AdjustOutcome adjustNetwork(Network& net, const FastAdjustOptions& options) {
   AdjustOutcome out;
   int32_t failed = 0;
   (void)net.triangulateAll(failed);
-  out.before = backProjection(net);
+  out.before = precisionMethod1(net);
   auto adjuster = std::make_unique<FastAdjuster>();
+  (void)adjuster->evaluateCost(net, &out.rms_before_px);
   (void)adjuster->adjust(net, options, out.result);
-  out.after = backProjection(net);
+  out.after = precisionMethod1(net);
   return out;
 }
 

@@ -10,29 +10,22 @@
 
 #include "firmware_core/adjust/FastAdjuster.hpp"
 #include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/adjust/Precision.hpp"
 #include "firmware_core/match/NetworkAdapter.hpp"
 #include "ground/dataset/Dataset.hpp"
 
 namespace areomap {
-
-// Method 1 of the paper (§3.5): back-projection residuals of the tie points, in ideal pixels.
-struct BackProjection {
-  double mean_x_px = 0.0;
-  double mean_y_px = 0.0;
-  double mean_dist_px = 0.0;
-  double rms_px = 0.0;  // per coordinate
-  int observations = 0;
-};
-BackProjection backProjection(const Network& net);
 
 // Fills net.rig (sols of the network images must index dataset.rig.gimbal_m keys in order, as
 // runTiePoints assigns them). `notes` receives what was estimated.
 void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
                        std::vector<std::string>& notes);
 
+// The paper's method 1 (back-projection residuals, firmware_core/adjust/Precision.hpp) before and after.
 struct AdjustOutcome {
-  BackProjection before;
-  BackProjection after;
+  ImageDifferences before;
+  ImageDifferences after;
+  double rms_before_px = 0.0;  // RMS per coordinate (FastAdjuster::evaluateCost)
   FastAdjustResult result;
 };
 

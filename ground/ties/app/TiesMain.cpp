@@ -41,9 +41,7 @@ constexpr const char* kUsage =
     "\n"
     "Exit: 0 ok, 2 usage error, 1 bad input (the message names the file and the field).\n";
 
-json method1(const areomap::BackProjection& b) {
-  return json{{"x", b.mean_x_px}, {"y", b.mean_y_px}, {"dist", b.mean_dist_px}};
-}
+json method1(const areomap::ImageDifferences& d) { return json{{"x", d.x}, {"y", d.y}, {"dist", d.dist}}; }
 
 // The fast adjustment of the ties: DIR/models/<stem>.cahvor (adjusted) and DIR/report.json (method 1
 // before/after, rms_px, sigma0, iterations, tie point counts, timings, warnings).
@@ -77,9 +75,9 @@ void writeAdjustment(const std::string& out, const areomap::Dataset& dataset, co
   report["seconds"] = {{"ties", run.seconds}, {"adjust", seconds}};
   report["warnings"] = notes;
   std::ofstream(out + "/report.json") << report.dump(2) << "\n";
-  std::printf("adjustment: method 1 mean distance %.3f px before, %.3f px after (rms %.3f px, sigma0 %.3f, %d sweeps); "
+  std::printf("adjustment: method 1 mean distance %.3f px before, %.3f px after (rms per coordinate %.3f px, sigma0 %.3f, %d sweeps); "
               "%s/report.json\n",
-              o.before.mean_dist_px, o.after.mean_dist_px, o.after.rms_px, o.result.sigma0, o.result.sweeps_total,
+              o.before.dist, o.after.dist, o.result.rms_px, o.result.sigma0, o.result.sweeps_total,
               out.c_str());
 }
 
