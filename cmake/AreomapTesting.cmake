@@ -17,11 +17,17 @@ function(areomap_cpputest name)
     endforeach()
   endforeach()
   list(REMOVE_DUPLICATES _groups)
+  # A test that runs its own binary again (tests/platform/UdpmTest.cpp) needs the emulator of a cross build.
+  set(_env "AREOMAP_SOURCE_DIR=${PROJECT_SOURCE_DIR}" "AREOMAP_BINARY_DIR=${CMAKE_BINARY_DIR}")
+  if(CMAKE_CROSSCOMPILING_EMULATOR)
+    list(JOIN CMAKE_CROSSCOMPILING_EMULATOR " " _emulator)
+    list(APPEND _env "AREOMAP_TEST_EMULATOR=${_emulator}")
+  endif()
   foreach(g IN LISTS _groups)
     add_test(NAME ${name}.${g} COMMAND ${name} -sg ${g} -v
              WORKING_DIRECTORY ${CMAKE_BINARY_DIR})
     set_tests_properties(${name}.${g} PROPERTIES SKIP_RETURN_CODE 77
-                         ENVIRONMENT "AREOMAP_SOURCE_DIR=${PROJECT_SOURCE_DIR};AREOMAP_BINARY_DIR=${CMAKE_BINARY_DIR}")
+                         ENVIRONMENT "${_env}")
     if(T_LABELS)
       set_tests_properties(${name}.${g} PROPERTIES LABELS "${T_LABELS}")
     endif()

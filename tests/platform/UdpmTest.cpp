@@ -137,7 +137,8 @@ std::string exchange(bool& nothing_arrived) {
 }
 
 // Runs this binary's test `name` of group Udpm in a private network namespace. Returns the exit status,
-// or -1 with `why` when no namespace can be made here.
+// or -1 with `why` when no namespace can be made here. A cross build runs the binary again under its
+// emulator (AREOMAP_TEST_EMULATOR, set by CTest from CMAKE_CROSSCOMPILING_EMULATOR).
 int runInNamespace(const char* name, std::string& why) {
   if (std::system("unshare -n true >/dev/null 2>&1") != 0) {
     why = "unshare -n is not permitted here (needs root or user namespaces)";
@@ -151,7 +152,7 @@ int runInNamespace(const char* name, std::string& why) {
   }
   const std::string command =
       std::string("unshare -n sh -c 'ip link set lo up && ip route add 239.0.0.0/8 dev lo && ") +
-      kInNamespaceEnv + "=1 exec \"$0\" -sg Udpm -sn " + name + "' '" + self + "'";
+      kInNamespaceEnv + "=1 exec ${AREOMAP_TEST_EMULATOR:-} \"$0\" -sg Udpm -sn " + name + "' '" + self + "'";
   std::fflush(stdout);
   const int status = std::system(command.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
