@@ -16,6 +16,8 @@ bool usable(const Network& net, const NetObservation& o) { return !o.rejected &&
 // so that an extrapolated (Anderson) step that flips a point is never taken for a cost decrease.
 constexpr double kBehindCameraCost = 1e8;
 
+constexpr int32_t kMaxPointStepHalvings = 12;  // a point step that would cross behind a camera is halved
+
 // Every active ray of point p sees `xyz` in front of its camera.
 bool inFrontOfAll(const Network& net, const NetPoint& pt, const Vec3& xyz) {
   for (int32_t k = 0; k < pt.obs_count; ++k) {
@@ -27,6 +29,21 @@ bool inFrontOfAll(const Network& net, const NetPoint& pt, const Vec3& xyz) {
   return true;
 }
 
+// Moves a point by `delta`, halving the step while it would put the point behind one of its cameras (a
+// far point's depth is nearly free and its Gauss-Newton step can overshoot through infinity).
+void movePoint(const Network& net, NetPoint& pt, const Vec3& delta) {
+  if (!delta.allFinite()) return;
+  Vec3 step = delta;
+  for (int32_t h = 0; h < kMaxPointStepHalvings; ++h) {
+    const Vec3 moved = pt.xyz_m + step;
+    if (inFrontOfAll(net, pt, moved)) {
+      pt.xyz_m = moved;
+      return;
+    }
+    step *= 0.5;
+  }
+}
+
 }  // namespace
 
 const char* stopRuleName(StopRule rule) {
@@ -35,9 +52,15 @@ const char* stopRuleName(StopRule rule) {
       return "cost_and_step";
     case StopRule::kMaxSweeps:
       return "max_sweeps";
+    case StopRule::kNoDecrease:
+      return "no_decrease";
     default:
       return "none";
   }
+}
+
+const char* fastMethodName(FastMethod method) {
+  return method == FastMethod::kSchurPcg ? "schur_pcg" : "alternation";
 }
 
 double eoPixelEquivalent(double f_px, const Vec3& d_center_m, double angle_rad, double nominal_range_m) {
@@ -291,10 +314,7 @@ Status FastAdjuster::reducedSweep(Network& net) {
   // 3. Back-substitution of the points (3x3).
   for (int32_t p = 0; p < net.pointCount(); ++p) {
     if (!point_eliminated_[p]) continue;
-    Vec3 delta;
-    delta.noalias() = point_inverse_[p] * point_rhs_[p];
-    const Vec3 moved = net.point(p).xyz_m + delta;
-    if (delta.allFinite() && inFrontOfAll(net, net.point(p), moved)) net.point(p).xyz_m = moved;
+    movePoint(net, net.point(p), point_inverse_[p] * point_rhs_[p]);
   }
   return Status::kOk;
 }
@@ -324,9 +344,7 @@ void FastAdjuster::pointStep(Network& net) {
       pt.solvable = false;
       continue;
     }
-    const Vec3 delta = ldlt.solve(b);
-    const Vec3 moved = pt.xyz_m + delta;
-    if (delta.allFinite() && inFrontOfAll(net, pt, moved)) pt.xyz_m = moved;
+    movePoint(net, pt, ldlt.solve(b));
   }
 }
 
@@ -470,9 +488,268 @@ Status FastAdjuster::solve(Network& net, const FastAdjustOptions& options, FastA
       if (options.step_trace != nullptr) options.step_trace[sweep] = step_px;
     }
     if (sweep + 1 >= window) {
-      const double decrease = cost_window[window - 1] - cost;
-      if (decrease <= options.relative_cost_tolerance * cost && step_px < options.eo_step_tolerance_px) {
+      // |change|: a sweep that raised the cost inside the window is no sign of convergence.
+      const double change = std::fabs(cost_window[window - 1] - cost);
+      if (change <= options.relative_cost_tolerance * cost && step_px < options.eo_step_tolerance_px) {
         result.stop_rule = StopRule::kCostAndStep;
+        break;
+      }
+    }
+  }
+  return Status::kOk;
+}
+
+void FastAdjuster::eliminatePoints(Network& net, double damping) {
+  // Point blocks with Levenberg damping, cached observation rows, and the pairs' damped 12x12 blocks, their
+  // right-hand sides (in pcg_r_, before the reduction) and reduced inverses.
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    NetPoint& pt = net.point(p);
+    point_eliminated_[p] = false;
+    mark_[p] = -1;
+    if (!pt.solvable) continue;
+    Mat3 n = Mat3::Zero();
+    Vec3 b = Vec3::Zero();
+    int32_t rays = 0;
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const int32_t oi = pt.obs[k];
+      const NetObservation& o = net.observation(oi);
+      obs_valid_[oi] = false;
+      if (o.rejected) continue;
+      const NetImage& im = net.image(o.image);
+      if (!ok(observationRow(o, im, im.center_m, im.m, pt.xyz_m, obs_residual_[oi], &obs_d_image_[oi],
+                             &obs_d_point_[oi]))) {
+        continue;
+      }
+      obs_valid_[oi] = true;
+      n.noalias() += obs_d_point_[oi].transpose() * obs_d_point_[oi];
+      b.noalias() += obs_d_point_[oi].transpose() * obs_residual_[oi];
+      ++rays;
+    }
+    if (rays < 2) continue;
+    n.diagonal() *= 1.0 + damping;
+    const double scale = n.trace();
+    if (!(n.determinant() > 1e-14 * scale * scale * scale)) continue;
+    point_inverse_[p] = n.inverse();
+    point_rhs_[p] = b;
+    point_eliminated_[p] = true;
+  }
+  for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
+    const NetPair& pr = net.pair(pi);
+    const int32_t images[2] = {pr.left, pr.right};
+    const int32_t sides = pr.right >= 0 ? 2 : 1;
+    Mat12 n = Mat12::Zero();
+    Vec12 b = Vec12::Zero();
+    int32_t n_touched = 0;
+    for (int32_t s = 0; s < sides; ++s) {
+      for (int32_t k = image_obs_start_[images[s]]; k < image_obs_start_[images[s] + 1]; ++k) {
+        const int32_t index = image_obs_[k];
+        const NetObservation& o = net.observation(index);
+        if (!usable(net, o) || !obs_valid_[index]) continue;
+        const Mat2x6& j = obs_d_image_[index];
+        n.block<6, 6>(6 * s, 6 * s).noalias() += j.transpose() * j;
+        b.segment<6>(6 * s).noalias() += j.transpose() * obs_residual_[index];
+        if (!point_eliminated_[o.point]) continue;
+        if (mark_[o.point] != pi) {
+          mark_[o.point] = pi;
+          coupling_[o.point].setZero();
+          touched_[n_touched++] = o.point;
+        }
+        coupling_[o.point].block<6, 3>(6 * s, 0).noalias() += j.transpose() * obs_d_point_[index];
+      }
+    }
+    const NetImage& left = net.image(pr.left);
+    const NetImage& right = net.image(sides == 2 ? pr.right : pr.left);
+    ConstraintRows rows;
+    ConstraintJacobian jac;
+    if (pairConstraintRows(net, pi, left.center_m, left.m, right.center_m, right.m, rows, jac) > 0) {
+      n.noalias() += jac.transpose().lazyProduct(jac);
+      b.noalias() -= jac.transpose() * rows;
+    }
+    if (sides == 1) {
+      n.block<6, 6>(6, 6).setIdentity();
+      n.block<6, 6>(0, 6).setZero();
+      n.block<6, 6>(6, 0).setZero();
+      b.segment<6>(6).setZero();
+    }
+    n.diagonal() *= 1.0 + damping + 1e-12;
+    pair_normal_[pi] = n;
+    Mat12 reduced = n;
+    for (int32_t t = 0; t < n_touched; ++t) {
+      const int32_t p = touched_[t];
+      Mat12x3 wn;
+      wn.noalias() = coupling_[p] * point_inverse_[p];
+      reduced.noalias() -= wn.lazyProduct(coupling_[p].transpose());
+    }
+    const Eigen::LDLT<Mat12> ldlt(reduced);
+    pair_inverse_[pi] = ldlt.info() == Eigen::Success ? Mat12(ldlt.solve(Mat12::Identity())) : Mat12::Identity();
+    if (!pair_inverse_[pi].allFinite()) pair_inverse_[pi].setIdentity();
+    for (int32_t s = 0; s < sides; ++s) {
+      for (int32_t c = 0; c < 6; ++c) pcg_r_[6 * images[s] + c] = b(6 * s + c);
+    }
+  }
+}
+
+void FastAdjuster::reducedProduct(const Network& net, const double* x, double* y) const {
+  // y = (C - W N^-1 W^T) x with C the pair blocks, through the cached observation rows.
+  for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
+    const NetPair& pr = net.pair(pi);
+    Vec12 xx = Vec12::Zero();
+    for (int32_t c = 0; c < 6; ++c) {
+      xx(c) = x[6 * pr.left + c];
+      if (pr.right >= 0) xx(6 + c) = x[6 * pr.right + c];
+    }
+    Vec12 yy;
+    yy.noalias() = pair_normal_[pi] * xx;
+    for (int32_t c = 0; c < 6; ++c) {
+      y[6 * pr.left + c] = yy(c);
+      if (pr.right >= 0) y[6 * pr.right + c] = yy(6 + c);
+    }
+  }
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    if (!point_eliminated_[p]) continue;
+    const NetPoint& pt = net.point(p);
+    Vec3 t = Vec3::Zero();
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const int32_t oi = pt.obs[k];
+      if (net.observation(oi).rejected || !obs_valid_[oi]) continue;
+      const Eigen::Map<const Vec6> xi(x + 6 * net.observation(oi).image);
+      const Vec2 jx = obs_d_image_[oi] * xi;
+      t.noalias() += obs_d_point_[oi].transpose() * jx;
+    }
+    const Vec3 u = point_inverse_[p] * t;
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const int32_t oi = pt.obs[k];
+      if (net.observation(oi).rejected || !obs_valid_[oi]) continue;
+      Eigen::Map<Vec6> yi(y + 6 * net.observation(oi).image);
+      const Vec2 ju = obs_d_point_[oi] * u;
+      yi.noalias() -= obs_d_image_[oi].transpose() * ju;
+    }
+  }
+}
+
+Status FastAdjuster::solvePcg(Network& net, const FastAdjustOptions& options, FastAdjustResult& result) {
+  const int32_t dim = 6 * net.imageCount();
+  const int32_t max_iterations = std::min(std::max(options.max_sweeps, 1), kMaxFastSweeps);
+  const int32_t window = std::min(std::max(options.window, 1), kMaxStopWindow);
+  double cost_window[kMaxStopWindow + 1] = {};
+  double cost = evaluateCost(net);
+  if (!std::isfinite(cost)) return Status::kNotFinite;
+  double damping = 1e-4;
+  constexpr double kMaxDamping = 1e12;
+  int32_t accepted = 0;
+  result.stop_rule = StopRule::kMaxSweeps;
+  for (int32_t it = 0; it < max_iterations; ++it) {
+    eliminatePoints(net, damping);
+    // Right-hand side of the reduced camera system: v = g - W N^-1 b (pcg_r_ holds g on entry).
+    for (int32_t p = 0; p < net.pointCount(); ++p) {
+      if (!point_eliminated_[p]) continue;
+      const NetPoint& pt = net.point(p);
+      const Vec3 u = point_inverse_[p] * point_rhs_[p];
+      for (int32_t k = 0; k < pt.obs_count; ++k) {
+        const int32_t oi = pt.obs[k];
+        if (net.observation(oi).rejected || !obs_valid_[oi]) continue;
+        Eigen::Map<Vec6> ri(pcg_r_ + 6 * net.observation(oi).image);
+        const Vec2 ju = obs_d_point_[oi] * u;
+        ri.noalias() -= obs_d_image_[oi].transpose() * ju;
+      }
+    }
+    // Preconditioned conjugate gradients from x = 0.
+    double rhs_norm2 = 0.0;
+    for (int32_t d = 0; d < dim; ++d) {
+      pcg_x_[d] = 0.0;
+      rhs_norm2 += pcg_r_[d] * pcg_r_[d];
+    }
+    double rz = 0.0;
+    for (int32_t stage = 0; stage < kMaxPcgIterations; ++stage) {
+      // z = P^-1 r (per pair).
+      for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
+        const NetPair& pr = net.pair(pi);
+        Vec12 rr = Vec12::Zero();
+        for (int32_t c = 0; c < 6; ++c) {
+          rr(c) = pcg_r_[6 * pr.left + c];
+          if (pr.right >= 0) rr(6 + c) = pcg_r_[6 * pr.right + c];
+        }
+        const Vec12 zz = pair_inverse_[pi] * rr;
+        for (int32_t c = 0; c < 6; ++c) {
+          pcg_z_[6 * pr.left + c] = zz(c);
+          if (pr.right >= 0) pcg_z_[6 * pr.right + c] = zz(6 + c);
+        }
+      }
+      double rz_new = 0.0;
+      for (int32_t d = 0; d < dim; ++d) rz_new += pcg_r_[d] * pcg_z_[d];
+      const double beta = stage == 0 ? 0.0 : rz_new / rz;
+      rz = rz_new;
+      for (int32_t d = 0; d < dim; ++d) pcg_p_[d] = pcg_z_[d] + beta * pcg_p_[d];
+      reducedProduct(net, pcg_p_, pcg_q_);
+      double pq = 0.0;
+      for (int32_t d = 0; d < dim; ++d) pq += pcg_p_[d] * pcg_q_[d];
+      if (!(pq > 0.0)) break;
+      const double alpha = rz / pq;
+      double r2 = 0.0;
+      for (int32_t d = 0; d < dim; ++d) {
+        pcg_x_[d] += alpha * pcg_p_[d];
+        pcg_r_[d] -= alpha * pcg_q_[d];
+        r2 += pcg_r_[d] * pcg_r_[d];
+      }
+      ++result.pcg_iterations;
+      if (r2 <= options.pcg_relative_tolerance * options.pcg_relative_tolerance * rhs_norm2) break;
+    }
+    // Save, apply the step (cameras, then back-substituted points), and keep it only if the cost drops.
+    for (int32_t i = 0; i < net.imageCount(); ++i) {
+      saved_center_[i] = net.image(i).center_m;
+      saved_m_[i] = net.image(i).m;
+    }
+    for (int32_t p = 0; p < net.pointCount(); ++p) saved_xyz_[p] = net.point(p).xyz_m;
+    double step_px = 0.0;
+    for (int32_t i = 0; i < net.imageCount(); ++i) {
+      NetImage& im = net.image(i);
+      const Eigen::Map<const Vec6> d(pcg_x_ + 6 * i);
+      step_px = std::max(step_px, eoPixelEquivalent(im.io.f_px, d.head<3>(), d.tail<3>().norm(),
+                                                    options.nominal_range_m));
+      applyCameraUpdate(d, im.center_m, im.m);
+    }
+    for (int32_t p = 0; p < net.pointCount(); ++p) {
+      if (!point_eliminated_[p]) continue;
+      NetPoint& pt = net.point(p);
+      Vec3 b = point_rhs_[p];
+      for (int32_t k = 0; k < pt.obs_count; ++k) {
+        const int32_t oi = pt.obs[k];
+        if (net.observation(oi).rejected || !obs_valid_[oi]) continue;
+        const Eigen::Map<const Vec6> xi(pcg_x_ + 6 * net.observation(oi).image);
+        const Vec2 jx = obs_d_image_[oi] * xi;
+        b.noalias() -= obs_d_point_[oi].transpose() * jx;
+      }
+      movePoint(net, pt, point_inverse_[p] * b);
+    }
+    const double new_cost = evaluateCost(net);
+    result.sweeps = it + 1;
+    ++result.sweeps_total;
+    if (std::isfinite(new_cost) && new_cost < cost) {
+      for (int32_t w = window; w > 0; --w) cost_window[w] = cost_window[w - 1];
+      cost_window[0] = cost;
+      cost = new_cost;
+      ++accepted;
+      damping = std::max(damping * 0.1, 1e-12);
+      result.last_step_px = step_px;
+      if (it < options.trace_capacity) {
+        if (options.cost_trace != nullptr) options.cost_trace[it] = cost;
+        if (options.step_trace != nullptr) options.step_trace[it] = step_px;
+      }
+      const double window_decrease = cost_window[window - 1] - cost;  // accepted steps only lower the cost
+      if (accepted >= window && window_decrease <= options.relative_cost_tolerance * cost &&
+          step_px < options.eo_step_tolerance_px) {
+        result.stop_rule = StopRule::kCostAndStep;
+        break;
+      }
+    } else {
+      for (int32_t i = 0; i < net.imageCount(); ++i) {
+        net.image(i).center_m = saved_center_[i];
+        net.image(i).m = saved_m_[i];
+      }
+      for (int32_t p = 0; p < net.pointCount(); ++p) net.point(p).xyz_m = saved_xyz_[p];
+      damping *= 10.0;
+      if (damping > kMaxDamping) {
+        result.stop_rule = StopRule::kNoDecrease;
         break;
       }
     }
@@ -530,7 +807,7 @@ Status FastAdjuster::adjust(Network& net, const FastAdjustOptions& options, Fast
   }
   for (int32_t round = 0; round <= kMaxRejectionRounds; ++round) {
     Status s = checkNetwork(net, result.degenerate_image);
-    if (ok(s)) s = solve(net, options, result);
+    if (ok(s)) s = options.method == FastMethod::kSchurPcg ? solvePcg(net, options, result) : solve(net, options, result);
     if (!ok(s)) {
       result.status = s;
       return s;

@@ -5,8 +5,8 @@
 // sweep map is Anderson-accelerated over the stacked EO vector in the tangent space (fixed-size history;
 // the extrapolated EO is kept only if the total weighted cost goes down, else the plain sweep is taken).
 //
-// Stop rule (both must hold): the total weighted cost decreased by less than `relative_cost_tolerance`
-// (relative) over the last `window` sweeps AND the largest EO update of the last sweep is below
+// Stop rule (both must hold): the total weighted cost changed by less than `relative_cost_tolerance`
+// (relative, in absolute value) over the last `window` sweeps AND the largest EO update of the last sweep is below
 // `eo_step_tolerance_px` (pixel equivalent, see eoPixelEquivalent). Otherwise the sweep bound fires.
 //
 // Robust rejection: after a converged solve the whitened residual norms are compared with
@@ -35,15 +35,28 @@ constexpr int32_t kMaxStopWindow = 16;            // sweeps of the relative-cost
 constexpr int32_t kMaxEoUnknowns = 6 * kMaxImages;
 constexpr int32_t kMinObservationsPerImage = 3;   // a camera needs at least 3 rays to be resected
 
+constexpr int32_t kMaxPcgIterations = 200;      // conjugate-gradient steps per linearisation
+
+// How the fast adjuster solves (both use only per-pair 12x12 and per-point 3x3 blocks and fixed memory):
+// kAlternation: the paper's alternation of pair and point solves as a sweep map (see reduced_pair_solves),
+//   Anderson-accelerated. kSchurPcg: Levenberg-Marquardt whose step solves the reduced camera system by
+//   conjugate gradients, the products done implicitly through the 3x3 point blocks and the pairs' 12x12
+//   reduced blocks as block-Jacobi preconditioner (shared/reference/fast-adjustment.md, "other known ways").
+enum class FastMethod : uint8_t { kAlternation = 0, kSchurPcg = 1 };
+const char* fastMethodName(FastMethod method);
+
 enum class StopRule : uint8_t {
   kNone = 0,
   kCostAndStep,  // relative cost decrease over the window and the largest EO step both below tolerance
   kMaxSweeps,    // the sweep bound fired
+  kNoDecrease,   // kSchurPcg: no damped step lowers the cost any more (the minimum to machine precision)
 };
 const char* stopRuleName(StopRule rule);
 
 struct FastAdjustOptions {
-  int32_t max_sweeps = 500;               // <= kMaxFastSweeps
+  FastMethod method = FastMethod::kAlternation;
+  int32_t max_sweeps = 500;               // <= kMaxFastSweeps (kSchurPcg: linearisations)
+  double pcg_relative_tolerance = 1e-3;   // kSchurPcg: |residual| / |rhs| of the reduced system
   // true: each pair's 12x12 block is the REDUCED one (its points eliminated by their 3x3 blocks, the
   // other pairs fixed), solved pair after pair (block Gauss-Seidel on the reduced camera system), then the
   // points are back-substituted (3x3). false: the paper's plain alternation (pair with points fixed, then
@@ -70,6 +83,7 @@ struct FastAdjustResult {
   int32_t sweeps = 0;            // of the final solve
   int32_t sweeps_total = 0;      // over all rejection rounds
   int32_t rejection_rounds = 0;
+  int32_t pcg_iterations = 0;        // kSchurPcg: conjugate-gradient steps over all linearisations
   int32_t anderson_accepted = 0;
   int32_t anderson_rejected = 0;
   int32_t rejected_observations = 0;  // rejected in this call (flags already set before are kept)
@@ -106,6 +120,9 @@ class FastAdjuster {
   [[nodiscard]] Status solve(Network& net, const FastAdjustOptions& options, FastAdjustResult& result);
   [[nodiscard]] Status pairStep(Network& net, bool keep_normals);
   [[nodiscard]] Status reducedSweep(Network& net);
+  [[nodiscard]] Status solvePcg(Network& net, const FastAdjustOptions& options, FastAdjustResult& result);
+  void eliminatePoints(Network& net, double damping);
+  void reducedProduct(const Network& net, const double* x, double* y) const;
   void pointStep(Network& net);
   int32_t rejectOutliers(Network& net, const FastAdjustOptions& options);
   void readTangent(const Network& net, double* x) const;
@@ -143,6 +160,17 @@ class FastAdjuster {
   Mat2x6 obs_d_image_[kMaxObservations];
   Mat2x3 obs_d_point_[kMaxObservations];
   bool obs_valid_[kMaxObservations] = {};
+  // kSchurPcg: pair blocks (12x12 with constraints and damping), their reduced inverses (preconditioner),
+  // the conjugate-gradient vectors and the state saved for a rejected step.
+  Mat12 pair_inverse_[kMaxPairs];
+  double pcg_x_[kMaxEoUnknowns] = {};
+  double pcg_r_[kMaxEoUnknowns] = {};
+  double pcg_z_[kMaxEoUnknowns] = {};
+  double pcg_p_[kMaxEoUnknowns] = {};
+  double pcg_q_[kMaxEoUnknowns] = {};
+  Vec3 saved_center_[kMaxImages];
+  Mat3 saved_m_[kMaxImages];
+  Vec3 saved_xyz_[kMaxTiePoints];
 };
 
 }  // namespace areomap

@@ -64,24 +64,35 @@ int unknownsOf(const Network& net) {
 
 void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth, int svd_max, int repeat,
                   const FastAdjustOptions& fast_options) {
-  Row fast, ceres, svd;
-  fast.name = "fast";
+  Row fast, pcg, ceres, svd;
+  fast.name = "fast (alternation + Anderson)";
+  pcg.name = "fast (Schur PCG, 12x12 block-Jacobi)";
   ceres.name = "ceres sparse Schur";
   svd.name = "integrated SVD";
-  fast.seconds = 1e30;
-  for (int k = 0; k < repeat; ++k) {
-    g_work = g_start;
-    FastAdjustResult fr;
-    const auto t0 = Clock::now();
-    const Status s = g_fast.adjust(g_work, fast_options, fr);
-    fast.seconds = std::min(fast.seconds, since(t0));
-    fast.iterations = fr.sweeps;
-    fast.rms_px = fr.rms_px;
-    fast.cost = fr.cost;
-    fast.note = std::string(statusName(s)) + ", stop " + stopRuleName(fr.stop_rule) + ", Anderson " +
-                std::to_string(fr.anderson_accepted) + "/" + std::to_string(fr.anderson_accepted + fr.anderson_rejected);
-  }
-  truthFigures(truth, fast);
+  const auto runFast = [&](FastMethod method, Row& row) {
+    row.seconds = 1e30;
+    FastAdjustOptions o = fast_options;
+    o.method = method;
+    for (int k = 0; k < repeat; ++k) {
+      g_work = g_start;
+      FastAdjustResult fr;
+      const auto t0 = Clock::now();
+      const Status s = g_fast.adjust(g_work, o, fr);
+      row.seconds = std::min(row.seconds, since(t0));
+      row.iterations = fr.sweeps;
+      row.rms_px = fr.rms_px;
+      row.cost = fr.cost;
+      row.note = std::string(statusName(s)) + ", stop " + stopRuleName(fr.stop_rule) +
+                 (method == FastMethod::kAlternation
+                      ? ", Anderson " + std::to_string(fr.anderson_accepted) + "/" +
+                            std::to_string(fr.anderson_accepted + fr.anderson_rejected)
+                      : ", " + std::to_string(fr.pcg_iterations) + " CG steps");
+    }
+    truthFigures(truth, row);
+  };
+  runFast(FastMethod::kSchurPcg, pcg);
+  runFast(FastMethod::kAlternation, fast);
+
   Network* fast_solution = new Network(g_work);
   ceres.seconds = 1e30;
   for (int k = 0; k < repeat; ++k) {
@@ -115,6 +126,7 @@ void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth,
   std::printf("| problem | solver | seconds | x fast | iterations | RMS px (method 1) | cost | EO err px (aligned) "
               "| ground err m (aligned) | note |\n|---|---|---|---|---|---|---|---|---|---|\n");
   printRow(problem, fast, fast.seconds);
+  printRow(problem, pcg, fast.seconds);
   printRow(problem, ceres, fast.seconds);
   if (u <= svd_max) {
     g_work = g_start;
