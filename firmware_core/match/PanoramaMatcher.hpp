@@ -145,4 +145,8 @@ class PanoramaMatcher {
   bool inlier_[kMaxTiesPerPair];
 };
 
+// The matcher's share of the rover's static memory (DESIGN.md: 64 MiB in all): ~19 MiB, leaving the rest to
+// the image buffers, the adjustment network and the node.
+static_assert(sizeof(PanoramaMatcher) <= 24u * 1024u * 1024u, "PanoramaMatcher exceeds its 24 MiB share");
+
 }  // namespace areomap
