@@ -241,17 +241,24 @@ void Terrain::rasterRock(Terrain& t, const Rock& rock, uint64_t s_rock, int i0, 
 }
 
 void Terrain::buildMaxMipmap() {
+  // Level 0 (single cells) is not stored: castRay takes the maximum of the cell's four nodes. Level 1 (2 x 2
+  // cells) is built from the nodes, every next level from the one below.
   const int cells = n_ - 1;
   mip_.clear();
   mip_size_.clear();
-  std::vector<float> level(static_cast<std::size_t>(cells) * cells);
-  for (int i = 0; i < cells; ++i) {
-    for (int j = 0; j < cells; ++j) {
-      level[static_cast<std::size_t>(i) * cells + j] = std::max({node(i, j), node(i + 1, j), node(i, j + 1), node(i + 1, j + 1)});
+  const int s1 = (cells + 1) / 2;
+  std::vector<float> level(static_cast<std::size_t>(s1) * s1);
+  for (int i = 0; i < s1; ++i) {
+    for (int j = 0; j < s1; ++j) {
+      float m = node(2 * i, 2 * j);
+      for (int a = 2 * i; a <= std::min(2 * i + 2, n_ - 1); ++a) {
+        for (int b = 2 * j; b <= std::min(2 * j + 2, n_ - 1); ++b) m = std::max(m, node(a, b));
+      }
+      level[static_cast<std::size_t>(i) * s1 + j] = m;
     }
   }
   mip_.push_back(std::move(level));
-  mip_size_.push_back(cells);
+  mip_size_.push_back(s1);
   while (mip_size_.back() > 1) {
     const int s = mip_size_.back();
     const int s2 = (s + 1) / 2;
@@ -384,25 +391,31 @@ bool Terrain::castRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dire
   }
   if (!(t0 < t1)) return false;
 
-  const int top = static_cast<int>(mip_.size()) - 1;
+  const int top = static_cast<int>(mip_.size());  // levels 1..top are stored in mip_[level - 1]
   int level = top;
   double t = t0;
+  const double inv_du = ray.du != 0.0 ? 1.0 / ray.du : 0.0, inv_dv = ray.dv != 0.0 ? 1.0 / ray.dv : 0.0;
   const double nudge_u = ray.du > 0.0 ? 1e-7 : (ray.du < 0.0 ? -1e-7 : 0.0);
   const double nudge_v = ray.dv > 0.0 ? 1e-7 : (ray.dv < 0.0 ? -1e-7 : 0.0);
   for (int step = 0; step < kMaxRaySteps && t < t1; ++step) {
-    const int ci = std::clamp(static_cast<int>(std::floor(ray.u(t) + nudge_u)), 0, cells - 1);
-    const int cj = std::clamp(static_cast<int>(std::floor(ray.v(t) + nudge_v)), 0, cells - 1);
+    // The cell the ray is in (or entering, when exactly on a boundary); outside the grid it has left.
+    const double fu = std::floor(ray.u(t) + nudge_u), fv = std::floor(ray.v(t) + nudge_v);
+    if (fu < 0.0 || fv < 0.0 || fu >= cells || fv >= cells) return false;
+    const int ci = static_cast<int>(fu), cj = static_cast<int>(fv);
     const int bi = ci >> level, bj = cj >> level;
     const double lo_u = static_cast<double>(bi << level), hi_u = std::min(static_cast<double>((bi + 1) << level), static_cast<double>(cells));
     const double lo_v = static_cast<double>(bj << level), hi_v = std::min(static_cast<double>((bj + 1) << level), static_cast<double>(cells));
     double tx = t1;
-    if (ray.du > 0.0) tx = std::min(tx, (hi_u - ray.u0) / ray.du);
-    if (ray.du < 0.0) tx = std::min(tx, (lo_u - ray.u0) / ray.du);
-    if (ray.dv > 0.0) tx = std::min(tx, (hi_v - ray.v0) / ray.dv);
-    if (ray.dv < 0.0) tx = std::min(tx, (lo_v - ray.v0) / ray.dv);
+    if (ray.du > 0.0) tx = std::min(tx, (hi_u - ray.u0) * inv_du);
+    if (ray.du < 0.0) tx = std::min(tx, (lo_u - ray.u0) * inv_du);
+    if (ray.dv > 0.0) tx = std::min(tx, (hi_v - ray.v0) * inv_dv);
+    if (ray.dv < 0.0) tx = std::min(tx, (lo_v - ray.v0) * inv_dv);
     tx = std::max(tx, t);
     const double e_min = std::min(ray.e(t), ray.e(tx));
-    const float block_max = mip_[static_cast<std::size_t>(level)][static_cast<std::size_t>(bi) * mip_size_[static_cast<std::size_t>(level)] + bj];
+    const float block_max =
+        level == 0 ? std::max({node(ci, cj), node(ci + 1, cj), node(ci, cj + 1), node(ci + 1, cj + 1)})
+                   : mip_[static_cast<std::size_t>(level - 1)]
+                         [static_cast<std::size_t>(bi) * mip_size_[static_cast<std::size_t>(level - 1)] + bj];
     if (e_min > block_max) {
       t = tx;
       if (level < top) ++level;

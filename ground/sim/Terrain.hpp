@@ -67,7 +67,7 @@ class Terrain {
   double texture_ifov_rad_ = 0.005;  // the finest pixel angle of the cameras: texture octaves fade below it
   std::vector<float> h_;       // [ix * n + iy], elevation up
   std::vector<float> albedo_;  // same layout
-  std::vector<std::vector<float>> mip_;  // level L: max over blocks of 2^L x 2^L cells
+  std::vector<std::vector<float>> mip_;  // mip_[L - 1]: max over blocks of 2^L x 2^L cells (L >= 1)
   std::vector<int> mip_size_;
   float h_min_ = 0.0f, h_max_ = 0.0f, h_far_ = 0.0f;
   int rocks_ = 0;
