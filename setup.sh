@@ -3,7 +3,8 @@
 # is missing) and configures and builds into build/ (tools in build/bin/).
 #
 #   ./setup.sh                      native build (Release)
-#   ./setup.sh --targets aarch64,powerpc   also the cross targets (toolchains/README.md)
+#   ./setup.sh --targets aarch64,powerpc   also the cross targets, built into build-<target>/
+#                                          (toolchains/README.md)
 #   ./setup.sh --no-build           packages only
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -64,4 +65,14 @@ if [ "$build" = 1 ]; then
   cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
   cmake --build build -j "$jobs"
   echo "setup: built into build/ (tools in build/bin/)"
+  # The cross targets: the rover side and its tests (CMakePresets.json; run them with ctest --preset T).
+  if [ -n "$targets" ]; then
+    IFS=',' read -r -a _targets <<<"$targets"
+    for t in "${_targets[@]}"; do
+      case "$t" in arm64) t=aarch64 ;; ppc) t=powerpc ;; "") continue ;; esac
+      cmake --preset "$t"
+      cmake --build --preset "$t"
+      echo "setup: built the $t target into build-$t/ (tests: ctest --preset $t)"
+    done
+  fi
 fi

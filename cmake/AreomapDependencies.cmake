@@ -3,15 +3,25 @@ find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(Threads REQUIRED)
 
 # LCM: Debian's pkg-config file pulls in glib; find the library and header directly.
-find_path(LCM_INCLUDE_DIR lcm/lcm.h REQUIRED)
-find_library(LCM_LIBRARY NAMES lcm REQUIRED)
+# AREOMAP_WITH_LCM_RUNTIME=OFF (the powerpc toolchain: Debian has no LCM for it) uses LCM's headers only:
+# the generated message code needs only lcm_coretypes.h; the LCM transport is left out (platform/posix).
+option(AREOMAP_WITH_LCM_RUNTIME "Link LCM's runtime library (udpm/file transports)" ON)
+find_path(LCM_INCLUDE_DIR lcm/lcm_coretypes.h REQUIRED)
+if(AREOMAP_WITH_LCM_RUNTIME)
+  find_library(LCM_LIBRARY NAMES lcm REQUIRED)
+endif()
 find_program(LCM_GEN_EXECUTABLE lcm-gen)
 if(NOT LCM_GEN_EXECUTABLE)
   message(FATAL_ERROR "lcm-gen not found: install liblcm-bin (./setup.sh does)")
 endif()
-add_library(lcm::lcm UNKNOWN IMPORTED)
-set_target_properties(lcm::lcm PROPERTIES IMPORTED_LOCATION ${LCM_LIBRARY}
-                                          INTERFACE_INCLUDE_DIRECTORIES ${LCM_INCLUDE_DIR})
+if(AREOMAP_WITH_LCM_RUNTIME)
+  add_library(lcm::lcm UNKNOWN IMPORTED)
+  set_target_properties(lcm::lcm PROPERTIES IMPORTED_LOCATION ${LCM_LIBRARY}
+                                            INTERFACE_INCLUDE_DIRECTORIES ${LCM_INCLUDE_DIR})
+else()
+  add_library(lcm::lcm INTERFACE IMPORTED)
+  set_target_properties(lcm::lcm PROPERTIES INTERFACE_INCLUDE_DIRECTORIES ${LCM_INCLUDE_DIR})
+endif()
 
 # TurboJPEG through libjpeg-turbo's CMake package.
 find_package(libjpeg-turbo REQUIRED)

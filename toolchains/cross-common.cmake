@@ -31,15 +31,18 @@ list(PREPEND CMAKE_PREFIX_PATH ${AREOMAP_TARGET_ROOT} ${AREOMAP_TARGET_ROOT}/usr
 set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)
 
 # pkg-config (CppUTest) looks only at the target's .pc files.
-set(ENV{PKG_CONFIG_LIBDIR}
-    "${AREOMAP_TARGET_ROOT}/lib/pkgconfig:${AREOMAP_TARGET_ROOT}/usr/lib/${AREOMAP_TARGET_TRIPLET}/pkgconfig:/usr/lib/${AREOMAP_TARGET_TRIPLET}/pkgconfig:/usr/share/pkgconfig")
+set(_pc_dirs ${AREOMAP_TARGET_ROOT}/lib/pkgconfig
+             ${AREOMAP_TARGET_ROOT}/usr/lib/${AREOMAP_TARGET_TRIPLET}/pkgconfig
+             /usr/lib/${AREOMAP_TARGET_TRIPLET}/pkgconfig /usr/share/pkgconfig)
+list(JOIN _pc_dirs ":" _pc_dirs)
+set(ENV{PKG_CONFIG_LIBDIR} "${_pc_dirs}")
 set(ENV{PKG_CONFIG_PATH} "")
 
 # Run target executables (CTest, custom commands) under user-mode emulation.
 find_program(AREOMAP_QEMU_EXECUTABLE ${AREOMAP_QEMU} NO_CMAKE_FIND_ROOT_PATH)
 if(NOT AREOMAP_QEMU_EXECUTABLE)
   set(AREOMAP_QEMU_EXECUTABLE ${AREOMAP_QEMU})
-  message(WARNING "${AREOMAP_QEMU} not found: tests cannot run (toolchains/setup-targets.sh installs qemu-user)")
+  message(WARNING "${AREOMAP_QEMU} not found: tests cannot run (toolchains/setup-targets.sh installs it)")
 endif()
 set(CMAKE_CROSSCOMPILING_EMULATOR ${AREOMAP_QEMU_EXECUTABLE} -L ${AREOMAP_QEMU_LD_PREFIX})
 

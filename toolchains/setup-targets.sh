@@ -7,9 +7,9 @@
 #
 # Both targets: the cross compilers and qemu-user >= 8.1 from bookworm-backports (bookworm's qemu 7.2 crashes
 # in glibc's math functions for 32-bit PowerPC), pinned so that only qemu comes from backports.
-# aarch64: Debian's arm64 multiarch packages (TurboJPEG, CppUTest, glib for LCM, libstdc++ to run); LCM's arm64 runtime
-#   (liblcm1, liblcm-dev) is unpacked from the Debian packages into $AREOMAP_CROSS_ROOT/aarch64-linux-gnu,
-#   since apt cannot co-install liblcm-dev for two architectures.
+# aarch64: Debian's arm64 multiarch packages (TurboJPEG, CppUTest, glib for LCM, libstdc++ to run); LCM's
+#   arm64 runtime (liblcm1, liblcm-dev) is unpacked from the Debian packages into
+#   $AREOMAP_CROSS_ROOT/aarch64-linux-gnu, since apt cannot co-install liblcm-dev for two architectures.
 # powerpc: a Debian ports architecture that deb.debian.org does not serve, so CppUTest and libjpeg-turbo are
 #   cross-built from their bookworm source packages into $AREOMAP_CROSS_ROOT/powerpc-linux-gnu; LCM's
 #   runtime (it needs glib) is not built: the powerpc target has no udpm/file transport (see README).
@@ -18,7 +18,7 @@ here="$(cd "$(dirname "$0")" && pwd)"
 root="${AREOMAP_CROSS_ROOT:-/opt/areomap-cross}"
 jobs="${AREOMAP_SETUP_JOBS:-$(nproc 2>/dev/null || echo 2)}"
 
-usage() { sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; }
 case "${1:-}" in
   -h|--help) usage; exit 0 ;;
   "") usage >&2; exit 2 ;;
@@ -157,7 +157,7 @@ build_from_source() {
   # The Debian patches apply to the packaged build (docs, paths); the library sources are upstream's.
   cmake -S "$work/src" -B "$work/build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
         -DCMAKE_TOOLCHAIN_FILE="$here/powerpc-linux-gnu.cmake" \
-        -DCMAKE_INSTALL_PREFIX="$dest" -DCMAKE_INSTALL_LIBDIR="$dest/lib" "$@" >"$work/configure.log" ||
+        -DCMAKE_INSTALL_PREFIX="$dest" "$@" >"$work/configure.log" ||
     { cat "$work/configure.log" >&2; exit 1; }
   cmake --build "$work/build" -j "$jobs" >"$work/build.log" || { tail -50 "$work/build.log" >&2; exit 1; }
   "${as_root[@]}" cmake --install "$work/build" >/dev/null
@@ -166,9 +166,11 @@ build_from_source() {
   "${as_root[@]}" touch "$stamp"
 }
 if [ "$want_powerpc" = 1 ]; then
-  build_from_source cpputest -DTESTS=OFF -DBUILD_TESTING=OFF -DEXTENSIONS=ON \
+  build_from_source cpputest -DCMAKE_INSTALL_LIBDIR=lib -DTESTS=OFF -DBUILD_TESTING=OFF -DEXTENSIONS=ON \
                     -DMEMORY_LEAK_DETECTION=OFF -DLONGLONG=ON
-  build_from_source libjpeg-turbo -DENABLE_SHARED=OFF -DENABLE_STATIC=ON -DWITH_SIMD=OFF -DWITH_JAVA=OFF \
+  # libjpeg-turbo's own GNUInstallDirs resolves a relative libdir against the working directory.
+  build_from_source libjpeg-turbo -DCMAKE_INSTALL_LIBDIR="$root/powerpc-linux-gnu/lib" \
+                    -DENABLE_SHARED=OFF -DENABLE_STATIC=ON -DWITH_SIMD=OFF -DWITH_JAVA=OFF \
                     -DWITH_TURBOJPEG=ON -DCMAKE_POSITION_INDEPENDENT_CODE=ON
   # LCM's headers (the generated message code needs only lcm_coretypes.h, which encodes big-endian byte by
   # byte on any host) from the same Debian version as lcm-gen, unpacked from liblcm-dev.
