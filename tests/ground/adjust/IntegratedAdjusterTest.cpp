@@ -39,7 +39,7 @@ Difference largestDifference(const Network& a, const Network& b) {
 // A smaller navcam panorama (the dense SVD is O(n^3)), exactly rigid rig with the paper's tiny sigmas.
 test::PanoramaConfig smallNavcam() {
   test::PanoramaConfig cfg = test::navcamConfig();
-  cfg.grid = 4;
+  cfg.grid = 3;
   cfg.max_range_m = 25.0;
   return cfg;
 }
