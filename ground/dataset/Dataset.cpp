@@ -14,6 +14,7 @@ namespace areomap {
 namespace {
 
 using Json = nlohmann::json;
+using OrderedJson = nlohmann::ordered_json;  // the writer keeps the contract's key order
 
 // Reads panorama.json fields with errors that name the file and the field.
 class Reader {
@@ -89,7 +90,7 @@ std::string resolvePath(const std::string& root, const std::string& relative) {
   return (base / relative).lexically_normal().string();
 }
 
-Json vecJson(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+OrderedJson vecJson(const Eigen::Vector3d& v) { return OrderedJson::array({v.x(), v.y(), v.z()}); }
 
 ImageRef readImageRef(const Reader& r, const Json& side, const std::string& field, const std::string& root) {
   if (!side.is_object()) r.fail(field, "expected an object with \"image\" (and optionally \"model\")");
@@ -102,10 +103,10 @@ ImageRef readImageRef(const Reader& r, const Json& side, const std::string& fiel
   return ref;
 }
 
-Json imageRefJson(const ImageRef& ref, const std::string& field) {
+OrderedJson imageRefJson(const ImageRef& ref, const std::string& field) {
   std::string why;
   if (!isSafeRelativePath(ref.image, why)) throw DatasetError(kPanoramaFileName, field + ".image", why);
-  Json j = {{"image", ref.image}};
+  OrderedJson j = {{"image", ref.image}};
   if (ref.model) {
     if (!isSafeRelativePath(*ref.model, why)) throw DatasetError(kPanoramaFileName, field + ".model", why);
     j["model"] = *ref.model;
@@ -323,12 +324,12 @@ Dataset readDataset(const std::string& dir) {
 
 void writeDataset(const Dataset& ds, const std::string& dir) {
   const std::string file = joinPath(dir, kPanoramaFileName);
-  Json root = Json::object();
+  OrderedJson root = OrderedJson::object();
   if (!ds.name.empty()) root["name"] = ds.name;
   if (ds.width > 0 && ds.height > 0) root["image_size"] = Json::array({ds.width, ds.height});
-  Json rig = Json::object();
+  OrderedJson rig = OrderedJson::object();
   if (!ds.rig.gimbal_m.empty()) {
-    Json g = Json::object();
+    OrderedJson g = OrderedJson::object();
     for (const auto& [sol, centre] : ds.rig.gimbal_m) g[std::to_string(sol)] = vecJson(centre);
     rig["gimbal_m"] = g;
   }
@@ -338,11 +339,11 @@ void writeDataset(const Dataset& ds, const std::string& dir) {
   if (ds.rig.sigma_gimbal_m) rig["sigma_gimbal_m"] = *ds.rig.sigma_gimbal_m;
   if (ds.rig.sigma_base_m) rig["sigma_base_m"] = *ds.rig.sigma_base_m;
   if (!rig.empty()) root["rig"] = rig;
-  Json pairs = Json::array();
+  OrderedJson pairs = OrderedJson::array();
   for (std::size_t i = 0; i < ds.pairs.size(); ++i) {
     const Pair& p = ds.pairs[i];
     const std::string field = "pairs[" + std::to_string(i) + "]";
-    Json j = {{"id", p.id}, {"sol", p.sol}, {"tier", p.tier}, {"left", imageRefJson(p.left, field + ".left")}};
+    OrderedJson j = {{"id", p.id}, {"sol", p.sol}, {"tier", p.tier}, {"left", imageRefJson(p.left, field + ".left")}};
     if (p.right) j["right"] = imageRefJson(*p.right, field + ".right");
     pairs.push_back(j);
   }

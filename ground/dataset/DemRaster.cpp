@@ -9,6 +9,10 @@
 namespace areomap {
 namespace {
 
+constexpr const char* kSiteFrameWkt =
+    "LOCAL_CS[\"areomap site frame (east = +Y, north = +X, up = -Z)\",LOCAL_DATUM[\"site\",0],"
+    "UNIT[\"metre\",1],AXIS[\"Easting\",EAST],AXIS[\"Northing\",NORTH]]";
+
 void registerOnce() {
   static std::once_flag flag;
   std::call_once(flag, [] { GDALAllRegister(); });
@@ -36,6 +40,9 @@ void writeDemGeoTiff(const std::string& path, const DemGrid& grid) {
   if (ds == nullptr) throw DatasetError(path, "", std::string("cannot create GeoTIFF: ") + CPLGetLastErrorMsg());
   double transform[6] = {grid.east0_m, grid.cell_m, 0.0, grid.north0_m, 0.0, -grid.cell_m};
   ds->SetGeoTransform(transform);
+  // A local engineering frame (site metres): with it the GeoTIFF keys are written, and so is
+  // GTRasterTypeGeoKey = PixelIsArea.
+  ds->SetProjection(kSiteFrameWkt);
   ds->SetMetadataItem(GDALMD_AREA_OR_POINT, GDALMD_AOP_AREA);
   GDALRasterBand* band = ds->GetRasterBand(1);
   band->SetNoDataValue(grid.nodata);
@@ -62,6 +69,9 @@ DemGrid readDemGeoTiff(const std::string& path) {
   grid.east0_m = t[0];
   grid.cell_m = t[1];
   grid.north0_m = t[3];
+  const char* aop = ds->GetMetadataItem(GDALMD_AREA_OR_POINT);
+  // For a PixelIsPoint file GDAL already shifts the geotransform to the cell corner; the flag is for callers.
+  grid.pixel_is_area = aop == nullptr || !EQUAL(aop, GDALMD_AOP_POINT);
   grid.cols = ds->GetRasterXSize();
   grid.rows = ds->GetRasterYSize();
   GDALRasterBand* band = ds->GetRasterBand(1);

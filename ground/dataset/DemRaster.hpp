@@ -17,6 +17,7 @@ struct DemGrid {
   int cols = 0;           // columns go east
   int rows = 0;           // rows go south
   float nodata = -32768.0f;
+  bool pixel_is_area = true;  // as read (AREA_OR_POINT); always written as Area
   std::vector<float> values;  // rows * cols, row-major; elevation up (-Z) in metres, or nodata
 
   float& at(int col, int row) { return values[static_cast<std::size_t>(row) * cols + col]; }

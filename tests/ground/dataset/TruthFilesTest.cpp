@@ -133,6 +133,7 @@ TEST(TruthFiles, DemGeoTiffFollowsTheRasterContract) {
   DOUBLES_EQUAL(50.0, back.north0_m, 0.0);
   DOUBLES_EQUAL(0.25, back.cell_m, 0.0);
   CHECK(g.nodata == back.nodata);
+  CHECK(back.pixel_is_area);
   CHECK(g.values == back.values);
   DOUBLES_EQUAL(49.875, back.northOfRow(0), 1e-12);
   DOUBLES_EQUAL(-49.875, back.eastOfCol(0), 1e-12);
