@@ -1,0 +1,90 @@
+// The ground products of one panorama (DESIGN.md "Products", paper §4), made in one call at the end of a
+// panorama by areomap-ground (from the LCM stream or `--dataset DIR`):
+//
+//   for every stereo pair: rectification with the adjusted models (ground/dense Rectification), dense
+//   coarse-to-fine matching (parallax ranges from the pair's tie points), space intersection through the
+//   adjusted CAHVOR models -> one cloud `points.ply` (site frame, per-point sigma);
+//   DEM: ordinary kriging (fitted variogram, k-d tree) + equi-parallax beyond 20 m blended at the seam ->
+//   `dem.tif`, `dem_sigma.tif` (float32 GeoTIFF, nodata, local site CRS, metadata: site and sols);
+//   orthoimage on the DEM grid (ground/ortho) -> `ortho.tif` (8-bit GeoTIFF, same georeferencing);
+//   previews `dem.png` (colour relief + hillshade + scale bar), `ortho.png`, `overlays/<stem>.png`
+//   (tie points on each image, unless already written by the caller); `report.html` (self-contained).
+//
+// NOT written here (the caller writes them with ground/adjust and ground/ties, before or after):
+// `models/*.cahvor`, `eo.csv`, `tiepoints.csv`, `report.json`. makeProducts ADDS its stage timings
+// ("rectify", "dense", "triangulate", "dem", "ortho", "previews"), its warnings and truth.dem_rmse_m to
+// the given AdjustReport, so write report.json with writeReportJson AFTER makeProducts.
+//
+// Bad input never stops the other products: a missing image, a model inconsistent with its image size, a
+// pair without texture or without valid matches is skipped with a warning (report.warnings, stderr); with
+// no points at all there is no DEM and no ortho, and the previews / report.html are still made.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+#include "ground/adjust/AdjustProducts.hpp"
+#include "ground/dataset/DemRaster.hpp"
+
+namespace areomap::products {
+
+struct ProductImage {
+  std::string stem;   // image file stem (names overlays/<stem>.png)
+  cv::Mat grey;       // CV_8U, full resolution; empty = image missing (skipped with a warning)
+  CameraModel model;  // adjusted model (CAHV/CAHVOR/CAHVORE) in the pixel frame of `grey`
+};
+
+struct ProductPair {
+  int id = 0;
+  int sol = 0;
+  int left = -1;   // index into ProductInputs::images
+  int right = -1;  // -1: a single image (used for the ortho only)
+};
+
+struct ProductTie {
+  int point = 0;            // tie point id
+  int image = 0;            // index into ProductInputs::images
+  Vec2 pixel_px = Vec2::Zero();  // measured (distorted) pixel
+  bool inter = false;       // inter-stereo tie (drawn red; intra blue)
+  double residual_px = -1;  // back-projection residual after adjustment (|v|), < 0 unknown
+};
+
+struct ProductInputs {
+  std::string site;                 // panorama name (raster metadata, report title)
+  std::vector<ProductImage> images;
+  std::vector<ProductPair> pairs;
+  std::vector<ProductTie> ties;     // verified tie observations (parallax ranges, overlays, residual plots)
+  Vec3 gimbal_site_m = Vec3::Zero();  // centre of the panorama (ranges, finer grid near the rover)
+  // Optional truth (synthetic datasets): the true DEM (truth/dem.tif) -> truth.dem_rmse_m.
+  std::optional<DemGrid> truth_dem;
+};
+
+struct ProductOptions {
+  double cell_m = -1.0;         // DEM cell (-1: automatic, 2 cm near the rover, coarser with the extent)
+  double max_range_m = 60.0;    // points farther from the gimbal centre are not used
+  double seam_m = 20.0;         // kriging inside, equi-parallax interpolation outside
+  int dense_max_disparity_px = 192;
+  bool write_overlays = true;   // overlays/<stem>.png (set false when the ties tool wrote them)
+};
+
+struct ProductsResult {
+  std::vector<std::string> files;     // products written (paths)
+  std::vector<std::string> warnings;  // also appended to the report
+  long long points = 0;               // cloud size
+  int pairs_matched = 0;
+  std::optional<DemGrid> dem;         // the DEM written (absent when no points)
+  std::optional<double> dem_rmse_m;   // against truth_dem over cells present in both
+  double ortho_seam_px = -1.0;        // RMS geometric disagreement along ortho seams (-1: no seams)
+};
+
+// Makes every product above in `out_dir` (created if needed). Progress lines on stderr.
+// Throws only for an unwritable out_dir (cli::InputError naming the path).
+ProductsResult makeProducts(const ProductInputs& inputs, const ProductOptions& options, const std::string& out_dir,
+                            ground::AdjustReport& report);
+
+}  // namespace areomap::products
