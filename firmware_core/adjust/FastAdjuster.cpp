@@ -209,8 +209,9 @@ Status FastAdjuster::pairStep(Network& net, bool keep_normals) {
   return Status::kOk;
 }
 
-Status FastAdjuster::reducedSweep(Network& net) {
-  // 1. Every point's 3x3 normal block and right-hand side over all its rays at the current state.
+void FastAdjuster::pointBlocks(Network& net, double damping) {
+  // Every point's 3x3 normal block (Levenberg-damped by `damping`), its inverse and right-hand side over all
+  // its rays at the current state, and the observation rows cached for the pair blocks.
   for (int32_t p = 0; p < net.pointCount(); ++p) {
     NetPoint& pt = net.point(p);
     point_eliminated_[p] = false;
@@ -225,73 +226,89 @@ Status FastAdjuster::reducedSweep(Network& net) {
       obs_valid_[oi] = false;
       if (o.rejected) continue;
       const NetImage& im = net.image(o.image);
-      Vec2& r = obs_residual_[oi];
-      Mat2x3& j = obs_d_point_[oi];
-      if (!ok(observationRow(o, im, im.center_m, im.m, pt.xyz_m, r, &obs_d_image_[oi], &j))) continue;
+      if (!ok(observationRow(o, im, im.center_m, im.m, pt.xyz_m, obs_residual_[oi], &obs_d_image_[oi],
+                             &obs_d_point_[oi]))) {
+        continue;
+      }
       obs_valid_[oi] = true;
-      n.noalias() += j.transpose() * j;
-      b.noalias() += j.transpose() * r;
+      n.noalias() += obs_d_point_[oi].transpose() * obs_d_point_[oi];
+      b.noalias() += obs_d_point_[oi].transpose() * obs_residual_[oi];
       ++rays;
     }
     if (rays < 2) continue;
+    n.diagonal() *= 1.0 + damping;
     // Closed-form 3x3 inverse; parallel rays make the determinant vanish against the scale of n.
     const double scale = n.trace();
-    const double det = n.determinant();
-    if (!(det > 1e-14 * scale * scale * scale)) continue;
+    if (!(n.determinant() > 1e-14 * scale * scale * scale)) continue;
     point_inverse_[p] = n.inverse();
     point_rhs_[p] = b;
     point_eliminated_[p] = true;
   }
-  // 2. Pair after pair: the reduced 12x12 system, its solve, and the points' right-hand sides updated for
-  //    the pair's step (so that the next pair sees it: Gauss-Seidel on the reduced camera system).
-  for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
-    const NetPair& pr = net.pair(pi);
-    const int32_t images[2] = {pr.left, pr.right};
-    const int32_t sides = pr.right >= 0 ? 2 : 1;
-    Mat12 n = Mat12::Zero();
-    Vec12 b = Vec12::Zero();
-    int32_t n_touched = 0;
-    for (int32_t s = 0; s < sides; ++s) {
-      for (int32_t k = image_obs_start_[images[s]]; k < image_obs_start_[images[s] + 1]; ++k) {
-        const int32_t index = image_obs_[k];
-        const NetObservation& o = net.observation(index);
-        if (!usable(net, o) || !obs_valid_[index]) continue;
-        const Vec2& r = obs_residual_[index];
-        const Mat2x6& j = obs_d_image_[index];
-        const Mat2x3& jp = obs_d_point_[index];
-        n.block<6, 6>(6 * s, 6 * s).noalias() += j.transpose() * j;
-        b.segment<6>(6 * s).noalias() += j.transpose() * r;
-        if (!point_eliminated_[o.point]) continue;
-        if (mark_[o.point] != pi) {
-          mark_[o.point] = pi;
-          coupling_[o.point].setZero();
-          touched_[n_touched++] = o.point;
-        }
-        coupling_[o.point].block<6, 3>(6 * s, 0).noalias() += j.transpose() * jp;
+}
+
+int32_t FastAdjuster::pairBlock(const Network& net, int32_t pi, Mat12& n, Vec12& b) {
+  // The pair's 12x12 block and right-hand side from the cached rows and its constraints, and the coupling
+  // W (12x3) to every eliminated point it sees (listed in touched_). Returns the number of such points.
+  const NetPair& pr = net.pair(pi);
+  const int32_t images[2] = {pr.left, pr.right};
+  const int32_t sides = pr.right >= 0 ? 2 : 1;
+  n.setZero();
+  b.setZero();
+  int32_t n_touched = 0;
+  for (int32_t s = 0; s < sides; ++s) {
+    for (int32_t k = image_obs_start_[images[s]]; k < image_obs_start_[images[s] + 1]; ++k) {
+      const int32_t index = image_obs_[k];
+      const NetObservation& o = net.observation(index);
+      if (!usable(net, o) || !obs_valid_[index]) continue;
+      const Mat2x6& j = obs_d_image_[index];
+      n.block<6, 6>(6 * s, 6 * s).noalias() += j.transpose() * j;
+      b.segment<6>(6 * s).noalias() += j.transpose() * obs_residual_[index];
+      if (!point_eliminated_[o.point]) continue;
+      if (mark_[o.point] != pi) {
+        mark_[o.point] = pi;
+        coupling_[o.point].setZero();
+        touched_[n_touched++] = o.point;
       }
+      coupling_[o.point].block<6, 3>(6 * s, 0).noalias() += j.transpose() * obs_d_point_[index];
     }
-    for (int32_t t = 0; t < n_touched; ++t) {
-      const int32_t p = touched_[t];
-      Mat12x3 wn;
-      wn.noalias() = coupling_[p] * point_inverse_[p];
-      n.noalias() -= wn.lazyProduct(coupling_[p].transpose());  // coefficient-based: no GEMM kernel
-      b.noalias() -= wn * point_rhs_[p];
-    }
-    const NetImage& left = net.image(pr.left);
-    const NetImage& right = net.image(sides == 2 ? pr.right : pr.left);
-    ConstraintRows rows;
-    ConstraintJacobian jac;
-    const int32_t used = pairConstraintRows(net, pi, left.center_m, left.m, right.center_m, right.m, rows, jac);
-    if (used > 0) {
-      n.noalias() += jac.transpose().lazyProduct(jac);
-      b.noalias() -= jac.transpose() * rows;
-    }
-    if (sides == 1) {
-      n.block<6, 6>(6, 6).setIdentity();
-      n.block<6, 6>(0, 6).setZero();
-      n.block<6, 6>(6, 0).setZero();
-      b.segment<6>(6).setZero();
-    }
+  }
+  const NetImage& left = net.image(pr.left);
+  const NetImage& right = net.image(sides == 2 ? pr.right : pr.left);
+  ConstraintRows rows;
+  ConstraintJacobian jac;
+  if (pairConstraintRows(net, pi, left.center_m, left.m, right.center_m, right.m, rows, jac) > 0) {
+    n.noalias() += jac.transpose().lazyProduct(jac);  // coefficient-based: no GEMM kernel
+    b.noalias() -= jac.transpose() * rows;
+  }
+  if (sides == 1) {
+    // A single image: the 6x6 system; the unused block is the identity with a zero right-hand side.
+    n.block<6, 6>(6, 6).setIdentity();
+    n.block<6, 6>(0, 6).setZero();
+    n.block<6, 6>(6, 0).setZero();
+    b.segment<6>(6).setZero();
+  }
+  return n_touched;
+}
+
+void FastAdjuster::reducePairBlock(int32_t n_touched, Mat12& n, Vec12* b) const {
+  for (int32_t t = 0; t < n_touched; ++t) {
+    const int32_t p = touched_[t];
+    Mat12x3 wn;
+    wn.noalias() = coupling_[p] * point_inverse_[p];
+    n.noalias() -= wn.lazyProduct(coupling_[p].transpose());
+    if (b != nullptr) b->noalias() -= wn * point_rhs_[p];
+  }
+}
+
+Status FastAdjuster::reducedSweep(Network& net) {
+  pointBlocks(net, 0.0);
+  // Pair after pair: the reduced 12x12 system, its solve, and the points' right-hand sides updated for the
+  // pair's step (so that the next pair sees it: Gauss-Seidel on the reduced camera system).
+  for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
+    Mat12 n;
+    Vec12 b;
+    const int32_t n_touched = pairBlock(net, pi, n, b);
+    reducePairBlock(n_touched, n, &b);
     // A pair whose points are all its own is only held by the constraints and the datum prior after the
     // elimination: a relative damping of 1e-9 keeps the solve defined without moving the solution.
     n.diagonal() *= 1.0 + 1e-9;
@@ -302,19 +319,17 @@ Status FastAdjuster::reducedSweep(Network& net) {
     }
     const Vec12 delta = ldlt.solve(b);
     if (!delta.allFinite()) return Status::kNotFinite;
-    for (int32_t s = 0; s < sides; ++s) {
-      NetImage& im = net.image(images[s]);
-      applyCameraUpdate(delta.segment<6>(6 * s), im.center_m, im.m);
-    }
+    const NetPair& pr = net.pair(pi);
+    applyCameraUpdate(delta.head<6>(), net.image(pr.left).center_m, net.image(pr.left).m);
+    if (pr.right >= 0) applyCameraUpdate(delta.tail<6>(), net.image(pr.right).center_m, net.image(pr.right).m);
     for (int32_t t = 0; t < n_touched; ++t) {
       const int32_t p = touched_[t];
       point_rhs_[p].noalias() -= coupling_[p].transpose() * delta;
     }
   }
-  // 3. Back-substitution of the points (3x3).
+  // Back-substitution of the points (3x3).
   for (int32_t p = 0; p < net.pointCount(); ++p) {
-    if (!point_eliminated_[p]) continue;
-    movePoint(net, net.point(p), point_inverse_[p] * point_rhs_[p]);
+    if (point_eliminated_[p]) movePoint(net, net.point(p), point_inverse_[p] * point_rhs_[p]);
   }
   return Status::kOk;
 }
@@ -500,91 +515,23 @@ Status FastAdjuster::solve(Network& net, const FastAdjustOptions& options, FastA
 }
 
 void FastAdjuster::eliminatePoints(Network& net, double damping) {
-  // Point blocks with Levenberg damping, cached observation rows, and the pairs' damped 12x12 blocks, their
-  // right-hand sides (in pcg_r_, before the reduction) and reduced inverses.
-  for (int32_t p = 0; p < net.pointCount(); ++p) {
-    NetPoint& pt = net.point(p);
-    point_eliminated_[p] = false;
-    mark_[p] = -1;
-    if (!pt.solvable) continue;
-    Mat3 n = Mat3::Zero();
-    Vec3 b = Vec3::Zero();
-    int32_t rays = 0;
-    for (int32_t k = 0; k < pt.obs_count; ++k) {
-      const int32_t oi = pt.obs[k];
-      const NetObservation& o = net.observation(oi);
-      obs_valid_[oi] = false;
-      if (o.rejected) continue;
-      const NetImage& im = net.image(o.image);
-      if (!ok(observationRow(o, im, im.center_m, im.m, pt.xyz_m, obs_residual_[oi], &obs_d_image_[oi],
-                             &obs_d_point_[oi]))) {
-        continue;
-      }
-      obs_valid_[oi] = true;
-      n.noalias() += obs_d_point_[oi].transpose() * obs_d_point_[oi];
-      b.noalias() += obs_d_point_[oi].transpose() * obs_residual_[oi];
-      ++rays;
-    }
-    if (rays < 2) continue;
-    n.diagonal() *= 1.0 + damping;
-    const double scale = n.trace();
-    if (!(n.determinant() > 1e-14 * scale * scale * scale)) continue;
-    point_inverse_[p] = n.inverse();
-    point_rhs_[p] = b;
-    point_eliminated_[p] = true;
-  }
+  // Damped point blocks, the pairs' damped 12x12 blocks (kept in pair_normal_), their right-hand sides
+  // (in pcg_r_, before the reduction) and their reduced inverses (the preconditioner).
+  pointBlocks(net, damping);
   for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
     const NetPair& pr = net.pair(pi);
-    const int32_t images[2] = {pr.left, pr.right};
-    const int32_t sides = pr.right >= 0 ? 2 : 1;
-    Mat12 n = Mat12::Zero();
-    Vec12 b = Vec12::Zero();
-    int32_t n_touched = 0;
-    for (int32_t s = 0; s < sides; ++s) {
-      for (int32_t k = image_obs_start_[images[s]]; k < image_obs_start_[images[s] + 1]; ++k) {
-        const int32_t index = image_obs_[k];
-        const NetObservation& o = net.observation(index);
-        if (!usable(net, o) || !obs_valid_[index]) continue;
-        const Mat2x6& j = obs_d_image_[index];
-        n.block<6, 6>(6 * s, 6 * s).noalias() += j.transpose() * j;
-        b.segment<6>(6 * s).noalias() += j.transpose() * obs_residual_[index];
-        if (!point_eliminated_[o.point]) continue;
-        if (mark_[o.point] != pi) {
-          mark_[o.point] = pi;
-          coupling_[o.point].setZero();
-          touched_[n_touched++] = o.point;
-        }
-        coupling_[o.point].block<6, 3>(6 * s, 0).noalias() += j.transpose() * obs_d_point_[index];
-      }
-    }
-    const NetImage& left = net.image(pr.left);
-    const NetImage& right = net.image(sides == 2 ? pr.right : pr.left);
-    ConstraintRows rows;
-    ConstraintJacobian jac;
-    if (pairConstraintRows(net, pi, left.center_m, left.m, right.center_m, right.m, rows, jac) > 0) {
-      n.noalias() += jac.transpose().lazyProduct(jac);
-      b.noalias() -= jac.transpose() * rows;
-    }
-    if (sides == 1) {
-      n.block<6, 6>(6, 6).setIdentity();
-      n.block<6, 6>(0, 6).setZero();
-      n.block<6, 6>(6, 0).setZero();
-      b.segment<6>(6).setZero();
-    }
+    Mat12 n;
+    Vec12 b;
+    const int32_t n_touched = pairBlock(net, pi, n, b);
     n.diagonal() *= 1.0 + damping + 1e-12;
     pair_normal_[pi] = n;
-    Mat12 reduced = n;
-    for (int32_t t = 0; t < n_touched; ++t) {
-      const int32_t p = touched_[t];
-      Mat12x3 wn;
-      wn.noalias() = coupling_[p] * point_inverse_[p];
-      reduced.noalias() -= wn.lazyProduct(coupling_[p].transpose());
-    }
-    const Eigen::LDLT<Mat12> ldlt(reduced);
+    reducePairBlock(n_touched, n, nullptr);
+    const Eigen::LDLT<Mat12> ldlt(n);
     pair_inverse_[pi] = ldlt.info() == Eigen::Success ? Mat12(ldlt.solve(Mat12::Identity())) : Mat12::Identity();
     if (!pair_inverse_[pi].allFinite()) pair_inverse_[pi].setIdentity();
-    for (int32_t s = 0; s < sides; ++s) {
-      for (int32_t c = 0; c < 6; ++c) pcg_r_[6 * images[s] + c] = b(6 * s + c);
+    for (int32_t c = 0; c < 6; ++c) {
+      pcg_r_[6 * pr.left + c] = b(c);
+      if (pr.right >= 0) pcg_r_[6 * pr.right + c] = b(6 + c);
     }
   }
 }

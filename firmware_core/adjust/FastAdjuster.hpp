@@ -122,6 +122,9 @@ class FastAdjuster {
   [[nodiscard]] Status reducedSweep(Network& net);
   [[nodiscard]] Status solvePcg(Network& net, const FastAdjustOptions& options, FastAdjustResult& result);
   void eliminatePoints(Network& net, double damping);
+  void pointBlocks(Network& net, double damping);
+  int32_t pairBlock(const Network& net, int32_t pair, Mat12& n, Vec12& b);
+  void reducePairBlock(int32_t n_touched, Mat12& n, Vec12* b) const;
   void reducedProduct(const Network& net, const double* x, double* y) const;
   void pointStep(Network& net);
   int32_t rejectOutliers(Network& net, const FastAdjustOptions& options);

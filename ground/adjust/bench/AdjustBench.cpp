@@ -21,9 +21,10 @@ using namespace areomap;
 using Clock = std::chrono::steady_clock;
 
 const char* kUsage =
-    "usage: areomap-adjust-bench [DATASET...] [--bal FILE] [--svd-max-unknowns N] [--repeat N]\n"
+    "usage: areomap-adjust-bench [DATASET...] [--bal FILE] [--svd-max-unknowns N] [--repeat N] [--pcg-tol T]\n"
     "Prints a markdown table: wall time, iterations, final method-1 RMS, EO and ground error vs truth.\n";
 
+double g_pcg_tolerance = 1e-3;
 Network g_start;
 Network g_work;
 FastAdjuster g_fast;
@@ -73,6 +74,7 @@ void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth,
     row.seconds = 1e30;
     FastAdjustOptions o = fast_options;
     o.method = method;
+    o.pcg_relative_tolerance = g_pcg_tolerance;
     for (int k = 0; k < repeat; ++k) {
       g_work = g_start;
       FastAdjustResult fr;
@@ -225,6 +227,7 @@ int main(int argc, char** argv) {
     const std::optional<std::string> bal = args.option("--bal");
     const int svd_max = static_cast<int>(args.integer("--svd-max-unknowns", 4000));
     const int repeat = static_cast<int>(args.integer("--repeat", 3));
+    g_pcg_tolerance = args.number("--pcg-tol", g_pcg_tolerance);
     std::vector<std::string> datasets;
     for (std::size_t i = 0; i < args.positionalCount(); ++i) datasets.push_back(args.positional(i, "DATASET"));
     for (const std::string& d : datasets) benchDataset(d, svd_max, repeat);

@@ -50,6 +50,17 @@ void makeScene(const test::PanoramaConfig& cfg, test::PanoramaTruth& truth) {
   g_net.rig.sigma_base_m = 1e-5;
 }
 
+// The integrated adjusters start again from the a-priori EO, with the fast adjuster's rejection flags.
+void restartFromApriori() {
+  g_reference = g_net;
+  g_reference.resetToApriori();
+  for (int k = 0; k < g_net.observationCount(); ++k) {
+    g_reference.observation(k).rejected = g_net.observation(k).rejected;
+  }
+  int32_t failed = 0;
+  (void)g_reference.triangulateAll(failed);
+}
+
 FastAdjustOptions tightFast() {
   FastAdjustOptions o;
   o.eo_step_tolerance_px = 1e-7;
@@ -67,13 +78,7 @@ TEST(IntegratedAdjuster, CeresAndFastAgree) {
   makeScene(test::navcamConfig(), truth);
   FastAdjustResult fr;
   CHECK(ok(g_fast.adjust(g_net, tightFast(), fr)));
-  g_reference = g_net;  // same rejection flags; restart the integrated one from the a-priori EO
-  g_reference.resetToApriori();
-  for (int k = 0; k < g_net.observationCount(); ++k) {
-    g_reference.observation(k).rejected = g_net.observation(k).rejected;
-  }
-  int32_t failed = 0;
-  (void)g_reference.triangulateAll(failed);
+  restartFromApriori();
   const ground::IntegratedResult cr = ground::adjustCeres(g_reference);
   const Difference d = largestDifference(g_net, g_reference);
   std::printf("\n  navcam fast: %d sweeps cost %.6f | ceres: %d iterations cost %.6f %.3f s (%s)\n"
@@ -90,13 +95,7 @@ TEST(IntegratedAdjuster, SvdAndFastAgree) {
   makeScene(smallNavcam(), truth);
   FastAdjustResult fr;
   CHECK(ok(g_fast.adjust(g_net, tightFast(), fr)));
-  g_reference = g_net;
-  g_reference.resetToApriori();
-  for (int k = 0; k < g_net.observationCount(); ++k) {
-    g_reference.observation(k).rejected = g_net.observation(k).rejected;
-  }
-  int32_t failed = 0;
-  (void)g_reference.triangulateAll(failed);
+  restartFromApriori();
   const ground::IntegratedResult sr = ground::adjustSvd(g_reference);
   const Difference d = largestDifference(g_net, g_reference);
   std::printf("\n  small navcam (%d unknowns) fast: %d sweeps cost %.6f | svd: %d iterations cost %.6f %.3f s\n"
