@@ -1,0 +1,166 @@
+#include "firmware_core/node/MessageAdapters.hpp"
+
+#include <cmath>
+#include <cstring>
+
+namespace areomap {
+namespace {
+
+bool finite3(const double v[3]) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
+Vec3 vec(const double v[3]) { return Vec3(v[0], v[1], v[2]); }
+void put(const Vec3& v, double out[3]) {
+  out[0] = v.x();
+  out[1] = v.y();
+  out[2] = v.z();
+}
+
+// Big-endian reader over encoded LCM bytes (the check already proved the lengths fit).
+struct Reader {
+  const uint8_t* data;
+  std::size_t size;
+  std::size_t at;
+  bool skip(std::size_t n) {
+    if (n > size - at) return false;
+    at += n;
+    return true;
+  }
+  bool int32(int32_t& v) {
+    if (size - at < 4) return false;
+    const uint32_t u = (uint32_t{data[at]} << 24) | (uint32_t{data[at + 1]} << 16) | (uint32_t{data[at + 2]} << 8) |
+                       uint32_t{data[at + 3]};
+    v = static_cast<int32_t>(u);
+    at += 4;
+    return true;
+  }
+  // An LCM string: int32 length including the NUL, then the bytes.
+  bool string(int32_t& chars) {
+    int32_t len = 0;
+    if (!int32(len) || len < 1) return false;
+    chars = len - 1;
+    return skip(static_cast<std::size_t>(len));
+  }
+};
+
+// Encoded size of camera_model_t: type, 7 three-vectors, cahvore_kind, linearity, width, height.
+constexpr std::size_t kCameraModelBytes = 1 + 7 * 3 * 8 + 1 + 8 + 4 + 4;
+
+Status walkImage(Reader& r, const char* side, const char*& field) {
+  int32_t chars = 0;
+  if (!r.string(chars)) return Status::kTruncated;
+  if (chars > kMaxMessageStringChars) {
+    field = side[0] == 'l' ? "left.stem" : "right.stem";
+    return Status::kCapacityExceeded;
+  }
+  int32_t width = 0, height = 0, jpeg = 0;
+  if (!r.int32(width) || !r.int32(height) || !r.int32(jpeg)) return Status::kTruncated;
+  if (jpeg > kMaxJpegBytes) {
+    field = side[0] == 'l' ? "left.jpeg_bytes" : "right.jpeg_bytes";
+    return Status::kCapacityExceeded;
+  }
+  if (jpeg < 0 || !r.skip(static_cast<std::size_t>(jpeg)) || !r.skip(kCameraModelBytes)) return Status::kTruncated;
+  return Status::kOk;
+}
+
+}  // namespace
+
+Status toCameraModel(const camera_model_t& in, CameraModel& out, const char*& field) {
+  field = "type";
+  switch (in.type) {
+    case camera_model_t::TYPE_CAHV: out.type = CameraType::kCahv; break;
+    case camera_model_t::TYPE_CAHVOR: out.type = CameraType::kCahvor; break;
+    case camera_model_t::TYPE_CAHVORE: out.type = CameraType::kCahvore; break;
+    default: return Status::kUnsupported;
+  }
+  const double* vectors[] = {in.c_m, in.a, in.h_px, in.v_px, in.o, in.r, in.e};
+  const char* names[] = {"C", "A", "H", "V", "O", "R", "E"};
+  for (int32_t i = 0; i < 7; ++i) {
+    if (!finite3(vectors[i])) {
+      field = names[i];
+      return Status::kNotFinite;
+    }
+  }
+  if (!std::isfinite(in.linearity)) {
+    field = "L";
+    return Status::kNotFinite;
+  }
+  out.c = vec(in.c_m);
+  out.a = vec(in.a);
+  out.h = vec(in.h_px);
+  out.v = vec(in.v_px);
+  out.o = vec(in.o);
+  out.r = vec(in.r);
+  out.e = vec(in.e);
+  out.cahvore_kind = in.cahvore_kind == camera_model_t::CAHVORE_FISHEYE  ? CahvoreKind::kFisheye
+                     : in.cahvore_kind == camera_model_t::CAHVORE_GENERAL ? CahvoreKind::kGeneral
+                                                                          : CahvoreKind::kPerspective;
+  out.linearity = in.linearity;
+  out.width = in.width_px;
+  out.height = in.height_px;
+  const Status s = validateModel(out, field);
+  return ok(s) ? s : (s == Status::kNotFinite ? s : Status::kInvalidArgument);
+}
+
+void toMessage(const CameraModel& in, camera_model_t& out) {
+  out.type = in.type == CameraType::kCahv     ? camera_model_t::TYPE_CAHV
+             : in.type == CameraType::kCahvor ? camera_model_t::TYPE_CAHVOR
+                                              : camera_model_t::TYPE_CAHVORE;
+  put(in.c, out.c_m);
+  put(in.a, out.a);
+  put(in.h, out.h_px);
+  put(in.v, out.v_px);
+  put(in.o, out.o);
+  put(in.r, out.r);
+  put(in.e, out.e);
+  out.cahvore_kind = in.type != CameraType::kCahvore ? camera_model_t::CAHVORE_INVALID
+                     : in.cahvore_kind == CahvoreKind::kFisheye ? camera_model_t::CAHVORE_FISHEYE
+                     : in.cahvore_kind == CahvoreKind::kGeneral ? camera_model_t::CAHVORE_GENERAL
+                                                                : camera_model_t::CAHVORE_PERSPECTIVE;
+  out.linearity = in.linearity;
+  out.width_px = in.width;
+  out.height_px = in.height;
+}
+
+void prepareStereoPair(stereo_pair_t& pair) {
+  pair.panorama.reserve(kMaxMessageStringChars + 1);
+  for (stereo_image_t* side : {&pair.left, &pair.right}) {
+    side->stem.reserve(kMaxMessageStringChars + 1);
+    side->jpeg.reserve(static_cast<std::size_t>(kMaxJpegBytes));
+  }
+}
+
+Status checkStereoPairCapacity(const uint8_t* data, std::size_t size, const char*& field) {
+  field = "";
+  Reader r{data, size, 0};
+  // fingerprint, utime, sequence, kind
+  if (!r.skip(8 + 8 + 8 + 1)) return Status::kTruncated;
+  int32_t chars = 0;
+  if (!r.string(chars)) return Status::kTruncated;
+  if (chars > kMaxMessageStringChars) {
+    field = "panorama";
+    return Status::kCapacityExceeded;
+  }
+  // pair_id, sol, tier, pairs_planned, has_right
+  if (!r.skip(4 * 4 + 1)) return Status::kTruncated;
+  Status s = walkImage(r, "left", field);
+  if (!ok(s)) return s;
+  return walkImage(r, "right", field);
+}
+
+uint64_t encodedFingerprint(const uint8_t* data, std::size_t size) {
+  if (data == nullptr || size < 8) return 0;
+  uint64_t v = 0;
+  for (int32_t i = 0; i < 8; ++i) v = (v << 8) | data[i];
+  return v;
+}
+
+void copyText(const char* text, char* out, std::size_t capacity) {
+  if (capacity == 0) return;
+  std::size_t n = 0;
+  while (text != nullptr && text[n] != '\0' && n + 1 < capacity) {
+    out[n] = text[n];
+    ++n;
+  }
+  out[n] = '\0';
+}
+
+}  // namespace areomap

@@ -1,0 +1,42 @@
+// Conversions between the core's types and the generated LCM message types (msgs/*.lcm), and the checks a
+// received stereo pair must pass before the generated decode() may touch it. Heap: none, as long as the
+// message objects were prepared once at start-up (prepareStereoPair and friends reserve their vectors and
+// strings; encoding never allocates; decoding stays within the reserved capacities because
+// checkStereoPairCapacity rejects anything larger first).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "areomap/camera_model_t.hpp"
+#include "areomap/stereo_pair_t.hpp"
+#include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/base/Status.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+
+namespace areomap {
+
+// Characters reserved for every string of a message (panorama name, image stems, last_error): a stem of a
+// PDS product id is ~30 characters; 128 is ample and keeps the reserved strings small.
+constexpr int32_t kMaxMessageStringChars = 128;
+
+// camera_model_t <-> CameraModel. toCameraModel: kUnsupported for an unknown type, kNotFinite for NaN or
+// infinity, kInvalidArgument for a model that validateModel refuses (`field` names the component).
+[[nodiscard]] Status toCameraModel(const camera_model_t& in, CameraModel& out, const char*& field);
+void toMessage(const CameraModel& in, camera_model_t& out);
+
+// Reserves the vectors and strings of a stereo_pair_t so that decoding any pair within the capacities
+// (kMaxJpegBytes per image, kMaxMessageStringChars per string) never allocates.
+void prepareStereoPair(stereo_pair_t& pair);
+
+// Walks the encoded bytes of a stereo_pair_t (after msgs::checkEncoding said kOk) and checks every string
+// and JPEG length against the reserved capacities: kCapacityExceeded names what in `field`.
+[[nodiscard]] Status checkStereoPairCapacity(const uint8_t* data, std::size_t size, const char*& field);
+
+// The LCM fingerprint (first 8 bytes, big-endian) of an encoded message; 0 when shorter than 8 bytes.
+uint64_t encodedFingerprint(const uint8_t* data, std::size_t size);
+
+// Copies a NUL-terminated text into `out` (capacity chars incl. the NUL), truncating.
+void copyText(const char* text, char* out, std::size_t capacity);
+
+}  // namespace areomap

@@ -1,0 +1,480 @@
+#include "firmware_core/node/RoverNode.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+#include "firmware_core/camera/CameraConversion.hpp"
+#include "firmware_core/camera/Photogrammetric.hpp"
+#include "msgs/Channels.hpp"
+#include "msgs/MessageCheck.hpp"
+
+namespace areomap {
+namespace {
+
+int32_t stageIndex(RoverStage stage) { return static_cast<int32_t>(stage); }
+
+void setString(std::string& s, const char* text) {
+  // Within the capacity reserved at start-up: assign() of a shorter text reuses the buffer.
+  std::size_t n = std::strlen(text);
+  if (n > static_cast<std::size_t>(kMaxMessageStringChars)) n = static_cast<std::size_t>(kMaxMessageStringChars);
+  s.assign(text, n);
+}
+
+Vec3 vec(const double v[3]) { return Vec3(v[0], v[1], v[2]); }
+
+}  // namespace
+
+void RoverNode::start(platform::Transport& out, platform::JpegCodec& codec, const platform::Clock& clock,
+                      const RoverOptions& options) {
+  out_ = &out;
+  codec_ = &codec;
+  clock_ = &clock;
+  options_ = options;
+  prepareStereoPair(in_);
+  // Outgoing messages: vectors at full size once (encode() uses the count fields, not the sizes).
+  tiepoints_.panorama.reserve(kMaxMessageStringChars + 1);
+  tiepoints_.image_stems.resize(kMaxImages);
+  for (std::string& s : tiepoints_.image_stems) s.reserve(kMaxMessageStringChars + 1);
+  tiepoints_.point_id.resize(kMaxTiePointsPerMessage);
+  tiepoints_.image_index.resize(kMaxTiePointsPerMessage);
+  tiepoints_.sample_px.resize(kMaxTiePointsPerMessage);
+  tiepoints_.line_px.resize(kMaxTiePointsPerMessage);
+  tiepoints_.kind.resize(kMaxTiePointsPerMessage);
+  dem_.panorama.reserve(kMaxMessageStringChars + 1);
+  dem_.elevation_m.resize(static_cast<std::size_t>(kCoarseDemCells) * kCoarseDemCells);
+  eo_.panorama.reserve(kMaxMessageStringChars + 1);
+  eo_.images.resize(kMaxImages);
+  for (eo_entry_t& e : eo_.images) e.stem.reserve(kMaxMessageStringChars + 1);
+  status_.last_error.reserve(sizeof(last_error_));
+  reserved_bytes_ = static_cast<int64_t>(kMaxJpegBytes) * 2 +
+                    static_cast<int64_t>(kMaxImages) * (kMaxMessageStringChars + 1) * 2 +
+                    static_cast<int64_t>(kMaxTiePointsPerMessage) * (4 + 2 + 8 + 8 + 1) +
+                    static_cast<int64_t>(kCoarseDemCells) * kCoarseDemCells * 4 +
+                    static_cast<int64_t>(kMaxImages) * static_cast<int64_t>(sizeof(eo_entry_t));
+  counters_ = RoverCounters{};
+  sequence_count_ = 0;
+  sequence_head_ = 0;
+  highest_sequence_ = -1;
+  last_error_[0] = '\0';
+  resetPanorama();
+}
+
+int64_t RoverNode::staticBytes() const { return static_cast<int64_t>(sizeof(RoverNode)) + reserved_bytes_; }
+
+double RoverNode::now() const { return static_cast<double>(clock_->monotonicUtime()) * 1e-6; }
+
+void RoverNode::resetPanorama() {
+  matcher_.reset();
+  matcher_.planForPairs(kMaxPairs);
+  adapter_.reset();
+  net_.clear();
+  sol_count_ = 0;
+  panorama_open_ = false;
+  panorama_[0] = '\0';
+  counters_.finished = false;
+}
+
+void RoverNode::reject(Status cause, int64_t sequence, int32_t pair_id, const char* what) {
+  const int32_t c = static_cast<int32_t>(cause);
+  if (c > 0 && c < static_cast<int32_t>(Status::kCount)) counters_.rejected_by_cause[c] += 1;
+  counters_.pairs_rejected += 1;
+  std::snprintf(last_error_, sizeof(last_error_), "sequence %lld pair %d: %s: %s", static_cast<long long>(sequence),
+                static_cast<int>(pair_id), statusName(cause), what);
+  if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
+}
+
+bool RoverNode::trackSequence(int64_t sequence) {
+  const int32_t tracked = sequence_count_;
+  for (int32_t i = 0; i < tracked; ++i) {
+    if (sequences_[i] == sequence) {
+      counters_.duplicates += 1;
+      std::snprintf(last_error_, sizeof(last_error_), "sequence %lld: duplicate, dropped",
+                    static_cast<long long>(sequence));
+      if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
+      return false;
+    }
+  }
+  sequences_[sequence_head_] = sequence;
+  sequence_head_ = (sequence_head_ + 1) % kMaxTrackedSequences;
+  if (sequence_count_ < kMaxTrackedSequences) sequence_count_ += 1;
+  if (sequence > highest_sequence_ + 1) {
+    const int64_t missing = sequence - highest_sequence_ - 1;
+    counters_.sequence_gaps += static_cast<int32_t>(missing);
+    int32_t len = std::snprintf(last_error_, sizeof(last_error_), "sequence gap: %lld missing:",
+                                static_cast<long long>(missing));
+    for (int64_t k = 0; k < missing && k < kMaxNamedGapSequences && len > 0 &&
+                        len < static_cast<int32_t>(sizeof(last_error_));
+         ++k) {
+      len += std::snprintf(last_error_ + len, sizeof(last_error_) - static_cast<std::size_t>(len), " %lld",
+                           static_cast<long long>(highest_sequence_ + 1 + k));
+    }
+    if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
+    highest_sequence_ = sequence;
+  } else if (sequence <= highest_sequence_) {
+    // Below the highest seen and not seen before: it was counted as a gap when the later one came.
+    counters_.reordered += 1;
+    if (counters_.sequence_gaps > 0) counters_.sequence_gaps -= 1;
+    if (options_.log_to_stderr)
+      std::fprintf(stderr, "areomap-rover: sequence %lld arrived out of order, processed\n",
+                   static_cast<long long>(sequence));
+  } else {
+    highest_sequence_ = sequence;
+  }
+  return true;
+}
+
+void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
+  counters_.pairs_seen += 1;
+  const double t0 = now();
+  Status s = msgs::checkEncoding(stereo_pair_t::getTypeName(), static_cast<uint64_t>(stereo_pair_t::getHash()), data,
+                                 size);
+  if (s == Status::kCorruptData && size >= 8 &&
+      encodedFingerprint(data, size) != static_cast<uint64_t>(stereo_pair_t::getHash())) {
+    // Another message type on this channel (a well-formed one or not): its own cause.
+    const uint64_t print = encodedFingerprint(data, size);
+    const bool known = print == static_cast<uint64_t>(tiepoints_t::getHash()) ||
+                       print == static_cast<uint64_t>(eo_solution_t::getHash()) ||
+                       print == static_cast<uint64_t>(coarse_dem_t::getHash()) ||
+                       print == static_cast<uint64_t>(rover_status_t::getHash());
+    reject(Status::kUnsupported, -1, -1, known ? "another areomap message type on the stereo-pair channel"
+                                                : "not a stereo_pair_t (unknown fingerprint)");
+    publishStatus();
+    return;
+  }
+  if (!ok(s)) {
+    reject(s, -1, -1, "message does not decode");
+    publishStatus();
+    return;
+  }
+  const char* field = "";
+  s = checkStereoPairCapacity(data, size, field);
+  if (!ok(s)) {
+    reject(s, -1, -1, field);
+    publishStatus();
+    return;
+  }
+  s = msgs::decodeMessage(data, size, in_);
+  if (!ok(s)) {
+    reject(s, -1, -1, "message does not decode");
+    publishStatus();
+    return;
+  }
+  counters_.stage_seconds[stageIndex(RoverStage::kDecode)] += now() - t0;
+  if (!trackSequence(in_.sequence)) {
+    publishStatus();
+    return;
+  }
+  if (in_.kind == stereo_pair_t::KIND_END_OF_PANORAMA) {
+    counters_.end_markers += 1;
+    finishPanorama();
+    return;
+  }
+  if (in_.kind != stereo_pair_t::KIND_PAIR) {
+    reject(Status::kInvalidArgument, in_.sequence, in_.pair_id, "kind");
+    publishStatus();
+    return;
+  }
+  processPair(in_.sequence);
+}
+
+Status RoverNode::decodeSide(const stereo_image_t& side, uint8_t* pixels, int32_t& width, int32_t& height) {
+  if (side.jpeg_bytes <= 0) return Status::kMissingField;
+  const Status s = codec_->decodeGray(side.jpeg.data(), static_cast<std::size_t>(side.jpeg_bytes), pixels,
+                                      static_cast<std::size_t>(kMaxImagePixels), width, height);
+  if (!ok(s)) return s;
+  if (width > kMaxImageWidth || height > kMaxImageHeight) return Status::kCapacityExceeded;
+  if (width != side.width_px || height != side.height_px) return Status::kCorruptData;
+  return Status::kOk;
+}
+
+void RoverNode::processPair(int64_t sequence) {
+  const int32_t pair_id = in_.pair_id;
+  if (counters_.finished) resetPanorama();
+  if (!panorama_open_) {
+    panorama_open_ = true;
+    panorama_start_s_ = now();
+    copyText(in_.panorama.c_str(), panorama_, sizeof(panorama_));
+  }
+  if (matcher_.pairCount() >= kMaxPairs) {
+    reject(Status::kCapacityExceeded, sequence, pair_id, "more pairs than kMaxPairs");
+    publishStatus();
+    return;
+  }
+  // Models.
+  CameraModel models[2];
+  const char* field = "";
+  Status s = toCameraModel(in_.left.model, models[0], field);
+  if (ok(s) && in_.has_right) s = toCameraModel(in_.right.model, models[1], field);
+  if (!ok(s)) {
+    char what[96];
+    std::snprintf(what, sizeof(what), "a-priori model, component %s", field);
+    reject(s, sequence, pair_id, what);
+    publishStatus();
+    return;
+  }
+  const double rig[] = {in_.gimbal_m[0], in_.gimbal_m[1], in_.gimbal_m[2], in_.left_offset_m[0],
+                        in_.left_offset_m[1], in_.left_offset_m[2], in_.right_offset_m[0], in_.right_offset_m[1],
+                        in_.right_offset_m[2], in_.base_m[0], in_.base_m[1], in_.base_m[2], in_.sigma_gimbal_m,
+                        in_.sigma_base_m};
+  for (double v : rig) {
+    if (!std::isfinite(v)) {
+      reject(Status::kNotFinite, sequence, pair_id, "rig values");
+      publishStatus();
+      return;
+    }
+  }
+  // Images.
+  double t = now();
+  int32_t w[2] = {0, 0}, h[2] = {0, 0};
+  s = decodeSide(in_.left, left_pixels_, w[0], h[0]);
+  if (ok(s) && in_.has_right) s = decodeSide(in_.right, right_pixels_, w[1], h[1]);
+  counters_.stage_seconds[stageIndex(RoverStage::kDecode)] += now() - t;
+  if (!ok(s)) {
+    reject(s, sequence, pair_id, "JPEG image");
+    publishStatus();
+    return;
+  }
+  // Sol index of the rig.
+  int32_t sol_index = -1;
+  for (int32_t i = 0; i < sol_count_; ++i) {
+    if (sols_[i] == in_.sol) sol_index = i;
+  }
+  if (sol_index < 0) {
+    if (sol_count_ >= kMaxSols) {
+      reject(Status::kCapacityExceeded, sequence, pair_id, "more sols than kMaxSols");
+      publishStatus();
+      return;
+    }
+    sol_index = sol_count_;
+    sols_[sol_count_++] = in_.sol;
+  }
+  // Tie points and coarse DEM (the matcher does both; its time is split by its report below).
+  t = now();
+  const ImageView left{left_pixels_, w[0], h[0], w[0]};
+  const ImageView right{right_pixels_, w[1], h[1], w[1]};
+  PairTieReport report;
+  const int32_t first_observation = matcher_.observations().size();
+  s = matcher_.addPair(left, in_.has_right ? &right : nullptr, models[0], in_.has_right ? &models[1] : nullptr, report);
+  const double match_s = now() - t;
+  counters_.stage_seconds[stageIndex(RoverStage::kMatch)] += match_s;
+  if (s == Status::kInvalidArgument || s == Status::kCapacityExceeded) {
+    reject(s, sequence, pair_id, "rejected by the matcher");
+    publishStatus();
+    return;
+  }
+  const int32_t matcher_pair = matcher_.pairCount() - 1;
+  copyText(in_.left.stem.c_str(), stem_of_matcher_image_[2 * matcher_pair], kMaxMessageStringChars + 1);
+  copyText(in_.has_right ? in_.right.stem.c_str() : "", stem_of_matcher_image_[2 * matcher_pair + 1],
+           kMaxMessageStringChars + 1);
+  if (s == Status::kNoTexture) {
+    // The matcher keeps the pair (no ties); the adjustment cannot resect it, so it stays out of the network.
+    counters_.no_texture_pairs += 1;
+    reject(s, sequence, pair_id, "no tie point in this pair (kept out of the adjustment)");
+    publishStatus();
+    return;
+  }
+  // Network: cameras, new points and observations; rig from the message.
+  t = now();
+  int32_t failed = 0;
+  s = adapter_.syncPair(matcher_, sol_index, in_.tier < 0 ? 0 : (in_.tier >= kMaxTiers ? kMaxTiers - 1 : in_.tier),
+                        models[0], in_.has_right ? &models[1] : nullptr, net_, failed);
+  if (!ok(s)) {
+    reject(s, sequence, pair_id, "cannot enter the adjustment network");
+    publishStatus();
+    return;
+  }
+  for (int32_t side = 0; side < 2; ++side) {
+    const int32_t image = adapter_.networkImage(2 * matcher_pair + side);
+    if (image < 0) continue;
+    copyText(stem_of_matcher_image_[2 * matcher_pair + side], stem_of_image_[image], kMaxMessageStringChars + 1);
+    pair_id_of_image_[image] = pair_id;
+  }
+  RigConstraints& rigc = net_.rig;
+  rigc.gimbal_m[sol_index] = vec(in_.gimbal_m);
+  rigc.gimbal_set[sol_index] = true;
+  rigc.left_offset_m = vec(in_.left_offset_m);
+  rigc.right_offset_m = vec(in_.right_offset_m);
+  if (in_.has_right) {
+    rigc.base_m = vec(in_.base_m);
+    rigc.use_base = true;
+  }
+  rigc.sigma_gimbal_m = in_.sigma_gimbal_m;
+  rigc.sigma_base_m = in_.sigma_base_m;
+  counters_.stage_seconds[stageIndex(RoverStage::kDem)] += now() - t;
+  counters_.pairs_accepted += 1;
+  // Incremental adjustment, warm-started from the previous solution.
+  t = now();
+  (void)adjustNow(false);
+  counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
+  t = now();
+  publishTiePoints(pair_id, first_observation);
+  publishDem(pair_id);
+  publishEo(pair_id, false);
+  publishStatus();
+  counters_.stage_seconds[stageIndex(RoverStage::kPublish)] += now() - t;
+}
+
+Status RoverNode::adjustNow(bool final_solve) {
+  // New points (and points that gained rays) are triangulated with the current EO; the final solve
+  // re-triangulates every point and clears the robust rejections, so it ends where an offline adjustment
+  // of the same network ends (the same minimum, warm-started).
+  if (final_solve) {
+    for (int32_t i = 0; i < net_.observationCount(); ++i) net_.observation(i).rejected = false;
+  }
+  int32_t failed = 0;
+  (void)net_.triangulateAll(failed);
+  FastAdjustResult result;
+  const Status s = adjuster_.adjust(net_, options_.adjust, result);
+  counters_.adjustments += 1;
+  counters_.last_sweeps = result.sweeps_total;
+  counters_.last_rms_px = result.rms_px;
+  eo_.sweeps = result.sweeps_total;
+  eo_.iterations = result.sweeps_total;
+  eo_.rms_px = result.rms_px;
+  eo_.sigma0 = result.sigma0;
+  eo_.stop_rule = result.stop_rule == StopRule::kMaxSweeps ? eo_solution_t::STOP_MAX_SWEEPS
+                  : ok(s)                                  ? eo_solution_t::STOP_CONVERGED
+                                                           : eo_solution_t::STOP_DIVERGED;
+  if (!ok(s)) {
+    counters_.adjust_failures += 1;
+    std::snprintf(last_error_, sizeof(last_error_), "adjustment after %d pairs: %s", static_cast<int>(net_.pairCount()),
+                  statusName(s));
+    if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
+  }
+  return s;
+}
+
+void RoverNode::finishPanorama() {
+  if (net_.pairCount() == 0) {
+    std::snprintf(last_error_, sizeof(last_error_), "end of panorama without any accepted pair");
+    if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
+    counters_.finished = true;
+    publishStatus();
+    return;
+  }
+  const double t = now();
+  (void)adjustNow(true);
+  counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
+  counters_.finished = true;
+  counters_.panorama_seconds = now() - panorama_start_s_;
+  publishEo(-1, true);
+  publishStatus();
+}
+
+template <class Message>
+void RoverNode::publishMessage(const char* channel, Message& message) {
+  const int size = message.getEncodedSize();
+  if (size <= 0 || static_cast<std::size_t>(size) > kMaxOutgoingBytes ||
+      message.encode(out_buffer_, 0, static_cast<int>(kMaxOutgoingBytes)) != size ||
+      !ok(out_->publish(channel, out_buffer_, static_cast<std::size_t>(size)))) {
+    counters_.publish_failures += 1;
+  }
+}
+
+void RoverNode::publishTiePoints(int32_t pair_id, int32_t first_observation) {
+  tiepoints_.utime = clock_->wallUtime();
+  tiepoints_.sequence = seq_tiepoints_++;
+  setString(tiepoints_.panorama, panorama_);
+  tiepoints_.pair_id = pair_id;
+  const int32_t images = 2 * matcher_.pairCount();
+  tiepoints_.num_images = images;
+  for (int32_t i = 0; i < images; ++i) setString(tiepoints_.image_stems[static_cast<std::size_t>(i)], stem_of_matcher_image_[i]);
+  const auto& obs = matcher_.observations();
+  int32_t n = 0;
+  for (int32_t i = first_observation; i < obs.size(); ++i) {
+    if (n >= kMaxTiePointsPerMessage) {
+      counters_.tie_overflow += 1;
+      continue;
+    }
+    const auto k = static_cast<std::size_t>(n++);
+    tiepoints_.point_id[k] = obs[i].point;
+    tiepoints_.image_index[k] = static_cast<int16_t>(obs[i].image);
+    tiepoints_.sample_px[k] = obs[i].sample_px;
+    tiepoints_.line_px[k] = obs[i].line_px;
+    tiepoints_.kind[k] = obs[i].kind == TieKind::kIntra ? tiepoints_t::KIND_INTRA : tiepoints_t::KIND_INTER;
+  }
+  tiepoints_.num_observations = n;
+  publishMessage(channels::kTiePoints, tiepoints_);
+}
+
+void RoverNode::publishDem(int32_t pair_id) {
+  const CoarseDem& dem = matcher_.lastDem();
+  dem_.utime = clock_->wallUtime();
+  dem_.sequence = seq_dem_++;
+  setString(dem_.panorama, panorama_);
+  dem_.pair_id = pair_id;
+  const int32_t n = CoarseDem::cells();
+  const Vec3 origin = dem.origin();
+  // The DEM's grid: row index along +X (north), column along +Y (east) from the outer corner `origin`;
+  // the message is north-up, so its row 0 is the DEM's last row.
+  dem_.cell_m = CoarseDem::cellSize();
+  dem_.east0_m = origin.y();
+  dem_.north0_m = origin.x() + n * CoarseDem::cellSize();
+  dem_.cols = n;
+  dem_.rows = n;
+  dem_.nodata_m = -32768.0f;
+  dem_.num_points = dem.pointCount();
+  dem_.num_cells = n * n;
+  for (int32_t r = 0; r < n; ++r) {
+    for (int32_t c = 0; c < n; ++c) {
+      double z = 0.0;
+      const bool has = dem.cellValue(n - 1 - r, c, z);
+      dem_.elevation_m[static_cast<std::size_t>(r * n + c)] = has ? static_cast<float>(-z) : dem_.nodata_m;
+    }
+  }
+  publishMessage(channels::kCoarseDem, dem_);
+}
+
+void RoverNode::publishEo(int32_t pair_id, bool final_solution) {
+  eo_.utime = clock_->wallUtime();
+  eo_.sequence = seq_eo_++;
+  setString(eo_.panorama, panorama_);
+  eo_.last_pair_id = pair_id;
+  eo_.num_images = net_.imageCount();
+  eo_.is_final = final_solution;
+  for (int32_t i = 0; i < net_.imageCount(); ++i) {
+    const NetImage& im = net_.image(i);
+    eo_entry_t& e = eo_.images[static_cast<std::size_t>(i)];
+    setString(e.stem, stem_of_image_[i]);
+    e.pair_id = pair_id_of_image_[i];
+    e.side = im.side == Side::kLeft ? eo_entry_t::SIDE_LEFT : eo_entry_t::SIDE_RIGHT;
+    for (int32_t k = 0; k < 3; ++k) {
+      e.center_m[k] = im.center_m[k];
+      e.sigma_center_m[k] = im.sigma[k];
+      e.sigma_angles_rad[k] = im.sigma[3 + k];
+    }
+    opkFromRotation(im.m, e.omega_rad, e.phi_rad, e.kappa_rad);
+    toMessage(adjustedModel(adapter_.model(i), im.m_apriori, im.m, im.center_m), e.model);
+  }
+  publishMessage(channels::kEoSolution, eo_);
+}
+
+void RoverNode::publishStatus() {
+  status_.utime = clock_->wallUtime();
+  status_.sequence = seq_status_++;
+  status_.state = counters_.finished ? rover_status_t::STATE_FINISHED
+                  : panorama_open_   ? rover_status_t::STATE_RUNNING
+                                     : rover_status_t::STATE_STARTING;
+  status_.pairs_seen = counters_.pairs_seen;
+  status_.pairs_accepted = counters_.pairs_accepted;
+  status_.pairs_rejected = counters_.pairs_rejected;
+  for (int32_t i = 0; i < rover_status_t::NUM_CAUSES; ++i) {
+    status_.rejected_by_cause[i] = i < static_cast<int32_t>(Status::kCount) ? counters_.rejected_by_cause[i] : 0;
+  }
+  status_.sequence_gaps = counters_.sequence_gaps;
+  status_.duplicates = counters_.duplicates;
+  status_.reordered = counters_.reordered;
+  for (int32_t i = 0; i < rover_status_t::NUM_STAGES; ++i) status_.stage_seconds[i] = counters_.stage_seconds[i];
+  status_.sweeps = counters_.last_sweeps;
+  status_.rms_px = counters_.last_rms_px;
+  status_.heap_allocs_after_init = heap_pipeline_;
+  status_.static_bytes = staticBytes();
+  std::size_t n = std::strlen(last_error_);
+  status_.last_error.assign(last_error_, n);
+  publishMessage(channels::kRoverStatus, status_);
+}
+
+void RoverNode::heartbeat() { publishStatus(); }
+
+}  // namespace areomap

@@ -1,0 +1,170 @@
+// The rover pipeline (issue 9): one AREOMAP_STEREO_PAIR message in, per pair: JPEG decode into fixed
+// buffers, tie points and coarse DEM (PanoramaMatcher), inter-stereo ties with the pairs already seen, an
+// incremental fast adjustment warm-started from the previous solution (FastAdjuster); a final adjustment at
+// the end-of-panorama marker. Publishes AREOMAP_TIEPOINTS, AREOMAP_COARSE_DEM, AREOMAP_EO_SOLUTION and
+// AREOMAP_ROVER_STATUS through the output Transport (per pair, and heartbeat() for the 1 Hz status).
+//
+// Single-threaded: the caller feeds messages (handleStereoPair) and heartbeats from one thread.
+// Memory: everything lives in the object (~60 MiB: allocate ONE, statically, e.g. `static RoverNode node;`).
+// start() reserves the generated message types' vectors and strings (heap, at start-up only); after it,
+// handleStereoPair() and heartbeat() make no heap allocation, throw nothing and never stop on bad data:
+// every bad message is counted under its cause (rejected_by_cause[Status]) with a line on stderr.
+//
+// Sequence numbers of the stream: a jump forward counts the missing messages as gaps (and names them on
+// stderr and in last_error), a sequence seen before is a duplicate (dropped), a sequence below the
+// highest seen but not seen before is reordered (processed).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "areomap/coarse_dem_t.hpp"
+#include "areomap/eo_solution_t.hpp"
+#include "areomap/rover_status_t.hpp"
+#include "areomap/stereo_pair_t.hpp"
+#include "areomap/tiepoints_t.hpp"
+#include "firmware_core/adjust/FastAdjuster.hpp"
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/base/Status.hpp"
+#include "firmware_core/match/NetworkAdapter.hpp"
+#include "firmware_core/match/PanoramaMatcher.hpp"
+#include "firmware_core/node/MessageAdapters.hpp"
+#include "platform/Clock.hpp"
+#include "platform/JpegCodec.hpp"
+#include "platform/Transport.hpp"
+
+namespace areomap {
+
+// Sequence numbers remembered to tell a duplicate from a reordered message: a panorama has at most
+// kMaxPairs pairs + its marker; 4x leaves room for a stream of several panoramas and injected faults.
+constexpr int32_t kMaxTrackedSequences = 4 * (kMaxPairs + 1);
+// Encoded outgoing message: the EO solution of kMaxImages images (~0.12 MiB) or the tie points of one pair
+// (kMaxTiePointsPerMessage x 23 bytes) or a coarse DEM (64 KiB); 1 MiB is ample.
+constexpr std::size_t kMaxOutgoingBytes = 1024u * 1024u;
+// Observations in one AREOMAP_TIEPOINTS message: one pair's intra (2 x kMaxTiesPerPair) and inter ties;
+// more are counted as overflow.
+constexpr int32_t kMaxTiePointsPerMessage = kMaxTiePoints;
+// Missing sequence numbers named in last_error and on stderr per gap (the count is always exact).
+constexpr int32_t kMaxNamedGapSequences = 8;
+
+enum class RoverStage : uint8_t { kDecode = 0, kFeatures = 1, kMatch = 2, kDem = 3, kAdjust = 4, kPublish = 5 };
+
+struct RoverCounters {
+  int32_t pairs_seen = 0;
+  int32_t pairs_accepted = 0;
+  int32_t pairs_rejected = 0;
+  int32_t rejected_by_cause[static_cast<int32_t>(Status::kCount)] = {};
+  int32_t sequence_gaps = 0;
+  int32_t duplicates = 0;
+  int32_t reordered = 0;
+  int32_t no_texture_pairs = 0;     // pairs without any tie (also in rejected_by_cause[kNoTexture])
+  int32_t adjustments = 0;
+  int32_t adjust_failures = 0;
+  int32_t tie_overflow = 0;         // observations not sent for lack of message room
+  int32_t publish_failures = 0;
+  int32_t end_markers = 0;
+  double stage_seconds[8] = {};
+  double panorama_seconds = 0.0;    // first pair message to the final EO
+  int32_t last_sweeps = 0;
+  double last_rms_px = 0.0;
+  bool finished = false;
+};
+
+struct RoverOptions {
+  FastAdjustOptions adjust;  // incremental and final adjustments
+  bool log_to_stderr = true;
+};
+
+class RoverNode {
+ public:
+  // Prepares the message objects (heap at start-up), resets the panorama. `out` receives every publication.
+  void start(platform::Transport& out, platform::JpegCodec& codec, const platform::Clock& clock,
+             const RoverOptions& options);
+
+  // One AREOMAP_STEREO_PAIR message (the bytes as received). Never fails: problems are counted.
+  void handleStereoPair(const uint8_t* data, std::size_t size);
+  // Publishes AREOMAP_ROVER_STATUS now (the 1 Hz heartbeat).
+  void heartbeat();
+  // Heap figures to report: allocations of the pipeline thread after start-up and of the whole process.
+  void setHeapCounts(int64_t pipeline_after_init, int64_t process_after_init) {
+    heap_pipeline_ = pipeline_after_init;
+    heap_process_ = process_after_init;
+  }
+  int64_t heapPipeline() const { return heap_pipeline_; }
+  int64_t heapProcess() const { return heap_process_; }
+  // Bytes of fixed memory the pipeline uses (this object plus what start() reserved).
+  int64_t staticBytes() const;
+
+  const RoverCounters& counters() const { return counters_; }
+  const Network& network() const { return net_; }
+  const NetworkAdapter& adapter() const { return adapter_; }
+  const char* stemOfImage(int32_t net_image) const { return stem_of_image_[net_image]; }
+  const char* lastError() const { return last_error_; }
+
+ private:
+  void resetPanorama();
+  void reject(Status cause, int64_t sequence, int32_t pair_id, const char* what);
+  // kOk: process it; kCorruptData: duplicate, drop.
+  bool trackSequence(int64_t sequence);
+  void processPair(int64_t sequence);
+  void finishPanorama();
+  Status decodeSide(const stereo_image_t& side, uint8_t* pixels, int32_t& width, int32_t& height);
+  Status adjustNow(bool final_solve);
+  void publishTiePoints(int32_t pair_id, int32_t first_observation);
+  void publishDem(int32_t pair_id);
+  void publishEo(int32_t pair_id, bool final_solution);
+  void publishStatus();
+  template <class Message>
+  void publishMessage(const char* channel, Message& message);
+  double now() const;
+
+  platform::Transport* out_ = nullptr;
+  platform::JpegCodec* codec_ = nullptr;
+  const platform::Clock* clock_ = nullptr;
+  RoverOptions options_;
+
+  // Workspaces (static with the object).
+  uint8_t left_pixels_[kMaxImagePixels];
+  uint8_t right_pixels_[kMaxImagePixels];
+  PanoramaMatcher matcher_;
+  NetworkAdapter adapter_;
+  Network net_;
+  FastAdjuster adjuster_;
+  uint8_t out_buffer_[kMaxOutgoingBytes];
+
+  // Messages (vectors reserved at start-up).
+  stereo_pair_t in_;
+  tiepoints_t tiepoints_;
+  coarse_dem_t dem_;
+  eo_solution_t eo_;
+  rover_status_t status_;
+  int64_t reserved_bytes_ = 0;
+
+  // Panorama state.
+  char panorama_[kMaxMessageStringChars + 1] = {0};
+  char stem_of_matcher_image_[kMaxImages][kMaxMessageStringChars + 1] = {};
+  char stem_of_image_[kMaxImages][kMaxMessageStringChars + 1] = {};
+  int32_t pair_id_of_image_[kMaxImages] = {};
+  int32_t sols_[kMaxSols] = {};
+  int32_t sol_count_ = 0;
+  bool panorama_open_ = false;
+  double panorama_start_s_ = 0.0;
+
+  // Stream state.
+  int64_t sequences_[kMaxTrackedSequences] = {};
+  int32_t sequence_count_ = 0;
+  int32_t sequence_head_ = 0;
+  int64_t highest_sequence_ = -1;
+
+  RoverCounters counters_;
+  int64_t heap_pipeline_ = -1;
+  int64_t heap_process_ = -1;
+  int64_t seq_tiepoints_ = 0, seq_dem_ = 0, seq_eo_ = 0, seq_status_ = 0;
+  char last_error_[256] = {0};
+};
+
+// The rover's share of the 64 MiB static budget (DESIGN.md "Capacities and memory").
+static_assert(sizeof(RoverNode) <= kStaticMemoryBudgetBytes, "RoverNode exceeds the 64 MiB static budget");
+
+}  // namespace areomap

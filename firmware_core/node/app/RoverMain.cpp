@@ -1,0 +1,346 @@
+// areomap-rover --lcm URL: the rover node (issue 9). Two threads:
+//   transport thread (main): LCM (udpm://, memq://) or the heap-free log replay (file://), copies every
+//     AREOMAP_STEREO_PAIR message into the inbox ring, publishes what the pipeline put into the outbox;
+//   pipeline thread: takes messages from the inbox and runs RoverNode (decode, ties, DEM, adjustment),
+//     publishes through the outbox; a status heartbeat every --heartbeat-s seconds.
+// All buffers are static. heap_allocs_after_init = the pipeline thread's allocations after start-up
+// (heapAllocationCountThisThread); the whole process's count (LCM's receive thread included) is printed
+// at exit beside it.
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <mutex>
+#include <thread>
+
+#include "firmware_core/node/ByteRing.hpp"
+#include "firmware_core/node/RoverNode.hpp"
+#include "msgs/Channels.hpp"
+#include "platform/TransportUrl.hpp"
+#include "platform/heap/HeapCounter.hpp"
+#include "platform/posix/ArenaJpegDecoder.hpp"
+#include "platform/posix/LcmLogReplay.hpp"
+#include "platform/posix/PosixClock.hpp"
+#ifndef AREOMAP_NO_LCM_RUNTIME
+#include "platform/posix/LcmTransport.hpp"
+#endif
+
+namespace {
+
+using areomap::Status;
+
+// Inbox: a full-speed replay of a navcam panorama (~0.5 MiB per pair) while the pipeline takes ~1 s per
+// pair: 10 MiB holds ~20 pairs of backlog beyond the kernel's receive buffer (and fits the budget).
+constexpr std::size_t kInboxBytes = 10u * 1024u * 1024u;
+constexpr std::size_t kOutboxBytes = 2u * 1024u * 1024u;
+constexpr std::size_t kReplayBufferBytes = 2u * areomap::kMaxJpegBytes + 64u * 1024u;
+constexpr int32_t kHandleTimeoutMs = 20;
+
+areomap::RoverNode g_node;
+uint8_t g_inbox_storage[kInboxBytes];
+uint8_t g_outbox_storage[kOutboxBytes];
+uint8_t g_replay_buffer[kReplayBufferBytes];
+uint8_t g_jpeg_arena[areomap::platform::ArenaJpegDecoder::kArenaBytes];
+uint8_t g_work_message[kReplayBufferBytes];
+
+static_assert(sizeof(areomap::RoverNode) + kInboxBytes + kOutboxBytes + 2 * kReplayBufferBytes +
+                      areomap::platform::ArenaJpegDecoder::kArenaBytes <=
+                  areomap::kStaticMemoryBudgetBytes,
+              "the rover's static memory exceeds its 64 MiB budget");
+
+const char* const kChannels[] = {areomap::channels::kTiePoints, areomap::channels::kEoSolution,
+                                 areomap::channels::kCoarseDem, areomap::channels::kRoverStatus};
+
+std::mutex g_mutex;
+std::condition_variable g_wake;
+areomap::ByteRing g_inbox(g_inbox_storage, kInboxBytes);
+areomap::ByteRing g_outbox(g_outbox_storage, kOutboxBytes);
+bool g_input_done = false;
+std::atomic<bool> g_stop{false};
+uint64_t g_inbox_refused = 0;
+
+// The pipeline's Transport: encoded messages go into the outbox (copied, no heap).
+class OutboxTransport final : public areomap::platform::Transport {
+ public:
+  Status publish(const char* channel, const uint8_t* data, std::size_t size) override {
+    uint8_t tag = 0;
+    for (uint8_t i = 0; i < 4; ++i) {
+      if (std::strcmp(channel, kChannels[i]) == 0) tag = i;
+    }
+    std::lock_guard<std::mutex> lock(g_mutex);
+    return g_outbox.push(tag, data, size) ? Status::kOk : Status::kCapacityExceeded;
+  }
+  Status subscribe(const char*, areomap::platform::MessageHandler, void*) override { return Status::kUnsupported; }
+  Status handle(int32_t) override { return Status::kTimeout; }
+};
+
+void onStereoPair(void*, const char*, const uint8_t* data, std::size_t size) {
+  // Back-pressure: wait for room rather than drop (a log replay waits; LCM keeps buffering meanwhile).
+  std::unique_lock<std::mutex> lock(g_mutex);
+  while (!g_inbox.push(0, data, size)) {
+    if (g_inbox.records() == 0 || g_stop.load()) {
+      g_inbox_refused += 1;  // larger than the whole inbox
+      std::fprintf(stderr, "areomap-rover: a %zu-byte message is larger than the inbox, dropped\n", size);
+      return;
+    }
+    g_wake.notify_all();
+    g_wake.wait_for(lock, std::chrono::milliseconds(10));
+  }
+  g_wake.notify_all();
+}
+
+struct Options {
+  const char* lcm_url = nullptr;
+  const char* publish_url = nullptr;
+  double heartbeat_s = 1.0;
+  bool exit_at_end = false;
+  bool quiet = false;
+  double max_seconds = 0.0;
+};
+
+constexpr const char* kUsage =
+    "usage: areomap-rover --lcm URL [--publish URL] [--exit-at-end] [--heartbeat-s S] [--max-seconds S] [--quiet]\n"
+    "\n"
+    "The rover node: subscribes to AREOMAP_STEREO_PAIR on URL (udpm://GROUP:PORT?... live, file:///path.lcm\n"
+    "replay as fast as the pipeline takes it, memq://), and for each pair: JPEG decode into fixed buffers, tie\n"
+    "points, coarse DEM, inter-stereo ties with the pairs already seen, an incremental fast adjustment\n"
+    "warm-started from the previous solution; a final adjustment at the end-of-panorama marker. Publishes\n"
+    "AREOMAP_TIEPOINTS, AREOMAP_COARSE_DEM, AREOMAP_EO_SOLUTION, AREOMAP_ROVER_STATUS (per pair and every\n"
+    "--heartbeat-s seconds, default 1).\n"
+    "\n"
+    "  --publish URL    where results go (default: the --lcm URL when it is udpm:// or memq://; nowhere for a\n"
+    "                   file:// replay unless given)\n"
+    "  --exit-at-end    exit after the end-of-panorama marker (always at the end of a file:// log)\n"
+    "  --max-seconds S  exit after S seconds (0 = no limit)\n"
+    "  --quiet          no per-pair lines on stderr\n"
+    "\n"
+    "heap_allocs_after_init in the status = heap allocations of the pipeline thread after start-up (0 when\n"
+    "all is well); the whole-process count is printed at exit. Exit: 0 ok, 2 usage error, 1 other error.\n";
+
+int usageError(const char* what) {
+  std::fprintf(stderr, "areomap-rover: %s\n%s", what, kUsage);
+  return 2;
+}
+
+bool parseNumber(const char* text, double& out) {
+  char* end = nullptr;
+  out = std::strtod(text, &end);
+  return end != text && *end == '\0';
+}
+
+void onSignal(int) { g_stop.store(true); }
+
+void pipelineLoop(const Options& options, const areomap::platform::Clock& clock) {
+  const uint64_t allocs_thread_start = areomap::heapAllocationCountThisThread();
+  const uint64_t allocs_process_start = areomap::heapAllocationCount();
+  int64_t next_heartbeat = clock.monotonicUtime() + static_cast<int64_t>(options.heartbeat_s * 1e6);
+  bool finished_reported = false;
+  for (;;) {
+    std::size_t size = 0;
+    bool have = false;
+    bool done = false;
+    {
+      std::unique_lock<std::mutex> lock(g_mutex);
+      if (g_inbox.records() == 0 && !g_input_done && !g_stop.load()) {
+        g_wake.wait_for(lock, std::chrono::milliseconds(50));
+      }
+      uint8_t tag = 0;
+      const uint8_t* data = nullptr;
+      if (g_inbox.front(tag, data, size)) {
+        std::memcpy(g_work_message, data, size);
+        g_inbox.pop();
+        have = true;
+        g_wake.notify_all();
+      }
+      done = (g_input_done || g_stop.load()) && g_inbox.records() == 0;
+    }
+    if (have) g_node.handleStereoPair(g_work_message, size);
+    g_node.setHeapCounts(static_cast<int64_t>(areomap::heapAllocationCountThisThread() - allocs_thread_start),
+                         static_cast<int64_t>(areomap::heapAllocationCount() - allocs_process_start));
+    const int64_t now = clock.monotonicUtime();
+    if (now >= next_heartbeat) {
+      g_node.heartbeat();
+      next_heartbeat = now + static_cast<int64_t>(options.heartbeat_s * 1e6);
+    }
+    if (g_node.counters().finished && !finished_reported) {
+      finished_reported = true;
+      if (options.exit_at_end) done = true;
+    }
+    if (done && !have) break;
+  }
+  g_node.heartbeat();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  for (int i = 1; i < argc; ++i) {
+    const char* a = argv[i];
+    auto value = [&](const char* name) -> const char* {
+      if (i + 1 >= argc) return nullptr;
+      (void)name;
+      return argv[++i];
+    };
+    if (std::strcmp(a, "--help") == 0 || std::strcmp(a, "-h") == 0) {
+      std::fputs(kUsage, stdout);
+      return 0;
+    } else if (std::strcmp(a, "--lcm") == 0) {
+      if ((options.lcm_url = value(a)) == nullptr) return usageError("--lcm needs a URL");
+    } else if (std::strcmp(a, "--publish") == 0) {
+      if ((options.publish_url = value(a)) == nullptr) return usageError("--publish needs a URL");
+    } else if (std::strcmp(a, "--heartbeat-s") == 0) {
+      const char* v = value(a);
+      if (v == nullptr || !parseNumber(v, options.heartbeat_s) || options.heartbeat_s <= 0.0)
+        return usageError("--heartbeat-s needs a positive number");
+    } else if (std::strcmp(a, "--max-seconds") == 0) {
+      const char* v = value(a);
+      if (v == nullptr || !parseNumber(v, options.max_seconds) || options.max_seconds < 0.0)
+        return usageError("--max-seconds needs a number >= 0");
+    } else if (std::strcmp(a, "--exit-at-end") == 0) {
+      options.exit_at_end = true;
+    } else if (std::strcmp(a, "--quiet") == 0) {
+      options.quiet = true;
+    } else {
+      char what[300];
+      std::snprintf(what, sizeof(what), "unknown argument '%s'", a);
+      return usageError(what);
+    }
+  }
+  if (options.lcm_url == nullptr) return usageError("--lcm URL is required");
+  const areomap::platform::UrlScheme scheme = areomap::platform::urlScheme(options.lcm_url);
+  if (scheme == areomap::platform::UrlScheme::kInvalid) return usageError("--lcm: unknown URL scheme");
+  const bool replay = scheme == areomap::platform::UrlScheme::kFile;
+  if (replay) options.exit_at_end = true;
+
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  areomap::platform::PosixClock clock;
+  areomap::platform::ArenaJpegDecoder jpeg(g_jpeg_arena, sizeof(g_jpeg_arena));
+  if (!areomap::ok(jpeg.open())) {
+    std::fprintf(stderr, "areomap-rover: the JPEG decoder did not start: %s\n", jpeg.lastError());
+    return 1;
+  }
+  // Input.
+  areomap::platform::LcmLogReplay log(g_replay_buffer, sizeof(g_replay_buffer));
+#ifndef AREOMAP_NO_LCM_RUNTIME
+  areomap::platform::LcmTransport lcm_in;
+  areomap::platform::LcmTransport lcm_out;
+#endif
+  areomap::platform::Transport* input = nullptr;
+  areomap::platform::Transport* output = nullptr;
+  if (replay) {
+    if (!areomap::ok(log.open(options.lcm_url))) {
+      std::fprintf(stderr, "areomap-rover: %s: cannot read the log\n", options.lcm_url);
+      return 1;
+    }
+    input = &log;
+  } else {
+#ifndef AREOMAP_NO_LCM_RUNTIME
+    if (!areomap::ok(lcm_in.open(options.lcm_url))) {
+      std::fprintf(stderr, "areomap-rover: %s: LCM cannot open this URL (no multicast route?)\n", options.lcm_url);
+      return 1;
+    }
+    input = &lcm_in;
+    output = &lcm_in;
+#else
+    std::fprintf(stderr, "areomap-rover: %s: this build has no LCM runtime; use a file:// log\n", options.lcm_url);
+    return 1;
+#endif
+  }
+  if (options.publish_url != nullptr) {
+#ifndef AREOMAP_NO_LCM_RUNTIME
+    if (!areomap::ok(lcm_out.open(options.publish_url))) {
+      std::fprintf(stderr, "areomap-rover: %s: LCM cannot open the publish URL\n", options.publish_url);
+      return 1;
+    }
+    output = &lcm_out;
+#else
+    std::fprintf(stderr, "areomap-rover: --publish: this build has no LCM runtime\n");
+    return 1;
+#endif
+  }
+  if (!areomap::ok(input->subscribe(areomap::channels::kStereoPair, onStereoPair, nullptr))) {
+    std::fprintf(stderr, "areomap-rover: cannot subscribe to %s\n", areomap::channels::kStereoPair);
+    return 1;
+  }
+  OutboxTransport outbox;
+  areomap::RoverOptions rover_options;
+  rover_options.log_to_stderr = !options.quiet;
+  g_node.start(outbox, jpeg, clock, rover_options);
+  std::fprintf(stderr, "areomap-rover: listening on %s (static memory %lld bytes)\n", options.lcm_url,
+               static_cast<long long>(g_node.staticBytes()));
+
+  std::thread pipeline(pipelineLoop, std::cref(options), std::cref(clock));
+  const int64_t start_us = clock.monotonicUtime();
+  bool input_failed = false;
+  for (;;) {
+    Status s = Status::kOk;
+    if (!replay || !g_input_done) {
+      s = input->handle(kHandleTimeoutMs);
+      if (s == Status::kEndOfStream || (replay && s != Status::kOk && s != Status::kCapacityExceeded)) {
+        if (s != Status::kEndOfStream) {
+          std::fprintf(stderr, "areomap-rover: %s: log replay stopped: %s\n", options.lcm_url, areomap::statusName(s));
+          input_failed = s == Status::kIoError;
+        }
+        std::lock_guard<std::mutex> lock(g_mutex);
+        g_input_done = true;
+        g_wake.notify_all();
+      }
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(kHandleTimeoutMs));
+    }
+    // Outbox -> LCM.
+    for (;;) {
+      uint8_t tag = 0;
+      const uint8_t* data = nullptr;
+      std::size_t size = 0;
+      std::unique_lock<std::mutex> lock(g_mutex);
+      if (!g_outbox.front(tag, data, size)) break;
+      if (output != nullptr) (void)output->publish(kChannels[tag], data, size);
+      g_outbox.pop();
+    }
+    if (options.max_seconds > 0.0 && clock.monotonicUtime() - start_us > static_cast<int64_t>(options.max_seconds * 1e6))
+      g_stop.store(true);
+    const bool finished = g_node.counters().finished && options.exit_at_end;
+    if (g_stop.load() || finished) {
+      std::lock_guard<std::mutex> lock(g_mutex);
+      g_input_done = true;
+      g_wake.notify_all();
+    }
+    if (!pipeline.joinable()) break;
+    {
+      std::lock_guard<std::mutex> lock(g_mutex);
+      if (g_input_done && g_inbox.records() == 0 && (g_stop.load() || finished || replay)) {
+        // fallthrough to join below
+      } else {
+        continue;
+      }
+    }
+    pipeline.join();
+    // Last publications.
+    for (;;) {
+      uint8_t tag = 0;
+      const uint8_t* data = nullptr;
+      std::size_t size = 0;
+      if (!g_outbox.front(tag, data, size)) break;
+      if (output != nullptr) (void)output->publish(kChannels[tag], data, size);
+      g_outbox.pop();
+    }
+    break;
+  }
+  const areomap::RoverCounters& c = g_node.counters();
+  std::fprintf(stderr,
+               "areomap-rover: pairs seen %d, accepted %d, rejected %d; gaps %d, duplicates %d, reordered %d; "
+               "last adjustment %d sweeps, rms %.3f px; panorama %.2f s; heap allocations after start-up: "
+               "pipeline thread %lld (reported as heap_allocs_after_init), whole process %lld%s; static memory "
+               "%lld bytes\n",
+               c.pairs_seen, c.pairs_accepted, c.pairs_rejected, c.sequence_gaps, c.duplicates, c.reordered,
+               c.last_sweeps, c.last_rms_px, c.panorama_seconds, static_cast<long long>(g_node.heapPipeline()),
+               static_cast<long long>(g_node.heapProcess()),
+               areomap::heapCounterActive() ? "" : " (counter inactive)", static_cast<long long>(g_node.staticBytes()));
+  return input_failed ? 1 : 0;
+}

@@ -1,0 +1,275 @@
+#include "ground/pack/Pack.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include <lcm/eventlog.h>
+#include <opencv2/core.hpp>
+
+#include "areomap/rover_status_t.hpp"
+#include "areomap/stereo_pair_t.hpp"
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/camera/CameraConversion.hpp"
+#include "firmware_core/node/MessageAdapters.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/io/CameraFile.hpp"
+#include "ground/io/ImageFile.hpp"
+#include "ground/ties/TieAdjust.hpp"
+#include "msgs/Channels.hpp"
+#include "msgs/MessageCheck.hpp"
+#include "platform/posix/TurboJpegCodec.hpp"
+
+namespace areomap {
+namespace {
+
+template <class Message>
+std::vector<uint8_t> encodeMessage(const Message& m) {
+  std::vector<uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+  const int used = m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  if (used < 0) throw std::runtime_error("LCM encode failed");
+  bytes.resize(static_cast<std::size_t>(used));
+  return bytes;
+}
+
+void put3(const Vec3& v, double out[3]) {
+  for (int k = 0; k < 3; ++k) out[k] = v[k];
+}
+
+struct Encoder {
+  platform::TurboJpegCodec codec;
+  Encoder() {
+    if (!ok(codec.open())) throw std::runtime_error("TurboJPEG does not start");
+  }
+  std::vector<uint8_t> encode(const cv::Mat& grey, int quality, const std::string& file) {
+    std::vector<uint8_t> out(codec.maxEncodedBytes(grey.cols, grey.rows));
+    std::size_t bytes = 0;
+    const cv::Mat c = grey.isContinuous() ? grey : grey.clone();
+    const Status s = codec.encodeGray(c.ptr<uint8_t>(0), c.cols, c.rows, quality, out.data(), out.size(), bytes);
+    if (!ok(s)) throw cli::InputError(file, "image", std::string("JPEG encoding failed: ") + statusName(s));
+    out.resize(bytes);
+    return out;
+  }
+};
+
+struct SideData {
+  cv::Mat pixels;
+  CameraModel model;
+};
+
+SideData loadSide(const ImageRef& ref) {
+  SideData d;
+  d.pixels = io::loadImage8(ref.image_path);
+  const std::string model_path = ref.model_path.empty() ? ref.image_path : ref.model_path;
+  d.model = io::readCameraModelFile(model_path, d.pixels.cols, d.pixels.rows);
+  return d;
+}
+
+void fillSide(stereo_image_t& out, const ImageRef& ref, const SideData& d, Encoder& enc, int quality) {
+  out.stem = ref.stem;
+  out.width_px = d.pixels.cols;
+  out.height_px = d.pixels.rows;
+  out.jpeg = enc.encode(d.pixels, quality, ref.image_path);
+  out.jpeg_bytes = static_cast<int32_t>(out.jpeg.size());
+  toMessage(d.model, out.model);
+}
+
+int sequenceArg(const std::string& item, const std::string& value) {
+  try {
+    std::size_t used = 0;
+    const int v = std::stoi(value, &used);
+    if (used != value.size() || v < 0) throw std::invalid_argument("");
+    return v;
+  } catch (const std::exception&) {
+    throw cli::UsageError("--inject: '" + item + "' needs a sequence number >= 0");
+  }
+}
+
+bool decodePair(const LogEvent& e, stereo_pair_t& pair) {
+  return e.channel == channels::kStereoPair && ok(msgs::decodeMessage(e.data.data(), e.data.size(), pair));
+}
+
+}  // namespace
+
+std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& options, PackSummary* summary) {
+  if (options.quality < 1 || options.quality > 100) throw cli::UsageError("--quality must be 1..100");
+  if (!(options.interval_s >= 0.0)) throw cli::UsageError("--interval-s must be >= 0");
+  Encoder encoder;
+  // Load every pair first: the rig is estimated from all a-priori models (as areomap-ties does).
+  std::vector<SideData> left(dataset.pairs.size()), right(dataset.pairs.size());
+  auto net = std::make_unique<Network>();
+  std::vector<int> sol_of_index;
+  cli::Progress progress("pack: reading", dataset.pairs.size());
+  for (std::size_t k = 0; k < dataset.pairs.size(); ++k) {
+    const Pair& p = dataset.pairs[k];
+    left[k] = loadSide(p.left);
+    if (p.right) right[k] = loadSide(*p.right);
+    auto it = std::find(sol_of_index.begin(), sol_of_index.end(), p.sol);
+    if (it == sol_of_index.end()) {
+      if (static_cast<int>(sol_of_index.size()) >= kMaxSols)
+        throw cli::InputError(dataset.root + "/panorama.json", "pairs[" + std::to_string(k) + "].sol",
+                              "more than " + std::to_string(kMaxSols) + " sols");
+      sol_of_index.push_back(p.sol);
+      it = sol_of_index.end() - 1;
+    }
+    PhotogrammetricCamera cams[2];
+    ConversionResidual residual;
+    const ImageRef* refs[2] = {&p.left, p.right ? &*p.right : nullptr};
+    for (int side = 0; side < (p.right ? 2 : 1); ++side) {
+      const Status s = cahvorToPhotogrammetric(side == 0 ? left[k].model : right[k].model, cams[side], residual);
+      if (!ok(s))
+        throw cli::InputError(refs[side]->model_path.empty() ? refs[side]->image_path : refs[side]->model_path,
+                              "model", std::string("no photogrammetric form: ") + statusName(s));
+    }
+    int32_t pair_index = -1;
+    const int tier = std::max(0, std::min(kMaxTiers - 1, p.tier));
+    if (!ok(net->addPair(static_cast<int32_t>(it - sol_of_index.begin()), tier, cams[0].io, cams[0].eo.center_m,
+                         cams[0].m, p.right ? &cams[1].io : nullptr, cams[1].eo.center_m, cams[1].m, pair_index)))
+      throw cli::InputError(dataset.root + "/panorama.json", "pairs", "more pairs than the rover's capacity");
+    progress.step();
+  }
+  progress.done();
+  std::vector<std::string> notes;
+  setRigConstraints(dataset, sol_of_index, *net, notes);
+  const bool offsets_given = dataset.rig.left_offset_m.has_value();
+
+  const int64_t start = options.start_utime != 0
+                            ? options.start_utime
+                            : std::chrono::duration_cast<std::chrono::microseconds>(
+                                  std::chrono::system_clock::now().time_since_epoch())
+                                  .count();
+  const int64_t step = static_cast<int64_t>(std::llround(options.interval_s * 1e6));
+  std::vector<LogEvent> events;
+  PackSummary sum;
+  cli::Progress encoding("pack: encoding", dataset.pairs.size());
+  for (std::size_t k = 0; k <= dataset.pairs.size(); ++k) {
+    stereo_pair_t m{};
+    m.utime = start + static_cast<int64_t>(k) * step;
+    m.sequence = static_cast<int64_t>(k);
+    m.panorama = dataset.name;
+    m.pairs_planned = static_cast<int32_t>(dataset.pairs.size());
+    m.kind = stereo_pair_t::KIND_END_OF_PANORAMA;
+    m.pair_id = -1;
+    m.has_right = false;
+    m.left.jpeg_bytes = 0;
+    m.right.jpeg_bytes = 0;
+    if (k < dataset.pairs.size()) {
+      const Pair& p = dataset.pairs[k];
+      m.kind = stereo_pair_t::KIND_PAIR;
+      m.pair_id = p.id;
+      m.sol = p.sol;
+      m.tier = p.tier;
+      m.has_right = p.right.has_value();
+      fillSide(m.left, p.left, left[k], encoder, options.quality);
+      if (p.right) fillSide(m.right, *p.right, right[k], encoder, options.quality);
+      const int sol_index = static_cast<int>(std::find(sol_of_index.begin(), sol_of_index.end(), p.sol) - sol_of_index.begin());
+      put3(net->rig.gimbal_m[sol_index], m.gimbal_m);
+      put3(net->rig.left_offset_m, m.left_offset_m);
+      put3(net->rig.right_offset_m, m.right_offset_m);
+      put3(net->rig.base_m, m.base_m);
+      m.sigma_gimbal_m = net->rig.sigma_gimbal_m;
+      m.sigma_base_m = net->rig.sigma_base_m;
+      m.gimbal_given = offsets_given && dataset.rig.gimbal_m.count(p.sol) > 0;
+      m.offsets_given = offsets_given;
+      m.base_given = dataset.rig.base_m.has_value();
+      m.sigmas_given = dataset.rig.sigma_gimbal_m.has_value() && dataset.rig.sigma_base_m.has_value();
+      sum.jpeg_bytes += m.left.jpeg_bytes + m.right.jpeg_bytes;
+      encoding.step();
+    }
+    events.push_back(LogEvent{channels::kStereoPair, m.utime, encodeMessage(m)});
+  }
+  encoding.done();
+  sum.pairs = static_cast<int>(dataset.pairs.size());
+  sum.notes = notes;
+  if (summary != nullptr) *summary = sum;
+  return events;
+}
+
+std::vector<LogEvent> injectFaults(const std::vector<LogEvent>& events, const std::string& spec) {
+  std::vector<LogEvent> out = events;
+  auto find = [&](int seq) -> std::size_t {
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      stereo_pair_t p;
+      if (decodePair(out[i], p) && p.sequence == seq) return i;
+    }
+    throw cli::UsageError("--inject: no pair with sequence " + std::to_string(seq) + " in the stream");
+  };
+  auto reencode = [&](std::size_t i, const stereo_pair_t& p) { out[i].data = encodeMessage(p); };
+  std::size_t begin = 0;
+  while (begin <= spec.size()) {
+    std::size_t end = spec.find(',', begin);
+    if (end == std::string::npos) end = spec.size();
+    const std::string item = spec.substr(begin, end - begin);
+    begin = end + 1;
+    if (item.empty()) continue;
+    const std::size_t colon = item.find(':');
+    const std::string name = item.substr(0, colon);
+    const std::string value = colon == std::string::npos ? "" : item.substr(colon + 1);
+    const int64_t base_utime = out.empty() ? 0 : out.back().utime;
+    if (name == "unknown-channel") {
+      out.insert(out.begin() + static_cast<long>(out.size() / 2), LogEvent{"AREOMAP_UNKNOWN", base_utime, {1, 2, 3, 4}});
+    } else if (name == "wrong-type") {
+      rover_status_t s{};
+      s.last_error = "injected wrong type";
+      out.insert(out.begin() + static_cast<long>(out.size() / 2), LogEvent{channels::kStereoPair, base_utime, encodeMessage(s)});
+    } else {
+      const int seq = sequenceArg(item, value);
+      const std::size_t i = find(seq);
+      stereo_pair_t p;
+      (void)decodePair(out[i], p);
+      if (name == "drop") {
+        out.erase(out.begin() + static_cast<long>(i));
+      } else if (name == "dup") {
+        out.insert(out.begin() + static_cast<long>(i) + 1, out[i]);
+      } else if (name == "swap") {
+        const std::size_t j = find(seq + 1);
+        std::swap(out[i].data, out[j].data);
+      } else if (name == "truncate") {
+        out[i].data.resize(out[i].data.size() / 2);
+      } else if (name == "corrupt-jpeg") {
+        if (p.left.jpeg.size() < 16) throw cli::UsageError("--inject: pair " + value + " has no left JPEG");
+        for (std::size_t b = 2; b < 12; ++b) p.left.jpeg[b] = 0x00;  // SOI kept, the next markers destroyed
+        reencode(i, p);
+      } else if (name == "oversize") {
+        Encoder enc;
+        cv::Mat big(1100, 1100, CV_8U);
+        cv::randu(big, 0, 255);
+        p.left.jpeg = enc.encode(big, 90, "oversize");
+        p.left.jpeg_bytes = static_cast<int32_t>(p.left.jpeg.size());
+        p.left.width_px = 1100;
+        p.left.height_px = 1100;
+        reencode(i, p);
+      } else if (name == "nan-model") {
+        p.left.model.a[0] = std::numeric_limits<double>::quiet_NaN();
+        reencode(i, p);
+      } else {
+        throw cli::UsageError("--inject: unknown fault '" + name + "'");
+      }
+    }
+  }
+  return out;
+}
+
+void writeEventLog(const std::string& path, const std::vector<LogEvent>& events) {
+  lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
+  if (log == nullptr) throw cli::InputError(path, "--out", "cannot create the log file");
+  int64_t n = 0;
+  for (const LogEvent& e : events) {
+    lcm_eventlog_event_t ev{};
+    ev.eventnum = n++;
+    ev.timestamp = e.utime;
+    ev.channellen = static_cast<int32_t>(e.channel.size());
+    ev.datalen = static_cast<int32_t>(e.data.size());
+    ev.channel = const_cast<char*>(e.channel.c_str());
+    ev.data = const_cast<uint8_t*>(e.data.data());
+    if (lcm_eventlog_write_event(log, &ev) != 0) {
+      lcm_eventlog_destroy(log);
+      throw cli::InputError(path, "--out", "write failed (disk full?)");
+    }
+  }
+  lcm_eventlog_destroy(log);
+}
+
+}  // namespace areomap
