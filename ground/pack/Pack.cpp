@@ -229,8 +229,17 @@ std::vector<LogEvent> injectFaults(const std::vector<LogEvent>& events, const st
       } else if (name == "truncate") {
         out[i].data.resize(out[i].data.size() / 2);
       } else if (name == "corrupt-jpeg") {
-        if (p.left.jpeg.size() < 16) throw cli::UsageError("--inject: pair " + value + " has no left JPEG");
-        for (std::size_t b = 2; b < 12; ++b) p.left.jpeg[b] = 0x00;  // SOI kept, the next markers destroyed
+        // The frame header (SOF0..SOF2) gets sample precision 3 and height 0: no decoder accepts it.
+        bool done = false;
+        for (std::size_t b = 2; !done && b + 8 < p.left.jpeg.size(); ++b) {
+          if (p.left.jpeg[b] == 0xFF && p.left.jpeg[b + 1] >= 0xC0 && p.left.jpeg[b + 1] <= 0xC2) {
+            p.left.jpeg[b + 4] = 3;
+            p.left.jpeg[b + 5] = 0;
+            p.left.jpeg[b + 6] = 0;
+            done = true;
+          }
+        }
+        if (!done) throw cli::UsageError("--inject: pair " + value + " has no JPEG frame header to corrupt");
         reencode(i, p);
       } else if (name == "oversize") {
         Encoder enc;
