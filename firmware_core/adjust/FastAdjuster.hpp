@@ -55,7 +55,7 @@ const char* stopRuleName(StopRule rule);
 
 struct FastAdjustOptions {
   FastMethod method = FastMethod::kAlternation;
-  int32_t max_sweeps = 500;               // <= kMaxFastSweeps (kSchurPcg: linearisations)
+  int32_t max_sweeps = 1000;              // <= kMaxFastSweeps (kSchurPcg: linearisations)
   double pcg_relative_tolerance = 1e-3;   // kSchurPcg: |residual| / |rhs| of the reduced system
   // true: each pair's 12x12 block is the REDUCED one (its points eliminated by their 3x3 blocks, the
   // other pairs fixed), solved pair after pair (block Gauss-Seidel on the reduced camera system), then the

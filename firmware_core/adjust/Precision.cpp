@@ -16,6 +16,7 @@ struct PairViews {
 
 void collectViews(const Network& net, const NetPoint& pt, PairViews& v) {
   v.count = 0;
+  if (!pt.solvable) return;  // the measures use the tie points that the adjustment uses
   for (int32_t k = 0; k < pt.obs_count; ++k) {
     const NetObservation& o = net.observation(pt.obs[k]);
     if (o.rejected) continue;

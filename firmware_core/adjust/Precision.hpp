@@ -7,7 +7,8 @@
 //             pair's two rays alone), site-frame metres; every pair against the first pair that sees it.
 //   method 3: 2-D differences after transfer: the point triangulated from one pair is projected into the
 //             images of the other pair and compared with the measured pixel there, pixels.
-// Computed on the network's current EO: call once on the a-priori EO ("before") and once after.
+// Computed on the network's current EO: call once on the a-priori EO ("before") and once after. Rejected
+// observations and unsolvable points (those the adjustment leaves out) are left out here too.
 #pragma once
 
 #include <cstdint>

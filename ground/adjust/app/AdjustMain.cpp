@@ -40,7 +40,7 @@ const char* kUsage =
     "  --no-datum-prior drop the weak prior that keeps the a-priori datum\n"
     "  --sigma-px S     a-priori sigma of the image observations (default 0.3)\n"
     "  --no-robust      no outlier rejection\n"
-    "  --max-sweeps N   bound of the fast adjuster's sweeps (default 500)\n"
+    "  --max-sweeps N   bound of the fast adjuster's sweeps (default 1000)\n"
     "Exit codes: 0 ok, 2 usage error, 1 other error.\n";
 
 constexpr int kMaxSvdUnknowns = 5000;  // dense SVD memory and time grow as n^2 and n^3
@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
     choice.datum_prior = !args.flag("--no-datum-prior");
     choice.sigma_px = args.number("--sigma-px", 0.3);
     const bool robust = !args.flag("--no-robust");
-    const int64_t max_sweeps = args.integer("--max-sweeps", 500);
+    const int64_t max_sweeps = args.integer("--max-sweeps", 1000);
     const std::string dataset_dir = args.positional(0, "DATASET");
     if (ties.has_value() == truth_ties) throw cli::UsageError("give exactly one of --ties FILE and --truth-ties");
     if (solver != "fast" && solver != "svd" && solver != "ceres") {
