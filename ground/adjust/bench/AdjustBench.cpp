@@ -210,9 +210,21 @@ void benchBal(const std::string& path, int repeat) {
     const Vec2 ideal(f * u.x(), -f * u.y());
     if (!ok(g_start.addObservation(op[k], oc[k], ideal, 1.0))) ++dropped;
   }
+  // Observations whose point is behind the camera at the start cannot be used by either solver.
+  int behind = 0;
+  for (int k = 0; k < g_start.observationCount(); ++k) {
+    NetObservation& o = g_start.observation(k);
+    Vec2 q;
+    const NetImage& im = g_start.image(o.image);
+    if (!ok(collinearity(im.io, im.center_m, im.m, g_start.point(o.point).xyz_m, q))) {
+      o.rejected = true;
+      ++behind;
+    }
+  }
   std::printf("\nBAL %s: %d cameras (intrinsics fixed), %d points, %d observations (%d over the %d-per-point "
-              "capacity dropped), sigma 1 px, no constraints, no datum prior\n",
-              path.c_str(), n_cam, n_pt, n_obs, dropped, kMaxObsPerPoint);
+              "capacity dropped, %d behind their camera at the start left out), sigma 1 px, no constraints, "
+              "no datum prior\n",
+              path.c_str(), n_cam, n_pt, n_obs, dropped, kMaxObsPerPoint, behind);
   FastAdjustOptions options;
   options.robust = false;
   options.max_sweeps = kMaxFastSweeps;
