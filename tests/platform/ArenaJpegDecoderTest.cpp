@@ -1,0 +1,122 @@
+// ArenaJpegDecoder: the rover's heap-free JPEG decode (libjpeg with its memory manager on a static arena).
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <vector>
+
+#include "firmware_core/base/Capacities.hpp"
+#include "platform/heap/HeapCounter.hpp"
+#include "platform/posix/ArenaJpegDecoder.hpp"
+#include "platform/posix/TurboJpegCodec.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using areomap::Status;
+using areomap::platform::ArenaJpegDecoder;
+using areomap::platform::TurboJpegCodec;
+
+namespace {
+
+int code(Status s) { return static_cast<int>(s); }
+
+uint8_t g_arena[ArenaJpegDecoder::kArenaBytes];
+uint8_t g_out[areomap::kMaxImagePixels];
+
+std::vector<uint8_t> makeJpeg(int width, int height, int quality, std::vector<uint8_t>* reference) {
+  std::vector<uint8_t> pixels(static_cast<std::size_t>(width) * height);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const double v = 128.0 + 60.0 * std::sin(x * 0.029) * std::cos(y * 0.019) + 25.0 * std::sin((x + 3 * y) * 0.23);
+      pixels[static_cast<std::size_t>(y) * width + x] = static_cast<uint8_t>(std::lround(v));
+    }
+  }
+  TurboJpegCodec codec;
+  CHECK(ok(codec.open()));
+  std::vector<uint8_t> jpeg(codec.maxEncodedBytes(width, height));
+  std::size_t bytes = 0;
+  CHECK(ok(codec.encodeGray(pixels.data(), width, height, quality, jpeg.data(), jpeg.size(), bytes)));
+  jpeg.resize(bytes);
+  if (reference != nullptr) {
+    // The independent decode: TurboJPEG's own (same library, its own memory manager).
+    reference->assign(pixels.size(), 0);
+    int32_t w = 0, h = 0;
+    CHECK(ok(codec.decodeGray(jpeg.data(), jpeg.size(), reference->data(), reference->size(), w, h)));
+  }
+  return jpeg;
+}
+
+}  // namespace
+
+TEST_GROUP(ArenaJpegDecoder){};
+
+// Pixels identical to TurboJPEG's decode, for several sizes, and no heap allocation after open().
+TEST(ArenaJpegDecoder, DecodesLikeTurboJpegWithoutHeap) {
+  ArenaJpegDecoder decoder(g_arena, sizeof(g_arena));
+  CHECK_EQUAL(code(Status::kOk), code(decoder.open()));
+  const int sizes[][2] = {{1024, 1024}, {640, 480}, {33, 17}};
+  for (const auto& s : sizes) {
+    std::vector<uint8_t> reference;
+    const std::vector<uint8_t> jpeg = makeJpeg(s[0], s[1], 95, &reference);
+    int32_t w = 0, h = 0;
+    // First decode of a size may take the permanent tables from the arena: warm-up, then count.
+    CHECK_EQUAL(code(Status::kOk), code(decoder.decodeGray(jpeg.data(), jpeg.size(), g_out, sizeof(g_out), w, h)));
+    areomap::HeapAllocationScope scope;
+    for (int k = 0; k < 5; ++k) {
+      std::memset(g_out, 0, sizeof(g_out));
+      CHECK_EQUAL(code(Status::kOk), code(decoder.decodeGray(jpeg.data(), jpeg.size(), g_out, sizeof(g_out), w, h)));
+    }
+    CHECK_EQUAL(0u, scope.allocations());
+    CHECK_EQUAL(s[0], w);
+    CHECK_EQUAL(s[1], h);
+    CHECK_EQUAL(0, std::memcmp(reference.data(), g_out, reference.size()));
+  }
+  std::printf("arena JPEG decoder: high water %zu bytes of %zu\n", decoder.arenaHighWater(), sizeof(g_arena));
+  CHECK(decoder.arenaHighWater() < sizeof(g_arena) / 2);
+}
+
+// Bad input gives its status, with no heap, and the decoder keeps working afterwards.
+TEST(ArenaJpegDecoder, BadInputHasAStatusAndTheNextDecodeWorks) {
+  ArenaJpegDecoder decoder(g_arena, sizeof(g_arena));
+  CHECK_EQUAL(code(Status::kOk), code(decoder.open()));
+  std::vector<uint8_t> reference;
+  const std::vector<uint8_t> jpeg = makeJpeg(512, 256, 90, &reference);
+  int32_t w = 0, h = 0;
+  CHECK_EQUAL(code(Status::kOk), code(decoder.decodeGray(jpeg.data(), jpeg.size(), g_out, sizeof(g_out), w, h)));
+  std::vector<uint8_t> bad = jpeg;  // a damaged frame header: sample precision 3
+  for (std::size_t b = 2; b + 8 < bad.size(); ++b) {
+    if (bad[b] == 0xFF && bad[b + 1] == 0xC0) {
+      bad[b + 4] = 3;
+      break;
+    }
+  }
+  areomap::HeapAllocationScope scope;
+  // Truncated in the entropy-coded data.
+  CHECK_EQUAL(code(Status::kTruncated), code(decoder.decodeGray(jpeg.data(), jpeg.size() / 2, g_out, sizeof(g_out), w, h)));
+  // Not a JPEG.
+  const uint8_t garbage[64] = {1, 2, 3, 4, 5};
+  CHECK_EQUAL(code(Status::kCorruptData), code(decoder.decodeGray(garbage, sizeof(garbage), g_out, sizeof(g_out), w, h)));
+  // The damaged frame header.
+  CHECK_EQUAL(code(Status::kCorruptData), code(decoder.decodeGray(bad.data(), bad.size(), g_out, sizeof(g_out), w, h)));
+  // Larger than the output buffer: refused before decoding, the size reported.
+  CHECK_EQUAL(code(Status::kCapacityExceeded), code(decoder.decodeGray(jpeg.data(), jpeg.size(), g_out, 1000, w, h)));
+  CHECK_EQUAL(512, w);
+  CHECK_EQUAL(256, h);
+  CHECK_EQUAL(code(Status::kInvalidArgument), code(decoder.decodeGray(nullptr, 10, g_out, sizeof(g_out), w, h)));
+  // And a good one again, pixel-exact.
+  CHECK_EQUAL(code(Status::kOk), code(decoder.decodeGray(jpeg.data(), jpeg.size(), g_out, sizeof(g_out), w, h)));
+  CHECK_EQUAL(0, std::memcmp(reference.data(), g_out, reference.size()));
+  CHECK_EQUAL(0u, scope.allocations());
+}
+
+// An arena too small for the working memory of a wide image: kCapacityExceeded, no crash, no heap.
+TEST(ArenaJpegDecoder, ArenaTooSmallIsCapacityExceeded) {
+  static uint8_t small_arena[80 * 1024];  // ~78 KiB usable; a 16384-px-wide decode needs ~0.25 MiB
+  ArenaJpegDecoder decoder(small_arena, sizeof(small_arena));
+  CHECK_EQUAL(code(Status::kOk), code(decoder.open()));
+  const std::vector<uint8_t> jpeg = makeJpeg(16384, 16, 90, nullptr);
+  int32_t w = 0, h = 0;
+  areomap::HeapAllocationScope scope;
+  CHECK_EQUAL(code(Status::kCapacityExceeded),
+              code(decoder.decodeGray(jpeg.data(), jpeg.size(), g_out, sizeof(g_out), w, h)));
+  CHECK_EQUAL(0u, scope.allocations());
+}
