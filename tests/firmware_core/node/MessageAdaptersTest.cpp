@@ -1,0 +1,105 @@
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "areomap/stereo_pair_t.hpp"
+#include "firmware_core/node/MessageAdapters.hpp"
+#include "msgs/MessageCheck.hpp"
+#include "platform/heap/HeapCounter.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using namespace areomap;
+
+namespace {
+
+CameraModel cahvor() {
+  CameraModel m;
+  m.type = CameraType::kCahvor;
+  m.c = Vec3(0.5, -0.2, -1.5);
+  m.a = Vec3(0.8, 0.6, 0.0);
+  m.h = Vec3(-400.0, 700.0, 10.0);
+  m.v = Vec3(300.0, 200.0, 800.0);
+  m.o = Vec3(0.8, 0.6, 0.0);
+  m.r = Vec3(0.0, -0.1, 0.02);
+  m.width = 1024;
+  m.height = 1024;
+  return m;
+}
+
+std::vector<uint8_t> encode(const stereo_pair_t& p) {
+  std::vector<uint8_t> b(static_cast<std::size_t>(p.getEncodedSize()));
+  CHECK_EQUAL(static_cast<int>(b.size()), p.encode(b.data(), 0, static_cast<int>(b.size())));
+  return b;
+}
+
+stereo_pair_t pairWith(std::size_t stem_chars, int32_t jpeg_bytes) {
+  stereo_pair_t p{};
+  p.kind = stereo_pair_t::KIND_PAIR;
+  p.panorama = "pano";
+  p.has_right = true;
+  p.left.stem = std::string(stem_chars, 'L');
+  p.right.stem = "right";
+  p.left.jpeg.assign(static_cast<std::size_t>(jpeg_bytes), 7);
+  p.left.jpeg_bytes = jpeg_bytes;
+  p.right.jpeg.assign(10, 1);
+  p.right.jpeg_bytes = 10;
+  return p;
+}
+
+}  // namespace
+
+TEST_GROUP(MessageAdapters){};
+
+// CameraModel -> camera_model_t -> CameraModel is exact; bad models get their status and the component.
+TEST(MessageAdapters, CameraModelRoundTripAndBadModels) {
+  const CameraModel in = cahvor();
+  camera_model_t msg{};
+  toMessage(in, msg);
+  CameraModel out;
+  const char* field = "";
+  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(toCameraModel(msg, out, field)));
+  CHECK_TRUE(out.c == in.c && out.a == in.a && out.h == in.h && out.v == in.v && out.o == in.o && out.r == in.r);
+  CHECK_EQUAL(in.width, out.width);
+  CHECK_TRUE(out.type == CameraType::kCahvor);
+
+  camera_model_t nan = msg;
+  nan.v_px[1] = std::numeric_limits<double>::quiet_NaN();
+  CHECK_EQUAL(static_cast<int>(Status::kNotFinite), static_cast<int>(toCameraModel(nan, out, field)));
+  STRCMP_EQUAL("V", field);
+  camera_model_t bad_type = msg;
+  bad_type.type = camera_model_t::TYPE_INVALID;
+  CHECK_EQUAL(static_cast<int>(Status::kUnsupported), static_cast<int>(toCameraModel(bad_type, out, field)));
+  camera_model_t parallel = msg;
+  for (int k = 0; k < 3; ++k) parallel.h_px[k] = 100.0 * parallel.a[k];  // H parallel to A
+  CHECK_EQUAL(static_cast<int>(Status::kInvalidArgument), static_cast<int>(toCameraModel(parallel, out, field)));
+}
+
+// The capacity walk accepts a pair within the reserved sizes, names the field that is too large, and a
+// prepared message then decodes without heap.
+TEST(MessageAdapters, CapacityWalkAndHeapFreeDecode) {
+  const char* field = "";
+  const std::vector<uint8_t> good = encode(pairWith(20, 5000));
+  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(checkStereoPairCapacity(good.data(), good.size(), field)));
+  const std::vector<uint8_t> long_stem = encode(pairWith(kMaxMessageStringChars + 1, 10));
+  CHECK_EQUAL(static_cast<int>(Status::kCapacityExceeded),
+              static_cast<int>(checkStereoPairCapacity(long_stem.data(), long_stem.size(), field)));
+  STRCMP_EQUAL("left.stem", field);
+  const std::vector<uint8_t> big = encode(pairWith(4, kMaxJpegBytes + 1));
+  CHECK_EQUAL(static_cast<int>(Status::kCapacityExceeded),
+              static_cast<int>(checkStereoPairCapacity(big.data(), big.size(), field)));
+  STRCMP_EQUAL("left.jpeg_bytes", field);
+  CHECK_EQUAL(static_cast<int>(Status::kTruncated),
+              static_cast<int>(checkStereoPairCapacity(good.data(), 40, field)));
+
+  stereo_pair_t received;
+  prepareStereoPair(received);
+  const std::vector<uint8_t> full = encode(pairWith(kMaxMessageStringChars, kMaxJpegBytes));
+  areomap::HeapAllocationScope scope;
+  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(checkStereoPairCapacity(full.data(), full.size(), field)));
+  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(msgs::decodeMessage(full.data(), full.size(), received)));
+  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(msgs::decodeMessage(good.data(), good.size(), received)));
+  CHECK_EQUAL(0u, scope.allocations());
+  CHECK_EQUAL(5000, received.left.jpeg_bytes);
+  CHECK_EQUAL(encodedFingerprint(good.data(), good.size()), static_cast<uint64_t>(stereo_pair_t::getHash()));
+}
