@@ -1,0 +1,106 @@
+// The ground's work at the end of a panorama (issue 9 item 3), on a dataset folder: either the one given
+// (`areomap-ground --dataset DIR`) or the one the ground wrote from the camera stream (full-resolution
+// images as decoded from the stream's JPEGs).
+//
+//   1. tie points: the rover's matcher (firmware_core/match, via ground/ties runTiePoints) run again on the
+//      ground's images, in pair-id order: the same pixels give the same ties as on the rover, and the
+//      ground does not depend on the rover's TIEPOINTS arriving;
+//   2. the fast adjustment (its outlier rejection and method-1 figures), then the INTEGRATED adjustment
+//      (Ceres sparse Schur, ground/adjust) from the a-priori EO with the same rejections: the reference;
+//   3. products: models/<stem>.cahvor (integrated), eo.csv, tiepoints.csv, rover_models/<stem>.cahvor (the
+//      rover's last EO), report.json with `stream`, `rover` (incl. eo_vs_ground_px) and `truth` when truth
+//      exists; then the products hook (DEM, ortho, previews: ground/products) when one is set.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "areomap/eo_solution_t.hpp"
+#include "areomap/product_t.hpp"
+#include "areomap/rover_status_t.hpp"
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+#include "ground/adjust/AdjustProducts.hpp"
+#include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/TruthFiles.hpp"
+#include "ground/node/StreamCollector.hpp"
+
+namespace areomap::ground {
+
+// What the rover sent (absent when it did not run or nothing arrived).
+struct RoverInputs {
+  std::optional<eo_solution_t> eo;
+  std::optional<rover_status_t> status;
+  int32_t tie_messages = 0;
+  int32_t tie_observations = 0;
+  int32_t dem_messages = 0;
+  std::vector<std::string> warnings;
+};
+
+// Handed to the products hook after the adjustment products are written.
+struct ProductContext {
+  const Dataset* dataset = nullptr;
+  std::string out_dir;
+  const Network* net = nullptr;                         // the integrated solution
+  const std::vector<std::string>* stems = nullptr;      // per network image
+  const std::vector<CameraModel>* apriori = nullptr;    // per network image
+  const std::vector<ImageObservation>* ties = nullptr;  // tie observations (image = stem)
+  AdjustReport* report = nullptr;  // add stage timings, warnings, truth.dem_rmse_m (written after the hook)
+};
+using ProductsHook = std::function<void(const ProductContext&)>;
+
+struct GroundPassOptions {
+  std::string out_dir;
+  // A dataset folder holding truth/ (or a truth folder itself); "" = the dataset's own truth/ if any.
+  std::string truth_dir;
+  bool progress = true;
+  ProductsHook products_hook;  // unset: only the adjustment products
+};
+
+struct ManifestEntry {
+  std::string name;  // relative to the out dir
+  int64_t bytes = 0;
+  std::string sha256_hex;
+};
+
+struct GroundPassResult {
+  int32_t pairs = 0;
+  int32_t images = 0;
+  int32_t points = 0;
+  int32_t intra_observations = 0;
+  int32_t inter_observations = 0;
+  int32_t rejected_observations = 0;
+  double method1_before_px = 0.0;  // mean distance
+  double method1_after_px = 0.0;   // integrated
+  double method1_fast_px = 0.0;    // fast adjustment
+  int32_t fast_sweeps = 0;
+  int32_t integrated_iterations = 0;
+  double rms_px = 0.0;
+  std::optional<double> truth_eo_before_px, truth_eo_after_px, truth_eo_fast_px;
+  std::optional<double> rover_vs_ground_px;   // rover's last EO against the integrated solution
+  std::optional<double> fast_vs_ground_px;    // the ground's own fast solution against it
+  std::vector<std::pair<std::string, double>> seconds;
+  std::vector<std::string> warnings;
+  std::vector<ManifestEntry> files;
+};
+
+// Runs the pass and writes the products. Throws cli::InputError on bad input or an unsolvable network.
+GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& options,
+                               const StreamCounts* stream, const RoverInputs* rover);
+
+// RMS pixel-equivalent difference (f x (angle + |dC| / 5 m)) between the rover's EO and the network's
+// current EO over the images both have (by stem), after removing their best-fit common rotation about
+// `gimbal_m`. nullopt when no image is common.
+std::optional<double> eoDifferencePx(const eo_solution_t& rover, const Network& net,
+                                     const std::vector<std::string>& stems, const Vec3& gimbal_m,
+                                     int32_t* compared = nullptr);
+
+// Every file under out_dir (recursively, sorted), except `exclude_prefix` ("" = none).
+std::vector<ManifestEntry> buildManifest(const std::string& out_dir, const std::string& exclude_prefix = "");
+product_t manifestMessage(const std::string& panorama, const std::string& out_dir,
+                          const std::vector<ManifestEntry>& files, int64_t sequence);
+
+}  // namespace areomap::ground

@@ -1,0 +1,308 @@
+#include "ground/node/StreamCollector.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "areomap/coarse_dem_t.hpp"
+#include "areomap/tiepoints_t.hpp"
+#include "firmware_core/base/Capacities.hpp"
+#include "ground/cli/AtomicFile.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/io/CameraFile.hpp"
+#include "ground/node/MessageModels.hpp"
+#include "msgs/Channels.hpp"
+#include "msgs/MessageCheck.hpp"
+#include "platform/posix/TurboJpegCodec.hpp"
+
+namespace areomap::ground {
+namespace {
+
+// The fingerprint of an encoded message (its first 8 bytes, big-endian); false when too short.
+bool fingerprintOf(const uint8_t* data, std::size_t size, uint64_t& hash) {
+  if (data == nullptr || size < 8) return false;
+  hash = 0;
+  for (int i = 0; i < 8; ++i) hash = (hash << 8) | data[i];
+  return true;
+}
+
+// Checks and decodes; on failure returns the rejection cause ("wrong_type" for another type's fingerprint).
+template <class Message>
+std::string decodeOrCause(const uint8_t* data, std::size_t size, Message& out) {
+  uint64_t hash = 0;
+  if (fingerprintOf(data, size, hash) && hash != static_cast<uint64_t>(Message::getHash())) return "wrong_type";
+  const Status s = msgs::decodeMessage(data, size, out);
+  return ok(s) ? std::string() : std::string(statusName(s));
+}
+
+std::string sequenceNeighbours(const std::map<int64_t, int32_t>& pair_of_sequence, int64_t sequence) {
+  std::string text;
+  const auto after = pair_of_sequence.upper_bound(sequence);
+  if (after != pair_of_sequence.begin()) {
+    text += "after pair " + std::to_string(std::prev(after)->second);
+  }
+  if (after != pair_of_sequence.end()) {
+    text += std::string(text.empty() ? "" : ", ") + "before pair " + std::to_string(after->second);
+  }
+  return text.empty() ? "no pair received" : text;
+}
+
+}  // namespace
+
+SequenceTracker::Arrival SequenceTracker::record(int64_t sequence) {
+  if (!seen_.insert(sequence).second) {
+    ++duplicates_;
+    return Arrival::kDuplicate;
+  }
+  if (sequence < highest_) {
+    ++reordered_;
+    return Arrival::kReordered;
+  }
+  highest_ = sequence;
+  return Arrival::kInOrder;
+}
+
+std::vector<int64_t> SequenceTracker::missing() const {
+  std::vector<int64_t> out;
+  int64_t expected = 0;
+  for (int64_t s : seen_) {
+    if (s < 0) continue;
+    for (int64_t k = expected; k < s; ++k) out.push_back(k);
+    expected = s + 1;
+  }
+  return out;
+}
+
+StreamCollector::StreamCollector() = default;
+
+void StreamCollector::onMessage(void* context, const char* channel, const uint8_t* data, std::size_t size) {
+  static_cast<StreamCollector*>(context)->receive(channel == nullptr ? "" : channel, data, size);
+}
+
+void StreamCollector::receive(const std::string& channel, const uint8_t* data, std::size_t size) {
+  ++messages_;
+  if (channel == channels::kStereoPair) {
+    receivePair(data, size);
+    return;
+  }
+  auto track = [&](int64_t sequence) {
+    return rover_sequences_[channel].record(sequence) != SequenceTracker::Arrival::kDuplicate;
+  };
+  if (channel == channels::kEoSolution) {
+    eo_solution_t eo;
+    const std::string cause = decodeOrCause(data, size, eo);
+    if (!cause.empty()) return reject("rover_eo_" + cause);
+    if (!track(eo.sequence)) return;
+    if (!rover_eo_ || eo.sequence > rover_eo_->sequence) rover_eo_ = std::move(eo);
+  } else if (channel == channels::kRoverStatus) {
+    rover_status_t status;
+    const std::string cause = decodeOrCause(data, size, status);
+    if (!cause.empty()) return reject("rover_status_" + cause);
+    if (!track(status.sequence)) return;
+    if (!rover_status_ || status.sequence > rover_status_->sequence) rover_status_ = std::move(status);
+  } else if (channel == channels::kTiePoints) {
+    tiepoints_t ties;
+    const std::string cause = decodeOrCause(data, size, ties);
+    if (!cause.empty()) return reject("rover_tiepoints_" + cause);
+    if (!track(ties.sequence)) return;
+    ++rover_tie_messages_;
+    rover_tie_observations_ += ties.num_observations;
+  } else if (channel == channels::kCoarseDem) {
+    coarse_dem_t dem;
+    const std::string cause = decodeOrCause(data, size, dem);
+    if (!cause.empty()) return reject("rover_dem_" + cause);
+    if (!track(dem.sequence)) return;
+    ++rover_dem_messages_;
+  } else {
+    reject("unknown_channel");
+  }
+}
+
+bool StreamCollector::decodeImage(const stereo_image_t& side, ReceivedImage& out) {
+  // One codec per collector thread; TurboJPEG handles are made once.
+  static thread_local std::unique_ptr<platform::TurboJpegCodec> codec;
+  if (!codec) {
+    codec = std::make_unique<platform::TurboJpegCodec>();
+    if (!ok(codec->open())) {
+      reject("jpeg_unsupported");
+      return false;
+    }
+  }
+  if (side.jpeg_bytes <= 0 || side.jpeg.empty()) {
+    reject("missing_image");
+    return false;
+  }
+  const std::size_t capacity = static_cast<std::size_t>(kMaxImagePixels);
+  std::vector<uint8_t> pixels(capacity);
+  int32_t width = 0, height = 0;
+  const Status s = codec->decodeGray(side.jpeg.data(), side.jpeg.size(), pixels.data(), capacity, width, height);
+  if (s == Status::kCapacityExceeded || (ok(s) && (width > kMaxImageWidth || height > kMaxImageHeight))) {
+    reject("capacity_exceeded");
+    return false;
+  }
+  if (!ok(s)) {
+    reject(std::string("jpeg_") + statusName(s));
+    return false;
+  }
+  if ((side.width_px != 0 && side.width_px != width) || (side.height_px != 0 && side.height_px != height)) {
+    reject("size_mismatch");
+    return false;
+  }
+  CameraModel model;
+  const char* field = "";
+  if (!ok(modelFromMessage(side.model, model)) || !ok(validateModel(model, field))) {
+    reject("invalid_model");
+    return false;
+  }
+  if (model.width == 0) model.width = width;
+  if (model.height == 0) model.height = height;
+  std::string why;
+  if (side.stem.empty() || side.stem.find('/') != std::string::npos || !isSafeRelativePath(side.stem, why)) {
+    reject("invalid_stem");
+    return false;
+  }
+  out.stem = side.stem;
+  out.pixels = cv::Mat(height, width, CV_8UC1, pixels.data()).clone();
+  out.model = model;
+  return true;
+}
+
+void StreamCollector::receivePair(const uint8_t* data, std::size_t size) {
+  stereo_pair_t msg;
+  const std::string cause = decodeOrCause(data, size, msg);
+  if (!cause.empty()) return reject(cause);
+  const SequenceTracker::Arrival arrival = pair_sequences_.record(msg.sequence);
+  if (arrival == SequenceTracker::Arrival::kDuplicate) return;
+  if (panorama_.empty()) panorama_ = msg.panorama;
+  if (msg.kind == stereo_pair_t::KIND_END_OF_PANORAMA) {
+    end_of_panorama_ = true;
+    pairs_planned_ = msg.pairs_planned;
+    return;
+  }
+  if (msg.kind != stereo_pair_t::KIND_PAIR) return reject("invalid_kind");
+  if (pairs_.count(msg.pair_id) != 0) {
+    ++duplicate_pair_ids_;
+    return;
+  }
+  ReceivedPair pair;
+  pair.sequence = msg.sequence;
+  pair.pair_id = msg.pair_id;
+  pair.sol = msg.sol;
+  pair.tier = msg.tier;
+  if (!decodeImage(msg.left, pair.left)) return;
+  if (msg.has_right) {
+    ReceivedImage right;
+    if (!decodeImage(msg.right, right)) return;
+    pair.right = std::move(right);
+  }
+  if (pairs_planned_ < 0) pairs_planned_ = msg.pairs_planned;
+  if (msg.gimbal_given) gimbal_by_sol_[msg.sol] = {msg.gimbal_m[0], msg.gimbal_m[1], msg.gimbal_m[2]};
+  if (!rig_source_) {
+    rig_source_ = msg;
+    rig_source_->left.jpeg.clear();
+    rig_source_->right.jpeg.clear();
+  }
+  pair_of_sequence_[msg.sequence] = msg.pair_id;
+  pairs_.emplace(msg.pair_id, std::move(pair));
+}
+
+bool StreamCollector::roverFinished() const {
+  if (rover_eo_ && rover_eo_->is_final) return true;
+  return rover_status_ && rover_status_->state == rover_status_t::STATE_FINISHED;
+}
+
+std::vector<const ReceivedPair*> StreamCollector::pairs() const {
+  std::vector<const ReceivedPair*> out;
+  for (const auto& [id, pair] : pairs_) out.push_back(&pair);
+  return out;
+}
+
+StreamCounts StreamCollector::counts() const {
+  StreamCounts c;
+  c.pairs = static_cast<int32_t>(pairs_.size());
+  const std::vector<int64_t> missing = pair_sequences_.missing();
+  c.gaps = static_cast<int32_t>(missing.size());
+  c.duplicates = pair_sequences_.duplicates() + duplicate_pair_ids_;
+  c.reordered = pair_sequences_.reordered();
+  c.rejected = rejected_;
+  c.end_of_panorama = end_of_panorama_;
+  c.pairs_planned = pairs_planned_;
+  for (int64_t s : missing) {
+    c.warnings.push_back("Camera stream message " + std::to_string(s) + " (" + channels::kStereoPair +
+                         ") was never received (" + sequenceNeighbours(pair_of_sequence_, s) +
+                         "): that pair is missing from every product.");
+  }
+  if (!end_of_panorama_) {
+    c.warnings.push_back("The end-of-panorama marker was not received; products are made from the pairs that came.");
+  }
+  if (pairs_planned_ >= 0 && c.pairs < pairs_planned_) {
+    c.warnings.push_back("The panorama plans " + std::to_string(pairs_planned_) + " pairs; " +
+                         std::to_string(c.pairs) + " were received intact.");
+  }
+  for (const auto& [cause, count] : rejected_) {
+    c.warnings.push_back(std::to_string(count) + " message(s) rejected: " + cause + ".");
+  }
+  return c;
+}
+
+std::vector<std::string> StreamCollector::roverWarnings() const {
+  std::vector<std::string> out;
+  for (const auto& [channel, tracker] : rover_sequences_) {
+    const std::size_t lost = tracker.missing().size();
+    if (lost > 0) {
+      out.push_back(std::to_string(lost) + " message(s) of " + channel + " from the rover were never received.");
+    }
+  }
+  return out;
+}
+
+Dataset StreamCollector::writeDataset(const std::string& dir) const {
+  std::filesystem::create_directories(dir + "/images");
+  std::filesystem::create_directories(dir + "/models");
+  Dataset d;
+  d.root = dir;
+  d.name = panorama_.empty() ? "stream" : panorama_;
+  auto writeSide = [&](const ReceivedImage& image) {
+    const std::string rel = "images/" + image.stem + ".png";
+    cli::writeViaTemporary(dir + "/" + rel, [&](const std::string& tmp) {
+      if (!cv::imwrite(tmp + ".png", image.pixels)) throw cli::InputError(tmp, "image", "cannot write");
+      std::filesystem::rename(tmp + ".png", tmp);
+    });
+    const std::string model_rel = "models/" + image.stem + ".cahvor";
+    io::writeCameraModelFile(dir + "/" + model_rel, image.model);
+    return makeImageRef(dir, rel, model_rel);
+  };
+  for (const auto& [id, pair] : pairs_) {
+    Pair p;
+    p.id = id;
+    p.sol = pair.sol;
+    p.tier = pair.tier;
+    p.left = writeSide(pair.left);
+    if (pair.right) p.right = writeSide(*pair.right);
+    if (d.width == 0) {
+      d.width = pair.left.pixels.cols;
+      d.height = pair.left.pixels.rows;
+    }
+    d.pairs.push_back(p);
+  }
+  if (rig_source_) {
+    const stereo_pair_t& r = *rig_source_;
+    for (const auto& [sol, g] : gimbal_by_sol_) d.rig.gimbal_m[sol] = Eigen::Vector3d(g[0], g[1], g[2]);
+    if (r.offsets_given) {
+      d.rig.left_offset_m = Eigen::Vector3d(r.left_offset_m[0], r.left_offset_m[1], r.left_offset_m[2]);
+      d.rig.right_offset_m = Eigen::Vector3d(r.right_offset_m[0], r.right_offset_m[1], r.right_offset_m[2]);
+    }
+    if (r.base_given) d.rig.base_m = Eigen::Vector3d(r.base_m[0], r.base_m[1], r.base_m[2]);
+    if (r.sigmas_given) {
+      d.rig.sigma_gimbal_m = r.sigma_gimbal_m;
+      d.rig.sigma_base_m = r.sigma_base_m;
+    }
+  }
+  areomap::writeDataset(d, dir);
+  return readDataset(dir);
+}
+
+}  // namespace areomap::ground

@@ -1,0 +1,127 @@
+// The ground node's receiving side: the camera stream (AREOMAP_STEREO_PAIR) and the rover's results
+// (AREOMAP_TIEPOINTS, AREOMAP_EO_SOLUTION, AREOMAP_COARSE_DEM, AREOMAP_ROVER_STATUS) as raw bytes from any
+// platform::Transport. Every message is checked before it is decoded (msgs/MessageCheck.hpp); a message
+// that does not decode, a JPEG that does not decode, an image larger than the rover's capacity or a bad
+// model is counted under its cause and dropped, and the stream goes on ("no silent loss").
+//
+// Sequence numbers (per channel): a message whose sequence was already seen is a duplicate (dropped); one
+// that arrives after a later one is `reordered` (kept); the sequences never seen between 0 and the last one
+// are the gaps, each named in the warnings with the pairs on either side.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "areomap/eo_solution_t.hpp"
+#include "areomap/rover_status_t.hpp"
+#include "areomap/stereo_pair_t.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+#include "ground/dataset/Dataset.hpp"
+
+namespace areomap::ground {
+
+struct ReceivedImage {
+  std::string stem;
+  cv::Mat pixels;  // 8-bit grey, full resolution as sent
+  CameraModel model;
+};
+
+struct ReceivedPair {
+  int64_t sequence = 0;
+  int32_t pair_id = 0;
+  int32_t sol = 0;
+  int32_t tier = 0;
+  ReceivedImage left;
+  std::optional<ReceivedImage> right;
+};
+
+// The `stream` object of report.json.
+struct StreamCounts {
+  int32_t pairs = 0;         // pairs kept
+  int32_t gaps = 0;          // camera-stream messages never received
+  int32_t duplicates = 0;
+  int32_t reordered = 0;
+  std::map<std::string, int32_t> rejected;  // cause -> count
+  std::vector<std::string> warnings;        // gap-affected pairs, rover-channel losses, ...
+  bool end_of_panorama = false;
+  int32_t pairs_planned = -1;
+};
+
+// Sequence bookkeeping of one channel.
+class SequenceTracker {
+ public:
+  enum class Arrival { kInOrder, kReordered, kDuplicate };
+  Arrival record(int64_t sequence);
+  std::vector<int64_t> missing() const;  // never seen in [0, highest]
+  int32_t duplicates() const { return duplicates_; }
+  int32_t reordered() const { return reordered_; }
+  int64_t highest() const { return highest_; }
+
+ private:
+  std::set<int64_t> seen_;
+  int64_t highest_ = -1;
+  int32_t duplicates_ = 0;
+  int32_t reordered_ = 0;
+};
+
+class StreamCollector {
+ public:
+  StreamCollector();
+
+  // A platform::MessageHandler: pass the collector as the context.
+  static void onMessage(void* context, const char* channel, const uint8_t* data, std::size_t size);
+  void receive(const std::string& channel, const uint8_t* data, std::size_t size);
+
+  bool endOfPanorama() const { return end_of_panorama_; }
+  bool roverFinished() const;  // a final EO solution or a FINISHED status arrived
+  int64_t messagesReceived() const { return messages_; }
+  const std::string& panorama() const { return panorama_; }
+
+  // Pairs kept, by pair id.
+  std::vector<const ReceivedPair*> pairs() const;
+  StreamCounts counts() const;
+
+  // The rover's results (latest by sequence).
+  const std::optional<eo_solution_t>& roverEo() const { return rover_eo_; }
+  const std::optional<rover_status_t>& roverStatus() const { return rover_status_; }
+  int32_t roverTiePointMessages() const { return rover_tie_messages_; }
+  int32_t roverTieObservations() const { return rover_tie_observations_; }
+  int32_t roverDemMessages() const { return rover_dem_messages_; }
+  std::vector<std::string> roverWarnings() const;
+
+  // Writes the kept pairs as a dataset folder (DIR/images/<stem>.png, DIR/models/<stem>.cahvor,
+  // DIR/panorama.json with the rig values the stream marks as given) and returns it as read back.
+  Dataset writeDataset(const std::string& dir) const;
+
+ private:
+  void reject(const std::string& cause) { ++rejected_[cause]; }
+  void receivePair(const uint8_t* data, std::size_t size);
+  bool decodeImage(const stereo_image_t& side, ReceivedImage& out);
+
+  std::map<int32_t, ReceivedPair> pairs_;
+  std::map<std::string, int32_t> rejected_;
+  SequenceTracker pair_sequences_;
+  std::map<int64_t, int32_t> pair_of_sequence_;
+  std::map<std::string, SequenceTracker> rover_sequences_;
+  int32_t duplicate_pair_ids_ = 0;
+  bool end_of_panorama_ = false;
+  int32_t pairs_planned_ = -1;
+  int64_t messages_ = 0;
+  std::string panorama_;
+  std::optional<stereo_pair_t> rig_source_;  // the first kept pair (rig values), images cleared
+  std::optional<eo_solution_t> rover_eo_;
+  std::optional<rover_status_t> rover_status_;
+  int32_t rover_tie_messages_ = 0;
+  int32_t rover_tie_observations_ = 0;
+  int32_t rover_dem_messages_ = 0;
+  std::map<int32_t, std::vector<double>> gimbal_by_sol_;
+};
+
+}  // namespace areomap::ground

@@ -1,0 +1,133 @@
+// areomap-ground: the ground node (issue 9 item 3). See kUsage.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ground/cli/Cli.hpp"
+#include "ground/dataset/Dataset.hpp"
+#include "ground/node/GroundNode.hpp"
+#include "ground/node/GroundPass.hpp"
+#include "platform/TransportUrl.hpp"
+#include "platform/posix/LcmLogReplay.hpp"
+#include "platform/posix/LcmTransport.hpp"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: areomap-ground --lcm URL --out DIR [--truth DATASET] [options]\n"
+    "       areomap-ground --dataset DIR --out DIR [--truth DATASET]\n"
+    "\n"
+    "The ground node. With --lcm it subscribes to the camera stream (AREOMAP_STEREO_PAIR) and the rover's\n"
+    "results (AREOMAP_TIEPOINTS, AREOMAP_EO_SOLUTION, AREOMAP_COARSE_DEM, AREOMAP_ROVER_STATUS), keeps the\n"
+    "full-resolution images (DIR/stream/: images as decoded from the stream's JPEGs, models, panorama.json),\n"
+    "and at the end-of-panorama marker (after waiting, bounded, for the rover's final EO) runs the ground\n"
+    "pass, then publishes AREOMAP_PRODUCT (files, sizes, sha256) on the same URL. With --dataset it runs the\n"
+    "same pass on a dataset folder, without LCM.\n"
+    "\n"
+    "The pass: tie points by the rover's matcher run on the ground's images; the fast adjustment (outlier\n"
+    "rejection); the integrated adjustment (Ceres) as the reference; products in DIR: models/<stem>.cahvor,\n"
+    "eo.csv, tiepoints.csv, rover_models/<stem>.cahvor (the rover's last EO), report.json (method1/2/3,\n"
+    "stream {pairs, gaps, duplicates, reordered, rejected}, rover {heap_allocs_after_init, static_bytes,\n"
+    "seconds_per_pair, eo_vs_ground_px}, truth, warnings naming gap-affected pairs).\n"
+    "\n"
+    "  --lcm URL           udpm://GROUP:PORT[?recv_buf_size=B] (live; recv_buf_size and ttl=0 added when\n"
+    "                      absent), file://LOG (re-make products from a recorded pass; read at full speed)\n"
+    "  --dataset DIR       a dataset folder (panorama.json), instead of --lcm\n"
+    "  --out DIR           output folder (created)\n"
+    "  --truth DATASET     a dataset folder with truth/ (true models): truth.eo_px in the report. With\n"
+    "                      --dataset the dataset's own truth/ is used when present\n"
+    "  --rover-wait-s S    after the end marker, wait up to S s for the rover's final EO (default 300)\n"
+    "  --rover-silent-s S  ... but stop waiting when the rover sent nothing for S s (default 5)\n"
+    "  --idle-timeout-s S  the stream stops without an end marker: make products after S s (default 120)\n"
+    "  --first-timeout-s S nothing arrives at all within S s: exit 1 (default 600)\n"
+    "  --summary-json      print the figures as one JSON line on stdout at the end\n"
+    "\n"
+    "Exit: 0 ok, 2 usage error, 1 other error (the message names the file or URL and the field).\n";
+
+constexpr std::size_t kReplayBufferBytes = 16u * 1024u * 1024u;  // one log event: a stereo pair is <= ~4 MiB
+
+void printSummary(const areomap::ground::GroundPassResult& p, const std::string& out) {
+  std::printf("ground: %d pairs, %d images, %d points, %d intra + %d inter observations, %d rejected\n", p.pairs,
+              p.images, p.points, p.intra_observations, p.inter_observations, p.rejected_observations);
+  std::printf("ground: method 1 mean distance %.3f px before, %.3f px after (integrated, %d iterations); fast %.3f px "
+              "(%d sweeps)\n",
+              p.method1_before_px, p.method1_after_px, p.integrated_iterations, p.method1_fast_px, p.fast_sweeps);
+  if (p.truth_eo_after_px) {
+    std::printf("ground: truth EO error %.3f px before, %.3f px integrated, %.3f px fast (datum removed)\n",
+                p.truth_eo_before_px.value_or(-1.0), *p.truth_eo_after_px, p.truth_eo_fast_px.value_or(-1.0));
+  }
+  if (p.rover_vs_ground_px) std::printf("ground: rover EO vs integrated %.4f px\n", *p.rover_vs_ground_px);
+  std::printf("ground: %zu product files in %s\n", p.files.size(), out.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace areomap;
+  return cli::runTool("areomap-ground", argc, argv, kUsage, [](cli::Args& args) {
+    const std::string out = args.required("--out");
+    const std::optional<std::string> lcm = args.option("--lcm");
+    const std::optional<std::string> dataset_dir = args.option("--dataset");
+    ground::GroundNodeOptions options;
+    options.pass.out_dir = out;
+    options.pass.truth_dir = args.option("--truth", "");
+    options.rover_wait_s = args.number("--rover-wait-s", 300.0);
+    options.rover_silent_s = args.number("--rover-silent-s", 5.0);
+    options.idle_timeout_s = args.number("--idle-timeout-s", 120.0);
+    options.first_message_timeout_s = args.number("--first-timeout-s", 600.0);
+    const bool summary_json = args.flag("--summary-json");
+    args.finish();
+    if (lcm.has_value() == dataset_dir.has_value()) throw cli::UsageError("give exactly one of --lcm URL and --dataset DIR");
+    for (double v : {options.rover_wait_s, options.rover_silent_s, options.idle_timeout_s, options.first_message_timeout_s}) {
+      if (!(v >= 0.0)) throw cli::UsageError("timeouts must be >= 0 seconds");
+    }
+    ground::GroundPassResult pass;
+    if (dataset_dir) {
+      const Dataset dataset = readDataset(*dataset_dir);
+      pass = ground::runGroundPass(dataset, options.pass, nullptr, nullptr);
+      pass.files = ground::buildManifest(out);
+      std::printf("ground: ran on dataset %s (no LCM)\n", dataset_dir->c_str());
+    } else {
+      const platform::UrlScheme scheme = platform::urlScheme(lcm->c_str());
+      if (scheme == platform::UrlScheme::kInvalid) {
+        throw cli::UsageError("--lcm: '" + *lcm + "' is not a udpm://, file:// or memq:// URL");
+      }
+      ground::GroundNodeResult result;
+      if (scheme == platform::UrlScheme::kFile) {
+        std::vector<uint8_t> buffer(kReplayBufferBytes);
+        platform::LcmLogReplay replay(buffer.data(), buffer.size());
+        if (!ok(replay.open(lcm->c_str()))) throw cli::InputError(*lcm, "file", "cannot open the log");
+        options.can_publish = false;
+        options.rover_wait_s = 0.0;  // a log holds whatever was recorded; nothing more will come
+        result = ground::runGroundNode(replay, *lcm, options);
+        cli::info("log replay: AREOMAP_PRODUCT not published (a log is read-only); " +
+                  std::to_string(replay.eventsTooLarge()) + " event(s) larger than the replay buffer skipped");
+      } else {
+        platform::LcmTransport transport;
+        if (!ok(transport.open(lcm->c_str()))) {
+          throw cli::InputError(*lcm, "url", "LCM cannot open it (for udpm: is there a multicast route?)");
+        }
+        cli::info(std::string("listening on ") + transport.url());
+        result = ground::runGroundNode(transport, *lcm, options);
+        if (!result.product_published) cli::warn("AREOMAP_PRODUCT could not be published");
+      }
+      pass = result.pass;
+      std::printf("stream: %d pairs, %d gaps, %d duplicates, %d reordered, %d rejected; %lld messages in %.2f s\n",
+                  result.stream.pairs, result.stream.gaps, result.stream.duplicates, result.stream.reordered,
+                  [&] {
+                    int n = 0;
+                    for (const auto& [cause, count] : result.stream.rejected) n += count;
+                    return n;
+                  }(),
+                  static_cast<long long>(result.messages), result.receive_seconds);
+    }
+    printSummary(pass, out);
+    if (summary_json) {
+      std::printf("{\"pairs\": %d, \"method1_before_px\": %.6f, \"method1_after_px\": %.6f, \"files\": %zu}\n", pass.pairs,
+                  pass.method1_before_px, pass.method1_after_px, pass.files.size());
+    }
+    return 0;
+  });
+}
