@@ -137,36 +137,22 @@ Status Network::triangulate(int32_t point) {
     return Status::kInvalidArgument;
   }
   NetPoint& p = points_[point];
-  // All active rays first; if they do not intersect in front of every camera and there are 3 or more,
-  // the intersection leaving out one ray at a time (the one that is then rejected as a gross error).
-  for (int32_t skip = -1; skip < p.obs_count; ++skip) {
-    Vec3 origins[kMaxObsPerPoint];
-    Vec3 dirs[kMaxObsPerPoint];
-    int32_t n = 0;
-    for (int32_t k = 0; k < p.obs_count; ++k) {
-      const NetObservation& o = observations_[p.obs[k]];
-      if (o.rejected || k == skip) continue;
-      const NetImage& im = images_[o.image];
-      origins[n] = im.center_m;
-      dirs[n] = rayOfIdealPixel(im.io, im.m, o.ideal_px);
-      ++n;
-    }
-    if (skip >= 0 && (observations_[p.obs[skip]].rejected || n < 2)) continue;
-    Vec3 xyz;
-    const Status s = intersectRays(origins, dirs, n, xyz);
-    if (ok(s)) {
-      p.solvable = true;
-      p.xyz_m = xyz;
-      if (skip >= 0) observations_[p.obs[skip]].rejected = true;
-      return Status::kOk;
-    }
-    if (skip < 0 && n < 3) {
-      p.solvable = false;
-      return s;
-    }
+  Vec3 origins[kMaxObsPerPoint];
+  Vec3 dirs[kMaxObsPerPoint];
+  int32_t n = 0;
+  for (int32_t k = 0; k < p.obs_count; ++k) {
+    const NetObservation& o = observations_[p.obs[k]];
+    if (o.rejected) continue;
+    const NetImage& im = images_[o.image];
+    origins[n] = im.center_m;
+    dirs[n] = rayOfIdealPixel(im.io, im.m, o.ideal_px);
+    ++n;
   }
-  p.solvable = false;
-  return Status::kDegenerate;
+  Vec3 xyz;
+  const Status s = intersectRays(origins, dirs, n, xyz);
+  p.solvable = ok(s);
+  if (ok(s)) p.xyz_m = xyz;
+  return s;
 }
 
 Status Network::triangulateAll(int32_t& failed_count) {

@@ -104,9 +104,7 @@ class Network {
   [[nodiscard]] Status addObservation(int32_t point, int32_t image, const Vec2& ideal_px, double sigma_px);
 
   // Multi-ray least-squares intersection of the point's active rays with the current EO (the network
-  // builder's initial values). When all rays do not meet in front of their cameras and there are 3 or more,
-  // the first intersection that leaves out one ray is taken and that observation marked rejected (a gross
-  // error). kDegenerate for fewer than 2 rays or rays that do not intersect in front.
+  // builder's initial values). kDegenerate for fewer than 2 rays or rays that do not intersect in front.
   [[nodiscard]] Status triangulate(int32_t point);
   [[nodiscard]] Status triangulateAll(int32_t& failed_count);
 
