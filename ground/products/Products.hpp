@@ -67,6 +67,7 @@ struct ProductInputs {
 struct ProductOptions {
   double cell_m = -1.0;         // DEM cell (-1: automatic, 2 cm near the rover, coarser with the extent)
   double max_range_m = 60.0;    // points farther from the gimbal centre are not used
+  double max_point_sigma_m = 0.5;  // points with a larger height sigma are dropped
   double seam_m = 20.0;         // kriging inside, equi-parallax interpolation outside
   int dense_max_disparity_px = 192;
   bool write_overlays = true;   // overlays/<stem>.png (set false when the ties tool wrote them)

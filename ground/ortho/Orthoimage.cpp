@@ -1,0 +1,251 @@
+#include "ground/ortho/Orthoimage.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <opencv2/core/utility.hpp>
+
+namespace areomap::ortho {
+
+namespace {
+
+double bilinear(const cv::Mat& g, double x, double y) {
+  const int x0 = static_cast<int>(std::floor(x));
+  const int y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0;
+  const double fy = y - y0;
+  const int x1 = std::min(x0 + 1, g.cols - 1);
+  const int y1 = std::min(y0 + 1, g.rows - 1);
+  const uint8_t* r0 = g.ptr<uint8_t>(std::max(0, y0));
+  const uint8_t* r1 = g.ptr<uint8_t>(y1);
+  const int xa = std::max(0, x0);
+  return (1 - fy) * ((1 - fx) * r0[xa] + fx * r0[x1]) + fy * ((1 - fx) * r1[xa] + fx * r1[x1]);
+}
+
+bool inside(const cv::Mat& g, const Vec2& p, double border) {
+  return p.x() >= border && p.y() >= border && p.x() <= g.cols - 1 - border && p.y() <= g.rows - 1 - border;
+}
+
+// Zero-mean NCC of the patch of `a` around (ax, ay) and of `b` around (bx, by), bilinear.
+double ncc(const cv::Mat& a, double ax, double ay, const cv::Mat& b, double bx, double by, int half) {
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  int n = 0;
+  for (int dy = -half; dy <= half; ++dy) {
+    for (int dx = -half; dx <= half; ++dx) {
+      const double va = bilinear(a, ax + dx, ay + dy);
+      const double vb = bilinear(b, bx + dx, by + dy);
+      sa += va; sb += vb; saa += va * va; sbb += vb * vb; sab += va * vb;
+      ++n;
+    }
+  }
+  const double ca = saa - sa * sa / n;
+  const double cb = sbb - sb * sb / n;
+  if (ca <= 1e-6 || cb <= 1e-6) return -2.0;
+  return (sab - sa * sb / n) / std::sqrt(ca * cb);
+}
+
+double parabolaOffset(double m, double c, double p) {
+  const double den = m - 2 * c + p;
+  if (std::fabs(den) < 1e-12) return 0.0;
+  return std::clamp(0.5 * (m - p) / den, -0.5, 0.5);
+}
+
+}  // namespace
+
+bool demElevation(const DemGrid& dem, double north_m, double east_m, double& elevation_m) {
+  const double cx = (east_m - dem.east0_m) / dem.cell_m - 0.5;
+  const double cy = (dem.north0_m - north_m) / dem.cell_m - 0.5;
+  const int x0 = static_cast<int>(std::floor(cx));
+  const int y0 = static_cast<int>(std::floor(cy));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= dem.cols || y0 + 1 >= dem.rows) return false;
+  const double fx = cx - x0, fy = cy - y0;
+  const float v00 = dem.at(x0, y0), v10 = dem.at(x0 + 1, y0), v01 = dem.at(x0, y0 + 1), v11 = dem.at(x0 + 1, y0 + 1);
+  if (v00 == dem.nodata || v10 == dem.nodata || v01 == dem.nodata || v11 == dem.nodata) return false;
+  elevation_m = (1 - fy) * ((1 - fx) * v00 + fx * v10) + fy * ((1 - fx) * v01 + fx * v11);
+  return true;
+}
+
+OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& sources, const OrthoOptions& options) {
+  if (dem.cols <= 0 || dem.rows <= 0 || dem.cell_m <= 0 || options.supersample < 1) {
+    throw std::invalid_argument("makeOrthoimage: empty DEM grid or bad supersample");
+  }
+  OrthoResult out;
+  const int s = options.supersample;
+  out.grid = dem;
+  out.grid.values.clear();
+  out.grid.cell_m = dem.cell_m / s;
+  out.grid.cols = dem.cols * s;
+  out.grid.rows = dem.rows * s;
+  const int cols = out.grid.cols, rows = out.grid.rows;
+  out.image = cv::Mat::zeros(rows, cols, CV_8U);
+  out.valid = cv::Mat::zeros(rows, cols, CV_8U);
+  out.source = cv::Mat(rows, cols, CV_16S, cv::Scalar(-1));
+  // Second-best candidate per cell (for the seam check), as an index and pixel.
+  cv::Mat second(rows, cols, CV_16S, cv::Scalar(-1));
+  cv::Mat best_px(rows, cols, CV_32FC2, cv::Scalar(0, 0));
+  cv::Mat second_px(rows, cols, CV_32FC2, cv::Scalar(0, 0));
+
+  std::vector<Vec2> centre(sources.size());
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    centre[i] = Vec2(0.5 * (sources[i].grey.cols - 1), 0.5 * (sources[i].grey.rows - 1));
+  }
+
+  cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
+  for (int r = range.start; r < range.end; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const double north = out.grid.northOfRow(r);
+      const double east = out.grid.eastOfCol(c);
+      double elev = 0;
+      if (s == 1) {
+        const float v = dem.at(c, r);
+        if (v == dem.nodata) continue;
+        elev = v;
+      } else if (!demElevation(dem, north, east, elev)) {
+        continue;
+      }
+      const Vec3 ground(north, east, -elev);
+      int best = -1, next = -1;
+      double best_d = 1e300, next_d = 1e300;
+      Vec2 bp = Vec2::Zero(), np = Vec2::Zero();
+      for (std::size_t i = 0; i < sources.size(); ++i) {
+        const cv::Mat& g = sources[i].grey;
+        if (g.empty()) continue;
+        Vec2 px;
+        if (project(sources[i].model, ground, px) != Status::kOk) continue;
+        if (!inside(g, px, options.border_px)) continue;
+        const double d = (px - centre[i]).squaredNorm();
+        if (d < best_d) {
+          next = best; next_d = best_d; np = bp;
+          best = static_cast<int>(i); best_d = d; bp = px;
+        } else if (d < next_d) {
+          next = static_cast<int>(i); next_d = d; np = px;
+        }
+      }
+      if (best < 0) continue;
+      out.image.at<uint8_t>(r, c) =
+          static_cast<uint8_t>(std::clamp(std::lround(bilinear(sources[best].grey, bp.x(), bp.y())), 1L, 255L));
+      out.valid.at<uint8_t>(r, c) = 255;
+      out.source.at<int16_t>(r, c) = static_cast<int16_t>(best);
+      best_px.at<cv::Vec2f>(r, c) = cv::Vec2f(static_cast<float>(bp.x()), static_cast<float>(bp.y()));
+      if (next >= 0) {
+        second.at<int16_t>(r, c) = static_cast<int16_t>(next);
+        second_px.at<cv::Vec2f>(r, c) = cv::Vec2f(static_cast<float>(np.x()), static_cast<float>(np.y()));
+      }
+    }
+  }
+  });
+  out.cells_filled = cv::countNonZero(out.valid);
+
+  // Seam cells: the chosen image differs from a 4-neighbour's, and the cell has the neighbour's image as a
+  // candidate too.
+  std::vector<cv::Point> seam;
+  for (int r = 0; r + 1 < rows; ++r) {
+    for (int c = 0; c + 1 < cols; ++c) {
+      const int16_t a = out.source.at<int16_t>(r, c);
+      if (a < 0) continue;
+      const int16_t e = out.source.at<int16_t>(r, c + 1);
+      const int16_t so = out.source.at<int16_t>(r + 1, c);
+      if ((e >= 0 && e != a) || (so >= 0 && so != a)) {
+        if (second.at<int16_t>(r, c) >= 0) seam.push_back(cv::Point(c, r));
+      }
+    }
+  }
+  out.seams.seam_cells = static_cast<long long>(seam.size());
+  if (seam.empty()) return out;
+  const std::size_t stride =
+      std::max<std::size_t>(1, seam.size() / static_cast<std::size_t>(std::max(1, options.max_seam_samples)));
+  std::vector<double> grey_diff, geo;
+  const int half = options.seam_patch_half_px;
+  const int search = options.seam_search_px;
+  for (std::size_t k = 0; k < seam.size(); k += stride) {
+    const cv::Point p = seam[k];
+    const int a = out.source.at<int16_t>(p);
+    const int b = second.at<int16_t>(p);
+    const cv::Vec2f pa = best_px.at<cv::Vec2f>(p);
+    const cv::Vec2f pb = second_px.at<cv::Vec2f>(p);
+    const cv::Mat& ga = sources[a].grey;
+    const cv::Mat& gb = sources[b].grey;
+    grey_diff.push_back(bilinear(ga, pa[0], pa[1]) - bilinear(gb, pb[0], pb[1]));
+    const double margin = half + search + 2;
+    if (!inside(ga, Vec2(pa[0], pa[1]), margin) || !inside(gb, Vec2(pb[0], pb[1]), margin)) continue;
+    // The images differ in scale and rotation only a little across a seam (neighbouring views of the same
+    // ground): compare b's patch at its projection with a's patch at shifted positions.
+    double best_score = -3;
+    int bx = 0, by = 0;
+    const int n = 2 * search + 1;
+    std::vector<double> score(static_cast<std::size_t>(n * n), -3);
+    for (int dy = -search; dy <= search; ++dy) {
+      for (int dx = -search; dx <= search; ++dx) {
+        const double v = ncc(ga, pa[0] + dx, pa[1] + dy, gb, pb[0], pb[1], half);
+        score[static_cast<std::size_t>((dy + search) * n + dx + search)] = v;
+        if (v > best_score) { best_score = v; bx = dx; by = dy; }
+      }
+    }
+    if (best_score < 0.7 || std::abs(bx) == search || std::abs(by) == search) continue;
+    auto at = [&](int dx, int dy) { return score[static_cast<std::size_t>((dy + search) * n + dx + search)]; };
+    const double ox = bx + parabolaOffset(at(bx - 1, by), at(bx, by), at(bx + 1, by));
+    const double oy = by + parabolaOffset(at(bx, by - 1), at(bx, by), at(bx, by + 1));
+    geo.push_back(std::hypot(ox, oy));
+  }
+  double g2 = 0;
+  for (double d : grey_diff) g2 += d * d;
+  out.seams.grey_rms = grey_diff.empty() ? 0.0 : std::sqrt(g2 / grey_diff.size());
+  out.seams.checked = static_cast<long long>(geo.size());
+  if (!geo.empty()) {
+    double s2 = 0;
+    for (double d : geo) s2 += d * d;
+    out.seams.geometric_rms_px = std::sqrt(s2 / geo.size());
+    std::sort(geo.begin(), geo.end());
+    out.seams.geometric_p95_px = geo[std::min(geo.size() - 1, static_cast<std::size_t>(0.95 * geo.size()))];
+  }
+  return out;
+}
+
+int orthoShift(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask, int tile_px, int search_px,
+               double& shift_east_cells, double& shift_south_cells, double* rms_shift_cells) {
+  std::vector<double> sx, sy;
+  const int half = tile_px / 2;
+  const int margin = half + search_px + 2;
+  for (int r = margin; r + margin < a.rows; r += tile_px) {
+    for (int c = margin; c + margin < a.cols; c += tile_px) {
+      // Every pixel of the tile (with its search margin) must be filled in both images.
+      const cv::Rect rect(c - half - search_px - 1, r - half - search_px - 1, tile_px + 2 * search_px + 2,
+                          tile_px + 2 * search_px + 2);
+      if (cv::countNonZero(a(rect)) != rect.area() || cv::countNonZero(b(rect)) != rect.area()) continue;
+      if (!mask.empty() && cv::countNonZero(mask(rect)) != rect.area()) continue;
+      const int n = 2 * search_px + 1;
+      std::vector<double> score(static_cast<std::size_t>(n * n), -3);
+      double best = -3;
+      int bx = 0, by = 0;
+      for (int dy = -search_px; dy <= search_px; ++dy) {
+        for (int dx = -search_px; dx <= search_px; ++dx) {
+          const double v = ncc(a, c, r, b, c + dx, r + dy, half);
+          score[static_cast<std::size_t>((dy + search_px) * n + dx + search_px)] = v;
+          if (v > best) { best = v; bx = dx; by = dy; }
+        }
+      }
+      if (best < 0.5 || std::abs(bx) == search_px || std::abs(by) == search_px) continue;
+      auto at = [&](int dx, int dy) { return score[static_cast<std::size_t>((dy + search_px) * n + dx + search_px)]; };
+      sx.push_back(bx + parabolaOffset(at(bx - 1, by), at(bx, by), at(bx + 1, by)));
+      sy.push_back(by + parabolaOffset(at(bx, by - 1), at(bx, by), at(bx, by + 1)));
+    }
+  }
+  if (sx.empty()) {
+    shift_east_cells = shift_south_cells = 0;
+    if (rms_shift_cells) *rms_shift_cells = 0;
+    return 0;
+  }
+  double s2 = 0;
+  for (std::size_t i = 0; i < sx.size(); ++i) s2 += sx[i] * sx[i] + sy[i] * sy[i];
+  if (rms_shift_cells) *rms_shift_cells = std::sqrt(s2 / sx.size());
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  shift_east_cells = median(sx);
+  shift_south_cells = median(sy);
+  return static_cast<int>(sx.size());
+}
+
+}  // namespace areomap::ortho

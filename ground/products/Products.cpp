@@ -1,0 +1,529 @@
+#include "ground/products/Products.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <unordered_map>
+
+#include <gdal_priv.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "ground/cli/AtomicFile.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/dem/DemProducts.hpp"
+#include "ground/dem/EquiParallax.hpp"
+#include "ground/dem/Kriging.hpp"
+#include "ground/dense/DenseMatcher.hpp"
+#include "ground/dense/Rectification.hpp"
+#include "ground/dense/Triangulation.hpp"
+#include "ground/ortho/Orthoimage.hpp"
+#include "ground/products/Previews.hpp"
+#include "ground/products/ReportHtml.hpp"
+
+namespace areomap::products {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Context {
+  ProductsResult result;
+  ground::AdjustReport& report;
+  void warn(const std::string& text) {
+    cli::warn(text);
+    result.warnings.push_back(text);
+  }
+};
+
+void writePng(Context& ctx, const std::string& path, const cv::Mat& image) {
+  std::vector<unsigned char> bytes;
+  if (!cv::imencode(".png", image, bytes)) {
+    ctx.warn(path + ": PNG encoding failed");
+    return;
+  }
+  try {
+    cli::writeFileAtomic(path, bytes.data(), bytes.size());
+    ctx.result.files.push_back(path);
+  } catch (const std::exception& e) {
+    ctx.warn(e.what());
+  }
+}
+
+// An image is usable when it is present and its model describes an image of its size.
+bool usable(Context& ctx, const ProductImage& im, std::set<std::string>& warned) {
+  if (im.grey.empty()) {
+    if (warned.insert(im.stem).second) ctx.warn("image " + im.stem + ": missing; its products are skipped");
+    return false;
+  }
+  if (im.grey.type() != CV_8U) {
+    if (warned.insert(im.stem).second) ctx.warn("image " + im.stem + ": not 8-bit grey; skipped");
+    return false;
+  }
+  const char* field = "";
+  if (validateModel(im.model, field) != Status::kOk) {
+    if (warned.insert(im.stem).second) ctx.warn("model " + im.stem + ": invalid component " + field + "; skipped");
+    return false;
+  }
+  if (im.model.width > 0 && (im.model.width != im.grey.cols || im.model.height != im.grey.rows)) {
+    if (warned.insert(im.stem).second) {
+      ctx.warn("model " + im.stem + ": size " + std::to_string(im.model.width) + "x" +
+               std::to_string(im.model.height) + " is inconsistent with the image (" + std::to_string(im.grey.cols) +
+               "x" + std::to_string(im.grey.rows) + "); skipped");
+    }
+    return false;
+  }
+  return true;
+}
+
+CameraModel sized(const ProductImage& im) {
+  CameraModel m = im.model;
+  m.width = im.grey.cols;
+  m.height = im.grey.rows;
+  return m;
+}
+
+// Automatic DEM cell: 2 cm near the rover (the paper's navcam DEM), coarser when the cloud is large, so
+// that the grid stays within ~4e6 cells.
+double autoCell(double extent_m) {
+  const double cells = 2000.0;
+  const double c = std::max(0.02, extent_m / cells);
+  for (double nice : {0.02, 0.025, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0}) {
+    if (nice >= c) return nice;
+  }
+  return 1.0;
+}
+
+// The cloud binned to DEM cells (mean height, sigma of the mean) so that kriging sees one point per cell.
+std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid) {
+  struct Acc {
+    double n = 0, x = 0, y = 0, z = 0, zz = 0, s2 = 0;
+  };
+  std::unordered_map<long long, Acc> bins;
+  for (const dem::DemPoint& p : pts) {
+    const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
+    const long long r = static_cast<long long>(std::floor((grid.north0_m - p.north_m) / grid.cell_m));
+    Acc& a = bins[r * 1000003LL + c];
+    a.n += 1;
+    a.x += p.north_m;
+    a.y += p.east_m;
+    a.z += p.elevation_m;
+    a.zz += p.elevation_m * p.elevation_m;
+    a.s2 += p.sigma_m * p.sigma_m;
+  }
+  std::vector<dem::DemPoint> out;
+  out.reserve(bins.size());
+  for (const auto& kv : bins) {
+    const Acc& a = kv.second;
+    dem::DemPoint p;
+    p.north_m = a.x / a.n;
+    p.east_m = a.y / a.n;
+    p.elevation_m = a.z / a.n;
+    const double spread = std::max(0.0, a.zz / a.n - p.elevation_m * p.elevation_m);
+    // The mean's sigma: the point sigmas averaged down, but not below what the spread in the cell says.
+    p.sigma_m = std::sqrt(a.s2 / a.n / a.n + spread / a.n);
+    out.push_back(p);
+  }
+  std::sort(out.begin(), out.end(), [](const dem::DemPoint& a, const dem::DemPoint& b) {
+    return a.north_m != b.north_m ? a.north_m < b.north_m : a.east_m < b.east_m;
+  });
+  return out;
+}
+
+// Drops gross outliers before gridding: points whose height sigma exceeds `max_sigma_m`, and points far
+// from the median height of their polar bin (1 m in range x 2 degrees in azimuth about the gimbal centre):
+// more than max(0.3 m, 6 MAD-sigmas) away. Mismatches at depth edges and near the horizon are such points.
+std::vector<dense::CloudPoint> dropOutliers(const std::vector<dense::CloudPoint>& in, const Vec3& centre,
+                                            double max_sigma_m, long long& dropped) {
+  std::unordered_map<long long, std::vector<float>> bins;
+  auto key = [&](const dense::CloudPoint& p) {
+    const Vec3 d = p.site_m - centre;
+    const long long r = static_cast<long long>(std::floor(d.head<2>().norm()));
+    const long long a = static_cast<long long>(std::floor((std::atan2(d.y(), d.x()) + M_PI) / (2.0 * M_PI / 180.0)));
+    return r * 1000 + a;
+  };
+  for (const dense::CloudPoint& p : in) {
+    if (p.sigmaHeight_m() <= max_sigma_m) bins[key(p)].push_back(static_cast<float>(-p.site_m.z()));
+  }
+  std::unordered_map<long long, std::pair<float, float>> stat;  // median, tolerance
+  for (auto& kv : bins) {
+    std::vector<float>& v = kv.second;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    const float med = v[v.size() / 2];
+    for (float& x : v) x = std::fabs(x - med);
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    const float mad = v[v.size() / 2];
+    stat[kv.first] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
+  }
+  std::vector<dense::CloudPoint> out;
+  out.reserve(in.size());
+  for (const dense::CloudPoint& p : in) {
+    if (p.sigmaHeight_m() > max_sigma_m) continue;
+    const auto& st = stat[key(p)];
+    if (std::fabs(-p.site_m.z() - st.first) > st.second) continue;
+    out.push_back(p);
+  }
+  dropped = static_cast<long long>(in.size() - out.size());
+  return out;
+}
+
+// Pixels of a rectified image that come from inside the original, eroded by the matching window.
+cv::Mat insideMask(const cv::Mat& map) {
+  cv::Mat m(map.rows, map.cols, CV_8U);
+  for (int y = 0; y < map.rows; ++y) {
+    const cv::Vec2f* row = map.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < map.cols; ++x) m.at<uint8_t>(y, x) = row[x][0] >= 0 ? 255 : 0;
+  }
+  cv::erode(m, m, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(11, 11)));
+  return m;
+}
+
+void writeOrthoTif(const std::string& path, const ortho::OrthoResult& o, const dem::DemMetadata& meta) {
+  cli::writeViaTemporary(path, [&](const std::string& tmp) {
+    GDALAllRegister();
+    GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
+    if (drv == nullptr) throw std::runtime_error(path + ": GDAL GTiff driver missing");
+    GDALDataset* ds = drv->Create(tmp.c_str(), o.grid.cols, o.grid.rows, 1, GDT_Byte, nullptr);
+    if (ds == nullptr) throw std::runtime_error(path + ": cannot create");
+    double gt[6] = {o.grid.east0_m, o.grid.cell_m, 0.0, o.grid.north0_m, 0.0, -o.grid.cell_m};
+    ds->SetGeoTransform(gt);
+    ds->SetMetadataItem("AREA_OR_POINT", "Area");
+    GDALRasterBand* band = ds->GetRasterBand(1);
+    band->SetNoDataValue(0.0);
+    cv::Mat img = o.image.isContinuous() ? o.image : o.image.clone();
+    const CPLErr err = band->RasterIO(GF_Write, 0, 0, o.grid.cols, o.grid.rows, img.data, o.grid.cols, o.grid.rows,
+                                      GDT_Byte, 0, 0);
+    GDALClose(ds);
+    if (err != CE_None) throw std::runtime_error(path + ": write failed");
+    dem::tagSiteRaster(tmp, meta, "grey value (8-bit), 0 = no data");
+  });
+}
+
+}  // namespace
+
+ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& options, const std::string& out_dir,
+                            ground::AdjustReport& report) {
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec || !fs::is_directory(out_dir)) throw cli::InputError(out_dir, "out", "cannot create the folder");
+  Context ctx{ProductsResult{}, report};
+  auto stage = [&](const std::string& name, double t0) { report.seconds.emplace_back(name, cli::nowSeconds() - t0); };
+  std::set<std::string> warned;
+
+  // Tie observations per image and point: pixels for the parallax ranges.
+  std::map<std::pair<int, int>, Vec2> tie_px;  // (image, point) -> pixel
+  for (const ProductTie& t : in.ties) tie_px[{t.image, t.point}] = t.pixel_px;
+
+  // 1. Rectify, match and triangulate every pair.
+  std::vector<dense::CloudPoint> cloud;
+  double t_rect = 0, t_dense = 0, t_tri = 0;
+  std::set<int> sols;
+  {
+    cli::Progress progress("dense matching", in.pairs.size());
+    for (const ProductPair& pair : in.pairs) {
+      progress.step();
+      const std::string name = "pair " + std::to_string(pair.id);
+      if (pair.left < 0 || pair.left >= static_cast<int>(in.images.size())) continue;
+      const ProductImage& L = in.images[pair.left];
+      const bool left_ok = usable(ctx, L, warned);
+      if (left_ok) sols.insert(pair.sol);
+      if (pair.right < 0 || pair.right >= static_cast<int>(in.images.size())) continue;
+      const ProductImage& R = in.images[pair.right];
+      const bool right_ok = usable(ctx, R, warned);
+      if (!left_ok || !right_ok) {
+        ctx.warn(name + ": not matched (image or model unusable)");
+        continue;
+      }
+      double t0 = cli::nowSeconds();
+      dense::RectifiedPair rect;
+      try {
+        rect = dense::rectifyPair(sized(L), sized(R));
+      } catch (const std::exception& e) {
+        ctx.warn(name + ": cannot rectify (" + e.what() + ")");
+        continue;
+      }
+      const cv::Mat left = dense::remapToRectified(L.grey, rect.left_map);
+      const cv::Mat right = dense::remapToRectified(R.grey, rect.right_map);
+      std::vector<Vec2> lp, rp;
+      for (const auto& kv : tie_px) {
+        if (kv.first.first != pair.left) continue;
+        auto it = tie_px.find({pair.right, kv.first.second});
+        if (it == tie_px.end()) continue;
+        lp.push_back(kv.second);
+        rp.push_back(it->second);
+      }
+      const std::vector<dense::TieDisparity> ties = dense::rectifiedTies(sized(L), sized(R), rect, lp, rp);
+      t_rect += cli::nowSeconds() - t0;
+      t0 = cli::nowSeconds();
+      dense::DenseOptions dopt;
+      dopt.min_disparity_px = 0;
+      dopt.max_disparity_px = options.dense_max_disparity_px;
+      std::vector<dense::RowRange> ranges;
+      if (ties.size() >= 3) {
+        ranges = dense::parallaxRowRanges(ties, left.rows, dopt.min_disparity_px, dopt.max_disparity_px);
+      }
+      dense::DenseResult d;
+      try {
+        d = dense::matchRectified(left, right, dopt, ranges.empty() ? nullptr : &ranges);
+      } catch (const std::exception& e) {
+        ctx.warn(name + ": dense matching failed (" + e.what() + ")");
+        continue;
+      }
+      // Only matches inside both original images count: the rectified images are black where no original
+      // pixel maps, and those borders (eroded by the matching window) must not make matches.
+      const cv::Mat left_in = insideMask(rect.left_map), right_in = insideMask(rect.right_map);
+      long long good = 0;
+      for (int y = 0; y < d.disparity.rows; ++y) {
+        float* row = d.disparity.ptr<float>(y);
+        for (int x = 0; x < d.disparity.cols; ++x) {
+          if (!std::isfinite(row[x])) continue;
+          const int xr = static_cast<int>(std::lround(x - row[x]));
+          if (!left_in.at<uint8_t>(y, x) || xr < 0 || xr >= right_in.cols || !right_in.at<uint8_t>(y, xr)) {
+            row[x] = NAN;
+            continue;
+          }
+          ++good;
+        }
+      }
+      d.matched_fraction = static_cast<double>(good) / (static_cast<double>(d.disparity.total()) + 1e-9);
+      t_dense += cli::nowSeconds() - t0;
+      if (d.matched_fraction < 0.02) {
+        ctx.warn(name + ": no valid dense matches (" + std::to_string(d.matched_fraction * 100) +
+                 " % of pixels; no texture?)");
+        continue;
+      }
+      t0 = cli::nowSeconds();
+      dense::TriangulationStats stats;
+      std::vector<dense::CloudPoint> pts =
+          dense::triangulateDisparity(rect.left, rect.right, d.disparity, 0.3, pair.id, left, stats);
+      long long kept = 0;
+      for (dense::CloudPoint& p : pts) {
+        const double range = (p.site_m - in.gimbal_site_m).head<2>().norm();
+        if (range > options.max_range_m) continue;
+        cloud.push_back(p);
+        ++kept;
+      }
+      t_tri += cli::nowSeconds() - t0;
+      {
+        char b[200];
+        std::snprintf(b, sizeof b, "%s: %zu ties, %.1f %% matched, %lld triangulated (%lld geometry, %lld residual "
+                      "rejected), %lld kept", name.c_str(), ties.size(), 100 * d.matched_fraction, stats.triangulated,
+                      stats.rejected_geometry, stats.rejected_residual, kept);
+        cli::info(b);
+      }
+      if (kept == 0) {
+        ctx.warn(name + ": no valid matches triangulated");
+        continue;
+      }
+      ++ctx.result.pairs_matched;
+    }
+    progress.done();
+  }
+  report.seconds.emplace_back("rectify", t_rect);
+  report.seconds.emplace_back("dense", t_dense);
+  if (!cloud.empty()) {
+    long long dropped = 0;
+    cloud = dropOutliers(cloud, in.gimbal_site_m, options.max_point_sigma_m, dropped);
+    cli::info("dense cloud: " + std::to_string(cloud.size()) + " points (" + std::to_string(dropped) +
+              " outliers dropped)");
+  }
+  report.seconds.emplace_back("triangulate", t_tri);
+  ctx.result.points = static_cast<long long>(cloud.size());
+  dem::DemMetadata meta;
+  meta.site = in.site;
+  meta.sols.assign(sols.begin(), sols.end());
+
+  if (!cloud.empty()) {
+    try {
+      dense::writePly(out_dir + "/points.ply", cloud, "areomap " + in.site + " site frame");
+      ctx.result.files.push_back(out_dir + "/points.ply");
+    } catch (const std::exception& e) {
+      ctx.warn(e.what());
+    }
+  } else {
+    ctx.warn("no dense points: no points.ply, dem.tif or ortho.tif");
+  }
+
+  // 2. DEM: kriging of the binned cloud, equi-parallax beyond the seam, blended.
+  double t0 = cli::nowSeconds();
+  if (!cloud.empty()) {
+    std::vector<dem::DemPoint> pts;
+    pts.reserve(cloud.size());
+    for (const dense::CloudPoint& c : cloud) {
+      dem::DemPoint p;
+      p.north_m = c.site_m.x();
+      p.east_m = c.site_m.y();
+      p.elevation_m = -c.site_m.z();
+      p.sigma_m = c.sigmaHeight_m();
+      p.line = c.line;
+      pts.push_back(p);
+    }
+    double extent = 0;
+    for (const dem::DemPoint& p : pts) {
+      extent = std::max({extent, std::fabs(p.north_m - in.gimbal_site_m.x()), std::fabs(p.east_m - in.gimbal_site_m.y())});
+    }
+    const double cell = options.cell_m > 0 ? options.cell_m : autoCell(2 * extent);
+    DemGrid grid = dem::gridAround(pts, cell);
+    const std::vector<dem::DemPoint> binned = binPoints(pts, grid);
+    try {
+      dem::KrigingOptions kopt;
+      dem::KrigingResult kr = dem::krigeDem(binned, grid, kopt);
+      dem::EquiParallaxOptions eo;
+      eo.centre_north_m = in.gimbal_site_m.x();
+      eo.centre_east_m = in.gimbal_site_m.y();
+      eo.seam_m = options.seam_m;
+      std::vector<dem::DemPoint> far;
+      for (const dem::DemPoint& p : pts) {
+        if (std::hypot(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m) > eo.seam_m - eo.blend_m - 1.0) {
+          far.push_back(p);
+        }
+      }
+      if (!far.empty()) {
+        DemGrid far_sigma;
+        const DemGrid far_dem = dem::equiParallaxDem(far, grid, eo, &far_sigma);
+        dem::blendFarRange(kr, far_dem, &far_sigma, eo);
+      }
+      dem::writeDemProducts(out_dir, kr, meta);
+      ctx.result.files.push_back(out_dir + "/dem.tif");
+      ctx.result.files.push_back(out_dir + "/dem_sigma.tif");
+      ctx.result.dem = kr.elevation;
+      if (in.truth_dem) {
+        double s2 = 0;
+        long long n = 0;
+        const DemGrid& g = kr.elevation;
+        for (int r = 0; r < g.rows; ++r) {
+          for (int c = 0; c < g.cols; ++c) {
+            const float v = g.at(c, r);
+            if (v == g.nodata) continue;
+            double t = 0;
+            if (!ortho::demElevation(*in.truth_dem, g.northOfRow(r), g.eastOfCol(c), t)) continue;
+            s2 += (v - t) * (v - t);
+            ++n;
+          }
+        }
+        if (n > 0) {
+          ctx.result.dem_rmse_m = std::sqrt(s2 / n);
+          if (report.truth) report.truth->dem_rmse_m = ctx.result.dem_rmse_m;
+        }
+      }
+    } catch (const std::exception& e) {
+      ctx.warn(std::string("DEM not made: ") + e.what());
+    }
+  }
+  stage("dem", t0);
+
+  // 3. Orthoimage on the DEM grid.
+  t0 = cli::nowSeconds();
+  ortho::OrthoResult orth;
+  bool have_ortho = false;
+  if (ctx.result.dem) {
+    std::vector<ortho::OrthoSource> sources;
+    for (const ProductImage& im : in.images) {
+      ortho::OrthoSource s;
+      if (usable(ctx, im, warned)) {
+        s.grey = im.grey;
+        s.model = sized(im);
+      }
+      sources.push_back(s);
+    }
+    try {
+      orth = ortho::makeOrthoimage(*ctx.result.dem, sources, ortho::OrthoOptions{});
+      writeOrthoTif(out_dir + "/ortho.tif", orth, meta);
+      ctx.result.files.push_back(out_dir + "/ortho.tif");
+      have_ortho = true;
+      if (orth.seams.checked > 0) {
+        ctx.result.ortho_seam_px = orth.seams.geometric_rms_px;
+        if (orth.seams.geometric_rms_px > 0.5) {
+          char b[160];
+          std::snprintf(b, sizeof b, "ortho seams: images disagree by %.2f px RMS (95 %% %.2f px) at %lld seam cells",
+                        orth.seams.geometric_rms_px, orth.seams.geometric_p95_px, orth.seams.checked);
+          ctx.warn(b);
+        }
+      }
+    } catch (const std::exception& e) {
+      ctx.warn(std::string("ortho.tif not made: ") + e.what());
+    }
+  }
+  stage("ortho", t0);
+
+  // 4. Previews, overlays, report.html.
+  t0 = cli::nowSeconds();
+  HtmlInputs html;
+  html.site = in.site;
+  html.report = &report;
+  if (ctx.result.dem) {
+    const cv::Mat p = demPreview(*ctx.result.dem);
+    writePng(ctx, out_dir + "/dem.png", p);
+    html.products.push_back({"DEM (colour relief, hillshade), cell " + std::to_string(ctx.result.dem->cell_m) + " m", p});
+  }
+  if (have_ortho) {
+    const cv::Mat p = orthoPreview(orth.image, orth.valid, orth.grid.cell_m);
+    writePng(ctx, out_dir + "/ortho.png", p);
+    html.products.push_back({"Orthoimage", p});
+  }
+  std::map<int, std::pair<double, int>> per_image;  // sum of squares, count
+  for (const ProductTie& t : in.ties) {
+    if (t.residual_px < 0) continue;
+    html.residuals_px.push_back(t.residual_px);
+    auto& acc = per_image[t.image];
+    acc.first += t.residual_px * t.residual_px;
+    acc.second += 1;
+  }
+  for (const auto& kv : per_image) {
+    if (kv.first < 0 || kv.first >= static_cast<int>(in.images.size())) continue;
+    html.image_rms_px.emplace_back(in.images[kv.first].stem, std::sqrt(kv.second.first / kv.second.second));
+  }
+  for (std::size_t i = 0; i < in.images.size(); ++i) {
+    const ProductImage& im = in.images[i];
+    if (im.grey.empty() || im.grey.type() != CV_8U) continue;
+    std::vector<Vec2> px;
+    std::vector<bool> inter;
+    for (const ProductTie& t : in.ties) {
+      if (t.image != static_cast<int>(i)) continue;
+      px.push_back(t.pixel_px);
+      inter.push_back(t.inter);
+    }
+    const cv::Mat o = tieOverlay(im.grey, px, inter);
+    if (options.write_overlays) {
+      fs::create_directories(out_dir + "/overlays", ec);
+      writePng(ctx, out_dir + "/overlays/" + im.stem + ".png", o);
+    }
+    html.overlays.push_back({im.stem + " (" + std::to_string(px.size()) + " tie points)", o});
+  }
+  stage("previews", t0);
+
+  for (const std::string& w : ctx.result.warnings) report.warnings.push_back(w);
+  html.warnings = report.warnings;
+  char b[64];
+  html.summary.emplace_back("site", in.site);
+  html.summary.emplace_back("images", std::to_string(in.images.size()));
+  html.summary.emplace_back("stereo pairs matched", std::to_string(ctx.result.pairs_matched) + " of " +
+                                                        std::to_string(in.pairs.size()));
+  html.summary.emplace_back("dense points", std::to_string(ctx.result.points));
+  if (ctx.result.dem) {
+    std::snprintf(b, sizeof b, "%d x %d cells of %.3f m", ctx.result.dem->cols, ctx.result.dem->rows,
+                  ctx.result.dem->cell_m);
+    html.summary.emplace_back("DEM", b);
+  }
+  if (ctx.result.dem_rmse_m) {
+    std::snprintf(b, sizeof b, "%.4f m", *ctx.result.dem_rmse_m);
+    html.summary.emplace_back("DEM RMSE against truth", b);
+  }
+  if (ctx.result.ortho_seam_px >= 0) {
+    std::snprintf(b, sizeof b, "%.2f px RMS", ctx.result.ortho_seam_px);
+    html.summary.emplace_back("ortho seam disagreement", b);
+  }
+  try {
+    cli::writeFileAtomic(out_dir + "/report.html", reportHtml(html));
+    ctx.result.files.push_back(out_dir + "/report.html");
+  } catch (const std::exception& e) {
+    ctx.warn(e.what());
+  }
+  return ctx.result;
+}
+
+}  // namespace areomap::products

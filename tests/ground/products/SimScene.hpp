@@ -1,0 +1,69 @@
+// A rendered synthetic panorama in memory (ground/sim), with true models and the true DEM, as product
+// inputs. Shared by the products and ortho tests.
+#pragma once
+
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "ground/products/Products.hpp"
+#include "ground/sim/Renderer.hpp"
+#include "ground/sim/SimGeometry.hpp"
+#include "ground/sim/Terrain.hpp"
+
+namespace areomap::test {
+
+struct SimScene {
+  sim::SimGeometry geometry;
+  products::ProductInputs inputs;  // true models, true ties (the geometry's check points)
+};
+
+// `preset` with `pairs` pairs (0 = the preset's count); `edit` may change the configuration first.
+inline SimScene makeSimScene(const std::string& preset, int pairs, void (*edit)(sim::SimConfig&) = nullptr) {
+  sim::SimConfig config = sim::presetConfig(preset);
+  if (pairs > 0) sim::setPairCount(config, pairs);
+  if (edit != nullptr) edit(config);
+  const sim::Terrain terrain = sim::Terrain::build(config);
+  SimScene s;
+  s.geometry = sim::makeGeometry(config, terrain);
+  s.inputs.site = "sim-" + preset;
+  s.inputs.gimbal_site_m = s.geometry.gimbal_m;
+  s.inputs.truth_dem = terrain.dem();
+  int index = 0;
+  for (const sim::SimPair& p : s.geometry.pairs) {
+    products::ProductPair pp;
+    pp.id = p.id;
+    pp.sol = p.sol;
+    for (const sim::SimCamera* cam : {&p.left, p.right ? &*p.right : nullptr}) {
+      if (cam == nullptr) continue;
+      const sim::RenderedImage r = sim::renderImage(terrain, config, cam->truth, index);
+      products::ProductImage im;
+      im.stem = cam->stem;
+      im.grey = cv::Mat(r.height, r.width, CV_8U, const_cast<uint8_t*>(r.pixels.data())).clone();
+      im.model = cam->truth;
+      (cam == &p.left ? pp.left : pp.right) = static_cast<int>(s.inputs.images.size());
+      s.inputs.images.push_back(im);
+      ++index;
+    }
+    s.inputs.pairs.push_back(pp);
+  }
+  for (const ImageObservation& o : s.geometry.observations) {
+    for (std::size_t i = 0; i < s.inputs.images.size(); ++i) {
+      if (s.inputs.images[i].stem != o.image) continue;
+      products::ProductTie t;
+      t.point = static_cast<int>(o.point);
+      t.image = static_cast<int>(i);
+      t.pixel_px = Vec2(o.sample_px, o.line_px);
+      t.residual_px = 0.0;
+      s.inputs.ties.push_back(t);
+    }
+  }
+  // Inter-stereo: a point seen from more than one pair.
+  std::map<int, std::set<int>> pairs_of_point;
+  for (const products::ProductTie& t : s.inputs.ties) pairs_of_point[t.point].insert(t.image / 2);
+  for (products::ProductTie& t : s.inputs.ties) t.inter = pairs_of_point[t.point].size() > 1;
+  return s;
+}
+
+}  // namespace areomap::test
