@@ -60,7 +60,9 @@ void RoverNode::start(platform::Transport& out, platform::JpegCodec& codec, cons
   resetPanorama();
 }
 
-int64_t RoverNode::staticBytes() const { return static_cast<int64_t>(sizeof(RoverNode)) + reserved_bytes_; }
+int64_t RoverNode::staticBytes() const {
+  return static_cast<int64_t>(sizeof(RoverNode)) + extra_static_bytes_;
+}
 
 double RoverNode::now() const { return static_cast<double>(clock_->monotonicUtime()) * 1e-6; }
 
@@ -249,7 +251,9 @@ void RoverNode::processPair(int64_t sequence) {
     sol_index = sol_count_;
     sols_[sol_count_++] = in_.sol;
   }
-  // Tie points and coarse DEM (the matcher does both; its time is split by its report below).
+  // Tie points and coarse DEM: one matcher call, so STAGE_MATCH holds Förstner, NCC, the coarse DEM and the
+  // inter-stereo ties together (STAGE_FEATURES and STAGE_DEM stay 0); STAGE_ADJUST holds the network update
+  // and the adjustment.
   t = now();
   const ImageView left{left_pixels_, w[0], h[0], w[0]};
   const ImageView right{right_pixels_, w[1], h[1], w[1]};
@@ -301,7 +305,7 @@ void RoverNode::processPair(int64_t sequence) {
   }
   rigc.sigma_gimbal_m = in_.sigma_gimbal_m;
   rigc.sigma_base_m = in_.sigma_base_m;
-  counters_.stage_seconds[stageIndex(RoverStage::kDem)] += now() - t;
+  counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
   counters_.pairs_accepted += 1;
   // Incremental adjustment, warm-started from the previous solution.
   t = now();

@@ -93,8 +93,12 @@ class RoverNode {
   }
   int64_t heapPipeline() const { return heap_pipeline_; }
   int64_t heapProcess() const { return heap_process_; }
-  // Bytes of fixed memory the pipeline uses (this object plus what start() reserved).
+  // Static buffers of the caller (transport slots, JPEG arena) to include in staticBytes().
+  void setExtraStaticBytes(int64_t bytes) { extra_static_bytes_ = bytes; }
+  // Statically allocated bytes (this object and the caller's buffers): static_bytes in the status.
   int64_t staticBytes() const;
+  // Heap reserved once by start() for the generated message types' vectors and strings (~4.6 MiB).
+  int64_t reservedBytes() const { return reserved_bytes_; }
 
   const RoverCounters& counters() const { return counters_; }
   const Network& network() const { return net_; }
@@ -140,6 +144,7 @@ class RoverNode {
   eo_solution_t eo_;
   rover_status_t status_;
   int64_t reserved_bytes_ = 0;
+  int64_t extra_static_bytes_ = 0;
 
   // Panorama state.
   char panorama_[kMaxMessageStringChars + 1] = {0};

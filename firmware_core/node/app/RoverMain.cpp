@@ -271,8 +271,12 @@ int main(int argc, char** argv) {
   areomap::RoverOptions rover_options;
   rover_options.log_to_stderr = !options.quiet;
   g_node.start(outbox, jpeg, clock, rover_options);
-  std::fprintf(stderr, "areomap-rover: listening on %s (static memory %lld bytes)\n", options.lcm_url,
-               static_cast<long long>(g_node.staticBytes()));
+  g_node.setExtraStaticBytes(static_cast<int64_t>(sizeof(g_inbox_storage) + sizeof(g_outbox_storage) +
+                                                  sizeof(g_replay_buffer) + sizeof(g_jpeg_arena) +
+                                                  sizeof(g_work_message)));
+  std::fprintf(stderr, "areomap-rover: listening on %s (static memory %lld bytes, message buffers reserved at "
+               "start-up %lld bytes)\n", options.lcm_url, static_cast<long long>(g_node.staticBytes()),
+               static_cast<long long>(g_node.reservedBytes()));
 
   std::thread pipeline(pipelineLoop, std::cref(options), std::cref(clock));
   const int64_t start_us = clock.monotonicUtime();
@@ -342,5 +346,14 @@ int main(int argc, char** argv) {
                c.last_sweeps, c.last_rms_px, c.panorama_seconds, static_cast<long long>(g_node.heapPipeline()),
                static_cast<long long>(g_node.heapProcess()),
                areomap::heapCounterActive() ? "" : " (counter inactive)", static_cast<long long>(g_node.staticBytes()));
+  const double pairs = c.pairs_accepted > 0 ? static_cast<double>(c.pairs_accepted) : 1.0;
+  std::fprintf(stderr,
+               "areomap-rover: seconds per accepted pair: decode %.3f, ties + coarse DEM %.3f, network + adjustment "
+               "%.3f, publish %.3f; inbox refused %llu\n",
+               c.stage_seconds[static_cast<int>(areomap::RoverStage::kDecode)] / pairs,
+               c.stage_seconds[static_cast<int>(areomap::RoverStage::kMatch)] / pairs,
+               c.stage_seconds[static_cast<int>(areomap::RoverStage::kAdjust)] / pairs,
+               c.stage_seconds[static_cast<int>(areomap::RoverStage::kPublish)] / pairs,
+               static_cast<unsigned long long>(g_inbox_refused));
   return input_failed ? 1 : 0;
 }
