@@ -5,6 +5,11 @@
 
 namespace areomap {
 
+// The adjuster's workspace and the network it works on are static objects of the rover; together they must
+// leave most of the 64 MiB budget to the matcher and the DEM.
+static_assert(sizeof(FastAdjuster) + sizeof(Network) < kStaticMemoryBudgetBytes / 2,
+              "adjustment workspace + network exceed half of the rover's static memory budget");
+
 namespace {
 
 using MatHist = Eigen::Matrix<double, kMaxAndersonDepth, kMaxAndersonDepth>;
