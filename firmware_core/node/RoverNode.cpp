@@ -163,6 +163,13 @@ void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
     return;
   }
   counters_.stage_seconds[stageIndex(RoverStage::kDecode)] += now() - t0;
+  if (counters_.finished && in_.sequence == 0) {
+    // After an end-of-panorama marker, sequence 0 starts a new stream (the same log replayed, or the next
+    // panorama of a restarted sender): not a duplicate.
+    sequence_count_ = 0;
+    sequence_head_ = 0;
+    highest_sequence_ = -1;
+  }
   if (!trackSequence(in_.sequence)) {
     publishStatus();
     return;

@@ -12,7 +12,8 @@
 //
 // Sequence numbers of the stream: a jump forward counts the missing messages as gaps (and names them on
 // stderr and in last_error), a sequence seen before is a duplicate (dropped), a sequence below the
-// highest seen but not seen before is reordered (processed).
+// highest seen but not seen before is reordered (processed). After the end-of-panorama marker, sequence 0
+// starts a new stream and a new panorama.
 #pragma once
 
 #include <cstddef>

@@ -277,19 +277,20 @@ TEST(RoverMemq, TinyEndToEndEqualsOfflineAndZeroHeap) {
 }
 
 // A stream with injected faults: each counted under its own cause, the rest processed, no crash, and the
-// final EO still close to the clean run on the pairs that remain.
+// final EO equal to the offline adjustment of the pairs that got through (in the order they were processed).
 TEST(RoverMemq, InjectedFaultsCountedUnderTheirCauses) {
-  const std::vector<LogEvent> faulty =
-      injectFaults(tinyStream(), "drop:2,dup:3,swap:5,truncate:4,corrupt-jpeg:6,unknown-channel,wrong-type,oversize:7");
+  const std::vector<LogEvent> faulty = injectFaults(
+      tinyStream(), "drop:2,dup:3,swap:5,truncate:4,corrupt-jpeg:6,unknown-channel,wrong-type,oversize:7,nan-model:1");
   uint64_t allocs = 99;
   const Captured c = runThroughMemq(faulty, allocs);
   const RoverCounters& k = node().counters();
   auto cause = [&](Status s) { return k.rejected_by_cause[static_cast<int>(s)]; };
   std::printf("faults: seen %d accepted %d rejected %d; gaps %d duplicates %d reordered %d; truncated %d corrupt %d "
-              "capacity %d unsupported %d; heap %llu; last error: %s\n",
+              "capacity %d unsupported %d not_finite %d; heap %llu; last error: %s\n",
               k.pairs_seen, k.pairs_accepted, k.pairs_rejected, k.sequence_gaps, k.duplicates, k.reordered,
               cause(Status::kTruncated), cause(Status::kCorruptData), cause(Status::kCapacityExceeded),
-              cause(Status::kUnsupported), static_cast<unsigned long long>(allocs), node().lastError());
+              cause(Status::kUnsupported), cause(Status::kNotFinite), static_cast<unsigned long long>(allocs),
+              node().lastError());
   CHECK_EQUAL(2, k.sequence_gaps);   // pair 2 dropped; pair 4 truncated (its sequence cannot be read)
   CHECK_EQUAL(1, k.duplicates);      // pair 3 twice
   CHECK_EQUAL(1, k.reordered);       // 5 after 6
@@ -297,13 +298,25 @@ TEST(RoverMemq, InjectedFaultsCountedUnderTheirCauses) {
   CHECK_EQUAL(1, cause(Status::kCorruptData));
   CHECK_EQUAL(1, cause(Status::kCapacityExceeded));
   CHECK_EQUAL(1, cause(Status::kUnsupported));
-  // Pairs 0, 1, 3, 5 processed (2 dropped, 4 truncated, 6 corrupt, 7 oversize).
-  CHECK_EQUAL(4, k.pairs_accepted);
+  CHECK_EQUAL(1, cause(Status::kNotFinite));
+  // Pairs 0, 3, 5 processed (1 NaN model, 2 dropped, 4 truncated, 6 corrupt JPEG, 7 oversize).
+  CHECK_EQUAL(3, k.pairs_accepted);
   CHECK_TRUE(c.have_final);
   CHECK_EQUAL(rover_status_t::STATE_FINISHED, c.last_status.state);
   CHECK_EQUAL(2, c.last_status.sequence_gaps);
+  CHECK_EQUAL(1, c.last_status.rejected_by_cause[rover_status_t::CAUSE_NOT_FINITE]);
   if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
-  CHECK_TRUE(c.last_eo.rms_px < 0.5);
+
+  // The offline path on the clean messages of pairs 0, 3, 5 gives the same EO.
+  std::vector<LogEvent> survivors;
+  for (int seq : {0, 3, 5, 8}) survivors.push_back(tinyStream()[static_cast<std::size_t>(seq)]);
+  Offline off;
+  runOffline(readDataset(tinyDataset()), survivors, off);
+  CHECK_EQUAL(off.net->imageCount(), node().network().imageCount());
+  const double diff = maxEoDifferencePx(node().network(), *off.net);
+  std::printf("faulty stream: final EO vs offline on the surviving pairs: max %.6f px equivalent, rms %.4f px\n", diff,
+              c.last_eo.rms_px);
+  CHECK_TRUE(diff < 0.01);
 }
 
 TEST_GROUP(RoverTool){};
