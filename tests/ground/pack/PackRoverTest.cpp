@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -330,4 +332,38 @@ TEST(RoverTool, ReplaysALogAndExits) {
   CHECK_EQUAL(2, runTool("areomap-rover", ""));
   CHECK_EQUAL(2, runTool("areomap-pack", tinyDataset()));
   CHECK_EQUAL(1, runTool("areomap-pack", dir + "/missing --out " + dir + "/x.lcm"));
+}
+
+TEST_GROUP(PackRealData){};
+
+// Two left-only PDS3 Navcam frames of Opportunity (models from their labels): packed as single images
+// (has_right false), decoded and mapped by the rover; the final adjustment runs on the inter-image ties.
+TEST(PackRealData, OpportunityLeftOnlyPds3) {
+  if (!test::requireSharedData("mer-opportunity-navcam-sol4087")) return;
+  const std::string src = test::sharedDataDir() + "/mer-opportunity-navcam-sol4087";
+  const std::string dir = test::scratchDir("pack-oppy");
+  std::filesystem::create_directories(dir + "/images");
+  const char* frames[] = {"1N491020376ILFCNY9P0706L0M1.IMG", "1N491020519ILFCNY9P0706L0M1.IMG"};
+  for (const char* f : frames) std::filesystem::create_symlink(src + "/" + f, dir + "/images/" + f);
+  std::ofstream(dir + "/panorama.json") << R"({"name": "oppy", "pairs": [
+      {"left": {"image": "images/1N491020376ILFCNY9P0706L0M1.IMG"}},
+      {"left": {"image": "images/1N491020519ILFCNY9P0706L0M1.IMG"}}]})";
+  const std::vector<LogEvent> events = packDataset(readDataset(dir), PackOptions{});
+  CHECK_EQUAL(3u, events.size());
+  stereo_pair_t p;
+  CHECK_EQUAL(Status::kOk, msgs::decodeMessage(events[0].data.data(), events[0].data.size(), p));
+  CHECK_FALSE(p.has_right);
+  CHECK_EQUAL(0, p.right.jpeg_bytes);
+  CHECK_EQUAL(1024, p.left.width_px);
+  CHECK_EQUAL(camera_model_t::TYPE_CAHVOR, p.left.model.type);
+  CHECK_FALSE(p.gimbal_given);
+  uint64_t allocs = 99;
+  const Captured c = runThroughMemq(events, allocs);
+  std::printf("opportunity: accepted %d of %d, final EO of %d images, rms %.3f px, pipeline heap %llu\n",
+              node().counters().pairs_accepted, node().counters().pairs_seen, c.last_eo.num_images, c.last_eo.rms_px,
+              static_cast<unsigned long long>(allocs));
+  CHECK_EQUAL(2, node().counters().pairs_accepted);
+  CHECK_TRUE(c.have_final);
+  CHECK_EQUAL(2, c.last_eo.num_images);
+  if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
 }
