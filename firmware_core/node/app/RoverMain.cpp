@@ -33,8 +33,8 @@ namespace {
 using areomap::Status;
 
 // Inbox: a full-speed replay of a navcam panorama (~0.5 MiB per pair) while the pipeline takes ~1 s per
-// pair: 10 MiB holds ~20 pairs of backlog beyond the kernel's receive buffer (and fits the budget).
-constexpr std::size_t kInboxBytes = 10u * 1024u * 1024u;
+// pair: 14 MiB holds ~28 pairs of backlog beyond the kernel's receive buffer (and fits the budget).
+constexpr std::size_t kInboxBytes = 14u * 1024u * 1024u;
 constexpr std::size_t kOutboxBytes = 2u * 1024u * 1024u;
 constexpr std::size_t kReplayBufferBytes = 2u * areomap::kMaxJpegBytes + 64u * 1024u;
 constexpr int32_t kHandleTimeoutMs = 20;
@@ -44,9 +44,8 @@ uint8_t g_inbox_storage[kInboxBytes];
 uint8_t g_outbox_storage[kOutboxBytes];
 uint8_t g_replay_buffer[kReplayBufferBytes];
 uint8_t g_jpeg_arena[areomap::platform::ArenaJpegDecoder::kArenaBytes];
-uint8_t g_work_message[kReplayBufferBytes];
 
-static_assert(sizeof(areomap::RoverNode) + kInboxBytes + kOutboxBytes + 2 * kReplayBufferBytes +
+static_assert(sizeof(areomap::RoverNode) + kInboxBytes + kOutboxBytes + kReplayBufferBytes +
                       areomap::platform::ArenaJpegDecoder::kArenaBytes <=
                   areomap::kStaticMemoryBudgetBytes,
               "the rover's static memory exceeds its 64 MiB budget");
@@ -140,6 +139,7 @@ void pipelineLoop(const Options& options, const areomap::platform::Clock& clock)
   bool finished_reported = false;
   for (;;) {
     std::size_t size = 0;
+    const uint8_t* message = nullptr;
     bool have = false;
     bool done = false;
     {
@@ -148,16 +148,17 @@ void pipelineLoop(const Options& options, const areomap::platform::Clock& clock)
         g_wake.wait_for(lock, std::chrono::milliseconds(50));
       }
       uint8_t tag = 0;
-      const uint8_t* data = nullptr;
-      if (g_inbox.front(tag, data, size)) {
-        std::memcpy(g_work_message, data, size);
-        g_inbox.pop();
-        have = true;
-        g_wake.notify_all();
-      }
+      have = g_inbox.front(tag, message, size);
       done = (g_input_done || g_stop.load()) && g_inbox.records() == 0;
     }
-    if (have) g_node.handleStereoPair(g_work_message, size);
+    if (have) {
+      // Processed in place: the record stays in the ring (push never overwrites it) until popped here.
+      g_node.handleStereoPair(message, size);
+      std::lock_guard<std::mutex> lock(g_mutex);
+      g_inbox.pop();
+      g_wake.notify_all();
+      done = false;
+    }
     g_node.setHeapCounts(static_cast<int64_t>(areomap::heapAllocationCountThisThread() - allocs_thread_start),
                          static_cast<int64_t>(areomap::heapAllocationCount() - allocs_process_start));
     const int64_t now = clock.monotonicUtime();
@@ -272,8 +273,7 @@ int main(int argc, char** argv) {
   rover_options.log_to_stderr = !options.quiet;
   g_node.start(outbox, jpeg, clock, rover_options);
   g_node.setExtraStaticBytes(static_cast<int64_t>(sizeof(g_inbox_storage) + sizeof(g_outbox_storage) +
-                                                  sizeof(g_replay_buffer) + sizeof(g_jpeg_arena) +
-                                                  sizeof(g_work_message)));
+                                                  sizeof(g_replay_buffer) + sizeof(g_jpeg_arena)));
   std::fprintf(stderr, "areomap-rover: listening on %s (static memory %lld bytes, message buffers reserved at "
                "start-up %lld bytes)\n", options.lcm_url, static_cast<long long>(g_node.staticBytes()),
                static_cast<long long>(g_node.reservedBytes()));
