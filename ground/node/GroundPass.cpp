@@ -19,7 +19,7 @@
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
-#include "ground/node/MessageModels.hpp"
+#include "firmware_core/node/MessageAdapters.hpp"
 #include "ground/node/Sha256.hpp"
 #include "ground/ties/TieAdjust.hpp"
 #include "ground/ties/TieRunner.hpp"
@@ -224,7 +224,8 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
     for (const eo_entry_t& e : rover->eo->images) {
       CameraModel model;
       std::string why;
-      if (!ok(modelFromMessage(e.model, model)) || e.stem.empty() || e.stem.find('/') != std::string::npos ||
+      const char* field = "";
+      if (!ok(toCameraModel(e.model, model, field)) || e.stem.empty() || e.stem.find('/') != std::string::npos ||
           !isSafeRelativePath(e.stem, why)) {
         report.warnings.push_back("The rover's EO entry '" + e.stem + "' has no usable model; not written.");
         continue;

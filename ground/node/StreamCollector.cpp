@@ -13,7 +13,7 @@
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
-#include "ground/node/MessageModels.hpp"
+#include "firmware_core/node/MessageAdapters.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
 #include "platform/posix/TurboJpegCodec.hpp"
@@ -121,53 +121,51 @@ void StreamCollector::receive(const std::string& channel, const uint8_t* data, s
   }
 }
 
-bool StreamCollector::decodeImage(const stereo_image_t& side, ReceivedImage& out) {
+std::string StreamCollector::decodeImage(const stereo_image_t& side, ReceivedImage& out) {
   // One codec per collector thread; TurboJPEG handles are made once.
   static thread_local std::unique_ptr<platform::TurboJpegCodec> codec;
   if (!codec) {
     codec = std::make_unique<platform::TurboJpegCodec>();
     if (!ok(codec->open())) {
-      reject("jpeg_unsupported");
-      return false;
+      return "jpeg_unsupported";
     }
   }
   if (side.jpeg_bytes <= 0 || side.jpeg.empty()) {
-    reject("missing_image");
-    return false;
+    return "missing_image";
   }
   const std::size_t capacity = static_cast<std::size_t>(kMaxImagePixels);
   std::vector<uint8_t> pixels(capacity);
   int32_t width = 0, height = 0;
   const Status s = codec->decodeGray(side.jpeg.data(), side.jpeg.size(), pixels.data(), capacity, width, height);
   if (s == Status::kCapacityExceeded || (ok(s) && (width > kMaxImageWidth || height > kMaxImageHeight))) {
-    reject("capacity_exceeded");
-    return false;
+    codec.reset();
+    return "capacity_exceeded";
   }
   if (!ok(s)) {
-    reject(std::string("jpeg_") + statusName(s));
-    return false;
+    // Measured: after a damaged JPEG the TurboJPEG handle refused the next, intact images as corrupt; a
+    // fresh handle for the next image keeps one bad image from costing the rest of the panorama.
+    codec.reset();
+    return std::string("jpeg_") + statusName(s);
   }
   if ((side.width_px != 0 && side.width_px != width) || (side.height_px != 0 && side.height_px != height)) {
-    reject("size_mismatch");
-    return false;
+    return "size_mismatch";
   }
   CameraModel model;
   const char* field = "";
-  if (!ok(modelFromMessage(side.model, model)) || !ok(validateModel(model, field))) {
-    reject("invalid_model");
-    return false;
+  const Status model_status = toCameraModel(side.model, model, field);
+  if (!ok(model_status)) {
+    return std::string("model_") + statusName(model_status);
   }
   if (model.width == 0) model.width = width;
   if (model.height == 0) model.height = height;
   std::string why;
   if (side.stem.empty() || side.stem.find('/') != std::string::npos || !isSafeRelativePath(side.stem, why)) {
-    reject("invalid_stem");
-    return false;
+    return "invalid_stem";
   }
   out.stem = side.stem;
   out.pixels = cv::Mat(height, width, CV_8UC1, pixels.data()).clone();
   out.model = model;
-  return true;
+  return std::string();
 }
 
 void StreamCollector::receivePair(const uint8_t* data, std::size_t size) {
@@ -192,10 +190,12 @@ void StreamCollector::receivePair(const uint8_t* data, std::size_t size) {
   pair.pair_id = msg.pair_id;
   pair.sol = msg.sol;
   pair.tier = msg.tier;
-  if (!decodeImage(msg.left, pair.left)) return;
+  const std::string left_cause = decodeImage(msg.left, pair.left);
+  if (!left_cause.empty()) return rejectPair(msg, left_cause);
   if (msg.has_right) {
     ReceivedImage right;
-    if (!decodeImage(msg.right, right)) return;
+    const std::string right_cause = decodeImage(msg.right, right);
+    if (!right_cause.empty()) return rejectPair(msg, right_cause);
     pair.right = std::move(right);
   }
   if (pairs_planned_ < 0) pairs_planned_ = msg.pairs_planned;
@@ -207,6 +207,12 @@ void StreamCollector::receivePair(const uint8_t* data, std::size_t size) {
   }
   pair_of_sequence_[msg.sequence] = msg.pair_id;
   pairs_.emplace(msg.pair_id, std::move(pair));
+}
+
+void StreamCollector::rejectPair(const stereo_pair_t& pair, const std::string& cause) {
+  reject(cause);
+  pair_rejections_.push_back("Pair " + std::to_string(pair.pair_id) + " (sequence " + std::to_string(pair.sequence) +
+                             ", " + pair.left.stem + ") was rejected: " + cause + "; it is missing from every product.");
 }
 
 bool StreamCollector::roverFinished() const {
@@ -235,6 +241,7 @@ StreamCounts StreamCollector::counts() const {
                          ") was never received (" + sequenceNeighbours(pair_of_sequence_, s) +
                          "): that pair is missing from every product.");
   }
+  for (const std::string& w : pair_rejections_) c.warnings.push_back(w);
   if (!end_of_panorama_) {
     c.warnings.push_back("The end-of-panorama marker was not received; products are made from the pairs that came.");
   }

@@ -102,11 +102,14 @@ class StreamCollector {
 
  private:
   void reject(const std::string& cause) { ++rejected_[cause]; }
+  void rejectPair(const stereo_pair_t& pair, const std::string& cause);
   void receivePair(const uint8_t* data, std::size_t size);
-  bool decodeImage(const stereo_image_t& side, ReceivedImage& out);
+  // The rejection cause, "" when decoded.
+  std::string decodeImage(const stereo_image_t& side, ReceivedImage& out);
 
   std::map<int32_t, ReceivedPair> pairs_;
   std::map<std::string, int32_t> rejected_;
+  std::vector<std::string> pair_rejections_;  // sentences naming the pair and the cause
   SequenceTracker pair_sequences_;
   std::map<int64_t, int32_t> pair_of_sequence_;
   std::map<std::string, SequenceTracker> rover_sequences_;

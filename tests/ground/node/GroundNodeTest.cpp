@@ -21,7 +21,7 @@
 #include "ground/io/CameraFile.hpp"
 #include "ground/io/ImageFile.hpp"
 #include "ground/node/GroundNode.hpp"
-#include "ground/node/MessageModels.hpp"
+#include "ground/pack/Pack.hpp"
 #include "ground/node/Sha256.hpp"
 #include "ground/node/StreamCollector.hpp"
 #include "msgs/Channels.hpp"
@@ -54,61 +54,19 @@ const std::string& tinyDataset() {
   return dir;
 }
 
-template <class Message>
-std::vector<uint8_t> encode(const Message& m) {
-  std::vector<uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
-  bytes.resize(static_cast<std::size_t>(std::max(0, m.encode(bytes.data(), 0, static_cast<int>(bytes.size())))));
-  return bytes;
-}
-
-stereo_image_t packImage(platform::TurboJpegCodec& codec, const cv::Mat& grey, const std::string& stem,
-                         const CameraModel& model) {
-  stereo_image_t s{};
-  s.stem = stem;
-  s.width_px = grey.cols;
-  s.height_px = grey.rows;
-  std::vector<uint8_t> jpeg(codec.maxEncodedBytes(grey.cols, grey.rows));
-  std::size_t bytes = 0;
-  CHECK(ok(codec.encodeGray(grey.ptr<uint8_t>(0), grey.cols, grey.rows, 95, jpeg.data(), jpeg.size(), bytes)));
-  jpeg.resize(bytes);
-  s.jpeg = jpeg;
-  s.jpeg_bytes = static_cast<int32_t>(bytes);
-  s.model = ground::messageFromModel(model);
-  return s;
-}
-
-// The camera stream of a dataset: one stereo_pair_t per pair (sequence = index) and the end marker.
-std::vector<stereo_pair_t> packDataset(const Dataset& d) {
-  platform::TurboJpegCodec codec;
-  CHECK(ok(codec.open()));
-  std::vector<stereo_pair_t> out;
-  for (const Pair& p : d.pairs) {
-    stereo_pair_t m{};
-    m.sequence = static_cast<int64_t>(out.size());
-    m.kind = stereo_pair_t::KIND_PAIR;
-    m.panorama = d.name;
-    m.pair_id = p.id;
-    m.sol = p.sol;
-    m.tier = p.tier;
-    m.pairs_planned = static_cast<int32_t>(d.pairs.size());
-    const cv::Mat left = io::loadImage8(p.left.image_path);
-    m.left = packImage(codec, left, p.left.stem, io::readCameraModelFile(p.left.model_path, left.cols, left.rows));
-    m.has_right = p.right.has_value();
-    if (p.right) {
-      const cv::Mat right = io::loadImage8(p.right->image_path);
-      m.right = packImage(codec, right, p.right->stem,
-                          io::readCameraModelFile(p.right->model_path, right.cols, right.rows));
-    }
-    out.push_back(m);
+// The camera stream of the tiny dataset as areomap-pack makes it.
+const std::vector<LogEvent>& tinyStream() {
+  static std::vector<LogEvent> events;
+  if (events.empty()) {
+    PackOptions o;
+    o.start_utime = 1'700'000'000'000'000;
+    events = packDataset(readDataset(tinyDataset()), o);
   }
-  stereo_pair_t end{};
-  end.sequence = static_cast<int64_t>(out.size());
-  end.kind = stereo_pair_t::KIND_END_OF_PANORAMA;
-  end.panorama = d.name;
-  end.pair_id = -1;
-  end.pairs_planned = static_cast<int32_t>(d.pairs.size());
-  out.push_back(end);
-  return out;
+  return events;
+}
+
+void feed(ground::StreamCollector& c, const std::vector<LogEvent>& events) {
+  for (const LogEvent& e : events) c.receive(e.channel, e.data.data(), e.data.size());
 }
 
 json readJson(const std::string& path) {
@@ -142,45 +100,19 @@ TEST_GROUP(StreamFaults){};
 // Dropped, duplicated, reordered, truncated, corrupt-JPEG, wrong-type, unknown-channel and over-capacity
 // messages: each counted under its own cause, the rest kept, the gap named in a warning.
 TEST(StreamFaults, EveryFaultIsCountedUnderItsCause) {
-  const Dataset d = readDataset(tinyDataset());
-  std::vector<stereo_pair_t> stream = packDataset(d);
-  CHECK(stream.size() >= 9);  // >= 8 pairs + end
+  // The pack engineer's injection (ground/pack/Pack.hpp), as in the rover's fault test.
+  const std::vector<LogEvent> faulty = injectFaults(
+      tinyStream(), "drop:2,dup:3,swap:5,truncate:4,corrupt-jpeg:6,unknown-channel,wrong-type,oversize:7,nan-model:1");
   ground::StreamCollector c;
-  auto send = [&](const stereo_pair_t& m) {
-    const std::vector<uint8_t> b = encode(m);
-    c.receive(channels::kStereoPair, b.data(), b.size());
-  };
-  send(stream[0]);
-  send(stream[1]);
-  // stream[2] dropped
-  send(stream[4]);  // 3 and 4 reordered
-  send(stream[3]);
-  send(stream[3]);  // duplicate
-  stereo_pair_t corrupt = stream[5];
-  std::fill(corrupt.left.jpeg.begin(), corrupt.left.jpeg.begin() + 16, 0);
-  send(corrupt);
-  const std::vector<uint8_t> whole = encode(stream[6]);
-  c.receive(channels::kStereoPair, whole.data(), whole.size() / 2);  // truncated
-  rover_status_t status{};
-  const std::vector<uint8_t> other = encode(status);
-  c.receive(channels::kStereoPair, other.data(), other.size());  // wrong type
-  c.receive("AREOMAP_SOMETHING_ELSE", whole.data(), whole.size());  // unknown channel
-  stereo_pair_t big = stream[7];
-  platform::TurboJpegCodec codec;
-  CHECK(ok(codec.open()));
-  const cv::Mat large(1100, 1100, CV_8UC1, cv::Scalar(128));
-  big.left = packImage(codec, large, big.left.stem, CameraModel{});
-  big.left.model = stream[7].left.model;
-  send(big);  // over capacity
-  for (std::size_t k = 8; k < stream.size(); ++k) send(stream[k]);
-
+  feed(c, faulty);
   const ground::StreamCounts counts = c.counts();
   for (const auto& [cause, n] : counts.rejected) std::printf("rejected %s: %d\n", cause.c_str(), n);
+  for (const std::string& w : counts.warnings) std::printf("warning: %s\n", w.c_str());
   std::printf("pairs %d gaps %d duplicates %d reordered %d\n", counts.pairs, counts.gaps, counts.duplicates,
               counts.reordered);
-  const int32_t n = static_cast<int32_t>(stream.size()) - 1;  // pairs
-  CHECK_EQUAL(n - 4, counts.pairs);  // lost: 2 (dropped), 5 (JPEG), 6 (truncated), 7 (capacity)
-  CHECK_EQUAL(2, counts.gaps);       // 2 and 6 never arrived intact (a truncated message has no sequence)
+  const int32_t n = static_cast<int32_t>(tinyStream().size()) - 1;  // pairs
+  CHECK_EQUAL(n - 5, counts.pairs);  // lost: 1 NaN model, 2 dropped, 4 truncated, 6 JPEG, 7 over capacity
+  CHECK_EQUAL(2, counts.gaps);       // 2 and 4 never arrived intact (a truncated message has no sequence)
   CHECK_EQUAL(1, counts.duplicates);
   CHECK_EQUAL(1, counts.reordered);
   CHECK_EQUAL(1, counts.rejected.at("jpeg_corrupt_data"));
@@ -188,9 +120,10 @@ TEST(StreamFaults, EveryFaultIsCountedUnderItsCause) {
   CHECK_EQUAL(1, counts.rejected.at("wrong_type"));
   CHECK_EQUAL(1, counts.rejected.at("unknown_channel"));
   CHECK_EQUAL(1, counts.rejected.at("capacity_exceeded"));
+  CHECK_EQUAL(1, counts.rejected.at("model_not_finite"));
   CHECK(counts.end_of_panorama);
   bool named = false;
-  for (const std::string& w : counts.warnings) named = named || w.find("after pair 1, before pair 3") != std::string::npos;
+  for (const std::string& w : counts.warnings) named = named || w.find("message 2 ") != std::string::npos;
   CHECK(named);
 }
 
@@ -200,13 +133,9 @@ TEST_GROUP(GroundEndToEnd){};
 // stream figures exact, and the integrated adjustment better than the a-priori EO against the truth.
 TEST(GroundEndToEnd, TinyThroughMemq) {
   const Dataset d = readDataset(tinyDataset());
-  const std::vector<stereo_pair_t> stream = packDataset(d);
   std::vector<uint8_t> storage(96u * 1024u * 1024u);
   platform::MemoryTransport memq(storage.data(), storage.size());
-  for (const stereo_pair_t& m : stream) {
-    const std::vector<uint8_t> b = encode(m);
-    CHECK(ok(memq.publish(channels::kStereoPair, b.data(), b.size())));
-  }
+  for (const LogEvent& e : tinyStream()) CHECK(ok(memq.publish(e.channel.c_str(), e.data.data(), e.data.size())));
   product_t product;
   CHECK(ok(memq.subscribe(channels::kProduct, &onProduct, &product)));
   ground::GroundNodeOptions options;
