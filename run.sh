@@ -1,9 +1,230 @@
 #!/usr/bin/env bash
-# The main job. Until the rover and ground nodes exist it runs what there is and says so.
+# The main job (README command 1, after ./setup.sh): a synthetic panorama (areomap-sim --preset navcam) or a
+# real dataset folder -> areomap-pack (LCM log of the camera stream) -> stock lcm-logplayer replays it over
+# udpm on loopback to areomap-rover and areomap-ground -> products and a one-screen summary. See usage().
 set -euo pipefail
 cd "$(dirname "$0")"
-echo "run: the end-to-end pipeline is not built yet; built so far: the foundation (build, tests, heap counter)."
-echo "run: running the test suite instead"
-ctest --test-dir build --output-on-failure -j2
-mkdir -p out
-echo "products: $(pwd)/out (none yet)"
+ROOT=$(pwd)
+
+usage() {
+  cat <<'EOF'
+usage: ./run.sh [--dataset DIR | --preset NAME] [--out DIR] [--speed S] [--transport auto|udpm|netns|file]
+
+Makes (or reuses) a dataset, packs it into an LCM log, starts areomap-ground and areomap-rover on a udpm
+URL of loopback (ttl=0, 8 MiB receive buffers), replays the log with stock lcm-logplayer, waits for the
+products and prints a summary; the last line is `products: <dir>`.
+
+  --dataset DIR   a real dataset folder (panorama.json); truth figures when DIR/truth exists
+  --preset NAME   areomap-sim preset when no --dataset (default navcam); reused from OUT/NAME when it was
+                  made with the same options
+  --out DIR       work and product folder (default out/); products in OUT/products-<name>
+  --speed S       lcm-logplayer speed (default 0 = as fast as possible)
+  --transport T   auto (default): udpm on this host when a multicast route exists, else udpm in a private
+                  network namespace (unshare -n, lo up, route 239.0.0.0/8 dev lo), else file replay
+                  (the ground reads the log itself; the rover replays it apart)
+  --build DIR     build folder with bin/ (default build, or $AREOMAP_BUILD_DIR)
+EOF
+}
+
+DATASET=""
+PRESET=navcam
+OUT=out
+SPEED=0
+TRANSPORT=auto
+BUILD=${AREOMAP_BUILD_DIR:-build}
+ARGS=("$@")
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --help|-h) usage; exit 0 ;;
+    --dataset) DATASET=${2:?--dataset needs a folder}; shift 2 ;;
+    --preset) PRESET=${2:?--preset needs a name}; shift 2 ;;
+    --out) OUT=${2:?--out needs a folder}; shift 2 ;;
+    --speed) SPEED=${2:?--speed needs a number}; shift 2 ;;
+    --transport) TRANSPORT=${2:?--transport needs auto, udpm, netns or file}; shift 2 ;;
+    --build) BUILD=${2:?--build needs a folder}; shift 2 ;;
+    *) echo "run: unknown option '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+case "$TRANSPORT" in auto|udpm|netns|file|netns-inner) ;; *) echo "run: --transport: '$TRANSPORT'" >&2; exit 2 ;; esac
+
+BIN="$BUILD/bin"
+TOOLS=(areomap-sim areomap-pack areomap-rover areomap-ground)
+missing=()
+for t in "${TOOLS[@]}"; do [[ -x "$BIN/$t" ]] || missing+=("$t"); done
+if [[ ${#missing[@]} -gt 0 ]]; then
+  if [[ -f "$BUILD/build.ninja" || -f "$BUILD/Makefile" ]]; then
+    echo "run: building ${missing[*]} in $BUILD"
+    cmake --build "$BUILD" --target "${missing[@]}" -j2
+  else
+    echo "run: $BIN lacks ${missing[*]}: run ./setup.sh first" >&2
+    exit 1
+  fi
+fi
+command -v lcm-logplayer > /dev/null || { echo "run: lcm-logplayer not found (Debian package liblcm-bin): run ./setup.sh" >&2; exit 1; }
+mkdir -p "$OUT"
+OUT=$(cd "$OUT" && pwd)
+
+# 1. The dataset.
+if [[ -n "$DATASET" ]]; then
+  [[ -f "$DATASET/panorama.json" ]] || { echo "run: $DATASET/panorama.json: no such file" >&2; exit 1; }
+  DATASET=$(cd "$DATASET" && pwd)
+  NAME=$(basename "$DATASET")
+else
+  NAME=$PRESET
+  DATASET="$OUT/$PRESET"
+  SIM_OPTIONS="--preset $PRESET --seed 1"
+  if [[ "$TRANSPORT" != netns-inner ]]; then
+    if [[ -f "$DATASET/panorama.json" && -f "$DATASET.options" && "$(cat "$DATASET.options")" == "$SIM_OPTIONS" ]]; then
+      echo "run: reusing $DATASET (areomap-sim $SIM_OPTIONS)"
+    else
+      echo "run: areomap-sim $SIM_OPTIONS --out $DATASET"
+      rm -rf "$DATASET" "$DATASET.options"
+      start=$(date +%s)
+      "$BIN/areomap-sim" $SIM_OPTIONS --out "$DATASET"
+      echo "$SIM_OPTIONS" > "$DATASET.options"
+      echo "run: dataset made in $(( $(date +%s) - start )) s"
+    fi
+  fi
+fi
+TRUTH=()
+[[ -d "$DATASET/truth" ]] && TRUTH=(--truth "$DATASET")
+LOG="$OUT/$NAME.lcm"
+PRODUCTS="$OUT/products-$NAME"
+
+# 2. The camera stream as an LCM log.
+if [[ "$TRANSPORT" != netns-inner ]]; then
+  if [[ -f "$LOG" && "$LOG" -nt "$DATASET/panorama.json" ]]; then
+    echo "run: reusing $LOG"
+  else
+    echo "run: areomap-pack $DATASET --out $LOG"
+    "$BIN/areomap-pack" "$DATASET" --out "$LOG" --interval-s 2
+  fi
+fi
+
+# timed NAME CMD...: runs CMD, its peak RSS (KiB) into OUT/NAME.rss when GNU time is installed.
+timed() {
+  local name=$1
+  shift
+  if [[ -x /usr/bin/time ]]; then
+    /usr/bin/time -f "%M" -o "$OUT/$name.rss" "$@"
+  else
+    "$@"
+  fi
+}
+
+# 3. The nodes over udpm, and the replay.
+run_udpm() {
+  local url="udpm://239.255.76.67:$(( 20000 + $$ % 20000 ))?ttl=0&recv_buf_size=8388608"
+  rm -rf "$PRODUCTS"
+  local rmem
+  rmem=$(sysctl -n net.core.rmem_max 2> /dev/null || echo 0)
+  if [[ "$rmem" -lt 8388608 && $(id -u) -eq 0 ]]; then
+    sysctl -q -w net.core.rmem_max=8388608 && echo "run: raised net.core.rmem_max from $rmem to 8388608 (UDP receive buffers)"
+  elif [[ "$rmem" -lt 8388608 ]]; then
+    echo "run: warning: net.core.rmem_max is $rmem (< 8 MiB) and this is not root: large messages may be lost (counted as gaps)"
+  fi
+  echo "run: url $url"
+  timed ground "$BIN/areomap-ground" --lcm "$url" --out "$PRODUCTS" "${TRUTH[@]}" \
+    > "$OUT/ground.out" 2> "$OUT/ground.log" &
+  local ground=$!
+  timed rover "$BIN/areomap-rover" --lcm "$url" --exit-at-end --quiet \
+    > "$OUT/rover.out" 2> "$OUT/rover.log" &
+  local rover=$!
+  sleep 1
+  local start
+  start=$(date +%s%N)
+  lcm-logplayer -s "$SPEED" --lcm-url="$url" "$LOG" > "$OUT/logplayer.log" 2>&1
+  echo "run: lcm-logplayer -s $SPEED replayed $LOG in $(( ($(date +%s%N) - start) / 1000000 )) ms"
+  echo "run: waiting for the rover's final adjustment and the ground's products (progress: $OUT/ground.log)"
+  local rover_rc=0 ground_rc=0
+  wait "$rover" || rover_rc=$?
+  wait "$ground" || ground_rc=$?
+  [[ $rover_rc -eq 0 ]] || echo "run: areomap-rover exited with $rover_rc (see $OUT/rover.log)"
+  if [[ $ground_rc -ne 0 ]]; then
+    echo "run: areomap-ground exited with $ground_rc; its last lines:" >&2
+    tail -n 20 "$OUT/ground.log" >&2
+    return 1
+  fi
+}
+
+run_file() {
+  rm -rf "$PRODUCTS"
+  echo "run: file replay: the rover replays the log apart (its figures in $OUT/rover.log); the ground reads the log itself"
+  timed rover "$BIN/areomap-rover" --lcm "file://$LOG" --quiet \
+    > "$OUT/rover.out" 2> "$OUT/rover.log" || echo "run: areomap-rover exited with $? (see $OUT/rover.log)"
+  timed ground "$BIN/areomap-ground" --lcm "file://$LOG" --out "$PRODUCTS" "${TRUTH[@]}" \
+    > "$OUT/ground.out" 2> "$OUT/ground.log" || { tail -n 20 "$OUT/ground.log" >&2; return 1; }
+}
+
+RAN=""
+case "$TRANSPORT" in
+  netns-inner)
+    ip link set lo up && ip route add 239.0.0.0/8 dev lo
+    run_udpm
+    exit 0 ;;
+  udpm) run_udpm; RAN="udpm on this host (loopback, ttl=0)" ;;
+  netns)
+    unshare -n "$0" "${ARGS[@]}" --out "$OUT" --transport netns-inner
+    RAN="udpm in a private network namespace (unshare -n; lo up; route 239.0.0.0/8 dev lo)" ;;
+  file) run_file; RAN="file replay (file://$LOG)" ;;
+  auto)
+    if ip route get 239.255.76.67 > /dev/null 2>&1; then
+      run_udpm
+      RAN="udpm on this host (loopback, ttl=0; a multicast route exists)"
+    elif unshare -n true 2> /dev/null; then
+      echo "run: no multicast route on this host: udpm in a private network namespace"
+      unshare -n "$0" "${ARGS[@]}" --out "$OUT" --transport netns-inner
+      RAN="udpm in a private network namespace (no multicast route on the host)"
+    else
+      echo "run: no multicast route and no network namespace (unshare -n refused): file replay"
+      run_file
+      RAN="file replay (no multicast route, no network namespace)"
+    fi ;;
+esac
+
+# 4. The summary.
+python3 - "$PRODUCTS/report.json" "$RAN" "$OUT" <<'EOF'
+import json, os, sys
+path, ran, out = sys.argv[1], sys.argv[2], sys.argv[3]
+r = json.load(open(path))
+def rss(name):
+    try:
+        return "%.0f MiB" % (int(open(os.path.join(out, name + ".rss")).read().split()[-1]) / 1024)
+    except Exception:
+        return "n/a"
+m1 = r.get("method1_px", {})
+s = r.get("stream", {})
+rv = r.get("rover", {})
+t = r.get("truth")
+tp = r.get("tie_points", {})
+print("=" * 78)
+print("transport: %s" % ran)
+print("stream:    %s pairs received, %s gaps, %s duplicates, %s reordered, rejected %s" % (
+    s.get("pairs"), s.get("gaps"), s.get("duplicates"), s.get("reordered"), s.get("rejected") or "none"))
+print("ties:      %s intra + %s inter observations (%s rejected as outliers)" % (tp.get("intra"), tp.get("inter"), tp.get("rejected")))
+print("ground:    method 1 mean distance %.3f px before -> %.3f px after (integrated, %s iterations; fast %s sweeps)" % (
+    m1.get("before", {}).get("dist", float("nan")), m1.get("after", {}).get("dist", float("nan")), r.get("iterations"),
+    r.get("ground", {}).get("fast_sweeps")))
+if t:
+    print("truth:     EO error %.3f px a priori -> %.3f px adjusted (datum removed; raw %.3f px)" % (
+        t.get("eo_px_before") or float("nan"), t.get("eo_px"), t.get("eo_px_raw")))
+if rv.get("heap_allocs_after_init") is not None:
+    st = rv.get("stage_seconds_per_pair", {})
+    print("rover:     %s pairs accepted, %s sweeps (final), rms %.3f px, heap allocations after start-up %s, static %.1f MiB" % (
+        rv.get("pairs_accepted"), rv.get("sweeps"), rv.get("rms_px") or float("nan"), rv.get("heap_allocs_after_init"),
+        (rv.get("static_bytes") or 0) / 2**20))
+    print("rover:     per pair %.2f s (%s)" % (rv.get("seconds_per_pair") or 0,
+          ", ".join("%s %.2f" % (k, v) for k, v in st.items() if v)))
+    ev = rv.get("eo_vs_ground_px")
+    print("rover:     EO vs the ground's integrated adjustment %s px (datum removed)" % ("%.4f" % ev if ev is not None else "n/a"))
+else:
+    print("rover:     no rover figures arrived")
+print("ground:    stage seconds %s" % ", ".join("%s %.1f" % (k, v) for k, v in r.get("seconds", {}).items()))
+print("memory:    peak RSS ground %s, rover %s" % (rss("ground"), rss("rover")))
+for w in r.get("warnings", [])[:6]:
+    print("warning:   " + w)
+if len(r.get("warnings", [])) > 6:
+    print("warning:   ... %d more in report.json" % (len(r["warnings"]) - 6))
+print("=" * 78)
+EOF
+echo "products: $PRODUCTS"
