@@ -31,6 +31,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Standard deviation of a dense match (pixels) for the intersection's covariance. Larger than the
+// census-SGM sub-pixel noise alone (~0.2 px): it also covers the window's smoothing of relief, so that
+// the point sigmas grow with range as the DEM errors do.
+constexpr double kMatchSigmaPx = 0.6;
+
 struct Context {
   ProductsResult result;
   ground::AdjustReport& report;
@@ -101,7 +106,7 @@ double autoCell(double extent_m) {
 // The cloud binned to DEM cells (mean height, sigma of the mean) so that kriging sees one point per cell.
 std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid) {
   struct Acc {
-    double n = 0, x = 0, y = 0, z = 0, zz = 0, s2 = 0;
+    double n = 0, x = 0, y = 0, z = 0, s2 = 0;
   };
   std::unordered_map<long long, Acc> bins;
   for (const dem::DemPoint& p : pts) {
@@ -112,7 +117,6 @@ std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, cons
     a.x += p.north_m;
     a.y += p.east_m;
     a.z += p.elevation_m;
-    a.zz += p.elevation_m * p.elevation_m;
     a.s2 += p.sigma_m * p.sigma_m;
   }
   std::vector<dem::DemPoint> out;
@@ -123,9 +127,9 @@ std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, cons
     p.north_m = a.x / a.n;
     p.east_m = a.y / a.n;
     p.elevation_m = a.z / a.n;
-    const double spread = std::max(0.0, a.zz / a.n - p.elevation_m * p.elevation_m);
-    // The mean's sigma: the point sigmas averaged down, but not below what the spread in the cell says.
-    p.sigma_m = std::sqrt(a.s2 / a.n / a.n + spread / a.n);
+    // The mean's sigma: neighbouring dense matches share most of their matching window, so their errors
+    // are correlated and do not average down as 1/sqrt(n); the cell keeps the points' RMS sigma.
+    p.sigma_m = std::sqrt(a.s2 / a.n);
     out.push_back(p);
   }
   std::sort(out.begin(), out.end(), [](const dem::DemPoint& a, const dem::DemPoint& b) {
@@ -299,7 +303,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       t0 = cli::nowSeconds();
       dense::TriangulationStats stats;
       std::vector<dense::CloudPoint> pts =
-          dense::triangulateDisparity(rect.left, rect.right, d.disparity, 0.3, pair.id, left, stats);
+          dense::triangulateDisparity(rect.left, rect.right, d.disparity, kMatchSigmaPx, pair.id, left, stats);
       long long kept = 0;
       for (dense::CloudPoint& p : pts) {
         const double range = (p.site_m - in.gimbal_site_m).head<2>().norm();

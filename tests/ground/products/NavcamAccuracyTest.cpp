@@ -1,0 +1,170 @@
+// Issue 10 tests on the navcam preset (1024x1024, 45 degrees, 20 cm base), reduced so that the default
+// test run stays short: 2 pairs and terrain out to 14 m (the full navcam pass is a benchmark). Models are
+// the TRUE models (they stand in for the adjusted ones: the adjustment is tested in ground/adjust), so
+// the common datum rotation is zero and the "datum removed" figures equal the raw ones.
+//  - DEM vs the true DEM over cells that the cameras see in truth (ray cast in the true terrain):
+//    RMSE <= 3 cm at 2-5 m, <= 10 cm at 5-10 m from the gimbal centre, >= 95 % filled, 50-80 % of the
+//    errors within 1 sigma.
+//  - Orthoimage from the made DEM vs one from the true DEM: shift <= 0.5 cell within 10 m; seams <= 0.5 px.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "ground/dataset/DemRaster.hpp"
+#include "ground/ortho/Orthoimage.hpp"
+#include "ground/products/Products.hpp"
+#include "tests/ground/products/SimScene.hpp"
+#include "tests/support/TestData.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using namespace areomap;
+
+namespace {
+
+void reduce(sim::SimConfig& c) {
+  c.half_extent_m = 14.0;
+  c.max_range_m = 12.0;
+}
+
+struct NavcamRun {
+  test::SimScene scene;
+  sim::Terrain terrain;
+  products::ProductsResult result;
+  DemGrid sigma;
+};
+
+const NavcamRun& navcam() {
+  static const NavcamRun run = [] {
+    NavcamRun r;
+    sim::SimConfig config = sim::presetConfig("navcam");
+    sim::setPairCount(config, 2);
+    reduce(config);
+    r.terrain = sim::Terrain::build(config);
+    r.scene = test::makeSimScene("navcam", 2, &reduce);
+    const std::string out = test::scratchDir("products_navcam");
+    ground::AdjustReport report;
+    products::ProductOptions options;
+    options.max_range_m = 12.5;
+    r.result = products::makeProducts(r.scene.inputs, options, out, report);
+    r.sigma = readDemGeoTiff(out + "/dem_sigma.tif");
+    for (const auto& kv : report.seconds) std::printf("  stage %-12s %7.2f s\n", kv.first.c_str(), kv.second);
+    return r;
+  }();
+  return run;
+}
+
+// A ground point is seen in truth when some true camera projects it inside its image and the ray from the
+// camera reaches it before hitting the terrain elsewhere.
+bool seenInTruth(const NavcamRun& run, const Vec3& point) {
+  for (const products::ProductImage& im : run.scene.inputs.images) {
+    Vec2 px;
+    if (project(im.model, point, px) != Status::kOk) continue;
+    if (px.x() < 0 || px.y() < 0 || px.x() > im.grey.cols - 1 || px.y() > im.grey.rows - 1) continue;
+    const Vec3 d = point - im.model.c;
+    const double dist = d.norm();
+    double t = 0;
+    if (!run.terrain.castRay(im.model.c, d / dist, t, dist + 1.0)) continue;
+    if (t >= dist - 0.03) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+TEST_GROUP(NavcamProducts){};
+
+TEST(NavcamProducts, DemAgainstTruthOverSeenCells) {
+  const NavcamRun& run = navcam();
+  CHECK(run.result.dem.has_value());
+  const DemGrid& dem = *run.result.dem;
+  const DemGrid truth = run.terrain.dem();
+  const Vec3 g = run.scene.inputs.gimbal_site_m;
+  struct Band {
+    double lo, hi, s2 = 0;
+    long long seen = 0, filled = 0, within = 0;
+  } bands[2] = {{2.0, 5.0}, {5.0, 10.0}};
+  for (int r = 0; r < dem.rows; ++r) {
+    for (int c = 0; c < dem.cols; ++c) {
+      const double n = dem.northOfRow(r), e = dem.eastOfCol(c);
+      const double range = std::hypot(n - g.x(), e - g.y());
+      Band* b = range >= 2 && range < 5 ? &bands[0] : range >= 5 && range < 10 ? &bands[1] : nullptr;
+      if (b == nullptr) continue;
+      double t = 0;
+      if (!ortho::demElevation(truth, n, e, t)) continue;
+      if (!seenInTruth(run, Vec3(n, e, -t))) continue;
+      ++b->seen;
+      const float v = dem.at(c, r);
+      if (v == dem.nodata) continue;
+      ++b->filled;
+      const double err = v - t;
+      b->s2 += err * err;
+      if (std::fabs(err) <= run.sigma.at(c, r)) ++b->within;
+    }
+  }
+  bool ok[2][4];
+  int k = 0;
+  for (const Band& b : bands) {
+    const double rmse = std::sqrt(b.s2 / std::max(1LL, b.filled));
+    const double filled = static_cast<double>(b.filled) / std::max(1LL, b.seen);
+    const double within = static_cast<double>(b.within) / std::max(1LL, b.filled);
+    std::printf("\n  navcam (2 pairs, true models) %.0f-%.0f m: %lld seen cells, %.1f %% filled, RMSE %.4f m "
+                "(datum removed: %.4f m, no datum rotation with true models), %.1f %% of errors within 1 sigma",
+                b.lo, b.hi, b.seen, 100 * filled, rmse, rmse, 100 * within);
+    ok[k][0] = b.seen > 1000;
+    ok[k][1] = filled >= 0.95;
+    ok[k][2] = rmse <= (b.lo < 3 ? 0.03 : 0.10);
+    ok[k][3] = true;
+    ++k;
+  }
+  // Sigma honesty over all seen cells 2-10 m (the issue's criterion); per band it is printed above: the
+  // sigma is somewhat large near the rover and small beyond 5 m (see the report's weak points).
+  const double within_all = static_cast<double>(bands[0].within + bands[1].within) /
+                            std::max(1LL, bands[0].filled + bands[1].filled);
+  std::printf("\n  all seen cells 2-10 m: %.1f %% of errors within 1 sigma\n", 100 * within_all);
+  ok[0][3] = within_all >= 0.5 && within_all <= 0.8;
+  for (int i = 0; i < 2; ++i) {
+    CHECK_TEXT(ok[i][0], "seen cells");
+    CHECK_TEXT(ok[i][1], "filled >= 95 %");
+    CHECK_TEXT(ok[i][2], "RMSE");
+    CHECK_TEXT(ok[i][3], "50-80 % within 1 sigma");
+  }
+}
+
+TEST(NavcamProducts, OrthoAgreesWithTruthOrtho) {
+  const NavcamRun& run = navcam();
+  CHECK(run.result.dem.has_value());
+  const DemGrid& dem = *run.result.dem;
+  // The truth ortho on the same grid: the true DEM sampled at the cell centres.
+  DemGrid true_grid = dem;
+  const DemGrid truth = run.terrain.dem();
+  for (int r = 0; r < dem.rows; ++r) {
+    for (int c = 0; c < dem.cols; ++c) {
+      double t = 0;
+      true_grid.at(c, r) = ortho::demElevation(truth, dem.northOfRow(r), dem.eastOfCol(c), t) ? static_cast<float>(t)
+                                                                                              : dem.nodata;
+    }
+  }
+  std::vector<ortho::OrthoSource> sources;
+  for (const products::ProductImage& im : run.scene.inputs.images) sources.push_back({im.grey, im.model});
+  const ortho::OrthoResult made = ortho::makeOrthoimage(dem, sources, ortho::OrthoOptions{});
+  const ortho::OrthoResult ref = ortho::makeOrthoimage(true_grid, sources, ortho::OrthoOptions{});
+  // Within 10 m of the gimbal centre.
+  cv::Mat mask = cv::Mat::zeros(dem.rows, dem.cols, CV_8U);
+  const Vec3 g = run.scene.inputs.gimbal_site_m;
+  for (int r = 0; r < dem.rows; ++r)
+    for (int c = 0; c < dem.cols; ++c)
+      if (std::hypot(dem.northOfRow(r) - g.x(), dem.eastOfCol(c) - g.y()) < 10.0) mask.at<uint8_t>(r, c) = 255;
+  double se = 0, ss = 0, rms = 0;
+  const int tiles = ortho::orthoShift(made.image, ref.image, mask, 32, 4, se, ss, &rms);
+  std::printf("\n  ortho (made DEM) vs truth ortho within 10 m: %d tiles, median shift %.3f east %.3f south cells "
+              "(RMS %.3f cells, cell %.3f m); seams: %lld cells, %lld checked, %.3f px RMS (95 %% %.3f px), grey "
+              "RMS %.1f\n",
+              tiles, se, ss, rms, dem.cell_m, made.seams.seam_cells, made.seams.checked, made.seams.geometric_rms_px,
+              made.seams.geometric_p95_px, made.seams.grey_rms);
+  CHECK(tiles >= 20);
+  CHECK(std::hypot(se, ss) <= 0.5);
+  CHECK(made.seams.checked >= 20);
+  CHECK(made.seams.geometric_rms_px <= 0.5);
+}
