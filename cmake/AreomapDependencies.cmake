@@ -30,6 +30,11 @@ if(TARGET libjpeg-turbo::turbojpeg)
 else()
   set(AREOMAP_TURBOJPEG libjpeg-turbo::turbojpeg-static)
 endif()
+# A static-only libjpeg-turbo (the powerpc target builds it from source) has jpeg-static only.
+if(NOT TARGET libjpeg-turbo::jpeg AND TARGET libjpeg-turbo::jpeg-static)
+  add_library(libjpeg-turbo::jpeg INTERFACE IMPORTED)
+  set_target_properties(libjpeg-turbo::jpeg PROPERTIES INTERFACE_LINK_LIBRARIES libjpeg-turbo::jpeg-static)
+endif()
 
 find_package(PkgConfig REQUIRED)
 if(AREOMAP_BUILD_TESTS)
