@@ -1,0 +1,114 @@
+// RoverNode's stream handling without images (builds for the cross targets too): sequence gaps, duplicates,
+// reordering, bad messages by cause, status publication, zero heap after start().
+#include <cstring>
+#include <vector>
+
+#include "areomap/rover_status_t.hpp"
+#include "areomap/stereo_pair_t.hpp"
+#include "firmware_core/node/RoverNode.hpp"
+#include "msgs/Channels.hpp"
+#include "msgs/MessageCheck.hpp"
+#include "platform/heap/HeapCounter.hpp"
+#include "platform/posix/ArenaJpegDecoder.hpp"
+#include "platform/stub/ManualClock.hpp"
+#include "platform/stub/MemoryTransport.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using namespace areomap;
+
+namespace {
+
+RoverNode g_node;  // ~41 MiB, static as on the rover
+uint8_t g_arena[platform::ArenaJpegDecoder::kArenaBytes];
+uint8_t g_queue[2 * 1024 * 1024];
+
+std::vector<uint8_t> encodeMarker(int64_t sequence, int8_t kind) {
+  stereo_pair_t p{};
+  p.sequence = sequence;
+  p.kind = kind;
+  p.panorama = "unit";
+  p.pair_id = static_cast<int32_t>(sequence);
+  // A valid CAHV model, so that the missing JPEG is what the node stops at.
+  p.left.model.type = camera_model_t::TYPE_CAHV;
+  p.left.model.a[0] = 1.0;
+  p.left.model.h_px[0] = 512.0;
+  p.left.model.h_px[1] = 500.0;
+  p.left.model.v_px[0] = 512.0;
+  p.left.model.v_px[2] = 500.0;
+  p.left.model.linearity = 1.0;
+  std::vector<uint8_t> b(static_cast<std::size_t>(p.getEncodedSize()));
+  (void)p.encode(b.data(), 0, static_cast<int>(b.size()));
+  return b;
+}
+
+struct LastStatus {
+  rover_status_t status;
+  int count = 0;
+  static void on(void* ctx, const char*, const uint8_t* data, std::size_t size) {
+    auto* self = static_cast<LastStatus*>(ctx);
+    if (ok(msgs::decodeMessage(data, size, self->status))) self->count += 1;
+  }
+};
+
+}  // namespace
+
+TEST_GROUP(RoverNodeStream){};
+
+// 0, 1, 3 (one missing), 2 (late: reordered), 3 again (duplicate), a truncated message, another type on the
+// channel, a pair without images, an unknown kind: each counted under its cause; no heap after start().
+TEST(RoverNodeStream, SequencesAndBadMessagesCountedWithoutHeap) {
+  platform::MemoryTransport out(g_queue, sizeof(g_queue));
+  platform::ArenaJpegDecoder jpeg(g_arena, sizeof(g_arena));
+  CHECK(ok(jpeg.open()));
+  platform::ManualClock clock(1'700'000'000'000'000, 1'000'000);
+  RoverOptions options;
+  options.log_to_stderr = false;
+  g_node.start(out, jpeg, clock, options);
+  LastStatus last;
+  CHECK(ok(out.subscribe(channels::kRoverStatus, &LastStatus::on, &last)));
+
+  std::vector<std::vector<uint8_t>> messages;
+  for (int64_t s : {0, 1, 3, 2, 3}) messages.push_back(encodeMarker(s, stereo_pair_t::KIND_PAIR));
+  std::vector<uint8_t> truncated = encodeMarker(4, stereo_pair_t::KIND_PAIR);
+  truncated.resize(truncated.size() - 10);
+  messages.push_back(truncated);
+  rover_status_t other{};
+  std::vector<uint8_t> wrong(static_cast<std::size_t>(other.getEncodedSize()));
+  (void)other.encode(wrong.data(), 0, static_cast<int>(wrong.size()));
+  messages.push_back(wrong);
+  messages.push_back(encodeMarker(5, 7));  // unknown kind
+  messages.push_back(encodeMarker(6, stereo_pair_t::KIND_END_OF_PANORAMA));
+
+  HeapAllocationScope scope;
+  for (const auto& m : messages) g_node.handleStereoPair(m.data(), m.size());
+  g_node.heartbeat();
+  const uint64_t allocations = scope.allocations();
+  for (int i = 0; i < 100 && ok(out.handle(0)); ++i) {
+  }
+  const RoverCounters& c = g_node.counters();
+  CHECK_EQUAL(0u, allocations);
+  CHECK_EQUAL(1, c.sequence_gaps);  // 4 (truncated: its sequence never read)
+  CHECK_EQUAL(1, c.duplicates);
+  CHECK_EQUAL(1, c.reordered);
+  // Pairs 0, 1, 3, 2 carry no JPEG: missing_field; the truncated one, the other type, the unknown kind.
+  CHECK_EQUAL(4, c.rejected_by_cause[static_cast<int>(Status::kMissingField)]);
+  CHECK_EQUAL(1, c.rejected_by_cause[static_cast<int>(Status::kTruncated)]);
+  CHECK_EQUAL(1, c.rejected_by_cause[static_cast<int>(Status::kUnsupported)]);
+  CHECK_EQUAL(1, c.rejected_by_cause[static_cast<int>(Status::kInvalidArgument)]);
+  CHECK_EQUAL(static_cast<int>(messages.size()), c.pairs_seen);
+  CHECK_EQUAL(0, c.pairs_accepted);
+  CHECK_TRUE(c.finished);
+  // The status on the wire says the same.
+  CHECK_TRUE(last.count > 0);
+  CHECK_EQUAL(1, last.status.sequence_gaps);
+  CHECK_EQUAL(4, last.status.rejected_by_cause[rover_status_t::CAUSE_MISSING_FIELD]);
+  CHECK_EQUAL(rover_status_t::STATE_FINISHED, last.status.state);
+  CHECK_TRUE(last.status.static_bytes >= static_cast<int64_t>(sizeof(RoverNode)));
+
+  // After the end marker, sequence 0 starts a new stream: not a duplicate.
+  const std::vector<uint8_t> again = encodeMarker(0, stereo_pair_t::KIND_PAIR);
+  g_node.handleStereoPair(again.data(), again.size());
+  CHECK_EQUAL(1, g_node.counters().duplicates);
+  CHECK_EQUAL(5, g_node.counters().rejected_by_cause[static_cast<int>(Status::kMissingField)]);
+}
