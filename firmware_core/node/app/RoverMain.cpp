@@ -59,6 +59,7 @@ areomap::ByteRing g_inbox(g_inbox_storage, kInboxBytes);
 areomap::ByteRing g_outbox(g_outbox_storage, kOutboxBytes);
 bool g_input_done = false;
 std::atomic<bool> g_stop{false};
+std::atomic<bool> g_finished{false};  // set by the pipeline thread after the final EO (read by the transport thread)
 uint64_t g_inbox_refused = 0;
 
 // The pipeline's Transport: encoded messages go into the outbox (copied, no heap).
@@ -168,6 +169,7 @@ void pipelineLoop(const Options& options, const areomap::platform::Clock& clock)
     }
     if (g_node.counters().finished && !finished_reported) {
       finished_reported = true;
+      g_finished.store(true);
       if (options.exit_at_end) done = true;
     }
     if (done && !have) break;
@@ -309,7 +311,7 @@ int main(int argc, char** argv) {
     }
     if (options.max_seconds > 0.0 && clock.monotonicUtime() - start_us > static_cast<int64_t>(options.max_seconds * 1e6))
       g_stop.store(true);
-    const bool finished = g_node.counters().finished && options.exit_at_end;
+    const bool finished = g_finished.load() && options.exit_at_end;
     if (g_stop.load() || finished) {
       std::lock_guard<std::mutex> lock(g_mutex);
       g_input_done = true;
