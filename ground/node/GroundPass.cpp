@@ -270,7 +270,7 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
   }
   report.seconds.emplace_back("write_adjustment", cli::nowSeconds() - t0);
   if (options.products_hook) {
-    ProductContext context{&dataset, out, &net, &stems, &network.apriori_of_image, &run.observations, &report};
+    ProductContext context{&dataset, out, &net, &stems, &network.apriori_of_image, &run.observations, &report, truth_root};
     options.products_hook(context);
   } else {
     report.warnings.push_back(

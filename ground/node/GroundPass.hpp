@@ -49,6 +49,7 @@ struct ProductContext {
   const std::vector<CameraModel>* apriori = nullptr;    // per network image
   const std::vector<ImageObservation>* ties = nullptr;  // tie observations (image = stem)
   AdjustReport* report = nullptr;  // add stage timings, warnings, truth.dem_rmse_m (written after the hook)
+  std::string truth_root;          // the folder holding truth/ ("" when none)
 };
 using ProductsHook = std::function<void(const ProductContext&)>;
 

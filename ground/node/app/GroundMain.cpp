@@ -12,6 +12,13 @@
 #include "platform/TransportUrl.hpp"
 #include "platform/posix/LcmLogReplay.hpp"
 #include "platform/posix/LcmTransport.hpp"
+#ifdef AREOMAP_HAVE_PRODUCTS
+#include <map>
+
+#include "ground/dataset/DemRaster.hpp"
+#include "ground/io/ImageFile.hpp"
+#include "ground/products/Products.hpp"
+#endif
 
 namespace {
 
@@ -62,6 +69,58 @@ void printSummary(const areomap::ground::GroundPassResult& p, const std::string&
   std::printf("ground: %zu product files in %s\n", p.files.size(), out.c_str());
 }
 
+#ifdef AREOMAP_HAVE_PRODUCTS
+// The products of ground/products (dense matching, DEM, ortho, previews, report.html) from the pass.
+void makeGroundProducts(const areomap::ground::ProductContext& c) {
+  using namespace areomap;
+  products::ProductInputs in;
+  in.site = c.dataset->name;
+  std::map<std::string, int> index_of_stem;
+  for (std::size_t i = 0; i < c.stems->size(); ++i) {
+    const std::string& stem = (*c.stems)[i];
+    int pair_index = 0;
+    bool is_right = false;
+    products::ProductImage image;
+    image.stem = stem;
+    if (c.dataset->findStem(stem, pair_index, is_right)) {
+      const Pair& pair = c.dataset->pairs[static_cast<std::size_t>(pair_index)];
+      image.grey = io::loadImage8(is_right ? pair.right->image_path : pair.left.image_path);
+    }
+    image.model = ground::adjustedModelOf(*c.net, static_cast<int>(i), (*c.apriori)[i]);
+    index_of_stem[stem] = static_cast<int>(in.images.size());
+    in.images.push_back(image);
+  }
+  for (const Pair& pair : c.dataset->pairs) {
+    products::ProductPair p;
+    p.id = pair.id;
+    p.sol = pair.sol;
+    const auto left = index_of_stem.find(pair.left.stem);
+    if (left == index_of_stem.end()) continue;
+    p.left = left->second;
+    if (pair.right) {
+      const auto right = index_of_stem.find(pair.right->stem);
+      p.right = right == index_of_stem.end() ? -1 : right->second;
+    }
+    in.pairs.push_back(p);
+  }
+  for (const ImageObservation& o : *c.ties) {
+    const auto it = index_of_stem.find(o.image);
+    if (it == index_of_stem.end()) continue;
+    products::ProductTie t;
+    t.point = static_cast<int>(o.point);
+    t.image = it->second;
+    t.pixel_px = Vec2(o.sample_px, o.line_px);
+    t.inter = o.kind == "inter";
+    in.ties.push_back(t);
+  }
+  in.gimbal_site_m = c.net->rig.gimbal_m[0];
+  if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
+    in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
+  }
+  products::makeProducts(in, products::ProductOptions{}, c.out_dir, *c.report);
+}
+#endif
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -78,6 +137,9 @@ int main(int argc, char** argv) {
     options.idle_timeout_s = args.number("--idle-timeout-s", 120.0);
     options.first_message_timeout_s = args.number("--first-timeout-s", 600.0);
     const bool summary_json = args.flag("--summary-json");
+#ifdef AREOMAP_HAVE_PRODUCTS
+    options.pass.products_hook = makeGroundProducts;
+#endif
     args.finish();
     if (lcm.has_value() == dataset_dir.has_value()) throw cli::UsageError("give exactly one of --lcm URL and --dataset DIR");
     for (double v : {options.rover_wait_s, options.rover_silent_s, options.idle_timeout_s, options.first_message_timeout_s}) {
