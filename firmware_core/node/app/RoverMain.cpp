@@ -50,6 +50,16 @@ static_assert(sizeof(areomap::RoverNode) + kInboxBytes + kOutboxBytes + kReplayB
                   areomap::kStaticMemoryBudgetBytes,
               "the rover's static memory exceeds its 64 MiB budget");
 
+// The 1 Hz heartbeat while the pipeline is busy with a pair (a matcher call takes seconds): the transport
+// thread re-publishes the last status with a fresh utime. It numbers every AREOMAP_ROVER_STATUS it sends
+// (the pipeline's and its own) in one series, so the sequence has no gaps and no repeats.
+constexpr std::size_t kMaxStatusBytes = 4096;  // an encoded rover_status_t is < 1 KiB (last_error <= 256)
+constexpr uint8_t kStatusTag = 3;              // index of AREOMAP_ROVER_STATUS in kChannels
+uint8_t g_last_status[kMaxStatusBytes];
+std::size_t g_last_status_bytes = 0;
+int64_t g_last_status_us = 0;
+int64_t g_status_sequence = 0;
+
 const char* const kChannels[] = {areomap::channels::kTiePoints, areomap::channels::kEoSolution,
                                  areomap::channels::kCoarseDem, areomap::channels::kRoverStatus};
 
@@ -132,6 +142,39 @@ bool parseNumber(const char* text, double& out) {
 }
 
 void onSignal(int) { g_stop.store(true); }
+
+void putInt64(uint8_t* at, int64_t value) {
+  const auto v = static_cast<uint64_t>(value);
+  for (int i = 0; i < 8; ++i) at[i] = static_cast<uint8_t>(v >> (56 - 8 * i));
+}
+
+// Publishes a status: the bytes after the fingerprint are utime (8) and sequence (8), rewritten here.
+void publishStatus(areomap::platform::Transport* output, const areomap::platform::Clock& clock) {
+  if (g_last_status_bytes < 24) return;
+  putInt64(g_last_status + 8, clock.wallUtime());
+  putInt64(g_last_status + 16, g_status_sequence++);
+  g_last_status_us = clock.monotonicUtime();
+  if (output != nullptr) (void)output->publish(kChannels[kStatusTag], g_last_status, g_last_status_bytes);
+}
+
+// Outbox -> LCM (the transport thread only).
+void drainOutbox(areomap::platform::Transport* output, const areomap::platform::Clock& clock) {
+  for (;;) {
+    uint8_t tag = 0;
+    const uint8_t* data = nullptr;
+    std::size_t size = 0;
+    std::unique_lock<std::mutex> lock(g_mutex);
+    if (!g_outbox.front(tag, data, size)) break;
+    if (tag == kStatusTag && size <= kMaxStatusBytes) {
+      std::memcpy(g_last_status, data, size);
+      g_last_status_bytes = size;
+      publishStatus(output, clock);
+    } else if (output != nullptr) {
+      (void)output->publish(kChannels[tag], data, size);
+    }
+    g_outbox.pop();
+  }
+}
 
 void pipelineLoop(const Options& options, const areomap::platform::Clock& clock) {
   const uint64_t allocs_thread_start = areomap::heapAllocationCountThisThread();
@@ -299,15 +342,10 @@ int main(int argc, char** argv) {
     } else {
       std::this_thread::sleep_for(std::chrono::milliseconds(kHandleTimeoutMs));
     }
-    // Outbox -> LCM.
-    for (;;) {
-      uint8_t tag = 0;
-      const uint8_t* data = nullptr;
-      std::size_t size = 0;
-      std::unique_lock<std::mutex> lock(g_mutex);
-      if (!g_outbox.front(tag, data, size)) break;
-      if (output != nullptr) (void)output->publish(kChannels[tag], data, size);
-      g_outbox.pop();
+    drainOutbox(output, clock);
+    if (g_last_status_bytes > 0 &&
+        clock.monotonicUtime() - g_last_status_us >= static_cast<int64_t>(options.heartbeat_s * 1e6)) {
+      publishStatus(output, clock);
     }
     if (options.max_seconds > 0.0 && clock.monotonicUtime() - start_us > static_cast<int64_t>(options.max_seconds * 1e6))
       g_stop.store(true);
@@ -327,15 +365,7 @@ int main(int argc, char** argv) {
       }
     }
     pipeline.join();
-    // Last publications.
-    for (;;) {
-      uint8_t tag = 0;
-      const uint8_t* data = nullptr;
-      std::size_t size = 0;
-      if (!g_outbox.front(tag, data, size)) break;
-      if (output != nullptr) (void)output->publish(kChannels[tag], data, size);
-      g_outbox.pop();
-    }
+    drainOutbox(output, clock);  // last publications
     break;
   }
   const areomap::RoverCounters& c = g_node.counters();

@@ -34,10 +34,17 @@ struct Listener {
   std::vector<int64_t> tiepoint_sequences;
   rover_status_t status;
   int statuses = 0;
+  std::vector<int64_t> status_sequences;
+  std::vector<double> status_times_s;
   bool final_eo = false;
   static void onStatus(void* ctx, const char*, const uint8_t* data, std::size_t size) {
     auto* self = static_cast<Listener*>(ctx);
-    if (ok(msgs::decodeMessage(data, size, self->status))) self->statuses += 1;
+    if (ok(msgs::decodeMessage(data, size, self->status))) {
+      self->statuses += 1;
+      self->status_sequences.push_back(self->status.sequence);
+      self->status_times_s.push_back(
+          std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count());
+    }
   }
   static void onTies(void* ctx, const char*, const uint8_t* data, std::size_t size) {
     tiepoints_t t;
@@ -121,6 +128,14 @@ std::string runRover(bool& no_network) {
     if (listener.tiepoint_sequences[i] != static_cast<int64_t>(i)) return "gap in the rover's tie-point messages";
   }
   if (listener.tiepoint_sequences.size() != events.size() - 1) return "tie-point messages lost";
+  // Status: one series without gaps or repeats, at least every ~1 s (the 1 Hz heartbeat) while working.
+  double longest_s = 0.0;
+  for (std::size_t i = 1; i < listener.status_sequences.size(); ++i) {
+    if (listener.status_sequences[i] != listener.status_sequences[i - 1] + 1) return "status sequence broken";
+    longest_s = std::max(longest_s, listener.status_times_s[i] - listener.status_times_s[i - 1]);
+  }
+  std::printf("rover status: %zu messages, longest interval %.2f s\n", listener.status_sequences.size(), longest_s);
+  if (longest_s > 1.5) return "status heartbeat slower than 1 Hz";
   return "";
 }
 
