@@ -2,7 +2,9 @@
 //   transport thread (main): LCM (udpm://, memq://) or the heap-free log replay (file://), copies every
 //     AREOMAP_STEREO_PAIR message into the inbox ring, publishes what the pipeline put into the outbox;
 //   pipeline thread: takes messages from the inbox and runs RoverNode (decode, ties, DEM, adjustment),
-//     publishes through the outbox; a status heartbeat every --heartbeat-s seconds.
+//     publishes through the outbox; a status after every pair and every --heartbeat-s seconds when idle.
+//   While the pipeline is busy (a navcam pair takes ~2 s), the transport thread re-sends the last status
+//   with a fresh utime every --heartbeat-s seconds; it numbers all statuses in one series.
 // All buffers are static. heap_allocs_after_init = the pipeline thread's allocations after start-up
 // (heapAllocationCountThisThread); the whole process's count (LCM's receive thread included) is printed
 // at exit beside it.
