@@ -201,7 +201,7 @@ print("=" * 78)
 print("transport: %s" % ran)
 print("stream:    %s pairs received, %s gaps, %s duplicates, %s reordered, rejected %s" % (
     s.get("pairs"), s.get("gaps"), s.get("duplicates"), s.get("reordered"), s.get("rejected") or "none"))
-print("ties:      %s intra + %s inter observations (%s rejected as outliers)" % (tp.get("intra"), tp.get("inter"), tp.get("rejected")))
+print("ties:      tie points %s intra, %s inter (%s observations rejected as outliers)" % (tp.get("intra"), tp.get("inter"), tp.get("rejected")))
 print("ground:    method 1 mean distance %.3f px before -> %.3f px after (integrated, %s iterations; fast %s sweeps)" % (
     m1.get("before", {}).get("dist", float("nan")), m1.get("after", {}).get("dist", float("nan")), r.get("iterations"),
     r.get("ground", {}).get("fast_sweeps")))
