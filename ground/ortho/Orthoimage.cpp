@@ -158,26 +158,61 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
   std::vector<double> grey_diff, geo;
   const int half = options.seam_patch_half_px;
   const int search = options.seam_search_px;
+  const int span = half + search + 1;
+  const int w = 2 * span + 1;
+  // The two candidates are compared in ortho space: each image resampled through the DEM onto a local
+  // ground grid around the seam cell, spaced one pixel of the chosen image (so that the comparison keeps
+  // the image's resolution however coarse the ortho cell); with a right DEM and right models both patches
+  // coincide. The best shift of one against the other (NCC + parabola) is in pixels of the chosen image.
+  cv::Mat pa(w, w, CV_8U), pb(w, w, CV_8U);
   for (std::size_t k = 0; k < seam.size(); k += stride) {
     const cv::Point p = seam[k];
     const int a = out.source.at<int16_t>(p);
     const int b = second.at<int16_t>(p);
-    const cv::Vec2f pa = best_px.at<cv::Vec2f>(p);
-    const cv::Vec2f pb = second_px.at<cv::Vec2f>(p);
+    const cv::Vec2f qa = best_px.at<cv::Vec2f>(p);
+    const cv::Vec2f qb = second_px.at<cv::Vec2f>(p);
     const cv::Mat& ga = sources[a].grey;
     const cv::Mat& gb = sources[b].grey;
-    grey_diff.push_back(bilinear(ga, pa[0], pa[1]) - bilinear(gb, pb[0], pb[1]));
-    const double margin = half + search + 2;
-    if (!inside(ga, Vec2(pa[0], pa[1]), margin) || !inside(gb, Vec2(pb[0], pb[1]), margin)) continue;
-    // The images differ in scale and rotation only a little across a seam (neighbouring views of the same
-    // ground): compare b's patch at its projection with a's patch at shifted positions.
+    grey_diff.push_back(bilinear(ga, qa[0], qa[1]) - bilinear(gb, qb[0], qb[1]));
+    const double n0 = out.grid.northOfRow(p.y), e0 = out.grid.eastOfCol(p.x);
+    double z0 = 0;
+    if (!demElevation(dem, n0, e0, z0)) continue;
+    // Pixels per metre on the ground here, from the projection of points 1 cm north and east.
+    Vec2 i0, in, ie;
+    if (project(sources[a].model, Vec3(n0, e0, -z0), i0) != Status::kOk ||
+        project(sources[a].model, Vec3(n0 + 0.01, e0, -z0), in) != Status::kOk ||
+        project(sources[a].model, Vec3(n0, e0 + 0.01, -z0), ie) != Status::kOk) {
+      continue;
+    }
+    const double px_per_m = std::max((in - i0).norm(), (ie - i0).norm()) / 0.01;
+    if (!(px_per_m > 0)) continue;
+    const double step_m = 1.0 / px_per_m;
+    bool ok = true;
+    for (int dy = -span; dy <= span && ok; ++dy) {
+      for (int dx = -span; dx <= span && ok; ++dx) {
+        const double north = n0 - dy * step_m, east = e0 + dx * step_m;
+        double z = 0;
+        if (!demElevation(dem, north, east, z)) { ok = false; break; }
+        const Vec3 g(north, east, -z);
+        Vec2 ia, ib;
+        if (project(sources[a].model, g, ia) != Status::kOk || project(sources[b].model, g, ib) != Status::kOk ||
+            !inside(ga, ia, 0.0) || !inside(gb, ib, 0.0)) {
+          ok = false;
+          break;
+        }
+        pa.at<uint8_t>(dy + span, dx + span) = static_cast<uint8_t>(std::lround(bilinear(ga, ia.x(), ia.y())));
+        pb.at<uint8_t>(dy + span, dx + span) = static_cast<uint8_t>(std::lround(bilinear(gb, ib.x(), ib.y())));
+      }
+    }
+    const double px_per_cell = 1.0;  // one sample is one pixel of the chosen image
+    if (!ok || !(px_per_cell > 0)) continue;
     double best_score = -3;
     int bx = 0, by = 0;
     const int n = 2 * search + 1;
     std::vector<double> score(static_cast<std::size_t>(n * n), -3);
     for (int dy = -search; dy <= search; ++dy) {
       for (int dx = -search; dx <= search; ++dx) {
-        const double v = ncc(ga, pa[0] + dx, pa[1] + dy, gb, pb[0], pb[1], half);
+        const double v = ncc(pa, span + dx, span + dy, pb, span, span, half);
         score[static_cast<std::size_t>((dy + search) * n + dx + search)] = v;
         if (v > best_score) { best_score = v; bx = dx; by = dy; }
       }
@@ -186,7 +221,7 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
     auto at = [&](int dx, int dy) { return score[static_cast<std::size_t>((dy + search) * n + dx + search)]; };
     const double ox = bx + parabolaOffset(at(bx - 1, by), at(bx, by), at(bx + 1, by));
     const double oy = by + parabolaOffset(at(bx, by - 1), at(bx, by), at(bx, by + 1));
-    geo.push_back(std::hypot(ox, oy));
+    geo.push_back(std::hypot(ox, oy) * px_per_cell);
   }
   double g2 = 0;
   for (double d : grey_diff) g2 += d * d;
@@ -198,6 +233,7 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
     out.seams.geometric_rms_px = std::sqrt(s2 / geo.size());
     std::sort(geo.begin(), geo.end());
     out.seams.geometric_p95_px = geo[std::min(geo.size() - 1, static_cast<std::size_t>(0.95 * geo.size()))];
+    out.seams.geometric_median_px = geo[geo.size() / 2];
   }
   return out;
 }

@@ -2,11 +2,12 @@
 // south, elevation up = -Z) is back-projected into the images with the adjusted camera models; the grey
 // value comes from the image whose projection lies nearest its image centre (bilinear resampling).
 //
-// Seams: where the chosen image changes between neighbouring cells, the cell is a seam cell. At each seam
-// cell both candidate images are sampled; the grey difference and the geometric disagreement are measured.
-// The geometric disagreement is the offset (pixels, in the chosen image) between the projection of the
-// cell and the position that best matches the other image's patch there (NCC search +-3 px, parabolic
-// sub-pixel), i.e. how far the two images disagree about where the ground is.
+// Seams: where the chosen image changes between neighbouring cells, the cell is a seam cell. At seam cells
+// both candidate images are compared: the grey difference, and the geometric disagreement, measured in
+// ortho space: each image is resampled through the DEM (bilinear) onto a local ground grid around the seam
+// cell spaced one pixel of the chosen image; the best shift between the two patches (NCC search
+// +-seam_search samples, parabolic) is the disagreement in pixels of the chosen image. With right models
+// and a right DEM the two agree; a DEM or EO error shows.
 #pragma once
 
 #include <vector>
@@ -26,8 +27,8 @@ struct OrthoSource {
 struct OrthoOptions {
   int supersample = 1;          // ortho cells per DEM cell along each axis (ortho grid = DEM grid / this)
   double border_px = 2.0;       // projections closer than this to the image edge are not used
-  int seam_search_px = 3;       // NCC search radius for the seam check
-  int seam_patch_half_px = 5;   // half size of the NCC patch
+  int seam_search_px = 3;       // NCC search radius for the seam check, pixels
+  int seam_patch_half_px = 5;   // half size of the NCC patch, pixels
   int max_seam_samples = 4000;  // seam cells checked (evenly subsampled)
 };
 
@@ -37,6 +38,7 @@ struct SeamStats {
   double grey_rms = 0.0;             // RMS grey difference of the two candidates at seam cells
   double geometric_rms_px = 0.0;     // RMS offset (see above)
   double geometric_p95_px = 0.0;
+  double geometric_median_px = 0.0;  // robust figure (occlusions at rocks make the RMS heavy-tailed)
 };
 
 struct OrthoResult {

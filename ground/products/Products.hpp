@@ -70,6 +70,7 @@ struct ProductOptions {
   double max_point_sigma_m = 0.5;  // points with a larger height sigma are dropped
   double seam_m = 20.0;         // kriging inside, equi-parallax interpolation outside
   int dense_max_disparity_px = 192;
+  std::size_t ply_max_points = 2000000;  // points.ply is thinned evenly to this many points
   bool write_overlays = true;   // overlays/<stem>.png (set false when the ties tool wrote them)
 };
 
@@ -80,7 +81,7 @@ struct ProductsResult {
   int pairs_matched = 0;
   std::optional<DemGrid> dem;         // the DEM written (absent when no points)
   std::optional<double> dem_rmse_m;   // against truth_dem over cells present in both
-  double ortho_seam_px = -1.0;        // RMS geometric disagreement along ortho seams (-1: no seams)
+  double ortho_seam_px = -1.0;        // median geometric disagreement at ortho seams, px (-1: no seams)
 };
 
 // Makes every product above in `out_dir` (created if needed). Progress lines on stderr.
