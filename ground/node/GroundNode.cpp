@@ -94,6 +94,7 @@ GroundNodeResult runGroundNode(platform::Transport& transport, const std::string
   result.rover.tie_messages = collector.roverTiePointMessages();
   result.rover.tie_observations = collector.roverTieObservations();
   result.rover.dem_messages = collector.roverDemMessages();
+  result.rover.ties = collector.roverTies();
   result.rover.warnings = collector.roverWarnings();
 
   const std::string& out = options.pass.out_dir;

@@ -262,6 +262,7 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
       rover_json["sequence_gaps"] = s.sequence_gaps;
       if (!s.last_error.empty()) report.warnings.push_back("The rover reported: " + s.last_error);
     }
+    if (!rover->ties.empty()) writeObservationsCsv(out + "/rover_tiepoints.csv", rover->ties, true);
     rover_json["tiepoint_messages"] = rover->tie_messages;
     rover_json["tiepoint_observations"] = rover->tie_observations;
     rover_json["coarse_dem_messages"] = rover->dem_messages;

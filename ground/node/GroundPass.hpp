@@ -8,7 +8,7 @@
 //   2. the fast adjustment (its outlier rejection and method-1 figures), then the INTEGRATED adjustment
 //      (Ceres sparse Schur, ground/adjust) from the a-priori EO with the same rejections: the reference;
 //   3. products: models/<stem>.cahvor (integrated), eo.csv, tiepoints.csv, rover_models/<stem>.cahvor (the
-//      rover's last EO), report.json with `stream`, `rover` (incl. eo_vs_ground_px) and `truth` when truth
+//      rover's last EO), rover_tiepoints.csv (the rover's TIEPOINTS), report.json with `stream`, `rover` (incl. eo_vs_ground_px) and `truth` when truth
 //      exists; then the products hook (DEM, ortho, previews: ground/products) when one is set.
 #pragma once
 
@@ -37,6 +37,7 @@ struct RoverInputs {
   int32_t tie_messages = 0;
   int32_t tie_observations = 0;
   int32_t dem_messages = 0;
+  std::vector<ImageObservation> ties;  // written as rover_tiepoints.csv
   std::vector<std::string> warnings;
 };
 

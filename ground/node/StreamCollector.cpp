@@ -110,6 +110,20 @@ void StreamCollector::receive(const std::string& channel, const uint8_t* data, s
     if (!track(ties.sequence)) return;
     ++rover_tie_messages_;
     rover_tie_observations_ += ties.num_observations;
+    for (int32_t k = 0; k < ties.num_observations; ++k) {
+      const int32_t image = ties.image_index[static_cast<std::size_t>(k)];
+      if (image < 0 || image >= ties.num_images) {
+        reject("rover_tiepoints_image_index");
+        continue;
+      }
+      ImageObservation o;
+      o.point = ties.point_id[static_cast<std::size_t>(k)];
+      o.image = ties.image_stems[static_cast<std::size_t>(image)];
+      o.sample_px = ties.sample_px[static_cast<std::size_t>(k)];
+      o.line_px = ties.line_px[static_cast<std::size_t>(k)];
+      o.kind = ties.kind[static_cast<std::size_t>(k)] == tiepoints_t::KIND_INTER ? "inter" : "intra";
+      rover_ties_.push_back(o);
+    }
   } else if (channel == channels::kCoarseDem) {
     coarse_dem_t dem;
     const std::string cause = decodeOrCause(data, size, dem);

@@ -24,6 +24,7 @@
 #include "areomap/stereo_pair_t.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/TruthFiles.hpp"
 
 namespace areomap::ground {
 
@@ -94,6 +95,8 @@ class StreamCollector {
   int32_t roverTiePointMessages() const { return rover_tie_messages_; }
   int32_t roverTieObservations() const { return rover_tie_observations_; }
   int32_t roverDemMessages() const { return rover_dem_messages_; }
+  // Every tie observation the rover sent (image = stem; kind "intra"/"inter"), in arrival order.
+  const std::vector<ImageObservation>& roverTies() const { return rover_ties_; }
   std::vector<std::string> roverWarnings() const;
 
   // Writes the kept pairs as a dataset folder (DIR/images/<stem>.png, DIR/models/<stem>.cahvor,
@@ -124,6 +127,7 @@ class StreamCollector {
   int32_t rover_tie_messages_ = 0;
   int32_t rover_tie_observations_ = 0;
   int32_t rover_dem_messages_ = 0;
+  std::vector<ImageObservation> rover_ties_;
   std::map<int32_t, std::vector<double>> gimbal_by_sol_;
 };
 
