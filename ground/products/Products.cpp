@@ -141,8 +141,8 @@ std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, cons
 // Drops gross outliers before gridding: points whose height sigma exceeds `max_sigma_m`, and points far
 // from the median height of their polar bin (1 m in range x 2 degrees in azimuth about the gimbal centre):
 // more than max(0.3 m, 6 MAD-sigmas) away. Mismatches at depth edges and near the horizon are such points.
-std::vector<dense::CloudPoint> dropOutliers(const std::vector<dense::CloudPoint>& in, const Vec3& centre,
-                                            double max_sigma_m, long long& dropped) {
+// In place (the cloud of a full panorama is gigabytes).
+void dropOutliers(std::vector<dense::CloudPoint>& in, const Vec3& centre, double max_sigma_m, long long& dropped) {
   std::unordered_map<long long, std::vector<float>> bins;
   auto key = [&](const dense::CloudPoint& p) {
     const Vec3 d = p.site_m - centre;
@@ -163,16 +163,17 @@ std::vector<dense::CloudPoint> dropOutliers(const std::vector<dense::CloudPoint>
     const float mad = v[v.size() / 2];
     stat[kv.first] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
   }
-  std::vector<dense::CloudPoint> out;
-  out.reserve(in.size());
-  for (const dense::CloudPoint& p : in) {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const dense::CloudPoint& p = in[i];
     if (p.sigmaHeight_m() > max_sigma_m) continue;
     const auto& st = stat[key(p)];
     if (std::fabs(-p.site_m.z() - st.first) > st.second) continue;
-    out.push_back(p);
+    if (kept != i) in[kept] = p;
+    ++kept;
   }
-  dropped = static_cast<long long>(in.size() - out.size());
-  return out;
+  dropped = static_cast<long long>(in.size() - kept);
+  in.resize(kept);
 }
 
 // Pixels of a rectified image that come from inside the original, eroded by the matching window.
@@ -331,7 +332,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
   report.seconds.emplace_back("dense", t_dense);
   if (!cloud.empty()) {
     long long dropped = 0;
-    cloud = dropOutliers(cloud, in.gimbal_site_m, options.max_point_sigma_m, dropped);
+    dropOutliers(cloud, in.gimbal_site_m, options.max_point_sigma_m, dropped);
     cli::info("dense cloud: " + std::to_string(cloud.size()) + " points (" + std::to_string(dropped) +
               " outliers dropped)");
   }
@@ -375,6 +376,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       p.line = c.line;
       pts.push_back(p);
     }
+    std::vector<dense::CloudPoint>().swap(cloud);  // the DEM needs only the heights: free the cloud
     double extent = 0;
     for (const dem::DemPoint& p : pts) {
       extent = std::max({extent, std::fabs(p.north_m - in.gimbal_site_m.x()), std::fabs(p.east_m - in.gimbal_site_m.y())});
