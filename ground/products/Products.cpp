@@ -138,20 +138,50 @@ std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, cons
   return out;
 }
 
+// A dense point as the products keep it (56 bytes instead of CloudPoint's 120: a navcam panorama has
+// ~1.7e7 of them): the DEM point (north, east, elevation, height sigma, equi-parallax line) and what
+// points.ply needs besides (sigma per axis, grey).
+struct StoredPoint {
+  dem::DemPoint dem;
+  float sigma_xyz_m[3] = {0.f, 0.f, 0.f};
+  uint8_t grey = 0;
+};
+
+StoredPoint stored(const dense::CloudPoint& c) {
+  StoredPoint p;
+  p.dem.north_m = c.site_m.x();
+  p.dem.east_m = c.site_m.y();
+  p.dem.elevation_m = -c.site_m.z();
+  p.dem.sigma_m = c.sigmaHeight_m();
+  p.dem.line = c.line;
+  for (int k = 0; k < 3; ++k) p.sigma_xyz_m[k] = static_cast<float>(std::sqrt(std::max(0.0, c.covariance_m2(k, k))));
+  p.grey = c.grey;
+  return p;
+}
+
+dense::CloudPoint cloudPoint(const StoredPoint& p) {
+  dense::CloudPoint c;
+  c.site_m = Vec3(p.dem.north_m, p.dem.east_m, -p.dem.elevation_m);
+  for (int k = 0; k < 3; ++k) c.covariance_m2(k, k) = static_cast<double>(p.sigma_xyz_m[k]) * p.sigma_xyz_m[k];
+  c.grey = p.grey;
+  c.line = p.dem.line;
+  return c;
+}
+
 // Drops gross outliers before gridding: points whose height sigma exceeds `max_sigma_m`, and points far
 // from the median height of their polar bin (1 m in range x 2 degrees in azimuth about the gimbal centre):
 // more than max(0.3 m, 6 MAD-sigmas) away. Mismatches at depth edges and near the horizon are such points.
 // In place (the cloud of a full panorama is gigabytes).
-void dropOutliers(std::vector<dense::CloudPoint>& in, const Vec3& centre, double max_sigma_m, long long& dropped) {
+void dropOutliers(std::vector<StoredPoint>& in, const Vec3& centre, double max_sigma_m, long long& dropped) {
   std::unordered_map<long long, std::vector<float>> bins;
-  auto key = [&](const dense::CloudPoint& p) {
-    const Vec3 d = p.site_m - centre;
-    const long long r = static_cast<long long>(std::floor(d.head<2>().norm()));
-    const long long a = static_cast<long long>(std::floor((std::atan2(d.y(), d.x()) + M_PI) / (2.0 * M_PI / 180.0)));
+  auto key = [&](const StoredPoint& p) {
+    const double dn = p.dem.north_m - centre.x(), de = p.dem.east_m - centre.y();
+    const long long r = static_cast<long long>(std::floor(std::hypot(dn, de)));
+    const long long a = static_cast<long long>(std::floor((std::atan2(de, dn) + M_PI) / (2.0 * M_PI / 180.0)));
     return r * 1000 + a;
   };
-  for (const dense::CloudPoint& p : in) {
-    if (p.sigmaHeight_m() <= max_sigma_m) bins[key(p)].push_back(static_cast<float>(-p.site_m.z()));
+  for (const StoredPoint& p : in) {
+    if (p.dem.sigma_m <= max_sigma_m) bins[key(p)].push_back(static_cast<float>(p.dem.elevation_m));
   }
   std::unordered_map<long long, std::pair<float, float>> stat;  // median, tolerance
   for (auto& kv : bins) {
@@ -165,10 +195,10 @@ void dropOutliers(std::vector<dense::CloudPoint>& in, const Vec3& centre, double
   }
   std::size_t kept = 0;
   for (std::size_t i = 0; i < in.size(); ++i) {
-    const dense::CloudPoint& p = in[i];
-    if (p.sigmaHeight_m() > max_sigma_m) continue;
+    const StoredPoint& p = in[i];
+    if (p.dem.sigma_m > max_sigma_m) continue;
     const auto& st = stat[key(p)];
-    if (std::fabs(-p.site_m.z() - st.first) > st.second) continue;
+    if (std::fabs(p.dem.elevation_m - st.first) > st.second) continue;
     if (kept != i) in[kept] = p;
     ++kept;
   }
@@ -224,7 +254,16 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
   for (const ProductTie& t : in.ties) tie_px[{t.image, t.point}] = t.pixel_px;
 
   // 1. Rectify, match and triangulate every pair.
-  std::vector<dense::CloudPoint> cloud;
+  std::vector<StoredPoint> cloud;
+  {
+    // Reserved for the largest possible cloud (address space only: pages are touched as points arrive), so
+    // that growing never copies gigabytes or doubles the footprint.
+    std::size_t most = 0;
+    for (const ProductPair& pair : in.pairs) {
+      if (pair.left >= 0 && pair.left < static_cast<int>(in.images.size())) most += in.images[pair.left].grey.total();
+    }
+    cloud.reserve(most);
+  }
   double t_rect = 0, t_dense = 0, t_tri = 0;
   std::set<int> sols;
   {
@@ -309,7 +348,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       for (dense::CloudPoint& p : pts) {
         const double range = (p.site_m - in.gimbal_site_m).head<2>().norm();
         if (range > options.max_range_m) continue;
-        cloud.push_back(p);
+        cloud.push_back(stored(p));
         ++kept;
       }
       t_tri += cli::nowSeconds() - t0;
@@ -348,11 +387,9 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       const std::size_t stride =
           std::max<std::size_t>(1, (cloud.size() + options.ply_max_points - 1) / std::max<std::size_t>(1, options.ply_max_points));
       std::vector<dense::CloudPoint> thinned;
-      if (stride > 1) {
-        thinned.reserve(cloud.size() / stride + 1);
-        for (std::size_t i = 0; i < cloud.size(); i += stride) thinned.push_back(cloud[i]);
-      }
-      dense::writePly(out_dir + "/points.ply", stride > 1 ? thinned : cloud,
+      thinned.reserve(cloud.size() / stride + 1);
+      for (std::size_t i = 0; i < cloud.size(); i += stride) thinned.push_back(cloudPoint(cloud[i]));
+      dense::writePly(out_dir + "/points.ply", thinned,
                       "areomap " + in.site + " site frame; every " + std::to_string(stride) + ". dense point");
       ctx.result.files.push_back(out_dir + "/points.ply");
     } catch (const std::exception& e) {
@@ -367,16 +404,8 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
   if (!cloud.empty()) {
     std::vector<dem::DemPoint> pts;
     pts.reserve(cloud.size());
-    for (const dense::CloudPoint& c : cloud) {
-      dem::DemPoint p;
-      p.north_m = c.site_m.x();
-      p.east_m = c.site_m.y();
-      p.elevation_m = -c.site_m.z();
-      p.sigma_m = c.sigmaHeight_m();
-      p.line = c.line;
-      pts.push_back(p);
-    }
-    std::vector<dense::CloudPoint>().swap(cloud);  // the DEM needs only the heights: free the cloud
+    for (const StoredPoint& c : cloud) pts.push_back(c.dem);
+    std::vector<StoredPoint>().swap(cloud);  // the DEM needs only the heights: free the cloud
     double extent = 0;
     for (const dem::DemPoint& p : pts) {
       extent = std::max({extent, std::fabs(p.north_m - in.gimbal_site_m.x()), std::fabs(p.east_m - in.gimbal_site_m.y())});
@@ -475,7 +504,10 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
   if (ctx.result.dem) {
     const cv::Mat p = demPreview(*ctx.result.dem);
     writePng(ctx, out_dir + "/dem.png", p);
-    html.products.push_back({"DEM (colour relief, hillshade), cell " + std::to_string(ctx.result.dem->cell_m) + " m", p});
+    char caption[96];
+    std::snprintf(caption, sizeof caption, "DEM (colour relief, hillshade from the north-west), cell %.3f m",
+                  ctx.result.dem->cell_m);
+    html.products.push_back({caption, p});
   }
   if (have_ortho) {
     const cv::Mat p = orthoPreview(orth.image, orth.valid, orth.grid.cell_m);
