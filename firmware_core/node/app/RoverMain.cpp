@@ -194,8 +194,9 @@ void pipelineLoop(const Options& options, const areomap::platform::Clock& clock)
         g_wake.wait_for(lock, std::chrono::milliseconds(50));
       }
       uint8_t tag = 0;
-      have = g_inbox.front(tag, message, size);
-      done = (g_input_done || g_stop.load()) && g_inbox.records() == 0;
+      // A signal stops after the message in hand; the end of the input lets the inbox drain first.
+      have = !g_stop.load() && g_inbox.front(tag, message, size);
+      done = g_stop.load() || (g_input_done && g_inbox.records() == 0);
     }
     if (have) {
       // Processed in place: the record stays in the ring (push never overwrites it) until popped here.
@@ -357,15 +358,12 @@ int main(int argc, char** argv) {
       g_input_done = true;
       g_wake.notify_all();
     }
-    if (!pipeline.joinable()) break;
+    bool join = g_stop.load();
     {
       std::lock_guard<std::mutex> lock(g_mutex);
-      if (g_input_done && g_inbox.records() == 0 && (g_stop.load() || finished || replay)) {
-        // fallthrough to join below
-      } else {
-        continue;
-      }
+      join = join || (g_input_done && g_inbox.records() == 0 && (finished || replay));
     }
+    if (!join) continue;
     pipeline.join();
     drainOutbox(output, clock);  // last publications
     break;
