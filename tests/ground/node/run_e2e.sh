@@ -74,6 +74,15 @@ assert "Pair 6 " in w and "Pair 7 " in w and "message 2 " in w and "message 4 " 
 assert r["method1_px"]["after"]["dist"] < 0.2 and r["truth"]["eo_px"] < r["truth"]["eo_px_before"]
 PY
 
+# The same pass without LCM on the dataset folder itself (issue 10 uses it): no stream or rover keys.
+"$BUILD/bin/areomap-ground" --dataset "$SCRATCH/tiny" --out "$SCRATCH/direct" > /dev/null 2>&1 || fail "--dataset exited $?"
+python3 -c "
+import json, sys
+r = json.load(open('$SCRATCH/direct/report.json'))
+assert 'stream' not in r and 'rover' not in r and r['truth']['eo_px'] < 1.0, 'direct report'
+print('e2e tiny --dataset: truth eo %.3f px' % r['truth']['eo_px'])
+" || fail "--dataset report"
+
 # Exit codes.
 "$BUILD/bin/areomap-ground" --help > /dev/null || fail "--help"
 set +e
