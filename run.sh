@@ -113,15 +113,19 @@ timed() {
 }
 
 # 3. The nodes over udpm, and the replay.
+# A full-speed replay delivers the whole panorama (~15 MB for navcam) in milliseconds while the rover takes
+# about a second per pair: what its static inbox (14 MiB) cannot hold waits in the kernel's socket buffer,
+# so that buffer is sized for a whole panorama (kernel memory, outside the rover's static budget).
+RECV_BUF_BYTES=67108864
 run_udpm() {
-  local url="udpm://239.255.76.67:$(( 20000 + $$ % 20000 ))?ttl=0&recv_buf_size=8388608"
+  local url="udpm://239.255.76.67:$(( 20000 + $$ % 20000 ))?ttl=0&recv_buf_size=$RECV_BUF_BYTES"
   rm -rf "$PRODUCTS"
   local rmem
   rmem=$(sysctl -n net.core.rmem_max 2> /dev/null || echo 0)
-  if [[ "$rmem" -lt 8388608 && $(id -u) -eq 0 ]]; then
-    sysctl -q -w net.core.rmem_max=8388608 && echo "run: raised net.core.rmem_max from $rmem to 8388608 (UDP receive buffers)"
-  elif [[ "$rmem" -lt 8388608 ]]; then
-    echo "run: warning: net.core.rmem_max is $rmem (< 8 MiB) and this is not root: large messages may be lost (counted as gaps)"
+  if [[ "$rmem" -lt $RECV_BUF_BYTES && $(id -u) -eq 0 ]]; then
+    sysctl -q -w net.core.rmem_max=$RECV_BUF_BYTES && echo "run: raised net.core.rmem_max from $rmem to $RECV_BUF_BYTES (UDP receive buffers)"
+  elif [[ "$rmem" -lt $RECV_BUF_BYTES ]]; then
+    echo "run: warning: net.core.rmem_max is $rmem (< $RECV_BUF_BYTES) and this is not root: a full-speed replay may lose pairs (counted as gaps)"
   fi
   echo "run: url $url"
   timed ground "$BIN/areomap-ground" --lcm "$url" --out "$PRODUCTS" "${TRUTH[@]}" \
