@@ -1,6 +1,8 @@
 #include "tests/support/TestData.hpp"
 
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -39,6 +41,21 @@ bool requireSharedData(const std::string& folder) {
   if (fileExists(dir)) return true;
   std::printf("\nSKIP: needs real data in %s (absent here)\n", dir.c_str());
   return false;
+}
+
+int runTool(const std::string& tool, const std::string& args) {
+  const char* env = std::getenv("AREOMAP_BINARY_DIR");
+  const std::string bin = env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR);
+  const std::string command = bin + "/bin/" + tool + " " + args + " > /dev/null 2>&1";
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
+std::string makeTinyDataset(const std::string& name, int seed) {
+  // One folder per process: CTest runs a test executable's groups as separate, concurrent processes.
+  const std::string dir = scratchDir(name + "-" + std::to_string(::getpid())) + "/sim";
+  if (runTool("areomap-sim", "--preset tiny --seed " + std::to_string(seed) + " --out " + dir) != 0) return "";
+  return dir;
 }
 
 }  // namespace areomap::test

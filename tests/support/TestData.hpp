@@ -13,4 +13,11 @@ std::string scratchDir(const std::string& name);  // an empty folder under the b
 bool requireSharedData(const std::string& folder);
 bool fileExists(const std::string& path);
 
+// Runs build/bin/<tool> with `args` (a shell word list), output discarded; returns its exit code, 128 when
+// it did not exit normally.
+int runTool(const std::string& tool, const std::string& args);
+// The `tiny` simulated panorama (areomap-sim --preset tiny --seed N) in scratchDir(name-PID)/sim; "" when the
+// simulator failed. Tests keep the result in a function-local static to make it once per process.
+std::string makeTinyDataset(const std::string& name, int seed = 3);
+
 }  // namespace areomap::test

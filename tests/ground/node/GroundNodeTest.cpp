@@ -37,20 +37,10 @@ using json = nlohmann::json;
 
 namespace {
 
-int runTool(const std::string& tool, const std::string& args) {
-  const char* bin = std::getenv("AREOMAP_BINARY_DIR");
-  const std::string command = std::string(bin != nullptr ? bin : ".") + "/bin/" + tool + " " + args + " > /dev/null 2>&1";
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-}
-
+// The tiny simulated panorama (8 pairs), made once per process.
 const std::string& tinyDataset() {
-  static std::string dir;
-  if (dir.empty()) {
-    dir = test::scratchDir("ground-node-tiny");
-    CHECK_EQUAL(0, runTool("areomap-sim", "--preset tiny --seed 3 --out " + dir + "/sim"));
-    dir += "/sim";
-  }
+  static const std::string dir = test::makeTinyDataset("ground-node-tiny");
+  CHECK(!dir.empty());
   return dir;
 }
 

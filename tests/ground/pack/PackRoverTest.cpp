@@ -37,20 +37,10 @@ SimpleString StringFrom(areomap::Status status) { return SimpleString(areomap::s
 
 namespace {
 
-int runTool(const std::string& tool, const std::string& args) {
-  const char* bin = std::getenv("AREOMAP_BINARY_DIR");
-  const std::string command = std::string(bin != nullptr ? bin : ".") + "/bin/" + tool + " " + args + " > /dev/null 2>&1";
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-}
-
+// The tiny simulated panorama (8 pairs), made once per process.
 const std::string& tinyDataset() {
-  static std::string dir;
-  if (dir.empty()) {
-    dir = test::scratchDir("pack-tiny");
-    CHECK_EQUAL(0, runTool("areomap-sim", "--preset tiny --seed 3 --out " + dir + "/sim"));
-    dir += "/sim";
-  }
+  static const std::string dir = test::makeTinyDataset("pack-tiny");
+  CHECK(!dir.empty());
   return dir;
 }
 
@@ -327,11 +317,11 @@ TEST_GROUP(RoverTool){};
 TEST(RoverTool, ReplaysALogAndExits) {
   const std::string dir = test::scratchDir("rover-tool");
   writeEventLog(dir + "/tiny.lcm", tinyStream());
-  CHECK_EQUAL(0, runTool("areomap-rover", "--lcm file://" + dir + "/tiny.lcm --quiet"));
-  CHECK_EQUAL(0, runTool("areomap-rover", "--help"));
-  CHECK_EQUAL(2, runTool("areomap-rover", ""));
-  CHECK_EQUAL(2, runTool("areomap-pack", tinyDataset()));
-  CHECK_EQUAL(1, runTool("areomap-pack", dir + "/missing --out " + dir + "/x.lcm"));
+  CHECK_EQUAL(0, test::runTool("areomap-rover", "--lcm file://" + dir + "/tiny.lcm --quiet"));
+  CHECK_EQUAL(0, test::runTool("areomap-rover", "--help"));
+  CHECK_EQUAL(2, test::runTool("areomap-rover", ""));
+  CHECK_EQUAL(2, test::runTool("areomap-pack", tinyDataset()));
+  CHECK_EQUAL(1, test::runTool("areomap-pack", dir + "/missing --out " + dir + "/x.lcm"));
 }
 
 TEST_GROUP(PackRealData){};

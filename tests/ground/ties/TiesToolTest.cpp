@@ -20,21 +20,10 @@ using namespace areomap;
 
 namespace {
 
-int runTool(const std::string& tool, const std::string& args) {
-  const char* bin = std::getenv("AREOMAP_BINARY_DIR");
-  const std::string command = std::string(bin != nullptr ? bin : ".") + "/bin/" + tool + " " + args + " > /dev/null 2>&1";
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-}
-
 // The tiny simulated panorama (8 pairs), made once per process.
 const std::string& tinyDataset() {
-  static std::string dir;
-  if (dir.empty()) {
-    dir = test::scratchDir("ties-tiny");
-    CHECK_EQUAL(0, runTool("areomap-sim", "--preset tiny --seed 3 --out " + dir + "/sim"));
-    dir += "/sim";
-  }
+  static const std::string dir = test::makeTinyDataset("ties-tiny");
+  CHECK(!dir.empty());
   return dir;
 }
 
@@ -75,7 +64,7 @@ TEST(TiesOnSimulation, TiesMatchTheTruthLinkEveryAdjacentPairAndAdjust) {
 
 TEST(TiesOnSimulation, ToolWritesTiePointsOverlaysAndReport) {
   const std::string out = test::scratchDir("ties-tool");
-  CHECK_EQUAL(0, runTool("areomap-ties", tinyDataset() + " --out " + out + " --adjust"));
+  CHECK_EQUAL(0, test::runTool("areomap-ties", tinyDataset() + " --out " + out + " --adjust"));
   const std::vector<ImageObservation> ties = readTiePointsCsv(out + "/tiepoints.csv");
   CHECK(ties.size() > 100);
   int intra = 0, inter = 0;
@@ -91,8 +80,8 @@ TEST(TiesOnSimulation, ToolWritesTiePointsOverlaysAndReport) {
   CHECK(test::fileExists(out + "/models/p000_L.cahvor"));
   CHECK(test::fileExists(out + "/report.json"));
   // Exit codes: usage 2, bad dataset 1, help 0.
-  CHECK_EQUAL(2, runTool("areomap-ties", tinyDataset()));
-  CHECK_EQUAL(2, runTool("areomap-ties", "--out " + out));
-  CHECK_EQUAL(1, runTool("areomap-ties", out + "/no-such-dataset --out " + out));
-  CHECK_EQUAL(0, runTool("areomap-ties", "--help"));
+  CHECK_EQUAL(2, test::runTool("areomap-ties", tinyDataset()));
+  CHECK_EQUAL(2, test::runTool("areomap-ties", "--out " + out));
+  CHECK_EQUAL(1, test::runTool("areomap-ties", out + "/no-such-dataset --out " + out));
+  CHECK_EQUAL(0, test::runTool("areomap-ties", "--help"));
 }
