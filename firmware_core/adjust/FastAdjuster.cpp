@@ -49,6 +49,27 @@ void movePoint(const Network& net, NetPoint& pt, const Vec3& delta) {
   }
 }
 
+// Adds a pair's constraint rows (gimbal, base and the FIDO variants) to its 12x12 normal equations; a single
+// image (no right camera) gets the 6x6 system, the unused block the identity with a zero right-hand side.
+void addPairConstraints(const Network& net, int32_t pair, Mat12& n, Vec12& b) {
+  const NetPair& pr = net.pair(pair);
+  const bool single = pr.right < 0;
+  const NetImage& left = net.image(pr.left);
+  const NetImage& right = net.image(single ? pr.left : pr.right);
+  ConstraintRows rows;
+  ConstraintJacobian jac;
+  if (pairConstraintRows(net, pair, left.center_m, left.m, right.center_m, right.m, rows, jac) > 0) {
+    n.noalias() += jac.transpose().lazyProduct(jac);  // coefficient-based: no GEMM kernel
+    b.noalias() -= jac.transpose() * rows;
+  }
+  if (single) {
+    n.block<6, 6>(6, 6).setIdentity();
+    n.block<6, 6>(0, 6).setZero();
+    n.block<6, 6>(6, 0).setZero();
+    b.segment<6>(6).setZero();
+  }
+}
+
 }  // namespace
 
 const char* stopRuleName(StopRule rule) {
@@ -175,22 +196,7 @@ Status FastAdjuster::pairStep(Network& net, bool keep_normals) {
         b.segment<6>(6 * s).noalias() += j.transpose() * r;
       }
     }
-    const NetImage& left = net.image(pr.left);
-    const NetImage& right = net.image(sides == 2 ? pr.right : pr.left);
-    ConstraintRows rows;
-    ConstraintJacobian jac;
-    const int32_t used = pairConstraintRows(net, p, left.center_m, left.m, right.center_m, right.m, rows, jac);
-    if (used > 0) {
-      n.noalias() += jac.transpose().lazyProduct(jac);
-      b.noalias() -= jac.transpose() * rows;
-    }
-    if (sides == 1) {
-      // A single image: the 6x6 system; the unused block is the identity with a zero right-hand side.
-      n.block<6, 6>(6, 6).setIdentity();
-      n.block<6, 6>(0, 6).setZero();
-      n.block<6, 6>(6, 0).setZero();
-      b.segment<6>(6).setZero();
-    }
+    addPairConstraints(net, p, n, b);
     const Eigen::LDLT<Mat12> ldlt(n);
     const Vec12 d = ldlt.vectorD();
     if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-12 * d.maxCoeff())) {
@@ -277,21 +283,7 @@ int32_t FastAdjuster::pairBlock(const Network& net, int32_t pi, Mat12& n, Vec12&
       coupling_[o.point].block<6, 3>(6 * s, 0).noalias() += j.transpose() * obs_d_point_[index];
     }
   }
-  const NetImage& left = net.image(pr.left);
-  const NetImage& right = net.image(sides == 2 ? pr.right : pr.left);
-  ConstraintRows rows;
-  ConstraintJacobian jac;
-  if (pairConstraintRows(net, pi, left.center_m, left.m, right.center_m, right.m, rows, jac) > 0) {
-    n.noalias() += jac.transpose().lazyProduct(jac);  // coefficient-based: no GEMM kernel
-    b.noalias() -= jac.transpose() * rows;
-  }
-  if (sides == 1) {
-    // A single image: the 6x6 system; the unused block is the identity with a zero right-hand side.
-    n.block<6, 6>(6, 6).setIdentity();
-    n.block<6, 6>(0, 6).setZero();
-    n.block<6, 6>(6, 0).setZero();
-    b.segment<6>(6).setZero();
-  }
+  addPairConstraints(net, pi, n, b);
   return n_touched;
 }
 
