@@ -66,7 +66,7 @@ void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::st
                      {"pointing_error_px", p.pointing_error_px}});
   }
   const nlohmann::json sim = {{"config", configJson(g.config)},
-                              {"terrain", {{"nodes", terrain.nodes()}, {"rocks", terrain.rockCount()}, {"craters", terrain.craterCount()}}},
+                              {"terrain", {{"nodes", terrain.nodes()}, {"coarse_nodes", terrain.coarseNodes()}, {"half_extent_m", terrain.halfExtentM()}, {"rocks", terrain.rockCount()}, {"craters", terrain.craterCount()}}},
                               {"pairs", pairs},
                               {"check_points", g.points.size()},
                               {"observations", g.observations.size()}};

@@ -23,7 +23,16 @@ double golombekRockDensity(double k, double d_min_m, double d_max_m);
 
 class Terrain {
  public:
-  // Builds the surface of `config` (half_extent_m, cell_m, relief_m, rock_k, crater density, seed).
+  // Half-side (m) of the square the terrain covers around the site origin for `config`: the fine grid,
+  // extended by the coarse outer grid to at least kMinCoverHalfM.
+  static constexpr double kMinCoverHalfM = 50.0;
+  static constexpr double kCoarseCellM = 0.1;
+  static double coverHalfExtentM(const SimConfig& config);
+
+  // Builds the surface of `config` (half_extent_m, cell_m, relief_m, rock_k, crater density, seed): a fine
+  // grid of cell_m over +-half_extent_m (rocks, craters, all relief octaves) and, when that is under
+  // +-kMinCoverHalfM, a coarse outer grid (kCoarseCellM) out to +-kMinCoverHalfM that continues the same
+  // relief function (same octaves at the coarse nodes, craters, no rocks). The fine grid wins where it is.
   static Terrain build(const SimConfig& config);
 
   // Elevation (up, metres) at a site point, bilinear; clamped to the grid edge outside.
@@ -32,43 +41,65 @@ class Terrain {
   Eigen::Vector3d normal(double x_m, double y_m) const;
   // Albedo (0..1) at a surface point: the albedo grid times fine texture that fades with range.
   double albedo(double x_m, double y_m) const;
+  // Inside the terrain (fine or coarse grid).
   bool inside(double x_m, double y_m) const;
+  // Half-side (m) of the square covered around the site origin (the smallest of the four sides).
+  double halfExtentM() const;
 
-  // First intersection of origin + t * direction (site frame, t > 0) with the surface inside the grid.
-  // False when the ray leaves the grid (or rises above every node) without hitting.
+  // First intersection of origin + t * direction (site frame, t > 0) with the surface inside the terrain.
+  // False when the ray leaves the terrain (or rises above every node) without hitting.
   bool castRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double& t_hit,
                double t_max = std::numeric_limits<double>::infinity()) const;
 
-  // The surface as a DEM of the raster contract: one cell per node, cell centres on the nodes.
+  // The surface as a DEM of the raster contract, at the fine cell size over the whole covered square:
+  // the fine nodes where the fine grid is, the coarse surface (bilinear) sampled beyond. Cell centres
+  // on the fine nodes.
   DemGrid dem() const;
 
-  int nodes() const { return n_; }
-  double cellM() const { return cell_; }
+  int nodes() const { return fine_.n; }
+  int coarseNodes() const { return coarse_.n; }
+  double cellM() const { return fine_.cell; }
   double minElevation() const { return h_min_; }
   double maxElevation() const { return h_max_; }
-  // Mean elevation of the grid edge: the far plane beyond the grid.
+  // Mean elevation of the terrain's edge: the far plane beyond it.
   double farElevation() const { return h_far_; }
   int rockCount() const { return rocks_; }
   int craterCount() const { return craters_; }
 
  private:
-  float node(int ix, int iy) const { return h_[static_cast<std::size_t>(ix) * n_ + iy]; }
   struct GridRay;
   struct Rock;
-  static void rasterRock(Terrain& t, const Rock& rock, uint64_t seed, int i0, int i1, int j0, int j1);
-  bool intersectCell(int ci, int cj, const GridRay& ray, double ta, double tb, double& t_hit) const;
-  void buildMaxMipmap();
+  // One square height field of nodes with its albedo and maximum mip-map.
+  struct Grid {
+    int n = 0;         // nodes per side (0: absent)
+    double x0 = 0.0;   // site x (north) of node row 0
+    double y0 = 0.0;   // site y (east) of node column 0
+    double cell = 1.0;
+    std::vector<float> h;       // [ix * n + iy], elevation up
+    std::vector<float> albedo;  // same layout
+    std::vector<std::vector<float>> mip;  // mip[L - 1]: max over blocks of 2^L x 2^L cells (L >= 1)
+    std::vector<int> mip_size;
+    float h_min = 0.0f, h_max = 0.0f;
+    float node(int ix, int iy) const { return h[static_cast<std::size_t>(ix) * n + iy]; }
+    bool inside(double x_m, double y_m) const;
+    double elevation(double x_m, double y_m) const;
+    Eigen::Vector3d normal(double x_m, double y_m) const;
+    double albedoAt(double x_m, double y_m) const;
+    void buildMaxMipmap();
+    bool intersectCell(int ci, int cj, const GridRay& ray, double ta, double tb, double& t_hit) const;
+    // First hit with t in [t_lo, t_hi) inside this grid.
+    bool castRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_lo, double t_hi,
+                 double& t_hit) const;
+    // The t interval of the ray over the grid square (false when it misses it).
+    bool clip(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double& ta, double& tb) const;
+  };
+  static void rasterRock(Grid& g, const Rock& rock, uint64_t seed, int i0, int i1, int j0, int j1);
+  const Grid& gridAt(double x_m, double y_m) const { return coarse_.n > 0 && !fine_.inside(x_m, y_m) ? coarse_ : fine_; }
 
   uint64_t seed_ = 0;
-  int n_ = 0;         // nodes per side
-  double x0_ = 0.0;   // site x (north) of node row 0
-  double y0_ = 0.0;   // site y (east) of node column 0
-  double cell_ = 1.0;
   double texture_ifov_rad_ = 0.005;  // the finest pixel angle of the cameras: texture octaves fade below it
-  std::vector<float> h_;       // [ix * n + iy], elevation up
-  std::vector<float> albedo_;  // same layout
-  std::vector<std::vector<float>> mip_;  // mip_[L - 1]: max over blocks of 2^L x 2^L cells (L >= 1)
-  std::vector<int> mip_size_;
+  Grid fine_;
+  Grid coarse_;
   float h_min_ = 0.0f, h_max_ = 0.0f, h_far_ = 0.0f;
   int rocks_ = 0;
   int craters_ = 0;

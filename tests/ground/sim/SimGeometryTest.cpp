@@ -192,9 +192,46 @@ TEST(SimGeometry, ImpossiblePlansAreRejected) {
 TEST(SimGeometry, TheTruthDemCoversAllThatTheCamerasSee) {
   CHECK_EQUAL(0, camerasSeeingBeyondTerrain(tinyGeometry(), tinyTerrain()));
   SimConfig c = presetConfig("tiny");
-  c.tiers[0].tilt_deg = -26.0;  // the top row looks ~33 m out: beyond the 20 m grid
+  c.tiers[0].tilt_deg = -26.0;  // the top row looks ~33 m out: beyond the 20 m fine grid, on the coarse one
   c.check_points = 0;
+  CHECK_EQUAL(0, camerasSeeingBeyondTerrain(makeGeometry(c, tinyTerrain()), tinyTerrain()));
+  c.tiers[0].tilt_deg = -24.5;  // the top row looks ~60 m out: beyond the 50 m terrain
   CHECK(camerasSeeingBeyondTerrain(makeGeometry(c, tinyTerrain()), tinyTerrain()) > 0);
+}
+
+TEST(SimGeometry, EveryPresetsTerrainCoversAtLeast100MBy100M) {
+  for (const char* name : {"tiny", "navcam", "imp"}) {
+    const SimConfig c = presetConfig(name);
+    CHECK(Terrain::coverHalfExtentM(c) >= 50.0);
+  }
+  const Terrain& t = tinyTerrain();
+  CHECK(t.halfExtentM() >= 50.0);
+  CHECK(t.coarseNodes() > 0);
+  for (double x : {-49.9, 49.9}) {
+    for (double y : {-49.9, 49.9}) CHECK(t.inside(x, y));
+  }
+  // The truth DEM covers the same square, at the fine cell size, and agrees with the surface.
+  const DemGrid dem = t.dem();
+  CHECK(dem.cols * dem.cell_m >= 100.0 - 1e-6);
+  CHECK(dem.rows * dem.cell_m >= 100.0 - 1e-6);
+  DOUBLES_EQUAL(t.cellM(), dem.cell_m, 1e-12);
+  // The coarse grid continues the relief: across the fine grid's edge the surface has no step beyond the
+  // rocks' and the finest octaves' size, and rays far out hit it.
+  const double edge = 0.5 * (t.nodes() - 1) * t.cellM();
+  double worst = 0.0;
+  for (int i = -40; i <= 40; ++i) {
+    const double y = i * 0.5;
+    worst = std::max(worst, std::fabs(t.elevation(edge - 1e-6, y) - t.elevation(edge + 1e-6, y)));
+  }
+  printf("\nlargest step across the fine grid edge: %.3f m\n", worst);
+  CHECK(worst < 0.5);
+  const Eigen::Vector3d origin(0.0, 0.0, -(t.elevation(0.0, 0.0) + 2.0));
+  const Eigen::Vector3d dir = Eigen::Vector3d(40.0, 5.0, -(t.elevation(40.0, 5.0)) - origin.z()).normalized();
+  double t_hit = 0.0;
+  CHECK(t.castRay(origin, dir, t_hit));
+  const Eigen::Vector3d hit = origin + t_hit * dir;
+  CHECK(std::hypot(hit.x(), hit.y()) > 20.0);
+  DOUBLES_EQUAL(t.elevation(hit.x(), hit.y()), -hit.z(), 1e-3);
 }
 
 TEST(SimGeometry, RocksFollowGolombeksSizeFrequency) {
