@@ -30,7 +30,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git ca-certificates
   libeigen3-dev liblcm-dev liblcm-bin libturbojpeg0-dev libjpeg62-turbo-dev
   libcpputest-dev cpputest libopencv-dev libgdal-dev gdal-bin libceres-dev nlohmann-json3-dev
-  libpng-dev iproute2 util-linux procps python3
+  libpng-dev iproute2 util-linux procps python3 time
   chromium  # tests/ground/products ReportHtmlTest: report.html rendered in headless Chromium
 )
 
