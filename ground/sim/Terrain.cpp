@@ -443,19 +443,10 @@ bool Terrain::Grid::castRay(const Eigen::Vector3d& origin, const Eigen::Vector3d
   GridRay ray{(origin.x() - x0_) / cell_, (origin.y() - y0_) / cell_, direction.x() / cell_, direction.y() / cell_,
               -origin.z(), -direction.z()};
   const int cells = n_ - 1;
-  double t0 = t_lo, t1 = t_hi;
   // Clip to the grid square.
-  const double uv0[2] = {ray.u0, ray.v0}, duv[2] = {ray.du, ray.dv};
-  for (int k = 0; k < 2; ++k) {
-    if (std::fabs(duv[k]) < 1e-15) {
-      if (uv0[k] < 0.0 || uv0[k] > cells) return false;
-      continue;
-    }
-    double a = (0.0 - uv0[k]) / duv[k], b = (cells - uv0[k]) / duv[k];
-    if (a > b) std::swap(a, b);
-    t0 = std::max(t0, a);
-    t1 = std::min(t1, b);
-  }
+  double ta = 0.0, tb = 0.0;
+  if (!clip(origin, direction, ta, tb)) return false;
+  double t0 = std::max(t_lo, ta), t1 = std::min(t_hi, tb);
   // Clip to the elevation range: above the highest node going up, or below the lowest, nothing is hit.
   if (ray.de > 0.0) {
     t1 = std::min(t1, (h_max_ - ray.e0) / ray.de);

@@ -28,6 +28,7 @@
 #include "msgs/MessageCheck.hpp"
 #include "platform/posix/TurboJpegCodec.hpp"
 #include "platform/stub/MemoryTransport.hpp"
+#include "tests/ground/pack/TinyStream.hpp"
 #include "tests/support/TestData.hpp"
 
 #include <CppUTest/TestHarness.h>
@@ -46,12 +47,7 @@ const std::string& tinyDataset() {
 
 // The camera stream of the tiny dataset as areomap-pack makes it.
 const std::vector<LogEvent>& tinyStream() {
-  static std::vector<LogEvent> events;
-  if (events.empty()) {
-    PackOptions o;
-    o.start_utime = 1'700'000'000'000'000;
-    events = packDataset(readDataset(tinyDataset()), o);
-  }
+  static const std::vector<LogEvent> events = test::packedStream(tinyDataset());
   return events;
 }
 
