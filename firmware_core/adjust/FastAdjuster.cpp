@@ -63,7 +63,10 @@ void addPairConstraints(const Network& net, int32_t pair, Mat12& n, Vec12& b) {
     b.noalias() -= jac.transpose() * rows;
   }
   if (single) {
-    n.block<6, 6>(6, 6).setIdentity();
+    // The unused block at the scale of the used one, so that tiny constraint sigmas do not make the 12x12
+    // block look singular (its solution is zero whatever its scale).
+    const double scale = std::max(n.block<6, 6>(0, 0).diagonal().maxCoeff(), 1.0);
+    n.block<6, 6>(6, 6) = Mat6::Identity() * scale;
     n.block<6, 6>(0, 6).setZero();
     n.block<6, 6>(6, 0).setZero();
     b.segment<6>(6).setZero();
@@ -86,7 +89,14 @@ const char* stopRuleName(StopRule rule) {
 }
 
 const char* fastMethodName(FastMethod method) {
-  return method == FastMethod::kSchurPcg ? "schur_pcg" : "alternation";
+  switch (method) {
+    case FastMethod::kSchurPcg:
+      return "schur_pcg";
+    case FastMethod::kSchurCholesky:
+      return "schur_cholesky";
+    default:
+      return "alternation";
+  }
 }
 
 double eoPixelEquivalent(double f_px, const Vec3& d_center_m, double angle_rad, double nominal_range_m) {
@@ -220,11 +230,23 @@ Status FastAdjuster::pairStep(Network& net, bool keep_normals) {
   return Status::kOk;
 }
 
-void FastAdjuster::pointBlocks(Network& net, double damping) {
+void FastAdjuster::linearize(const Network& net) {
+  // Whitened residual and Jacobians of every usable observation at the current state, in storage order.
+  for (int32_t k = 0; k < net.observationCount(); ++k) {
+    const NetObservation& o = net.observation(k);
+    obs_valid_[k] = false;
+    if (!usable(net, o)) continue;
+    const NetImage& im = net.image(o.image);
+    obs_valid_[k] = ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, obs_residual_[k],
+                                      &obs_d_image_[k], &obs_d_point_[k]));
+  }
+}
+
+void FastAdjuster::pointBlocks(const Network& net, double damping) {
   // Every point's 3x3 normal block (Levenberg-damped by `damping`), its inverse and right-hand side over all
-  // its rays at the current state, and the observation rows cached for the pair blocks.
+  // its rays, from the observation rows of the last linearize().
   for (int32_t p = 0; p < net.pointCount(); ++p) {
-    NetPoint& pt = net.point(p);
+    const NetPoint& pt = net.point(p);
     point_eliminated_[p] = false;
     mark_[p] = -1;
     if (!pt.solvable) continue;
@@ -233,15 +255,7 @@ void FastAdjuster::pointBlocks(Network& net, double damping) {
     int32_t rays = 0;
     for (int32_t k = 0; k < pt.obs_count; ++k) {
       const int32_t oi = pt.obs[k];
-      const NetObservation& o = net.observation(oi);
-      obs_valid_[oi] = false;
-      if (o.rejected) continue;
-      const NetImage& im = net.image(o.image);
-      if (!ok(observationRow(o, im, im.center_m, im.m, pt.xyz_m, obs_residual_[oi], &obs_d_image_[oi],
-                             &obs_d_point_[oi]))) {
-        continue;
-      }
-      obs_valid_[oi] = true;
+      if (!obs_valid_[oi]) continue;
       n.noalias() += obs_d_point_[oi].transpose() * obs_d_point_[oi];
       b.noalias() += obs_d_point_[oi].transpose() * obs_residual_[oi];
       ++rays;
@@ -257,9 +271,10 @@ void FastAdjuster::pointBlocks(Network& net, double damping) {
   }
 }
 
-int32_t FastAdjuster::pairBlock(const Network& net, int32_t pi, Mat12& n, Vec12& b) {
-  // The pair's 12x12 block and right-hand side from the cached rows and its constraints, and the coupling
-  // W (12x3) to every eliminated point it sees (listed in touched_). Returns the number of such points.
+int32_t FastAdjuster::pairBlock(const Network& net, int32_t pi, Mat12& n, Vec12& b, bool couple) {
+  // The pair's 12x12 block and right-hand side from the cached rows and its constraints, and (couple) the
+  // coupling W (12x3) to every eliminated point it sees (listed in touched_). Returns the number of such
+  // points.
   const NetPair& pr = net.pair(pi);
   const int32_t images[2] = {pr.left, pr.right};
   const int32_t sides = pr.right >= 0 ? 2 : 1;
@@ -274,13 +289,13 @@ int32_t FastAdjuster::pairBlock(const Network& net, int32_t pi, Mat12& n, Vec12&
       const Mat2x6& j = obs_d_image_[index];
       n.block<6, 6>(6 * s, 6 * s).noalias() += j.transpose() * j;
       b.segment<6>(6 * s).noalias() += j.transpose() * obs_residual_[index];
-      if (!point_eliminated_[o.point]) continue;
+      if (!couple || !point_eliminated_[o.point]) continue;
       if (mark_[o.point] != pi) {
         mark_[o.point] = pi;
-        coupling_[o.point].setZero();
+        coupling(o.point).setZero();
         touched_[n_touched++] = o.point;
       }
-      coupling_[o.point].block<6, 3>(6 * s, 0).noalias() += j.transpose() * obs_d_point_[index];
+      coupling(o.point).block<6, 3>(6 * s, 0).noalias() += j.transpose() * obs_d_point_[index];
     }
   }
   addPairConstraints(net, pi, n, b);
@@ -291,20 +306,21 @@ void FastAdjuster::reducePairBlock(int32_t n_touched, Mat12& n, Vec12* b) const 
   for (int32_t t = 0; t < n_touched; ++t) {
     const int32_t p = touched_[t];
     Mat12x3 wn;
-    wn.noalias() = coupling_[p] * point_inverse_[p];
-    n.noalias() -= wn.lazyProduct(coupling_[p].transpose());
+    wn.noalias() = coupling(p) * point_inverse_[p];
+    n.noalias() -= wn.lazyProduct(coupling(p).transpose());
     if (b != nullptr) b->noalias() -= wn * point_rhs_[p];
   }
 }
 
 Status FastAdjuster::reducedSweep(Network& net) {
+  linearize(net);
   pointBlocks(net, 0.0);
   // Pair after pair: the reduced 12x12 system, its solve, and the points' right-hand sides updated for the
   // pair's step (so that the next pair sees it: Gauss-Seidel on the reduced camera system).
   for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
     Mat12 n;
     Vec12 b;
-    const int32_t n_touched = pairBlock(net, pi, n, b);
+    const int32_t n_touched = pairBlock(net, pi, n, b, true);
     reducePairBlock(n_touched, n, &b);
     // A pair whose points are all its own is only held by the constraints and the datum prior after the
     // elimination: a relative damping of 1e-9 keeps the solve defined without moving the solution.
@@ -321,7 +337,7 @@ Status FastAdjuster::reducedSweep(Network& net) {
     if (pr.right >= 0) applyCameraUpdate(delta.tail<6>(), net.image(pr.right).center_m, net.image(pr.right).m);
     for (int32_t t = 0; t < n_touched; ++t) {
       const int32_t p = touched_[t];
-      point_rhs_[p].noalias() -= coupling_[p].transpose() * delta;
+      point_rhs_[p].noalias() -= coupling(p).transpose() * delta;
     }
   }
   // Back-substitution of the points (3x3).
@@ -513,13 +529,14 @@ Status FastAdjuster::solve(Network& net, const FastAdjustOptions& options, FastA
 
 void FastAdjuster::eliminatePoints(Network& net, double damping) {
   // Damped point blocks, the pairs' damped 12x12 blocks (kept in pair_normal_), their right-hand sides
-  // (in pcg_r_, before the reduction) and their reduced inverses (the preconditioner).
+  // (in pcg_r_, before the reduction) and their reduced inverses (the preconditioner), from the observation
+  // rows of the last linearize().
   pointBlocks(net, damping);
   for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
     const NetPair& pr = net.pair(pi);
     Mat12 n;
     Vec12 b;
-    const int32_t n_touched = pairBlock(net, pi, n, b);
+    const int32_t n_touched = pairBlock(net, pi, n, b, true);
     n.diagonal() *= 1.0 + damping + 1e-12;
     pair_normal_[pi] = n;
     reducePairBlock(n_touched, n, nullptr);
@@ -571,72 +588,270 @@ void FastAdjuster::reducedProduct(const Network& net, const double* x, double* y
   }
 }
 
-Status FastAdjuster::solvePcg(Network& net, const FastAdjustOptions& options, FastAdjustResult& result) {
+void FastAdjuster::pcgStep(Network& net, const FastAdjustOptions& options, double damping,
+                           FastAdjustResult& result) {
+  // The LM step (cameras in pcg_x_) by preconditioned conjugate gradients on the reduced camera system.
   const int32_t dim = 6 * net.imageCount();
+  eliminatePoints(net, damping);
+  // Right-hand side of the reduced camera system: v = g - W N^-1 b (pcg_r_ holds g on entry).
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    if (!point_eliminated_[p]) continue;
+    const NetPoint& pt = net.point(p);
+    const Vec3 u = point_inverse_[p] * point_rhs_[p];
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const int32_t oi = pt.obs[k];
+      if (!obs_valid_[oi]) continue;
+      Eigen::Map<Vec6> ri(pcg_r_ + 6 * net.observation(oi).image);
+      const Vec2 ju = obs_d_point_[oi] * u;
+      ri.noalias() -= obs_d_image_[oi].transpose() * ju;
+    }
+  }
+  // Preconditioned conjugate gradients from x = 0.
+  double rhs_norm2 = 0.0;
+  for (int32_t d = 0; d < dim; ++d) {
+    pcg_x_[d] = 0.0;
+    rhs_norm2 += pcg_r_[d] * pcg_r_[d];
+  }
+  double rz = 0.0;
+  for (int32_t stage = 0; stage < kMaxPcgIterations; ++stage) {
+    // z = P^-1 r (per pair).
+    for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
+      const NetPair& pr = net.pair(pi);
+      Vec12 rr = Vec12::Zero();
+      for (int32_t c = 0; c < 6; ++c) {
+        rr(c) = pcg_r_[6 * pr.left + c];
+        if (pr.right >= 0) rr(6 + c) = pcg_r_[6 * pr.right + c];
+      }
+      const Vec12 zz = pair_inverse_[pi] * rr;
+      for (int32_t c = 0; c < 6; ++c) {
+        pcg_z_[6 * pr.left + c] = zz(c);
+        if (pr.right >= 0) pcg_z_[6 * pr.right + c] = zz(6 + c);
+      }
+    }
+    double rz_new = 0.0;
+    for (int32_t d = 0; d < dim; ++d) rz_new += pcg_r_[d] * pcg_z_[d];
+    const double beta = stage == 0 ? 0.0 : rz_new / rz;
+    rz = rz_new;
+    for (int32_t d = 0; d < dim; ++d) pcg_p_[d] = pcg_z_[d] + beta * pcg_p_[d];
+    reducedProduct(net, pcg_p_, pcg_q_);
+    double pq = 0.0;
+    for (int32_t d = 0; d < dim; ++d) pq += pcg_p_[d] * pcg_q_[d];
+    if (!(pq > 0.0)) break;
+    const double alpha = rz / pq;
+    double r2 = 0.0;
+    for (int32_t d = 0; d < dim; ++d) {
+      pcg_x_[d] += alpha * pcg_p_[d];
+      pcg_r_[d] -= alpha * pcg_q_[d];
+      r2 += pcg_r_[d] * pcg_r_[d];
+    }
+    ++result.pcg_iterations;
+    if (r2 <= options.pcg_relative_tolerance * options.pcg_relative_tolerance * rhs_norm2) break;
+  }
+}
+
+bool FastAdjuster::orderPairs(const Network& net) {
+  // The pair graph (two pairs are adjacent when they observe a common solvable point), a minimum-degree
+  // elimination order of it (ties: the lower pair index, i.e. the panorama order) and the block pattern of
+  // the Cholesky factor in that order, fill included (the elimination graph). False when the factor needs
+  // more than kMaxFactorBlocks blocks.
+  const int32_t n = net.pairCount();
+  for (int32_t i = 0; i < n; ++i) {
+    for (int32_t j = 0; j < n; ++j) graph_[i][j] = false;
+  }
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    const NetPoint& pt = net.point(p);
+    if (!pt.solvable) continue;
+    int32_t pairs[kMaxObsPerPoint];
+    int32_t count = 0;
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const NetObservation& o = net.observation(pt.obs[k]);
+      if (!o.rejected) pairs[count++] = net.image(o.image).pair;
+    }
+    for (int32_t a = 0; a < count; ++a) {
+      for (int32_t b = 0; b < count; ++b) graph_[pairs[a]][pairs[b]] = pairs[a] != pairs[b];
+    }
+  }
+  bool eliminated[kMaxPairs] = {};
+  int32_t neighbours[kMaxPairs];
+  int32_t blocks = n;  // the diagonal
+  for (int32_t step = 0; step < n; ++step) {
+    int32_t best = -1;
+    int32_t best_degree = kMaxPairs + 1;
+    for (int32_t v = 0; v < n; ++v) {
+      if (eliminated[v]) continue;
+      int32_t degree = 0;
+      for (int32_t u = 0; u < n; ++u) degree += (!eliminated[u] && graph_[v][u]) ? 1 : 0;
+      if (degree < best_degree) {
+        best_degree = degree;
+        best = v;
+      }
+    }
+    order_[step] = best;
+    position_[best] = step;
+    eliminated[best] = true;
+    int32_t count = 0;
+    for (int32_t u = 0; u < n; ++u) {
+      if (!eliminated[u] && graph_[best][u]) neighbours[count++] = u;
+    }
+    col_start_[step] = blocks - n;
+    if (blocks + count > kMaxFactorBlocks) return false;
+    for (int32_t a = 0; a < count; ++a) {
+      col_rows_[blocks - n + a] = static_cast<int16_t>(neighbours[a]);  // a pair index until all are placed
+      for (int32_t b = 0; b < count; ++b) graph_[neighbours[a]][neighbours[b]] = a != b;
+    }
+    blocks += count;
+  }
+  col_start_[n] = blocks - n;
+  for (int32_t i = 0; i < n; ++i) {
+    for (int32_t j = 0; j < n; ++j) block_pos_[i][j] = -1;
+  }
+  int32_t slot = 0;
+  for (int32_t k = 0; k < n; ++k) block_pos_[k][k] = static_cast<int16_t>(slot++);
+  for (int32_t k = 0; k < n; ++k) {
+    for (int32_t r = col_start_[k]; r < col_start_[k + 1]; ++r) {
+      col_rows_[r] = static_cast<int16_t>(position_[col_rows_[r]]);
+      block_pos_[col_rows_[r]][k] = static_cast<int16_t>(slot++);
+    }
+  }
+  factor_blocks_ = slot;
+  return true;
+}
+
+bool FastAdjuster::assembleAndFactor(const Network& net, double damping) {
+  // The damped reduced camera system S = C - W N^-1 W^T (rhs v = g - W N^-1 b) in 12x12 pair blocks of the
+  // factor's pattern, then its block Cholesky factor L (S = L L^T) in place. False when S is not positive
+  // definite at this damping.
+  const int32_t n = net.pairCount();
+  pointBlocks(net, damping);
+  for (int32_t d = 0; d < 144 * factor_blocks_; ++d) shared_[d] = 0.0;
+  for (int32_t pi = 0; pi < n; ++pi) {
+    Mat12 c;
+    Vec12 g;
+    (void)pairBlock(net, pi, c, g, false);
+    c.diagonal() *= 1.0 + damping + 1e-12;
+    const int32_t q = position_[pi];
+    factorBlock(q, q) = c;
+    Eigen::Map<Vec12>(rcs_b_ + 12 * q) = g;
+  }
+  for (int32_t p = 0; p < net.pointCount(); ++p) {
+    if (!point_eliminated_[p]) continue;
+    const NetPoint& pt = net.point(p);
+    Mat6x3 w[kMaxObsPerPoint];
+    Mat6x3 t[kMaxObsPerPoint];
+    int32_t block[kMaxObsPerPoint];
+    int32_t offset[kMaxObsPerPoint];
+    int32_t count = 0;
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const int32_t oi = pt.obs[k];
+      if (!obs_valid_[oi]) continue;
+      const NetImage& im = net.image(net.observation(oi).image);
+      w[count].noalias() = obs_d_image_[oi].transpose() * obs_d_point_[oi];
+      t[count].noalias() = w[count] * point_inverse_[p];
+      block[count] = position_[im.pair];
+      offset[count] = im.side == Side::kLeft ? 0 : 6;
+      Eigen::Map<Vec12>(rcs_b_ + 12 * block[count]).segment<6>(offset[count]).noalias() -= t[count] * point_rhs_[p];
+      ++count;
+    }
+    for (int32_t a = 0; a < count; ++a) {
+      for (int32_t b = 0; b < count; ++b) {
+        if (block[a] < block[b]) continue;  // the lower triangle only
+        factorBlock(block[a], block[b]).block<6, 6>(offset[a], offset[b]).noalias() -=
+            t[a].lazyProduct(w[b].transpose());
+      }
+    }
+  }
+  // Right-looking block Cholesky.
+  for (int32_t k = 0; k < n; ++k) {
+    Eigen::Map<Mat12, Eigen::Aligned16> lkk = factorBlock(k, k);
+    const Eigen::LLT<Mat12> llt(lkk);
+    if (llt.info() != Eigen::Success) return false;
+    lkk = llt.matrixL();
+    const Vec12 diag = lkk.diagonal();
+    if (!diag.allFinite() || !(diag.minCoeff() > 1e-9 * diag.maxCoeff())) return false;
+    for (int32_t r = col_start_[k]; r < col_start_[k + 1]; ++r) {
+      Eigen::Map<Mat12, Eigen::Aligned16> lik = factorBlock(col_rows_[r], k);
+      lkk.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(lik);  // L_ik L_kk^T = S_ik
+    }
+    for (int32_t r = col_start_[k]; r < col_start_[k + 1]; ++r) {
+      const int32_t i = col_rows_[r];
+      const Eigen::Map<const Mat12, Eigen::Aligned16> lik(shared_ + 144 * block_pos_[i][k]);
+      for (int32_t c = col_start_[k]; c < col_start_[k + 1]; ++c) {
+        const int32_t j = col_rows_[c];
+        if (j > i) continue;
+        const Eigen::Map<const Mat12, Eigen::Aligned16> ljk(shared_ + 144 * block_pos_[j][k]);
+        factorBlock(i, j).noalias() -= lik.lazyProduct(ljk.transpose());
+      }
+    }
+  }
+  return true;
+}
+
+void FastAdjuster::solveFactor(const Network& net) {
+  // L L^T x = v by block forward and back substitution; the cameras' step into pcg_x_ (per image).
+  const int32_t n = net.pairCount();
+  for (int32_t k = 0; k < n; ++k) {
+    Eigen::Map<Vec12> bk(rcs_b_ + 12 * k);
+    factorBlock(k, k).triangularView<Eigen::Lower>().solveInPlace(bk);
+    for (int32_t r = col_start_[k]; r < col_start_[k + 1]; ++r) {
+      Eigen::Map<Vec12>(rcs_b_ + 12 * col_rows_[r]).noalias() -= factorBlock(col_rows_[r], k) * bk;
+    }
+  }
+  for (int32_t k = n - 1; k >= 0; --k) {
+    Eigen::Map<Vec12> bk(rcs_b_ + 12 * k);
+    for (int32_t r = col_start_[k]; r < col_start_[k + 1]; ++r) {
+      bk.noalias() -= factorBlock(col_rows_[r], k).transpose() * Eigen::Map<const Vec12>(rcs_b_ + 12 * col_rows_[r]);
+    }
+    factorBlock(k, k).triangularView<Eigen::Lower>().transpose().solveInPlace(bk);
+  }
+  for (int32_t pi = 0; pi < n; ++pi) {
+    const NetPair& pr = net.pair(pi);
+    const double* x = rcs_b_ + 12 * position_[pi];
+    for (int32_t c = 0; c < 6; ++c) {
+      pcg_x_[6 * pr.left + c] = x[c];
+      if (pr.right >= 0) pcg_x_[6 * pr.right + c] = x[6 + c];
+    }
+  }
+}
+
+Status FastAdjuster::solveLm(Network& net, const FastAdjustOptions& options, FastAdjustResult& result) {
+  bool direct = options.method == FastMethod::kSchurCholesky;
+  if (direct && !orderPairs(net)) {
+    direct = false;
+    result.cholesky_fallback = true;
+  }
+  result.factor_blocks = direct ? factor_blocks_ : 0;
   const int32_t max_iterations = std::min(std::max(options.max_sweeps, 1), kMaxFastSweeps);
-  const int32_t window = std::min(std::max(options.window, 1), kMaxStopWindow);
+  // The exact (direct) step converges quadratically: one accepted step is the window.
+  const int32_t window = direct ? 1 : std::min(std::max(options.window, 1), kMaxStopWindow);
   double cost_window[kMaxStopWindow + 1] = {};
   double cost = evaluateCost(net);
   if (!std::isfinite(cost)) return Status::kNotFinite;
   double damping = 1e-4;
   constexpr double kMaxDamping = 1e12;
+  constexpr double kMinDamping = 1e-12;
   int32_t accepted = 0;
+  bool stale = true;  // the observation rows do not belong to the current state
   result.stop_rule = StopRule::kMaxSweeps;
   for (int32_t it = 0; it < max_iterations; ++it) {
-    eliminatePoints(net, damping);
-    // Right-hand side of the reduced camera system: v = g - W N^-1 b (pcg_r_ holds g on entry).
-    for (int32_t p = 0; p < net.pointCount(); ++p) {
-      if (!point_eliminated_[p]) continue;
-      const NetPoint& pt = net.point(p);
-      const Vec3 u = point_inverse_[p] * point_rhs_[p];
-      for (int32_t k = 0; k < pt.obs_count; ++k) {
-        const int32_t oi = pt.obs[k];
-        if (net.observation(oi).rejected || !obs_valid_[oi]) continue;
-        Eigen::Map<Vec6> ri(pcg_r_ + 6 * net.observation(oi).image);
-        const Vec2 ju = obs_d_point_[oi] * u;
-        ri.noalias() -= obs_d_image_[oi].transpose() * ju;
-      }
+    result.sweeps = it + 1;
+    ++result.sweeps_total;
+    if (stale) {
+      linearize(net);
+      stale = false;
     }
-    // Preconditioned conjugate gradients from x = 0.
-    double rhs_norm2 = 0.0;
-    for (int32_t d = 0; d < dim; ++d) {
-      pcg_x_[d] = 0.0;
-      rhs_norm2 += pcg_r_[d] * pcg_r_[d];
-    }
-    double rz = 0.0;
-    for (int32_t stage = 0; stage < kMaxPcgIterations; ++stage) {
-      // z = P^-1 r (per pair).
-      for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
-        const NetPair& pr = net.pair(pi);
-        Vec12 rr = Vec12::Zero();
-        for (int32_t c = 0; c < 6; ++c) {
-          rr(c) = pcg_r_[6 * pr.left + c];
-          if (pr.right >= 0) rr(6 + c) = pcg_r_[6 * pr.right + c];
+    if (direct) {
+      ++result.factorisations;
+      if (!assembleAndFactor(net, damping)) {
+        damping *= 10.0;  // not positive definite at this damping
+        if (damping > kMaxDamping) {
+          result.stop_rule = StopRule::kNoDecrease;
+          break;
         }
-        const Vec12 zz = pair_inverse_[pi] * rr;
-        for (int32_t c = 0; c < 6; ++c) {
-          pcg_z_[6 * pr.left + c] = zz(c);
-          if (pr.right >= 0) pcg_z_[6 * pr.right + c] = zz(6 + c);
-        }
+        continue;
       }
-      double rz_new = 0.0;
-      for (int32_t d = 0; d < dim; ++d) rz_new += pcg_r_[d] * pcg_z_[d];
-      const double beta = stage == 0 ? 0.0 : rz_new / rz;
-      rz = rz_new;
-      for (int32_t d = 0; d < dim; ++d) pcg_p_[d] = pcg_z_[d] + beta * pcg_p_[d];
-      reducedProduct(net, pcg_p_, pcg_q_);
-      double pq = 0.0;
-      for (int32_t d = 0; d < dim; ++d) pq += pcg_p_[d] * pcg_q_[d];
-      if (!(pq > 0.0)) break;
-      const double alpha = rz / pq;
-      double r2 = 0.0;
-      for (int32_t d = 0; d < dim; ++d) {
-        pcg_x_[d] += alpha * pcg_p_[d];
-        pcg_r_[d] -= alpha * pcg_q_[d];
-        r2 += pcg_r_[d] * pcg_r_[d];
-      }
-      ++result.pcg_iterations;
-      if (r2 <= options.pcg_relative_tolerance * options.pcg_relative_tolerance * rhs_norm2) break;
+      solveFactor(net);
+    } else {
+      pcgStep(net, options, damping, result);
     }
     // Save, apply the step (cameras, then back-substituted points), and keep it only if the cost drops.
     for (int32_t i = 0; i < net.imageCount(); ++i) {
@@ -658,7 +873,7 @@ Status FastAdjuster::solvePcg(Network& net, const FastAdjustOptions& options, Fa
       Vec3 b = point_rhs_[p];
       for (int32_t k = 0; k < pt.obs_count; ++k) {
         const int32_t oi = pt.obs[k];
-        if (net.observation(oi).rejected || !obs_valid_[oi]) continue;
+        if (!obs_valid_[oi]) continue;
         const Eigen::Map<const Vec6> xi(pcg_x_ + 6 * net.observation(oi).image);
         const Vec2 jx = obs_d_image_[oi] * xi;
         b.noalias() -= obs_d_point_[oi].transpose() * jx;
@@ -666,14 +881,13 @@ Status FastAdjuster::solvePcg(Network& net, const FastAdjustOptions& options, Fa
       movePoint(net, pt, point_inverse_[p] * b);
     }
     const double new_cost = evaluateCost(net);
-    result.sweeps = it + 1;
-    ++result.sweeps_total;
     if (std::isfinite(new_cost) && new_cost < cost) {
       for (int32_t w = window; w > 0; --w) cost_window[w] = cost_window[w - 1];
       cost_window[0] = cost;
       cost = new_cost;
       ++accepted;
-      damping = std::max(damping * 0.1, 1e-12);
+      stale = true;
+      damping = std::max(damping * 0.1, kMinDamping);
       result.last_step_px = step_px;
       if (it < options.trace_capacity) {
         if (options.cost_trace != nullptr) options.cost_trace[it] = cost;
@@ -691,6 +905,12 @@ Status FastAdjuster::solvePcg(Network& net, const FastAdjustOptions& options, Fa
         net.image(i).m = saved_m_[i];
       }
       for (int32_t p = 0; p < net.pointCount(); ++p) net.point(p).xyz_m = saved_xyz_[p];
+      // A tiny exact step that does not lower the cost: the minimum, to rounding.
+      if (direct && accepted > 0 && step_px < options.eo_step_tolerance_px &&
+          std::isfinite(new_cost) && new_cost - cost <= options.relative_cost_tolerance * cost) {
+        result.stop_rule = StopRule::kCostAndStep;
+        break;
+      }
       damping *= 10.0;
       if (damping > kMaxDamping) {
         result.stop_rule = StopRule::kNoDecrease;
@@ -751,7 +971,7 @@ Status FastAdjuster::adjust(Network& net, const FastAdjustOptions& options, Fast
   }
   for (int32_t round = 0; round <= kMaxRejectionRounds; ++round) {
     Status s = checkNetwork(net, result.degenerate_image);
-    if (ok(s)) s = options.method == FastMethod::kSchurPcg ? solvePcg(net, options, result) : solve(net, options, result);
+    if (ok(s)) s = options.method == FastMethod::kAlternation ? solve(net, options, result) : solveLm(net, options, result);
     if (!ok(s)) {
       result.status = s;
       return s;

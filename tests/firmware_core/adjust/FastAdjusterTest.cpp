@@ -1,5 +1,6 @@
 #include <cmath>
 #include <cstdio>
+#include <random>
 #include <vector>
 
 #include "firmware_core/adjust/Constraints.hpp"
@@ -131,6 +132,115 @@ TEST(FastAdjuster, WholeImpAdjustmentMakesNoHeapAllocation) {
   std::printf("  imp: %d pairs %d images %d points %d observations\n", g_net.pairCount(), g_net.imageCount(),
               g_net.pointCount(), g_net.observationCount());
   CHECK(r.rms_px <= 0.35);
+}
+
+TEST(FastAdjuster, AllMethodsReachTheSameMinimum) {
+  // The default (LM, RCS by block Cholesky), LM with the RCS by PCG and the paper's alternation: the same
+  // cost and the same EO from the same start.
+  PanoramaTruth truth;
+  makeScene(test::navcamConfig(), truth);
+  static Network start;  // several MiB: not on the stack
+  static Network first;
+  start = g_net;
+  const FastMethod methods[3] = {FastMethod::kSchurCholesky, FastMethod::kSchurPcg, FastMethod::kAlternation};
+  FastAdjustResult r[3];
+  for (int32_t m = 0; m < 3; ++m) {
+    g_net = start;
+    FastAdjustOptions o;
+    o.method = methods[m];
+    o.robust = false;
+    CHECK(ok(g_adjuster.adjust(g_net, o, r[m])));
+    if (m > 0) {
+      double eo = 0.0;
+      for (int32_t i = 0; i < g_net.imageCount(); ++i) {
+        eo = std::fmax(
+            eo, eoPixelEquivalent(g_net.image(i).io.f_px, g_net.image(i).center_m - first.image(i).center_m,
+                                  rotationAngle(g_net.image(i).m, first.image(i).m), 5.0));
+      }
+      std::printf(
+          "\n  %s: %d iterations, cost %.6f vs %s %d iterations cost %.6f; largest EO difference %.5f px\n",
+          fastMethodName(methods[m]), r[m].sweeps, r[m].cost, fastMethodName(methods[0]), r[0].sweeps,
+          r[0].cost, eo);
+      DOUBLES_EQUAL(r[0].cost, r[m].cost, 1e-6 * r[0].cost);
+      CHECK(eo <= 0.05);
+    } else {
+      first = g_net;
+      CHECK(!r[0].cholesky_fallback);
+      CHECK(r[0].factor_blocks >= g_net.pairCount());
+      CHECK(r[0].stop_rule == StopRule::kCostAndStep);
+    }
+  }
+}
+
+TEST(FastAdjuster, FactorBeyondThePoolFallsBackToPcg) {
+  // 128 single images on a 10 m ring around the gimbal, all looking at it; each point near the gimbal is seen
+  // by 4 random images, so the pair graph is nearly complete and its factor needs ~8000 12x12 blocks, more
+  // than kMaxFactorBlocks: the adjuster says so and solves by PCG.
+  g_net.clear();
+  g_net.rig = RigConstraints{};
+  g_net.rig.use_base = false;
+  g_net.rig.gimbal_m[0] = Vec3::Zero();
+  g_net.rig.gimbal_set[0] = true;
+  g_net.rig.left_offset_m = Vec3(0.0, 0.0, 10.0);  // camera centre = gimbal + 10 m along the camera's +z
+  g_net.rig.sigma_gimbal_m = 1e-5;
+  InteriorOrientation io;
+  io.f_px = 1000.0;
+  io.x0_px = 511.5;
+  io.y0_px = 511.5;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<Vec3> true_c;
+  std::vector<Mat3> true_m;
+  for (int32_t i = 0; i < kMaxPairs; ++i) {
+    const double az = 2.0 * M_PI * i / kMaxPairs;
+    const double el = 0.3 * std::sin(7.0 * az);
+    const Vec3 z(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
+                 std::sin(el));  // camera +z, outward
+    const Vec3 x = Vec3(0, 0, 1).cross(z).normalized();
+    Mat3 m;
+    m.row(0) = x.transpose();
+    m.row(1) = z.cross(x).transpose();
+    m.row(2) = z.transpose();
+    true_c.push_back(10.0 * z);
+    true_m.push_back(m);
+    const Mat3 m0 = rotationFromVector(Vec3(unit(rng), unit(rng), unit(rng)) * 0.004) * m;
+    int32_t pair = 0;
+    CHECK(ok(g_net.addPair(0, 0, io, m0.transpose() * g_net.rig.left_offset_m, m0, nullptr, Vec3::Zero(), m0,
+                           pair)));
+  }
+  std::uniform_int_distribution<int32_t> pick(0, kMaxPairs - 1);
+  for (int32_t p = 0; p < 1024; ++p) {
+    const Vec3 x(unit(rng), unit(rng), unit(rng));
+    int32_t point = 0;
+    CHECK(ok(g_net.addPoint(x, point)));
+    int32_t seen[4];
+    for (int32_t k = 0; k < 4; ++k) {
+      int32_t img = pick(rng);
+      bool again = true;
+      while (again) {
+        again = false;
+        for (int32_t j = 0; j < k; ++j) again = again || seen[j] == img;
+        if (again) img = pick(rng);
+      }
+      seen[k] = img;
+      Vec2 q;
+      CHECK(ok(collinearity(io, true_c[img], true_m[img], x, q)));
+      CHECK(ok(g_net.addObservation(point, img, q + Vec2(noise(rng), noise(rng)), 0.3)));
+    }
+    CHECK(ok(g_net.triangulate(point)));
+  }
+  FastAdjustResult r;
+  const Status s = g_adjuster.adjust(g_net, FastAdjustOptions{}, r);
+  std::printf(
+      "\n  128 fully coupled images: %s, bad image %d, fallback %s, %d LM iterations, %d CG steps, rms %.4f "
+      "px, stop %s\n",
+      statusName(s), r.degenerate_image, r.cholesky_fallback ? "yes" : "no", r.sweeps, r.pcg_iterations,
+      r.rms_px, stopRuleName(r.stop_rule));
+  CHECK(ok(s));
+  CHECK(r.cholesky_fallback);
+  CHECK(r.pcg_iterations > 0);
+  CHECK(r.rms_px < 0.35);
 }
 
 TEST(FastAdjuster, PairWithoutTiePointsIsDegenerate) {
