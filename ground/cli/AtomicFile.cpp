@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <stdexcept>
 
 #include "ground/cli/Cli.hpp"
 
@@ -67,6 +68,10 @@ void writeViaTemporary(const std::string& path, const std::function<void(const s
           .string();
   try {
     write(tmp);
+  } catch (const std::exception& e) {
+    // Whatever the writer says (it names the temporary, if anything), the error names the product.
+    removeQuietly(tmp);
+    throw InputError(path, "", std::string("not written (") + e.what() + ")");
   } catch (...) {
     removeQuietly(tmp);
     throw;
@@ -76,10 +81,19 @@ void writeViaTemporary(const std::string& path, const std::function<void(const s
     removeQuietly(tmp);
     throw InputError(path, "", "nothing was written (disk full or folder not writable?)");
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int err = errno;
+  // On disk before the rename, as writeFileAtomic does: a crash leaves the old product or the new one.
+  const int fd = ::open(tmp.c_str(), O_RDONLY | O_CLOEXEC);
+  const bool synced = fd >= 0 && ::fsync(fd) == 0;
+  const int err = errno;
+  if (fd >= 0) ::close(fd);
+  if (!synced) {
     removeQuietly(tmp);
-    throw InputError(path, "", std::string("cannot rename into place: ") + std::strerror(err));
+    throw InputError(path, "", std::string("cannot sync: ") + std::strerror(err));
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int rename_err = errno;
+    removeQuietly(tmp);
+    throw InputError(path, "", std::string("cannot rename into place: ") + std::strerror(rename_err));
   }
 }
 

@@ -18,7 +18,8 @@ void writeFileAtomic(const std::string& path, const std::string& text);
 
 // For writers that need a file name (GDAL, OpenCV imwrite): `write(tmp_path)` writes the temporary file,
 // which is then renamed to `path`; on any failure (an exception from `write`, or no file written) the
-// temporary is removed and an InputError naming `path` is thrown.
+// temporary is removed and an InputError naming `path` (and the writer's message) is thrown. Writers
+// must throw when their output is incomplete (check the stream after close, read a raster back).
 void writeViaTemporary(const std::string& path, const std::function<void(const std::string& tmp_path)>& write);
 
 }  // namespace areomap::cli

@@ -16,22 +16,27 @@ constexpr double kStepToleranceM = 1e-9;
 constexpr double kMinRayAngleRad = 1e-5;   // rays closer to parallel than this do not intersect
 constexpr double kJacobianStepM = 1e-6;     // central-difference step (relative to the range)
 
-bool projectBoth(const CameraModel& l, const CameraModel& r, const Vec3& p, Eigen::Vector4d& uv) {
-  Vec2 a, b;
-  if (project(l, p, a) != Status::kOk || project(r, p, b) != Status::kOk) return false;
-  uv << a.x(), a.y(), b.x(), b.y();
+using ObsVec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxIntersectionViews, 1>;
+using ObsJac = Eigen::Matrix<double, Eigen::Dynamic, 3, 0, 2 * kMaxIntersectionViews, 3>;
+
+bool projectAll(const CameraModel* const* models, int n, const Vec3& p, ObsVec& uv) {
+  uv.resize(2 * n);
+  for (int i = 0; i < n; ++i) {
+    Vec2 a;
+    if (project(*models[i], p, a) != Status::kOk) return false;
+    uv(2 * i) = a.x();
+    uv(2 * i + 1) = a.y();
+  }
   return true;
 }
 
-}  // namespace
-
-bool triangulate(const CameraModel& left, const CameraModel& right, const Vec2& left_px, const Vec2& right_px,
-                 double sigma_px, CloudPoint& out) {
+// Closest approach of the rays of two pixels (the start of the least squares); `origin` the first ray's.
+bool closestApproach(const CameraModel& left, const CameraModel& right, const Vec2& left_px, const Vec2& right_px,
+                     Vec3& p, Vec3& origin) {
   Vec3 o1, d1, o2, d2;
   if (unproject(left, left_px, o1, d1) != Status::kOk || unproject(right, right_px, o2, d2) != Status::kOk) {
     return false;
   }
-  // Closest approach of the two rays.
   const Vec3 w = o1 - o2;
   const double b = d1.dot(d2), d = d1.dot(w), e = d2.dot(w);
   const double denom = 1.0 - b * b;  // unit directions
@@ -39,20 +44,24 @@ bool triangulate(const CameraModel& left, const CameraModel& right, const Vec2& 
   const double s = (b * e - d) / denom;
   const double t = (e - b * d) / denom;
   if (!(s > 0.0) || !(t > 0.0)) return false;
-  Vec3 p = 0.5 * ((o1 + s * d1) + (o2 + t * d2));
-  Eigen::Vector4d obs;
-  obs << left_px.x(), left_px.y(), right_px.x(), right_px.y();
-  Eigen::Matrix<double, 4, 3> j;
-  Eigen::Vector4d uv;
+  p = 0.5 * ((o1 + s * d1) + (o2 + t * d2));
+  origin = o1;
+  return true;
+}
+
+// Gauss-Newton on the reprojection error of `n` observations from `p`; `j` and `uv` at the solution.
+bool refineIntersection(const CameraModel* const* models, int n, const ObsVec& obs, const Vec3& origin, Vec3& p,
+                        ObsJac& j, ObsVec& uv) {
+  j.resize(2 * n, 3);
+  ObsVec up, um;
   for (int it = 0; it < kMaxGaussNewtonIterations; ++it) {
-    if (!projectBoth(left, right, p, uv)) return false;
-    const double h = kJacobianStepM * std::max(1.0, (p - o1).norm());
+    if (!projectAll(models, n, p, uv)) return false;
+    const double h = kJacobianStepM * std::max(1.0, (p - origin).norm());
     for (int k = 0; k < 3; ++k) {
       Vec3 pp = p, pm = p;
       pp(k) += h;
       pm(k) -= h;
-      Eigen::Vector4d up, um;
-      if (!projectBoth(left, right, pp, up) || !projectBoth(left, right, pm, um)) return false;
+      if (!projectAll(models, n, pp, up) || !projectAll(models, n, pm, um)) return false;
       j.col(k) = (up - um) / (2.0 * h);
     }
     const Vec3 step = (j.transpose() * j).ldlt().solve(j.transpose() * (obs - uv));
@@ -60,13 +69,43 @@ bool triangulate(const CameraModel& left, const CameraModel& right, const Vec2& 
     p += step;
     if (step.norm() < kStepToleranceM) break;
   }
-  if (!projectBoth(left, right, p, uv)) return false;
+  return projectAll(models, n, p, uv);
+}
+
+}  // namespace
+
+bool triangulate(const CameraModel& left, const CameraModel& right, const Vec2& left_px, const Vec2& right_px,
+                 double sigma_px, CloudPoint& out) {
+  Vec3 p, origin;
+  if (!closestApproach(left, right, left_px, right_px, p, origin)) return false;
+  const CameraModel* models[2] = {&left, &right};
+  ObsVec obs(4);
+  obs << left_px.x(), left_px.y(), right_px.x(), right_px.y();
+  ObsJac j;
+  ObsVec uv;
+  if (!refineIntersection(models, 2, obs, origin, p, j, uv)) return false;
   const Mat3 normal = j.transpose() * j;
   const Eigen::FullPivLU<Mat3> lu(normal);
   if (!lu.isInvertible()) return false;
   out.site_m = p;
   out.covariance_m2 = sigma_px * sigma_px * lu.inverse();
   out.residual_px = std::sqrt((obs - uv).squaredNorm() / 4.0);
+  return true;
+}
+
+bool intersectRays(const std::vector<const CameraModel*>& models, const std::vector<Vec2>& pixels, Vec3& point,
+                   std::vector<double>& residuals_px) {
+  const int n = static_cast<int>(std::min(models.size(), pixels.size()));
+  if (n < 2 || n > kMaxIntersectionViews) return false;
+  Vec3 origin;
+  if (!closestApproach(*models[0], *models[1], pixels[0], pixels[1], point, origin)) return false;
+  ObsVec obs(2 * n);
+  for (int i = 0; i < n; ++i) obs.segment<2>(2 * i) = pixels[static_cast<std::size_t>(i)];
+  ObsJac j;
+  ObsVec uv;
+  if (!refineIntersection(models.data(), n, obs, origin, point, j, uv)) return false;
+  residuals_px.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) residuals_px[static_cast<std::size_t>(i)] = (obs.segment<2>(2 * i) - uv.segment<2>(2 * i)).norm();
   return true;
 }
 
@@ -137,7 +176,9 @@ void writePly(const std::string& path, const std::vector<CloudPoint>& points, co
     const int32_t line = static_cast<int32_t>(p.line);
     put(&line, sizeof line);
   }
-  if (!f) throw std::runtime_error(path + ": write failed");
+  // Buffered bytes reach the disk at close: a full disk shows there, not at the last write.
+  f.close();
+  if (!f) throw std::runtime_error(path + ": write failed (disk full?)");
 }
 
 }  // namespace areomap::dense

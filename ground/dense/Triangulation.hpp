@@ -31,6 +31,16 @@ struct CloudPoint {
 bool triangulate(const CameraModel& left, const CameraModel& right, const Vec2& left_px, const Vec2& right_px,
                  double sigma_px, CloudPoint& out);
 
+// Most rays intersectRays takes (the rover's capacity of observations per point).
+inline constexpr int kMaxIntersectionViews = 8;
+
+// Least-squares intersection of 2..kMaxIntersectionViews rays (the observations of one tie point in
+// several images): from the closest approach of the first two, Gauss-Newton on every reprojection error.
+// `residuals_px[i]` = |pixels[i] - projection of `point`|, the back-projection residual of observation i
+// with these models. False when a ray does not exist, the first two are parallel, or a projection fails.
+bool intersectRays(const std::vector<const CameraModel*>& models, const std::vector<Vec2>& pixels, Vec3& point,
+                   std::vector<double>& residuals_px);
+
 struct TriangulationStats {
   long long matches = 0;
   long long triangulated = 0;
@@ -47,7 +57,8 @@ std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const Came
                                              double max_residual_px = 1.0);
 
 // Binary little-endian PLY: double x y z (site frame), float sigma_x sigma_y sigma_z (m), uchar grey,
-// int line. Throws std::runtime_error naming the file when it cannot be written.
+// int line. Throws std::runtime_error naming the file when it cannot be written (checked after close).
+// Written in place: products write it through cli::writeViaTemporary.
 void writePly(const std::string& path, const std::vector<CloudPoint>& points, const std::string& comment = "");
 
 }  // namespace areomap::dense

@@ -43,6 +43,11 @@ struct Context {
     cli::warn(text);
     result.warnings.push_back(text);
   }
+  // A product that could not be written (full disk, folder not writable): the message names it.
+  void writeFailed(const std::exception& e) {
+    warn(e.what());
+    result.write_errors.push_back(e.what());
+  }
 };
 
 void writePng(Context& ctx, const std::string& path, const cv::Mat& image) {
@@ -55,7 +60,7 @@ void writePng(Context& ctx, const std::string& path, const cv::Mat& image) {
     cli::writeFileAtomic(path, bytes.data(), bytes.size());
     ctx.result.files.push_back(path);
   } catch (const std::exception& e) {
-    ctx.warn(e.what());
+    ctx.writeFailed(e);
   }
 }
 
@@ -217,6 +222,64 @@ cv::Mat insideMask(const cv::Mat& map) {
   return m;
 }
 
+// An observation farther than this from the intersection of its point's other rays is an outlier (the
+// adjustment rejects such observations): it is left out of the point and keeps its residual.
+constexpr double kTieOutlierPx = 5.0;
+
+// Back-projection residual |v| of every tie observation (-1: unknown). Given residuals are kept; the
+// others (the ground node hands over the observations only) are computed with the adjusted models: each
+// tie point is intersected again from all its observations, which at the adjustment's convergence is the
+// adjustment's own point, so these are the adjustment's residuals (precision method 1).
+std::vector<double> tieResiduals(const ProductInputs& in, const std::vector<CameraModel>& models,
+                                 const std::vector<bool>& ok) {
+  std::vector<double> res(in.ties.size());
+  std::map<int, std::vector<std::size_t>> of_point;
+  for (std::size_t i = 0; i < in.ties.size(); ++i) {
+    res[i] = in.ties[i].residual_px;
+    of_point[in.ties[i].point].push_back(i);
+  }
+  for (const auto& kv : of_point) {
+    std::vector<std::size_t> obs;  // usable, one per image, at most kMaxIntersectionViews
+    std::set<int> seen;
+    bool unknown = false;
+    for (std::size_t i : kv.second) {
+      const ProductTie& t = in.ties[i];
+      unknown |= t.residual_px < 0;
+      if (t.image < 0 || t.image >= static_cast<int>(ok.size()) || !ok[t.image] || !seen.insert(t.image).second) continue;
+      if (obs.size() < static_cast<std::size_t>(dense::kMaxIntersectionViews)) obs.push_back(i);
+    }
+    if (!unknown || obs.size() < 2) continue;
+    auto intersect = [&](std::size_t skip, Vec3& point, std::vector<double>& r) {
+      std::vector<const CameraModel*> m;
+      std::vector<Vec2> px;
+      for (std::size_t k = 0; k < obs.size(); ++k) {
+        if (k == skip) continue;
+        m.push_back(&models[in.ties[obs[k]].image]);
+        px.push_back(in.ties[obs[k]].pixel_px);
+      }
+      return dense::intersectRays(m, px, point, r);
+    };
+    Vec3 point;
+    std::vector<double> r;
+    if (!intersect(obs.size(), point, r)) continue;
+    const std::size_t worst = static_cast<std::size_t>(std::max_element(r.begin(), r.end()) - r.begin());
+    if (obs.size() > 2 && r[worst] > kTieOutlierPx) {
+      Vec3 without;
+      std::vector<double> r2;
+      Vec2 uv;
+      const ProductTie& w = in.ties[obs[worst]];
+      if (intersect(worst, without, r2) && project(models[w.image], without, uv) == Status::kOk) {
+        r2.insert(r2.begin() + static_cast<std::ptrdiff_t>(worst), (uv - w.pixel_px).norm());
+        r = r2;
+      }
+    }
+    for (std::size_t k = 0; k < obs.size(); ++k) {
+      if (res[obs[k]] < 0) res[obs[k]] = r[k];
+    }
+  }
+  return res;
+}
+
 void writeOrthoTif(const std::string& path, const ortho::OrthoResult& o, const dem::DemMetadata& meta) {
   cli::writeViaTemporary(path, [&](const std::string& tmp) {
     GDALAllRegister();
@@ -235,6 +298,7 @@ void writeOrthoTif(const std::string& path, const ortho::OrthoResult& o, const d
     GDALClose(ds);
     if (err != CE_None) throw std::runtime_error(path + ": write failed");
     dem::tagSiteRaster(tmp, meta, "grey value (8-bit), 0 = no data");
+    dem::verifyRaster(tmp, o.grid.cols, o.grid.rows, false, img.data);
   });
 }
 
@@ -389,11 +453,13 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       std::vector<dense::CloudPoint> thinned;
       thinned.reserve(cloud.size() / stride + 1);
       for (std::size_t i = 0; i < cloud.size(); i += stride) thinned.push_back(cloudPoint(cloud[i]));
-      dense::writePly(out_dir + "/points.ply", thinned,
-                      "areomap " + in.site + " site frame; every " + std::to_string(stride) + ". dense point");
+      cli::writeViaTemporary(out_dir + "/points.ply", [&](const std::string& tmp) {
+        dense::writePly(tmp, thinned,
+                        "areomap " + in.site + " site frame; every " + std::to_string(stride) + ". dense point");
+      });
       ctx.result.files.push_back(out_dir + "/points.ply");
     } catch (const std::exception& e) {
-      ctx.warn(e.what());
+      ctx.writeFailed(e);
     }
   } else {
     ctx.warn("no dense points: no points.ply, dem.tif or ortho.tif");
@@ -431,10 +497,14 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
         const DemGrid far_dem = dem::equiParallaxDem(far, grid, eo, &far_sigma);
         dem::blendFarRange(kr, far_dem, &far_sigma, eo);
       }
-      dem::writeDemProducts(out_dir, kr, meta);
-      ctx.result.files.push_back(out_dir + "/dem.tif");
-      ctx.result.files.push_back(out_dir + "/dem_sigma.tif");
       ctx.result.dem = kr.elevation;
+      try {
+        dem::writeDemProducts(out_dir, kr, meta);
+        ctx.result.files.push_back(out_dir + "/dem.tif");
+        ctx.result.files.push_back(out_dir + "/dem_sigma.tif");
+      } catch (const cli::InputError& e) {
+        ctx.writeFailed(e);  // the DEM is still used for the ortho and the previews
+      }
       if (in.truth_dem) {
         double s2 = 0;
         long long n = 0;
@@ -457,6 +527,34 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     } catch (const std::exception& e) {
       ctx.warn(std::string("DEM not made: ") + e.what());
     }
+    // The finer DEM near the rover (DESIGN.md fixes dem.tif as one grid): when dem.tif is coarser than
+    // near_cell_m, the points within near_range_m are kriged again at near_cell_m into dem_near.tif.
+    if (ctx.result.dem && options.near_cell_m > 0 && options.near_range_m > 0 &&
+        ctx.result.dem->cell_m > options.near_cell_m * 1.001) {
+      try {
+        std::vector<dem::DemPoint> near;
+        const double reach = options.near_range_m + 0.5;  // points just beyond the edge support it
+        for (const dem::DemPoint& p : pts) {
+          if (std::fabs(p.north_m - in.gimbal_site_m.x()) <= reach && std::fabs(p.east_m - in.gimbal_site_m.y()) <= reach) {
+            near.push_back(p);
+          }
+        }
+        if (near.size() >= 16) {
+          DemGrid near_grid = dem::gridAround(near, options.near_cell_m);
+          const dem::KrigingResult nk = dem::krigeDem(binPoints(near, near_grid), near_grid, dem::KrigingOptions{});
+          ctx.result.dem_near = nk.elevation;
+          try {
+            dem::writeDemProducts(out_dir, nk, meta, "dem_near");
+            ctx.result.files.push_back(out_dir + "/dem_near.tif");
+            ctx.result.files.push_back(out_dir + "/dem_near_sigma.tif");
+          } catch (const cli::InputError& e) {
+            ctx.writeFailed(e);
+          }
+        }
+      } catch (const std::exception& e) {
+        ctx.warn(std::string("near-rover DEM not made: ") + e.what());
+      }
+    }
   }
   stage("dem", t0);
 
@@ -476,9 +574,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     }
     try {
       orth = ortho::makeOrthoimage(*ctx.result.dem, sources, ortho::OrthoOptions{});
-      writeOrthoTif(out_dir + "/ortho.tif", orth, meta);
-      ctx.result.files.push_back(out_dir + "/ortho.tif");
-      have_ortho = true;
+      have_ortho = true;  // the preview and the report show it even when ortho.tif cannot be written
       if (orth.seams.checked > 0) {
         ctx.result.ortho_seam_px = orth.seams.geometric_median_px;
         if (orth.seams.geometric_median_px > 0.5) {
@@ -490,6 +586,10 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
           ctx.warn(b);
         }
       }
+      writeOrthoTif(out_dir + "/ortho.tif", orth, meta);
+      ctx.result.files.push_back(out_dir + "/ortho.tif");
+    } catch (const cli::InputError& e) {
+      ctx.writeFailed(e);
     } catch (const std::exception& e) {
       ctx.warn(std::string("ortho.tif not made: ") + e.what());
     }
@@ -514,14 +614,23 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     writePng(ctx, out_dir + "/ortho.png", p);
     html.products.push_back({"Orthoimage", p});
   }
+  std::vector<CameraModel> models;
+  std::vector<bool> ok;
+  for (const ProductImage& im : in.images) {
+    ok.push_back(usable(ctx, im, warned));
+    models.push_back(ok.back() ? sized(im) : im.model);
+  }
+  const std::vector<double> residuals = tieResiduals(in, models, ok);
   std::map<int, std::pair<double, int>> per_image;  // sum of squares, count
-  for (const ProductTie& t : in.ties) {
-    if (t.residual_px < 0) continue;
-    html.residuals_px.push_back(t.residual_px);
-    auto& acc = per_image[t.image];
-    acc.first += t.residual_px * t.residual_px;
+  for (std::size_t i = 0; i < in.ties.size(); ++i) {
+    const double v = residuals[i];
+    if (v < 0) continue;
+    html.residuals_px.push_back(v);
+    auto& acc = per_image[in.ties[i].image];
+    acc.first += v * v;
     acc.second += 1;
   }
+  ctx.result.residuals_px = html.residuals_px;
   for (const auto& kv : per_image) {
     if (kv.first < 0 || kv.first >= static_cast<int>(in.images.size())) continue;
     html.image_rms_px.emplace_back(in.images[kv.first].stem, std::sqrt(kv.second.first / kv.second.second));
@@ -547,7 +656,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
 
   for (const std::string& w : ctx.result.warnings) report.warnings.push_back(w);
   html.warnings = report.warnings;
-  char b[64];
+  char b[128];
   html.summary.emplace_back("site", in.site);
   html.summary.emplace_back("images", std::to_string(in.images.size()));
   html.summary.emplace_back("stereo pairs matched", std::to_string(ctx.result.pairs_matched) + " of " +
@@ -557,6 +666,11 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     std::snprintf(b, sizeof b, "%d x %d cells of %.3f m", ctx.result.dem->cols, ctx.result.dem->rows,
                   ctx.result.dem->cell_m);
     html.summary.emplace_back("DEM", b);
+  }
+  if (ctx.result.dem_near) {
+    std::snprintf(b, sizeof b, "dem_near.tif: %d x %d cells of %.3f m within %.0f m", ctx.result.dem_near->cols,
+                  ctx.result.dem_near->rows, ctx.result.dem_near->cell_m, options.near_range_m);
+    html.summary.emplace_back("DEM near the rover", b);
   }
   if (ctx.result.dem_rmse_m) {
     std::snprintf(b, sizeof b, "%.4f m", *ctx.result.dem_rmse_m);
@@ -570,7 +684,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     cli::writeFileAtomic(out_dir + "/report.html", reportHtml(html));
     ctx.result.files.push_back(out_dir + "/report.html");
   } catch (const std::exception& e) {
-    ctx.warn(e.what());
+    ctx.writeFailed(e);
   }
   return ctx.result;
 }

@@ -5,7 +5,9 @@
 //   coarse-to-fine matching (parallax ranges from the pair's tie points), space intersection through the
 //   adjusted CAHVOR models -> one cloud `points.ply` (site frame, per-point sigma);
 //   DEM: ordinary kriging (fitted variogram, k-d tree) + equi-parallax beyond 20 m blended at the seam ->
-//   `dem.tif`, `dem_sigma.tif` (float32 GeoTIFF, nodata, local site CRS, metadata: site and sols);
+//   `dem.tif`, `dem_sigma.tif` (float32 GeoTIFF, nodata, local site CRS, metadata: site and sols); when
+//   dem.tif is coarser than 2 cm (a large cloud), also `dem_near.tif`, `dem_near_sigma.tif`: 2 cm within
+//   10 m of the rover (DESIGN.md fixes dem.tif as one grid, so the finer grid is an extra product);
 //   orthoimage on the DEM grid (ground/ortho) -> `ortho.tif` (8-bit GeoTIFF, same georeferencing);
 //   previews `dem.png` (colour relief + hillshade + scale bar), `ortho.png`, `overlays/<stem>.png`
 //   (tie points on each image, unless already written by the caller); `report.html` (self-contained).
@@ -51,7 +53,8 @@ struct ProductTie {
   int image = 0;            // index into ProductInputs::images
   Vec2 pixel_px = Vec2::Zero();  // measured (distorted) pixel
   bool inter = false;       // inter-stereo tie (drawn red; intra blue)
-  double residual_px = -1;  // back-projection residual after adjustment (|v|), < 0 unknown
+  double residual_px = -1;  // back-projection residual after adjustment (|v|), < 0: computed by makeProducts
+                            // (the point intersected again with the adjusted models)
 };
 
 struct ProductInputs {
@@ -65,7 +68,12 @@ struct ProductInputs {
 };
 
 struct ProductOptions {
-  double cell_m = -1.0;         // DEM cell (-1: automatic, 2 cm near the rover, coarser with the extent)
+  double cell_m = -1.0;         // dem.tif cell (-1: automatic: 2 cm up to a 40 m wide cloud, coarser beyond)
+  // The finer grid near the rover: when dem.tif's cell is coarser than near_cell_m, the points within
+  // near_range_m of the gimbal centre (a square) are kriged again at near_cell_m -> dem_near.tif and
+  // dem_near_sigma.tif (same rules as dem.tif). near_cell_m <= 0: not made.
+  double near_cell_m = 0.02;
+  double near_range_m = 10.0;
   double max_range_m = 60.0;    // points farther from the gimbal centre are not used
   double max_point_sigma_m = 0.5;  // points with a larger height sigma are dropped
   double seam_m = 20.0;         // kriging inside, equi-parallax interpolation outside
@@ -77,15 +85,22 @@ struct ProductOptions {
 struct ProductsResult {
   std::vector<std::string> files;     // products written (paths)
   std::vector<std::string> warnings;  // also appended to the report
+  // Products that could not be written (full disk, folder not writable), one message each naming the
+  // file (also among the warnings). Every product is written under a temporary name in out_dir and
+  // renamed into place when complete: a failed one is absent or still the previous version, never partial.
+  std::vector<std::string> write_errors;
   long long points = 0;               // cloud size
   int pairs_matched = 0;
   std::optional<DemGrid> dem;         // the DEM written (absent when no points)
+  std::optional<DemGrid> dem_near;    // the finer near-rover DEM (absent when dem.tif is already that fine)
   std::optional<double> dem_rmse_m;   // against truth_dem over cells present in both
   double ortho_seam_px = -1.0;        // median geometric disagreement at ortho seams, px (-1: no seams)
+  std::vector<double> residuals_px;   // tie back-projection residuals plotted in report.html
 };
 
 // Makes every product above in `out_dir` (created if needed). Progress lines on stderr.
-// Throws only for an unwritable out_dir (cli::InputError naming the path).
+// Throws only for an out_dir that cannot be created (cli::InputError naming the path); products that
+// cannot be written are listed in `write_errors` (a caller should then exit non-zero).
 ProductsResult makeProducts(const ProductInputs& inputs, const ProductOptions& options, const std::string& out_dir,
                             ground::AdjustReport& report);
 
