@@ -2,7 +2,8 @@
 //  - dense matching on Middlebury Cones and on a synthetic 1024x1024 pair, areomap vs OpenCV StereoSGBM:
 //    time, bad-pixel rate (> 1 px) and density;
 //  - ordinary kriging of 1e4 and 1e5 points onto 1e6 cells: time and RMSE against the synthetic truth.
-// Usage: ground_products_bench [--quick]   (--quick: 2.5e5 cells instead of 1e6)
+// Usage: ground_products_bench [--quick] [--kriging-only] [--export DIR]   (--quick: 2.5e5 cells instead of
+// 1e6; --export: the kriging points and fitted models for tests/ground/dem/gstat_benchmark.sh)
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -96,7 +97,9 @@ double field(double x, double y) {
   return 0.4 * std::sin(x / 7.0) * std::cos(y / 11.0) + 0.2 * std::sin((x + y) / 5.0) + 0.05 * std::cos(x / 2.3);
 }
 
-void kriging(int n_points, int side, int k) {
+// With `export_dir`, the points and our fitted model are written for tests/ground/dem/gstat_benchmark.sh
+// (R's gstat kriges the same points with the same model and neighbourhood size).
+void kriging(int n_points, int side, int k, const std::string& export_dir) {
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> u(0.0, 100.0);
   std::normal_distribution<double> noise(0.0, 0.01);
@@ -130,12 +133,51 @@ void kriging(int n_points, int side, int k) {
   }
   std::printf("| %d | %d x %d | %d | %s | %.2f | %.2f | %.4f |\n", n_points, side, side, k,
               dem::variogramName(r.model.kind), r.variogram_seconds, r.kriging_seconds, std::sqrt(ss / n));
+  if (export_dir.empty()) return;
+  const std::string stem = export_dir + "/points_" + std::to_string(n_points);
+  if (FILE* f = std::fopen((stem + ".csv").c_str(), "w")) {
+    std::fprintf(f, "east,north,z\n");
+    for (const dem::DemPoint& p : pts) std::fprintf(f, "%.6f,%.6f,%.6f\n", p.east_m, p.north_m, p.elevation_m);
+    std::fclose(f);
+  }
+  if (FILE* f = std::fopen((stem + "_model.csv").c_str(), "w")) {
+    std::fprintf(f, "kind,nugget_m2,partial_sill_m2,range_m,side,k,areomap_kriging_s,areomap_variogram_s,areomap_rmse_m\n");
+    std::fprintf(f, "%s,%.9g,%.9g,%.9g,%d,%d,%.3f,%.3f,%.6f\n", dem::variogramName(r.model.kind), r.model.nugget_m2,
+                 r.model.partial_sill_m2, r.model.range_m, side, k, r.kriging_seconds, r.variogram_seconds,
+                 std::sqrt(ss / n));
+    std::fclose(f);
+  }
 }
 
 }  // namespace
 
+void matching();  // dense matching side by side (below)
+
 int main(int argc, char** argv) {
-  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  bool quick = false, kriging_only = false;
+  std::string export_dir;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--quick") == 0) {
+      quick = true;
+    } else if (std::strcmp(argv[i], "--kriging-only") == 0) {
+      kriging_only = true;
+    } else if (std::strcmp(argv[i], "--export") == 0 && i + 1 < argc) {
+      export_dir = argv[++i];
+    } else {
+      std::fprintf(stderr, "usage: ground_products_bench [--quick] [--kriging-only] [--export DIR]\n");
+      return 2;
+    }
+  }
+  if (!kriging_only) matching();
+  std::printf("\n## Ordinary kriging (100 x 100 m random field, 1 cm noise)\n\n");
+  std::printf("| points | cells | k | model | variogram s | kriging s | RMSE m |\n|---|---|---|---|---|---|---|\n");
+  const int side = quick ? 500 : 1000;
+  kriging(10000, side, 16, export_dir);
+  kriging(100000, side, 16, export_dir);
+  return 0;
+}
+
+void matching() {
   std::printf("## Dense matching (bad = error > 1 px over evaluated pixels with a disparity)\n\n");
   std::printf("| pair | matcher | seconds | bad %% | density %% |\n|---|---|---|---|---|\n");
   const std::string dir = test::sharedDataDir() + "/middlebury-cones/";
@@ -153,11 +195,4 @@ int main(int argc, char** argv) {
   cv::Mat mask(t.size(), CV_8UC1, cv::Scalar(255));
   mask(cv::Rect(0, 0, 130, t.rows)).setTo(0);  // no right counterpart
   compare("synthetic 1024x1024, d 4..119", l, r, t, mask, 128);
-
-  std::printf("\n## Ordinary kriging (100 x 100 m random field, 1 cm noise)\n\n");
-  std::printf("| points | cells | k | model | variogram s | kriging s | RMSE m |\n|---|---|---|---|---|---|---|\n");
-  const int side = quick ? 500 : 1000;
-  kriging(10000, side, 16);
-  kriging(100000, side, 16);
-  return 0;
 }
