@@ -6,20 +6,23 @@
 #   ./setup.sh --targets aarch64,powerpc   also the cross targets, built into build-<target>/
 #                                          (toolchains/README.md)
 #   ./setup.sh --no-build           packages only
+#   ./setup.sh --fuzz               also clang and libFuzzer for the fuzz targets (tests/fuzz/run.sh)
 set -euo pipefail
 cd "$(dirname "$0")"
 
 usage() {
-  sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'
 }
 
 targets=""
 build=1
+fuzz=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --targets) targets="${2:-}"; shift 2 ;;
     --targets=*) targets="${1#--targets=}"; shift ;;
     --no-build) build=0; shift ;;
+    --fuzz) fuzz=1; shift ;;
     -h|--help) usage; exit 0 ;;
     *) echo "setup.sh: unknown option '$1'" >&2; usage >&2; exit 2 ;;
   esac
@@ -33,6 +36,12 @@ packages=(
   libpng-dev iproute2 util-linux procps python3 time
   chromium  # tests/ground/products ReportHtmlTest: report.html rendered in headless Chromium
 )
+
+# --fuzz: Debian bookworm's clang 14 with its runtime (libFuzzer, ASan, UBSan: libclang-rt-14-dev) and llvm
+# (llvm-symbolizer for the stack traces of a crash).
+if [ "$fuzz" = 1 ]; then
+  packages+=(clang libclang-rt-14-dev llvm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
