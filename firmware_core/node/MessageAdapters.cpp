@@ -146,6 +146,27 @@ Status checkStereoPairCapacity(const uint8_t* data, std::size_t size, const char
   return walkImage(r, "right", field);
 }
 
+int32_t plannedPairs(int32_t pairs_planned) {
+  return pairs_planned > 0 && pairs_planned <= kMaxPairs ? pairs_planned : kMaxPairs;
+}
+
+Status checkImageSizes(const stereo_image_t& side, const char*& field) {
+  field = "jpeg_bytes";
+  if (side.jpeg_bytes <= 0) return Status::kMissingField;
+  field = "width_px";
+  if (side.width_px > kMaxImageWidth) return Status::kCapacityExceeded;
+  if (side.width_px <= 0) return Status::kInvalidArgument;
+  field = "height_px";
+  if (side.height_px > kMaxImageHeight) return Status::kCapacityExceeded;
+  if (side.height_px <= 0) return Status::kInvalidArgument;
+  field = "model.width_px";
+  if (side.model.width_px != side.width_px) return Status::kInvalidArgument;
+  field = "model.height_px";
+  if (side.model.height_px != side.height_px) return Status::kInvalidArgument;
+  field = "";
+  return Status::kOk;
+}
+
 uint64_t encodedFingerprint(const uint8_t* data, std::size_t size) {
   if (data == nullptr || size < 8) return 0;
   uint64_t v = 0;

@@ -36,6 +36,17 @@ void prepareStereoPair(stereo_pair_t& pair);
 // The LCM fingerprint (first 8 bytes, big-endian) of an encoded message; 0 when shorter than 8 bytes.
 uint64_t encodedFingerprint(const uint8_t* data, std::size_t size);
 
+// The pair count a panorama's tie budget is planned for (PanoramaMatcher::planForPairs): the count the
+// stream announces (stereo_pair_t.pairs_planned, which areomap-pack sets to the dataset's pair count, the
+// count areomap-ties plans for), so that the rover and the offline tool make the same tie lists; unknown
+// (<= 0) or above the capacity: kMaxPairs.
+int32_t plannedPairs(int32_t pairs_planned);
+
+// The message's image and model sizes, before any decoding: a JPEG present (kMissingField), 1..kMaxImageWidth x 1..kMaxImageHeight
+// (kCapacityExceeded above, kInvalidArgument at or below 0), the model's size equal to the image's
+// (kInvalidArgument). `field` names what.
+[[nodiscard]] Status checkImageSizes(const stereo_image_t& side, const char*& field);
+
 // Copies a NUL-terminated text into `out` (capacity chars incl. the NUL), truncating.
 void copyText(const char* text, char* out, std::size_t capacity);
 

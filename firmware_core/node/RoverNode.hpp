@@ -154,6 +154,7 @@ class RoverNode {
   int32_t pair_id_of_image_[kMaxImages] = {};
   int32_t sols_[kMaxSols] = {};
   int32_t sol_count_ = 0;
+  bool workspace_full_ = false;  // the matcher's point or observation list ran full: later pairs rejected
   bool panorama_open_ = false;
   double panorama_start_s_ = 0.0;
 

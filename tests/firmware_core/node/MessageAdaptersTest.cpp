@@ -1,4 +1,5 @@
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -102,4 +103,56 @@ TEST(MessageAdapters, CapacityWalkAndHeapFreeDecode) {
   CHECK_EQUAL(0u, scope.allocations());
   CHECK_EQUAL(5000, received.left.jpeg_bytes);
   CHECK_EQUAL(encodedFingerprint(good.data(), good.size()), static_cast<uint64_t>(stereo_pair_t::getHash()));
+}
+
+// Sizes read from a message are checked against the capacities before anything is decoded: the JPEG is
+// present, the image is 1..kMaxImageWidth x 1..kMaxImageHeight, the model is of the image's size.
+TEST(MessageAdapters, ImageSizesCheckedAgainstCapacities) {
+  stereo_image_t side{};
+  side.jpeg_bytes = 100;
+  side.width_px = 1024;
+  side.height_px = 768;
+  side.model.width_px = 1024;
+  side.model.height_px = 768;
+  const char* field = "";
+  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(checkImageSizes(side, field)));
+  struct Case {
+    int32_t jpeg, width, height, model_width, model_height;
+    Status status;
+    const char* field;
+  };
+  const Case cases[] = {
+      {0, 1024, 768, 1024, 768, Status::kMissingField, "jpeg_bytes"},
+      {-5, 1024, 768, 1024, 768, Status::kMissingField, "jpeg_bytes"},
+      {100, kMaxImageWidth + 1, 768, kMaxImageWidth + 1, 768, Status::kCapacityExceeded, "width_px"},
+      {100, 1024, kMaxImageHeight + 1, 1024, kMaxImageHeight + 1, Status::kCapacityExceeded, "height_px"},
+      {100, 0, 768, 0, 768, Status::kInvalidArgument, "width_px"},
+      {100, 1024, -1, 1024, -1, Status::kInvalidArgument, "height_px"},
+      {100, 1024, 768, 2048, 768, Status::kInvalidArgument, "model.width_px"},
+      {100, 1024, 768, 1024, 0, Status::kInvalidArgument, "model.height_px"},
+      {100, INT32_MIN, 768, 1024, 768, Status::kInvalidArgument, "width_px"},
+      {100, INT32_MAX, 768, 1024, 768, Status::kCapacityExceeded, "width_px"},
+  };
+  for (const Case& c : cases) {
+    stereo_image_t bad = side;
+    bad.jpeg_bytes = c.jpeg;
+    bad.width_px = c.width;
+    bad.height_px = c.height;
+    bad.model.width_px = c.model_width;
+    bad.model.height_px = c.model_height;
+    CHECK_EQUAL(static_cast<int>(c.status), static_cast<int>(checkImageSizes(bad, field)));
+    STRCMP_EQUAL(c.field, field);
+  }
+}
+
+// The tie plan: the announced pair count within 1..kMaxPairs, else the capacity.
+TEST(MessageAdapters, PlannedPairsWithinCapacity) {
+  CHECK_EQUAL(8, plannedPairs(8));
+  CHECK_EQUAL(1, plannedPairs(1));
+  CHECK_EQUAL(kMaxPairs, plannedPairs(kMaxPairs));
+  CHECK_EQUAL(kMaxPairs, plannedPairs(kMaxPairs + 1));
+  CHECK_EQUAL(kMaxPairs, plannedPairs(-1));
+  CHECK_EQUAL(kMaxPairs, plannedPairs(0));
+  CHECK_EQUAL(kMaxPairs, plannedPairs(INT32_MIN));
+  CHECK_EQUAL(kMaxPairs, plannedPairs(INT32_MAX));
 }

@@ -53,18 +53,22 @@ struct LastStatus {
 
 }  // namespace
 
-TEST_GROUP(RoverNodeStream){};
+// Every test starts the node afresh on a memory transport, the static JPEG arena and a manual clock.
+TEST_GROUP(RoverNodeStream) {
+  platform::MemoryTransport out{g_queue, sizeof(g_queue)};
+  platform::ArenaJpegDecoder jpeg{g_arena, sizeof(g_arena)};
+  platform::ManualClock clock{1'700'000'000'000'000, 1'000'000};
+  void setup() override {
+    CHECK(ok(jpeg.open()));
+    RoverOptions options;
+    options.log_to_stderr = false;
+    g_node.start(out, jpeg, clock, options);
+  }
+};
 
 // 0, 1, 3 (one missing), 2 (late: reordered), 3 again (duplicate), a truncated message, another type on the
 // channel, a pair without images, an unknown kind: each counted under its cause; no heap after start().
 TEST(RoverNodeStream, SequencesAndBadMessagesCountedWithoutHeap) {
-  platform::MemoryTransport out(g_queue, sizeof(g_queue));
-  platform::ArenaJpegDecoder jpeg(g_arena, sizeof(g_arena));
-  CHECK(ok(jpeg.open()));
-  platform::ManualClock clock(1'700'000'000'000'000, 1'000'000);
-  RoverOptions options;
-  options.log_to_stderr = false;
-  g_node.start(out, jpeg, clock, options);
   LastStatus last;
   CHECK(ok(out.subscribe(channels::kRoverStatus, &LastStatus::on, &last)));
 
@@ -111,4 +115,44 @@ TEST(RoverNodeStream, SequencesAndBadMessagesCountedWithoutHeap) {
   g_node.handleStereoPair(again.data(), again.size());
   CHECK_EQUAL(1, g_node.counters().duplicates);
   CHECK_EQUAL(5, g_node.counters().rejected_by_cause[static_cast<int>(Status::kMissingField)]);
+}
+
+// Numbers read from a message before they are used: a negative sequence is rejected (invalid_argument); a
+// sequence that jumps by ~2^62 counts its gap without overflowing the counter; an image larger than the
+// capacity or a model of another size is rejected before its JPEG is decoded; no heap.
+TEST(RoverNodeStream, SequenceAndSizesCheckedBeforeUse) {
+
+  auto withImage = [](int64_t sequence, int32_t width, int32_t model_width) {
+    stereo_pair_t p{};
+    std::vector<uint8_t> bytes = encodeMarker(sequence, stereo_pair_t::KIND_PAIR);
+    CHECK(ok(msgs::decodeMessage(bytes.data(), bytes.size(), p)));
+    p.left.jpeg.assign(16, 0xFF);  // never decoded: the sizes stop it first
+    p.left.jpeg_bytes = 16;
+    p.left.width_px = width;
+    p.left.height_px = 500;
+    p.left.model.width_px = model_width;
+    p.left.model.height_px = 500;
+    std::vector<uint8_t> b(static_cast<std::size_t>(p.getEncodedSize()));
+    (void)p.encode(b.data(), 0, static_cast<int>(b.size()));
+    return b;
+  };
+  std::vector<std::vector<uint8_t>> messages;
+  messages.push_back(encodeMarker(-3, stereo_pair_t::KIND_PAIR));
+  messages.push_back(withImage(0, kMaxImageWidth + 1, kMaxImageWidth + 1));
+  messages.push_back(withImage(1, 800, 1000));
+  messages.push_back(encodeMarker(int64_t{1} << 62, stereo_pair_t::KIND_PAIR));
+  messages.push_back(encodeMarker(INT64_MAX, stereo_pair_t::KIND_PAIR));
+
+  HeapAllocationScope scope;
+  for (const auto& m : messages) g_node.handleStereoPair(m.data(), m.size());
+  const uint64_t allocations = scope.allocations();
+  const RoverCounters& c = g_node.counters();
+  CHECK_EQUAL(0u, allocations);
+  // -3: invalid_argument; model of another size: invalid_argument.
+  CHECK_EQUAL(2, c.rejected_by_cause[static_cast<int>(Status::kInvalidArgument)]);
+  CHECK_EQUAL(1, c.rejected_by_cause[static_cast<int>(Status::kCapacityExceeded)]);
+  // The two huge sequences carry no JPEG.
+  CHECK_EQUAL(2, c.rejected_by_cause[static_cast<int>(Status::kMissingField)]);
+  CHECK_EQUAL(INT32_MAX, c.sequence_gaps);  // saturated, not wrapped negative
+  CHECK_EQUAL(0, c.pairs_accepted);
 }

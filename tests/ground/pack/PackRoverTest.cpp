@@ -1,5 +1,6 @@
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -12,11 +13,14 @@
 #include "areomap/eo_solution_t.hpp"
 #include "areomap/rover_status_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
+#include "areomap/tiepoints_t.hpp"
 #include "firmware_core/adjust/FastAdjuster.hpp"
+#include "firmware_core/camera/CameraConversion.hpp"
 #include "firmware_core/node/RoverNode.hpp"
 #include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/TruthFiles.hpp"
+#include "ground/io/CameraFile.hpp"
 #include "ground/pack/Pack.hpp"
-#include "ground/ties/TieAdjust.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
 #include "platform/heap/HeapCounter.hpp"
@@ -64,6 +68,7 @@ struct Captured {
   int statuses = 0;
   int tiepoints = 0;
   int dems = 0;
+  std::vector<ImageObservation> ties;  // every AREOMAP_TIEPOINTS observation, in order (image = stem)
 };
 
 void onEo(void* ctx, const char*, const uint8_t* data, std::size_t size) {
@@ -83,6 +88,21 @@ void onStatus(void* ctx, const char*, const uint8_t* data, std::size_t size) {
   }
 }
 void onCount(void* ctx, const char*, const uint8_t*, std::size_t) { *static_cast<int*>(ctx) += 1; }
+void onTies(void* ctx, const char*, const uint8_t* data, std::size_t size) {
+  auto* c = static_cast<Captured*>(ctx);
+  tiepoints_t m;
+  if (!ok(msgs::decodeMessage(data, size, m))) return;
+  c->tiepoints += 1;
+  for (int32_t i = 0; i < m.num_observations; ++i) {
+    ImageObservation o;
+    o.point = m.point_id[static_cast<std::size_t>(i)];
+    o.image = m.image_stems[static_cast<std::size_t>(m.image_index[static_cast<std::size_t>(i)])];
+    o.sample_px = m.sample_px[static_cast<std::size_t>(i)];
+    o.line_px = m.line_px[static_cast<std::size_t>(i)];
+    o.kind = m.kind[static_cast<std::size_t>(i)] == tiepoints_t::KIND_INTRA ? "intra" : "inter";
+    c->ties.push_back(o);
+  }
+}
 
 struct PairFeeder {
   uint64_t pipeline_allocs = 0;
@@ -99,14 +119,15 @@ void onPair(void* ctx, const char*, const uint8_t* data, std::size_t size) {
 uint8_t g_outbox[4 * 1024 * 1024];
 
 // Runs the events through memq:// into the rover node (one process, one thread).
-Captured runThroughMemq(const std::vector<LogEvent>& events, uint64_t& pipeline_allocs) {
+Captured runThroughMemq(const std::vector<LogEvent>& events, uint64_t& pipeline_allocs,
+                        const RoverOptions& given = RoverOptions{}) {
   platform::LcmTransport lcm;
   CHECK_EQUAL(Status::kOk, lcm.open("memq://"));
   platform::MemoryTransport outbox(g_outbox, sizeof(g_outbox));
   platform::ArenaJpegDecoder jpeg(g_arena, sizeof(g_arena));
   CHECK_EQUAL(Status::kOk, jpeg.open());
   platform::PosixClock clock;
-  RoverOptions options;
+  RoverOptions options = given;
   options.log_to_stderr = false;
   node().start(outbox, jpeg, clock, options);
   static Captured captured;
@@ -115,7 +136,7 @@ Captured runThroughMemq(const std::vector<LogEvent>& events, uint64_t& pipeline_
   CHECK_EQUAL(Status::kOk, lcm.subscribe(channels::kStereoPair, onPair, &feeder));
   CHECK_EQUAL(Status::kOk, outbox.subscribe(channels::kEoSolution, onEo, &captured));
   CHECK_EQUAL(Status::kOk, outbox.subscribe(channels::kRoverStatus, onStatus, &captured));
-  CHECK_EQUAL(Status::kOk, outbox.subscribe(channels::kTiePoints, onCount, &captured.tiepoints));
+  CHECK_EQUAL(Status::kOk, outbox.subscribe(channels::kTiePoints, onTies, &captured));
   CHECK_EQUAL(Status::kOk, outbox.subscribe(channels::kCoarseDem, onCount, &captured.dems));
   for (const LogEvent& e : events) {
     CHECK_EQUAL(Status::kOk, lcm.publish(e.channel.c_str(), e.data.data(), e.data.size()));
@@ -129,56 +150,71 @@ Captured runThroughMemq(const std::vector<LogEvent>& events, uint64_t& pipeline_
   return captured;
 }
 
-// The offline reference on the same JPEG-decoded pixels: the matcher and adapter pair by pair as
-// areomap-ties does, the rig from panorama.json or estimated (setRigConstraints), one fast adjustment.
-struct Offline {
-  std::unique_ptr<PanoramaMatcher> matcher = std::make_unique<PanoramaMatcher>();
-  std::unique_ptr<NetworkAdapter> adapter = std::make_unique<NetworkAdapter>();
-  std::unique_ptr<Network> net = std::make_unique<Network>();
-};
+stereo_pair_t decodePair(const LogEvent& e) {
+  stereo_pair_t p;
+  CHECK_EQUAL(Status::kOk, msgs::decodeMessage(e.data.data(), e.data.size(), p));
+  return p;
+}
 
-void runOffline(const Dataset& dataset, const std::vector<LogEvent>& events, Offline& off) {
+LogEvent encodePair(const stereo_pair_t& p, int64_t utime) {
+  LogEvent e{channels::kStereoPair, utime, std::vector<uint8_t>(static_cast<std::size_t>(p.getEncodedSize()))};
+  CHECK_EQUAL(static_cast<int>(e.data.size()), p.encode(e.data.data(), 0, static_cast<int>(e.data.size())));
+  return e;
+}
+
+// The stream's pairs as the ground keeps them: a dataset folder of the JPEG-decoded pixels (PGM), the
+// a-priori models (.cahvor) and panorama.json with the stream's rig values, for areomap-ties.
+void writeDecodedDataset(const std::vector<LogEvent>& events, const std::string& dir) {
   platform::TurboJpegCodec codec;
   CHECK_EQUAL(Status::kOk, codec.open());
-  off.matcher->reset();
-  off.matcher->planForPairs(kMaxPairs);  // as the rover (it does not know the pair count in advance)
-  off.adapter->reset();
-  off.net->clear();
-  std::vector<int> sols;
-  std::vector<uint8_t> pix[2] = {std::vector<uint8_t>(kMaxImagePixels), std::vector<uint8_t>(kMaxImagePixels)};
+  std::filesystem::create_directories(dir + "/images");
+  std::filesystem::create_directories(dir + "/models");
+  Dataset d;
+  d.root = dir;
+  std::vector<uint8_t> pixels(kMaxImagePixels);
   for (const LogEvent& e : events) {
-    stereo_pair_t p;
-    CHECK_EQUAL(Status::kOk, msgs::decodeMessage(e.data.data(), e.data.size(), p));
+    const stereo_pair_t p = decodePair(e);
     if (p.kind != stereo_pair_t::KIND_PAIR) continue;
-    CameraModel models[2];
-    const char* field = "";
-    ImageView views[2];
+    d.name = p.panorama;
+    Pair pair;
+    pair.id = p.pair_id;
+    pair.sol = p.sol;
+    pair.tier = p.tier;
     const stereo_image_t* sides[2] = {&p.left, &p.right};
     for (int s = 0; s < (p.has_right ? 2 : 1); ++s) {
-      CHECK_EQUAL(Status::kOk, toCameraModel(sides[s]->model, models[s], field));
       int32_t w = 0, h = 0;
-      CHECK_EQUAL(Status::kOk, codec.decodeGray(sides[s]->jpeg.data(), sides[s]->jpeg.size(), pix[s].data(),
-                                                pix[s].size(), w, h));
-      views[s] = ImageView{pix[s].data(), w, h, w};
+      CHECK_EQUAL(Status::kOk, codec.decodeGray(sides[s]->jpeg.data(), sides[s]->jpeg.size(), pixels.data(),
+                                                pixels.size(), w, h));
+      const std::string image = "images/" + sides[s]->stem + ".pgm";
+      std::ofstream pgm(dir + "/" + image, std::ios::binary);
+      pgm << "P5\n" << w << " " << h << "\n255\n";
+      pgm.write(reinterpret_cast<const char*>(pixels.data()), static_cast<std::streamsize>(w) * h);
+      CHECK_TRUE(pgm.good());
+      CameraModel model;
+      const char* field = "";
+      CHECK_EQUAL(Status::kOk, toCameraModel(sides[s]->model, model, field));
+      const std::string model_rel = "models/" + sides[s]->stem + ".cahvor";
+      io::writeCameraModelFile(dir + "/" + model_rel, model);
+      (s == 0 ? pair.left : pair.right.emplace()) = makeImageRef(dir, image, model_rel);
     }
-    PairTieReport report;
-    (void)off.matcher->addPair(views[0], p.has_right ? &views[1] : nullptr, models[0],
-                               p.has_right ? &models[1] : nullptr, report);
-    int sol = -1;
-    for (std::size_t i = 0; i < sols.size(); ++i)
-      if (sols[i] == p.sol) sol = static_cast<int>(i);
-    if (sol < 0) {
-      sol = static_cast<int>(sols.size());
-      sols.push_back(p.sol);
-    }
-    int32_t failed = 0;
-    CHECK_EQUAL(Status::kOk, off.adapter->syncPair(*off.matcher, sol, p.tier, models[0],
-                                                   p.has_right ? &models[1] : nullptr, *off.net, failed));
+    d.rig.gimbal_m[p.sol] = Eigen::Vector3d(p.gimbal_m[0], p.gimbal_m[1], p.gimbal_m[2]);
+    d.rig.left_offset_m = Eigen::Vector3d(p.left_offset_m[0], p.left_offset_m[1], p.left_offset_m[2]);
+    d.rig.right_offset_m = Eigen::Vector3d(p.right_offset_m[0], p.right_offset_m[1], p.right_offset_m[2]);
+    if (p.has_right) d.rig.base_m = Eigen::Vector3d(p.base_m[0], p.base_m[1], p.base_m[2]);
+    d.rig.sigma_gimbal_m = p.sigma_gimbal_m;
+    d.rig.sigma_base_m = p.sigma_base_m;
+    d.pairs.push_back(pair);
   }
-  std::vector<std::string> notes;
-  setRigConstraints(dataset, sols, *off.net, notes);
-  const AdjustOutcome o = adjustNetwork(*off.net, FastAdjustOptions{});
-  CHECK_EQUAL(Status::kOk, o.result.status);
+  writeDataset(d, dir);
+}
+
+// Pixel-equivalent difference of two adjusted CAHVOR models of the same camera (their photogrammetric EO).
+double modelDifferencePx(const CameraModel& a, const CameraModel& b) {
+  PhotogrammetricCamera ca, cb;
+  ConversionResidual residual;
+  CHECK_EQUAL(Status::kOk, cahvorToPhotogrammetric(a, ca, residual));
+  CHECK_EQUAL(Status::kOk, cahvorToPhotogrammetric(b, cb, residual));
+  return eoPixelEquivalent(ca.io.f_px, ca.eo.center_m - cb.eo.center_m, rotationAngle(ca.m, cb.m), 5.0);
 }
 
 // Largest pixel-equivalent EO difference between two networks with the same images.
@@ -236,16 +272,18 @@ TEST(PackStream, TinyStreamIsOrderedAndComplete) {
 TEST_GROUP(RoverMemq){};
 
 // The tiny panorama through memq:// in one process: every pair accepted, the final EO published, zero heap
-// allocations in the pipeline across the whole panorama, and the rover's final EO equal to the offline
-// adjustment of the same JPEG-decoded pixels within 0.01 px equivalent.
-TEST(RoverMemq, TinyEndToEndEqualsOfflineAndZeroHeap) {
+// allocations in the pipeline across the whole panorama; and the offline tool `areomap-ties --adjust` on the
+// same JPEG-decoded pixels (the stream's pairs written as a dataset folder, as the ground keeps them) makes
+// the IDENTICAL tie list (same points, images, kinds, coordinates to the last bit) and the same EO within
+// 0.01 px equivalent after the rover's final adjustment.
+TEST(RoverMemq, TinyEndToEndEqualsTheTiesToolAndZeroHeap) {
   const Dataset dataset = readDataset(tinyDataset());
   uint64_t allocs = 99;
   const Captured c = runThroughMemq(tinyStream(), allocs);
   const RoverCounters& k = node().counters();
   std::printf("rover memq tiny: %d pairs accepted of %d, final rms %.4f px, %d sweeps, %d tie-point and %d DEM "
-              "messages, pipeline heap allocations %llu (heap counter %s)\n",
-              k.pairs_accepted, k.pairs_seen, k.last_rms_px, k.last_sweeps, c.tiepoints, c.dems,
+              "messages (%zu observations), pipeline heap allocations %llu (heap counter %s)\n",
+              k.pairs_accepted, k.pairs_seen, k.last_rms_px, k.last_sweeps, c.tiepoints, c.dems, c.ties.size(),
               static_cast<unsigned long long>(allocs), heapCounterActive() ? "on" : "off");
   CHECK_EQUAL(static_cast<int>(dataset.pairs.size()), k.pairs_accepted);
   CHECK_EQUAL(0, k.pairs_rejected);
@@ -253,20 +291,44 @@ TEST(RoverMemq, TinyEndToEndEqualsOfflineAndZeroHeap) {
   CHECK_EQUAL(2 * static_cast<int>(dataset.pairs.size()), c.last_eo.num_images);
   CHECK_EQUAL(static_cast<int>(dataset.pairs.size()), c.tiepoints);
   CHECK_EQUAL(static_cast<int>(dataset.pairs.size()), c.dems);
+  CHECK_EQUAL(0, k.tie_overflow);
   CHECK_EQUAL(rover_status_t::STATE_FINISHED, c.last_status.state);
   if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
 
-  Offline off;
-  runOffline(dataset, tinyStream(), off);
-  CHECK_EQUAL(off.net->imageCount(), node().network().imageCount());
-  const double diff = maxEoDifferencePx(node().network(), *off.net);
-  std::printf("rover final EO vs offline areomap-ties --adjust path on the same pixels: max %.6f px equivalent\n", diff);
-  CHECK_TRUE(diff < 0.01);
+  const std::string dir = test::scratchDir("rover-vs-ties");
+  writeDecodedDataset(tinyStream(), dir + "/stream");
+  CHECK_EQUAL(0, test::runTool("areomap-ties", dir + "/stream --out " + dir + "/ties --adjust"));
+  const std::vector<ImageObservation> ties = readTiePointsCsv(dir + "/ties/tiepoints.csv");
+  CHECK_EQUAL(ties.size(), c.ties.size());
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < std::min(ties.size(), c.ties.size()); ++i) {
+    const ImageObservation& t = ties[i];
+    const ImageObservation& r = c.ties[i];
+    if (t.point != r.point || t.image != r.image || t.sample_px != r.sample_px || t.line_px != r.line_px ||
+        t.kind != r.kind) {
+      ++differ;
+    }
+  }
+  double worst = 0.0;
+  for (int32_t i = 0; i < c.last_eo.num_images; ++i) {
+    const eo_entry_t& e = c.last_eo.images[static_cast<std::size_t>(i)];
+    CameraModel rover;
+    const char* field = "";
+    CHECK_EQUAL(Status::kOk, toCameraModel(e.model, rover, field));
+    const CameraModel tool = io::readCameraModelFile(dir + "/ties/models/" + e.stem + ".cahvor", rover.width, rover.height);
+    worst = std::max(worst, modelDifferencePx(rover, tool));
+  }
+  std::printf("rover vs areomap-ties --adjust on the same pixels: %zu vs %zu tie observations, %zu differ; final EO "
+              "max %.6f px equivalent\n",
+              c.ties.size(), ties.size(), differ, worst);
+  CHECK_EQUAL(0u, differ);
+  CHECK_TRUE(worst < 0.01);
 }
 
 // A stream with injected faults: each counted under its own cause, the rest processed, no crash, and the
-// final EO equal to the offline adjustment of the pairs that got through (in the order they were processed).
-TEST(RoverMemq, InjectedFaultsCountedUnderTheirCauses) {
+// final result as good as without the faulty pairs: the rover run on the same stream with the faulty pairs
+// simply removed accepts the same pairs and ends at the same EO (within 1e-6 px equivalent).
+TEST(RoverMemq, InjectedFaultsCountedAndResultAsWithoutTheFaultyPairs) {
   const std::vector<LogEvent> faulty = injectFaults(
       tinyStream(), "drop:2,dup:3,swap:5,truncate:4,corrupt-jpeg:6,unknown-channel,wrong-type,oversize:7,nan-model:1");
   uint64_t allocs = 99;
@@ -287,6 +349,7 @@ TEST(RoverMemq, InjectedFaultsCountedUnderTheirCauses) {
   CHECK_EQUAL(1, cause(Status::kCapacityExceeded));
   CHECK_EQUAL(1, cause(Status::kUnsupported));
   CHECK_EQUAL(1, cause(Status::kNotFinite));
+  CHECK_EQUAL(5, k.pairs_rejected);
   // Pairs 0, 3, 5 processed (1 NaN model, 2 dropped, 4 truncated, 6 corrupt JPEG, 7 oversize).
   CHECK_EQUAL(3, k.pairs_accepted);
   CHECK_TRUE(c.have_final);
@@ -294,17 +357,93 @@ TEST(RoverMemq, InjectedFaultsCountedUnderTheirCauses) {
   CHECK_EQUAL(2, c.last_status.sequence_gaps);
   CHECK_EQUAL(1, c.last_status.rejected_by_cause[rover_status_t::CAUSE_NOT_FINITE]);
   if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
+  const auto with_faults = std::make_unique<Network>(node().network());
+  std::vector<std::string> stems_with_faults;
+  for (int32_t i = 0; i < with_faults->imageCount(); ++i) stems_with_faults.emplace_back(node().stemOfImage(i));
+  const double rms_with_faults = k.last_rms_px;
 
-  // The offline path on the clean messages of pairs 0, 3, 5 gives the same EO.
-  std::vector<LogEvent> survivors;
-  for (int seq : {0, 3, 5, 8}) survivors.push_back(tinyStream()[static_cast<std::size_t>(seq)]);
-  Offline off;
-  runOffline(readDataset(tinyDataset()), survivors, off);
-  CHECK_EQUAL(off.net->imageCount(), node().network().imageCount());
-  const double diff = maxEoDifferencePx(node().network(), *off.net);
-  std::printf("faulty stream: final EO vs offline on the surviving pairs: max %.6f px equivalent, rms %.4f px\n", diff,
-              c.last_eo.rms_px);
-  CHECK_TRUE(diff < 0.01);
+  // The same stream with the faulty pairs removed (1, 2, 4, 6, 7): the clean messages of 0, 3, 5, the marker.
+  std::vector<LogEvent> clean;
+  for (int seq : {0, 3, 5, 8}) clean.push_back(tinyStream()[static_cast<std::size_t>(seq)]);
+  const Captured w = runThroughMemq(clean, allocs);
+  CHECK_TRUE(w.have_final);
+  CHECK_EQUAL(3, node().counters().pairs_accepted);
+  CHECK_EQUAL(0, node().counters().pairs_rejected);
+  CHECK_EQUAL(with_faults->imageCount(), node().network().imageCount());
+  CHECK_EQUAL(with_faults->pointCount(), node().network().pointCount());
+  CHECK_EQUAL(with_faults->observationCount(), node().network().observationCount());
+  for (int32_t i = 0; i < node().network().imageCount(); ++i) STRCMP_EQUAL(stems_with_faults[static_cast<std::size_t>(i)].c_str(), node().stemOfImage(i));
+  const double diff = maxEoDifferencePx(node().network(), *with_faults);
+  std::printf("faulty stream vs the same stream without the faulty pairs: same %d pairs accepted, final EO max %.3g "
+              "px equivalent, rms %.6f vs %.6f px\n",
+              node().counters().pairs_accepted, diff, rms_with_faults, node().counters().last_rms_px);
+  CHECK_TRUE(diff < 1e-6);
+}
+
+// Issue 12 item 3, more pairs than kMaxPairs: the tiny panorama, then untextured pairs (far away, so that
+// nothing is predicted into them) up to kMaxPairs, then one pair more. That pair is rejected under
+// capacity_exceeded, and the panorama the rover has is kept: the final EO equals the run of the tiny pairs
+// alone with the same plan.
+TEST(RoverMemq, MorePairsThanCapacityRejectedPanoramaKept) {
+  const std::vector<LogEvent>& tiny = tinyStream();
+  const int real = static_cast<int>(tiny.size()) - 1;
+  platform::TurboJpegCodec codec;
+  CHECK_EQUAL(Status::kOk, codec.open());
+  const stereo_pair_t first = decodePair(tiny[0]);
+  const int32_t w = first.left.width_px, h = first.left.height_px;
+  std::vector<uint8_t> flat(static_cast<std::size_t>(w) * h, 128), jpeg(codec.maxEncodedBytes(w, h));
+  std::size_t bytes = 0;
+  CHECK_EQUAL(Status::kOk, codec.encodeGray(flat.data(), w, h, 95, jpeg.data(), jpeg.size(), bytes));
+  std::vector<LogEvent> full, alone;
+  int64_t seq = 0;
+  auto add = [&](stereo_pair_t p, std::vector<LogEvent>& out) {
+    p.sequence = seq++;
+    p.pair_id = static_cast<int32_t>(p.sequence);
+    p.pairs_planned = kMaxPairs + 1;
+    out.push_back(encodePair(p, 1'700'000'000'000'000 + p.sequence));
+  };
+  for (int i = 0; i < real; ++i) add(decodePair(tiny[static_cast<std::size_t>(i)]), full);
+  for (int i = real; i < kMaxPairs; ++i) {
+    stereo_pair_t p = first;
+    for (stereo_image_t* side : {&p.left, &p.right}) {
+      side->stem = "flat" + std::to_string(i) + (side == &p.left ? "L" : "R");
+      side->jpeg.assign(jpeg.begin(), jpeg.begin() + static_cast<long>(bytes));
+      side->jpeg_bytes = static_cast<int32_t>(bytes);
+      for (int a = 0; a < 3; ++a) side->model.c_m[a] += 1e4 * side->model.a[a];
+    }
+    add(p, full);
+  }
+  add(first, full);  // pair kMaxPairs + 1
+  stereo_pair_t end = decodePair(tiny.back());
+  add(end, full);
+  seq = 0;
+  for (int i = 0; i < real; ++i) add(decodePair(tiny[static_cast<std::size_t>(i)]), alone);
+  add(end, alone);
+
+  uint64_t allocs = 99;
+  const Captured c = runThroughMemq(full, allocs);
+  const RoverCounters& k = node().counters();
+  std::printf("capacity: %d pairs seen, %d accepted, %d without texture, %d over capacity; last error: %s\n",
+              k.pairs_seen, k.pairs_accepted, k.no_texture_pairs, k.rejected_by_cause[static_cast<int>(Status::kCapacityExceeded)],
+              node().lastError());
+  CHECK_EQUAL(kMaxPairs + 2, k.pairs_seen);
+  CHECK_EQUAL(real, k.pairs_accepted);
+  CHECK_EQUAL(kMaxPairs - real, k.no_texture_pairs);
+  CHECK_EQUAL(1, k.rejected_by_cause[static_cast<int>(Status::kCapacityExceeded)]);
+  CHECK_EQUAL(kMaxPairs - real + 1, k.pairs_rejected);
+  CHECK_TRUE(c.have_final);
+  CHECK_EQUAL(rover_status_t::STATE_FINISHED, c.last_status.state);
+  CHECK_EQUAL(1, c.last_status.rejected_by_cause[rover_status_t::CAUSE_CAPACITY_EXCEEDED]);
+  CHECK_EQUAL(2 * real, c.last_eo.num_images);
+  if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
+  const auto kept = std::make_unique<Network>(node().network());
+
+  const Captured a = runThroughMemq(alone, allocs);
+  CHECK_TRUE(a.have_final);
+  CHECK_EQUAL(kept->observationCount(), node().network().observationCount());
+  const double diff = maxEoDifferencePx(node().network(), *kept);
+  std::printf("capacity: final EO vs the tiny pairs alone (same plan): max %.3g px equivalent\n", diff);
+  CHECK_TRUE(diff < 1e-6);
 }
 
 TEST_GROUP(RoverTool){};
