@@ -107,21 +107,23 @@ int32_t currentPairConstraintRows(const Network& net, int32_t pair, ConstraintRo
 
 Status observationRow(const NetObservation& obs, const NetImage& image, const Vec3& center, const Mat3& m,
                       const Vec3& point, Vec2& residual, Mat2x6* d_image, Mat2x3* d_point) {
+  // d(pixel)/dC = -d(pixel)/dX: the centre block is the negated point block, not computed twice.
   Vec2 pixel;
-  Mat2x3 d_center, d_rotation;
-  const Status s = collinearity(image.io, center, m, point, pixel, d_image != nullptr ? &d_center : nullptr,
-                                d_image != nullptr ? &d_rotation : nullptr, d_point);
+  Mat2x3 d_rotation, d_xyz;
+  const bool derivatives = d_image != nullptr || d_point != nullptr;
+  const Status s = collinearity(image.io, center, m, point, pixel, nullptr, d_image != nullptr ? &d_rotation : nullptr,
+                                derivatives ? &d_xyz : nullptr);
   if (!ok(s)) {
     return s;
   }
   const double w = 1.0 / obs.sigma_px;
   residual = (obs.ideal_px - pixel) * w;
   if (d_image != nullptr) {
-    d_image->block<2, 3>(0, 0) = d_center * w;
+    d_image->block<2, 3>(0, 0) = d_xyz * (-w);
     d_image->block<2, 3>(0, 3) = d_rotation * w;
   }
   if (d_point != nullptr) {
-    *d_point *= w;
+    *d_point = d_xyz * w;
   }
   return Status::kOk;
 }

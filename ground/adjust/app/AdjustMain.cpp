@@ -23,7 +23,7 @@ namespace {
 const char* kUsage =
     "usage: areomap-adjust DATASET --out DIR (--ties FILE | --truth-ties [--noise-px S] [--seed N])\n"
     "                      [--solver fast|svd|ceres] [--no-gimbal] [--no-base] [--fido] [--no-datum-prior]\n"
-    "                      [--sigma-px S] [--no-robust] [--max-sweeps N]\n"
+    "                      [--sigma-px S] [--no-robust] [--max-sweeps N] [--fast-method M]\n"
     "\n"
     "Constrained bundle adjustment of a panoramic stereo dataset (Di, Xu, Li 3.1-3.5).\n"
     "  DATASET          folder with panorama.json and the a-priori models\n"
@@ -31,7 +31,7 @@ const char* kUsage =
     "  --ties FILE      tie points, CSV point,image,sample_px,line_px (image = image stem, measured pixels)\n"
     "  --truth-ties     use DATASET/truth/observations.csv plus Gaussian noise of --noise-px S (default 0.3)\n"
     "  --seed N         seed of that noise (default 1)\n"
-    "  --solver         fast (default; per-pair 12x12 / per-point 3x3 alternation, Anderson-accelerated),\n"
+    "  --solver         fast (default; the rover's adjuster: per-pair 12x12 and per-point 3x3 blocks),\n"
     "                   svd (integrated, dense normal matrix, minimum-norm SVD; small networks only) or\n"
     "                   ceres (integrated, sparse Schur Levenberg-Marquardt)\n"
     "  --no-gimbal      drop the gimbal constraint (Eq. 3)\n"
@@ -40,7 +40,11 @@ const char* kUsage =
     "  --no-datum-prior drop the weak prior that keeps the a-priori datum\n"
     "  --sigma-px S     a-priori sigma of the image observations (default 0.3)\n"
     "  --no-robust      no outlier rejection\n"
-    "  --max-sweeps N   bound of the fast adjuster's sweeps (default 1000)\n"
+    "  --max-sweeps N   bound of the fast adjuster's sweeps / LM steps (default 1000)\n"
+    "  --fast-method M  how the fast adjuster solves: cholesky (default; LM, the reduced camera system of the\n"
+    "                   pairs' 12x12 blocks factorised directly), pcg (LM, the same system by block-Jacobi\n"
+    "                   conjugate gradients) or alternation (the paper's pair/point alternation, Anderson-\n"
+    "                   accelerated)\n"
     "Exit codes: 0 ok, 2 usage error, 1 other error.\n";
 
 constexpr int kMaxSvdUnknowns = 5000;  // dense SVD memory and time grow as n^2 and n^3
@@ -70,6 +74,7 @@ int main(int argc, char** argv) {
     choice.sigma_px = args.number("--sigma-px", 0.3);
     const bool robust = !args.flag("--no-robust");
     const int64_t max_sweeps = args.integer("--max-sweeps", 1000);
+    const std::string fast_method = args.option("--fast-method", "cholesky");
     const std::string dataset_dir = args.positional(0, "DATASET");
     if (ties.has_value() == truth_ties) throw cli::UsageError("give exactly one of --ties FILE and --truth-ties");
     if (solver != "fast" && solver != "svd" && solver != "ceres") {
@@ -77,6 +82,9 @@ int main(int argc, char** argv) {
     }
     if (!(noise_px >= 0.0)) throw cli::UsageError("--noise-px: must be >= 0");
     if (!(choice.sigma_px > 0.0)) throw cli::UsageError("--sigma-px: must be > 0");
+    if (fast_method != "cholesky" && fast_method != "pcg" && fast_method != "alternation") {
+      throw cli::UsageError("--fast-method: '" + fast_method + "' is not cholesky, pcg or alternation");
+    }
     if (max_sweeps < 1 || max_sweeps > kMaxFastSweeps) {
       throw cli::UsageError("--max-sweeps: must be 1.." + std::to_string(kMaxFastSweeps));
     }
@@ -122,6 +130,9 @@ int main(int argc, char** argv) {
     FastAdjustOptions options;
     options.max_sweeps = static_cast<int32_t>(max_sweeps);
     options.robust = robust;
+    options.method = fast_method == "pcg"           ? FastMethod::kSchurPcg
+                     : fast_method == "alternation" ? FastMethod::kAlternation
+                                                    : FastMethod::kSchurCholesky;
     FastAdjustResult fr;
     const Status s = g_fast.adjust(g_net, options, fr);
     if (!ok(s)) {

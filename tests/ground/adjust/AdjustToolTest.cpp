@@ -95,6 +95,9 @@ TEST(AdjustTool, ExitCodesFollowTheContract) {
   CHECK_EQUAL(2, runTool(binDir() + "/areomap-adjust " + data + " --truth-ties"));                      // no --out
   CHECK_EQUAL(2, runTool(binDir() + "/areomap-adjust " + data + " --out " + out));                      // no ties
   CHECK_EQUAL(2, runTool(binDir() + "/areomap-adjust " + data + " --out " + out + " --truth-ties --solver x"));
+  CHECK_EQUAL(2, runTool(binDir() + "/areomap-adjust " + data + " --out " + out + " --truth-ties --fast-method x"));
+  CHECK_EQUAL(0, runTool(binDir() + "/areomap-adjust " + data + " --out " + out +
+                         " --truth-ties --fast-method alternation"));
   CHECK_EQUAL(1, runTool(binDir() + "/areomap-adjust " + out + "/missing --out " + out + " --truth-ties"));
   // A tie list whose observations leave an image without points: a degenerate network, exit 1.
   const std::string ties = out + "/ties.csv";
