@@ -18,7 +18,8 @@ struct EquiParallaxOptions {
   double blend_m = 2.0;          // linear blend over [seam - blend, seam + blend]
   double max_azimuth_gap_rad = 0.02;  // along a line, interpolate only between points this close
   double max_range_gap_m = 15.0;      // between lines, interpolate only across this much range
-  int smoothing_half_window = 3;      // moving average of +-n points along a line (0 = none)
+  int smoothing_half_window = 20;     // moving average of +-n points along a line (0 = none); 20 beat 3
+                                      // and 10 on a rendered navcam scene (BENCHMARKS.md, far range)
 };
 
 // Equi-parallax DEM of the points with a line id (DemPoint::line >= 0) on `grid`; nodata where no pair of
