@@ -22,7 +22,8 @@ void PanoramaMatcher::reset() {
 }
 
 void PanoramaMatcher::planForPairs(int32_t pairs) {
-  const int32_t share = pairs > 0 ? (kMaxTiePoints * 4 / 5) / pairs : kMaxTiesPerPair;
+  planned_pairs_ = pairs > 0 && pairs <= kMaxPairs ? pairs : kMaxPairs;
+  const int32_t share = pairs > 0 ? (kMaxTiePoints * 7 / 10) / pairs : kMaxTiesPerPair;
   stereo.tie_budget = share < 16 ? 16 : (share > kMaxTiesPerPair ? kMaxTiesPerPair : share);
 }
 
@@ -83,7 +84,10 @@ Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, c
   report.dem_points = dem_.pointCount();
   report.dem_cells = dem_.measuredCells();
 
-  // 3. Inter-stereo ties from every earlier pair into this one.
+  // 3. Inter-stereo ties from every earlier pair into this one (points created up to the pair's cumulative
+  // share, its own selected ties kept free).
+  const int32_t planned = planned_pairs_ > j ? planned_pairs_ : j + 1;
+  birth_limit_ = static_cast<int32_t>(static_cast<int64_t>(kMaxTiePoints) * (j + 1) / planned) - stereo_result_.tie_count;
   const ImageView* images[2] = {&left, has_right ? right : nullptr};
   interTies(j, images, report);
 
@@ -91,8 +95,8 @@ Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, c
   for (int32_t i = 0; i < stereo_result_.tie_count; ++i) {
     if (!triangulated[i]) continue;
     const StereoMatch& m = stereo_result_.ties[i];
-    NccTemplate t;
-    if (!extractTemplate(left, static_cast<int32_t>(m.left_px.x()), static_cast<int32_t>(m.left_px.y()), t)) continue;
+    StoredTie& st = stored.ties[stored.tie_count];
+    if (!fillStoredTie(left, left_model, m, ground[i], st)) continue;
     TiePoint p;
     p.ground_m = ground[i];
     p.pair = j;
@@ -110,43 +114,128 @@ Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, c
       ++report.overflow;
       continue;
     }
-    StoredTie& st = stored.ties[stored.tie_count++];
-    for (int32_t k = 0; k < kNccPixels; ++k) st.patch[k] = t.pixels[k];
-    Vec3 origin, direction, predicted;
-    st.predicted_m = ground[i];
-    const bool have_ray = ok(unproject(left_model, m.left_px, origin, direction));
-    if (have_ray && ok(dem_.intersectRay(origin, direction, predicted))) st.predicted_m = predicted;
-    // The patch's shape on the surface: where its neighbouring pixels meet the DEM (or, without a DEM there,
-    // the plane through the point facing the camera).
-    st.has_shape = have_ray;
-    for (int32_t axis = 0; axis < 2 && st.has_shape; ++axis) {
-      const Vec2 offset_px = m.left_px + (axis == 0 ? Vec2(kWarpBasePx, 0.0) : Vec2(0.0, kWarpBasePx));
-      Vec3 o2, d2, p2;
-      st.has_shape = ok(unproject(left_model, offset_px, o2, d2));
-      if (!st.has_shape) break;
-      if (!ok(dem_.intersectRay(o2, d2, p2))) {
-        const double range = (st.predicted_m - o2).dot(direction) / d2.dot(direction);
-        p2 = o2 + range * d2;
-      }
-      (axis == 0 ? st.predicted_dx_m : st.predicted_dy_m) = p2;
-    }
     st.point = id;
-    st.source_px = m.left_px;
+    ++stored.tie_count;
   }
-  if (!has_right) storeSingleImagePoints(left, left_model, stored);
+  if (has_right) {
+    storeInterCandidates(left, left_model, *right_model, stored, report);
+  } else {
+    storeSingleImagePoints(left, left_model, stored);
+  }
   ++pair_count_;
   // A single image has done its part when it has stored interest points for the pairs that follow.
   const bool any = stereo_result_.tie_count > 0 || report.inter_observations > 0 || (!has_right && stored.tie_count > 0);
   return any ? Status::kOk : Status::kNoTexture;
 }
 
+bool PanoramaMatcher::fillStoredTie(const ImageView& left, const CameraModel& left_model, const StereoMatch& m,
+                                    const Vec3& ground, StoredTie& st) const {
+  NccTemplate t;
+  if (!extractTemplate(left, static_cast<int32_t>(m.left_px.x()), static_cast<int32_t>(m.left_px.y()), t)) return false;
+  for (int32_t k = 0; k < kNccPixels; ++k) st.patch[k] = t.pixels[k];
+  Vec3 origin, direction, predicted;
+  st.predicted_m = ground;
+  const bool have_ray = ok(unproject(left_model, m.left_px, origin, direction));
+  if (have_ray && ok(dem_.intersectRay(origin, direction, predicted))) st.predicted_m = predicted;
+  // The patch's shape on the surface: where its neighbouring pixels meet the DEM (or, without a DEM there,
+  // the plane through the point facing the camera).
+  st.has_shape = have_ray;
+  for (int32_t axis = 0; axis < 2 && st.has_shape; ++axis) {
+    const Vec2 offset_px = m.left_px + (axis == 0 ? Vec2(kWarpBasePx, 0.0) : Vec2(0.0, kWarpBasePx));
+    Vec3 o2, d2, p2;
+    st.has_shape = ok(unproject(left_model, offset_px, o2, d2));
+    if (!st.has_shape) break;
+    if (!ok(dem_.intersectRay(o2, d2, p2))) {
+      const double range = (st.predicted_m - o2).dot(direction) / d2.dot(direction);
+      p2 = o2 + range * d2;
+    }
+    (axis == 0 ? st.predicted_dx_m : st.predicted_dy_m) = p2;
+  }
+  st.source_px = m.left_px;
+  st.right_px[0] = static_cast<float>(m.right_px.x());
+  st.right_px[1] = static_cast<float>(m.right_px.y());
+  st.intra_score = static_cast<float>(m.score);
+  st.has_intra = true;
+  st.point = -1;
+  return true;
+}
+
+void PanoramaMatcher::storeInterCandidates(const ImageView& left, const CameraModel& left_model,
+                                           const CameraModel& right_model, StoredPair& stored, PairTieReport& report) {
+  if (stored.tie_count >= kMaxTiesPerPair) return;
+  const StereoWorkspace& ws = stereo_workspace_;
+  const int32_t grid = selectionGridPx(stereo, left.width, left.height);
+  const int32_t grid_x = (left.width + grid - 1) / grid;
+  // Half the selection cell, coarse enough for kCandidateGridSide cells along the larger side.
+  const int32_t side = left.width > left.height ? left.width : left.height;
+  const int32_t min_cell = (side + kCandidateGridSide - 1) / kCandidateGridSide;
+  const int32_t cell = grid / 2 > min_cell ? grid / 2 : min_cell;
+  const int32_t cells_x = (left.width + cell - 1) / cell;
+  const int32_t cells_y = (left.height + cell - 1) / cell;
+  int32_t* best = candidate_best_;
+  for (int32_t c = 0; c < cells_x * cells_y; ++c) best[c] = -1;
+  for (int32_t i = 0; i < ws.match_count; ++i) {
+    const StereoMatch& m = ws.matches[i];
+    if (!m.verified) continue;
+    const int32_t x = static_cast<int32_t>(m.left_px.x());
+    const int32_t y = static_cast<int32_t>(m.left_px.y());
+    if (ws.cell_best[(y / grid) * grid_x + x / grid] == i) continue;  // selected: already a tie point
+    int32_t& b = best[(y / cell) * cells_x + x / cell];
+    if (b < 0 || ws.matches[b].score < m.score) b = i;
+  }
+  // Nearest the border first (insertion sort by border distance; at most kCandidateGridSide^2 entries).
+  int32_t n = 0;
+  for (int32_t c = 0; c < cells_x * cells_y; ++c) {
+    const int32_t match = best[c];  // the sorted list is built in place: slots 0..c are free to write
+    if (match < 0) continue;
+    const Vec2& px = ws.matches[match].left_px;
+    const int32_t key = static_cast<int32_t>(
+        std::fmin(std::fmin(px.x(), left.width - 1 - px.x()), std::fmin(px.y(), left.height - 1 - px.y())));
+    int32_t k = n++;
+    for (; k > 0 && candidate_border_[k - 1] > key; --k) {
+      candidate_border_[k] = candidate_border_[k - 1];
+      best[k] = best[k - 1];
+    }
+    candidate_border_[k] = key;
+    best[k] = match;
+  }
+  for (int32_t k = 0; k < n && stored.tie_count < kMaxTiesPerPair; ++k) {
+    const StereoMatch& m = ws.matches[best[k]];
+    Vec3 ground;
+    double miss_m = 0.0;
+    if (!ok(triangulateMidpoint(left_model, right_model, m.left_px, m.right_px, ground, miss_m))) continue;
+    if (!fillStoredTie(left, left_model, m, ground, stored.ties[stored.tie_count])) continue;
+    ++stored.tie_count;
+    ++report.inter_candidates_stored;
+  }
+}
+
 void PanoramaMatcher::fitOffsets(int32_t n, double initial_tolerance_px, double tolerance_px, Vec3& fx, Vec3& fy) {
-  for (int32_t c = 0; c < n; ++c) scratch_[c] = candidates_[c].dx;
-  const double mdx = medianInPlace(scratch_, n);
-  for (int32_t c = 0; c < n; ++c) scratch_[c] = candidates_[c].dy;
-  const double mdy = medianInPlace(scratch_, n);
-  fx = Vec3(mdx, 0.0, 0.0);
-  fy = Vec3(mdy, 0.0, 0.0);
+  // Start from the offset that most candidates agree with (within the final tolerance; ties: the higher
+  // summed score): unlike the median it holds when strays are the majority (narrow overlaps, where many
+  // probes find nothing true).
+  int32_t seed = 0;
+  int32_t seed_support = -1;
+  double seed_score = 0.0;
+  for (int32_t a = 0; a < n; ++a) {
+    int32_t support = 0;
+    double score = 0.0;
+    for (int32_t b = 0; b < n; ++b) {
+      if (std::fabs(candidates_[a].dx - candidates_[b].dx) > tolerance_px ||
+          std::fabs(candidates_[a].dy - candidates_[b].dy) > tolerance_px) {
+        continue;
+      }
+      ++support;
+      score += candidates_[b].score;
+    }
+    if (support > seed_support || (support == seed_support && score > seed_score)) {
+      seed = a;
+      seed_support = support;
+      seed_score = score;
+    }
+  }
+  fx = Vec3(candidates_[seed].dx, 0.0, 0.0);
+  fy = Vec3(candidates_[seed].dy, 0.0, 0.0);
   double tolerance = initial_tolerance_px;
   for (int32_t iteration = 0; iteration <= kMaxParallaxFitIterations; ++iteration) {
     int32_t inliers = 0;
@@ -161,7 +250,7 @@ void PanoramaMatcher::fitOffsets(int32_t n, double initial_tolerance_px, double 
     }
     if ((!changed && tolerance == tolerance_px) || iteration == kMaxParallaxFitIterations) break;
     tolerance = tolerance_px;
-    if (inliers < kMinAffineOffsets) continue;  // keep the constant (median) field
+    if (inliers < kMinAffineOffsets) continue;  // keep the constant (seed) field
     Mat3 normal = Mat3::Zero();
     Vec3 rx = Vec3::Zero(), ry = Vec3::Zero();
     for (int32_t c = 0; c < n; ++c) {
@@ -221,6 +310,7 @@ void PanoramaMatcher::storeSingleImagePoints(const ImageView& left, const Camera
     st.has_shape = st.has_shape && ok(unproject(model, Vec2(x, y + kWarpBasePx), o2, d2));
     st.predicted_dy_m = o2 + range * d2;
     st.source_px = Vec2(x, y);
+    st.has_intra = false;
     st.point = -1;
   }
 }
@@ -235,15 +325,18 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
       if (image == nullptr) continue;
       const CameraModel& model = target.model[side];
       const int32_t margin = kNccRadius + 1;
-      // Predictions inside this image, with the local shape of each patch.
+      // Predictions inside this image or up to the probe radius outside it (the a-priori pointing errors of
+      // the two pairs can move a point that is inside by that much: a narrow overlap may be predicted
+      // narrower than it is), with the local shape of each patch.
+      const int32_t reach = inter.probe_radius_px - margin;
       int32_t np = 0;
       for (int32_t k = 0; k < source.tie_count; ++k) {
         const StoredTie& st = source.ties[k];
         if (st.point >= 0 && points_[st.point].observation_count >= kMaxObsPerPoint) continue;
         Vec2 predicted;
         if (!ok(project(model, st.predicted_m, predicted))) continue;
-        if (predicted.x() < margin || predicted.y() < margin || predicted.x() > image->width - 1 - margin ||
-            predicted.y() > image->height - 1 - margin) {
+        if (predicted.x() < -reach || predicted.y() < -reach || predicted.x() > image->width - 1 + reach ||
+            predicted.y() > image->height - 1 + reach) {
           continue;
         }
         ++report.inter_candidates;
@@ -255,15 +348,32 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
           const double det = a.determinant();
           if (!(det > 0.25 && det < 4.0)) a = Mat2::Identity();  // implausible shape: compare unwarped
         }
-        predictions_[np++] = Prediction{k, predicted, a};
+        const bool inside = predicted.x() >= margin && predicted.y() >= margin &&
+                            predicted.x() <= image->width - 1 - margin && predicted.y() <= image->height - 1 - margin;
+        predictions_[np++] = Prediction{k, predicted, a, inside};
       }
       if (np == 0) continue;
       // Probe: a few predictions spread over the list, searched in a wide window, measure the common
-      // offset (the difference of the two pairs' a-priori pointing errors).
+      // offset (the difference of the two pairs' a-priori pointing errors). Predictions inside the image
+      // come first (those outside it are in the image only if the offset brings them in).
       const int32_t probes = np < kMaxInterOffsetProbes ? np : kMaxInterOffsetProbes;
+      int32_t inside = 0;
+      for (int32_t c = 0; c < np; ++c) inside += predictions_[c].inside ? 1 : 0;
+      const int32_t probes_inside = inside < probes ? inside : probes;
+      int32_t probe_of[kMaxInterOffsetProbes];
+      for (int32_t pass = 0, q = 0; pass < 2; ++pass) {
+        const int32_t pool = pass == 0 ? inside : np - inside;
+        const int32_t wanted = pass == 0 ? probes_inside : probes - probes_inside;
+        for (int32_t c = 0, seen = 0, taken = 0; c < np && taken < wanted; ++c) {
+          if (predictions_[c].inside != (pass == 0)) continue;
+          if (seen++ != (taken * pool) / wanted) continue;
+          probe_of[q++] = c;
+          ++taken;
+        }
+      }
       int32_t found = 0;
       for (int32_t q = 0; q < probes; ++q) {
-        const Prediction& pr = predictions_[(q * np) / probes];
+        const Prediction& pr = predictions_[probe_of[q]];
         NccTemplate t;
         templateFromPixels(source.ties[pr.tie].patch, t);
         const SearchHit hit = searchWindowWarped(t, *image, static_cast<int32_t>(std::lround(pr.px.x())),
@@ -275,7 +385,7 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
       }
       if (found < inter.min_group) continue;
       Vec3 field_x, field_y;
-      fitOffsets(found, inter.probe_radius_px, inter.search_radius_px, field_x, field_y);
+      fitOffsets(found, 2.0 * inter.search_radius_px, inter.search_radius_px, field_x, field_y);
 
       // Search every prediction around its corrected position.
       int32_t n = 0;
@@ -287,6 +397,7 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
         const Vec3 basis = offsetBasis(pr.px);
         const int32_t px = static_cast<int32_t>(std::lround(pr.px.x() + field_x.dot(basis)));
         const int32_t py = static_cast<int32_t>(std::lround(pr.px.y() + field_y.dot(basis)));
+        if (px < margin || py < margin || px > image->width - 1 - margin || py > image->height - 1 - margin) continue;
         const SearchHit hit = searchWindowWarped(t, *image, px, py, inter.search_radius_px, pr.shape);
         if (hit.score < inter.min_ncc || hit.second > stereo.max_second_ratio * hit.score) continue;
         double x = 0.0, y = 0.0;
@@ -312,7 +423,12 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
         StoredTie& st = source.ties[cand.tie];
         const Vec2 predicted = cand.px;
         if (st.point < 0) {
-          // First match of a single image's interest point: the point is born with both observations.
+          // First match of a stored candidate: the point is born with its observations in the source pair
+          // (both intra-stereo ones, or the single image's interest point).
+          if (points_.size() >= birth_limit_) {
+            ++report.births_deferred;
+            continue;
+          }
           TiePoint p;
           p.ground_m = st.predicted_m;
           p.pair = i;
@@ -321,7 +437,13 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
             continue;
           }
           st.point = points_.size() - 1;
-          if (!addObservation(st.point, 2 * i, st.source_px.x(), st.source_px.y(), TieKind::kInter, 1.0f)) {
+          const bool born =
+              st.has_intra
+                  ? addObservation(st.point, 2 * i, st.source_px.x(), st.source_px.y(), TieKind::kIntra, 1.0f) &&
+                        addObservation(st.point, 2 * i + 1, st.right_px[0], st.right_px[1], TieKind::kIntra,
+                                       st.intra_score)
+                  : addObservation(st.point, 2 * i, st.source_px.x(), st.source_px.y(), TieKind::kInter, 1.0f);
+          if (!born) {
             ++report.overflow;
             continue;
           }

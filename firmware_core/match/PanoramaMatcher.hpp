@@ -8,7 +8,12 @@
 //      same tie point keeps its
 //      identity, it gains observations,
 //   4. the new pair's ties are stored for later pairs: the 11 x 11 left-image patch around each tie and its
-//      DEM-predicted ground point (the full images are not kept: 256 pairs x 1 MiB would not fit).
+//      DEM-predicted ground point (the full images are not kept: 256 pairs x 1 MiB would not fit). The
+//      selected ties (the tie budget of the pair) rarely fill the kMaxTiesPerPair slots; the rest hold
+//      further verified intra-stereo matches nearest the image borders (a finer grid), where the
+//      neighbours of a panorama overlap (pan: left/right strips; tiers: top/bottom strips). Such a
+//      candidate becomes a tie point, with its two intra-stereo observations, only when a later pair
+//      matches it, so narrow overlaps get enough inter-stereo ties without spending the point budget.
 // Output: a neutral list of observations (point, image, sample, line, kind, score) and points (a-priori
 // ground position) that an adapter puts into the adjustment Network. Image index = 2 * pair + side.
 // Zero heap: one PanoramaMatcher (~20 MiB) is allocated statically at start-up.
@@ -63,18 +68,23 @@ struct PairTieReport {
   int32_t dem_points = 0;
   int32_t dem_cells = 0;
   int32_t neighbours = 0;        // earlier pairs with at least one inter-stereo tie to this pair
-  int32_t inter_candidates = 0;  // predicted inside this pair's images
+  int32_t inter_candidates = 0;  // predicted inside this pair's images or within the probe radius of them
   int32_t inter_matched = 0;     // passed NCC
   int32_t inter_rejected = 0;    // failed the offset verification
   int32_t inter_observations = 0;
+  int32_t inter_candidates_stored = 0;  // unselected verified matches kept for later pairs (step 4)
   int32_t overflow = 0;          // ties lost to a full list
+  int32_t births_deferred = 0;   // inter-stereo matches of stored candidates not made points (pair's share used)
 };
 
 class PanoramaMatcher {
  public:
   void reset();
-  // Shares kMaxTiePoints among the pairs of a panorama of `pairs` pairs (80 %, leaving room for the
-  // points that single images create): sets stereo.tie_budget.
+  // Shares kMaxTiePoints among the pairs of a panorama of `pairs` pairs: 70 % for the selected intra-stereo
+  // ties (sets stereo.tie_budget), the rest for the points that inter-stereo matches create (stored
+  // candidates, single images). Pair j may create points up to its cumulative share
+  // kMaxTiePoints * (j + 1) / pairs (its own selected ties kept free), so early pairs cannot starve the
+  // later ones, and what a pair leaves unused passes on.
   void planForPairs(int32_t pairs);
 
   // Adds the next pair (its index is pairCount() before the call). `right` and `right_model` may be null for
@@ -103,9 +113,14 @@ class PanoramaMatcher {
     Vec3 predicted_dy_m;
     bool has_shape;
     Vec2 source_px;  // its observation in the left image of the pair that stored it
-    // -1 for an interest point of a single image (no stereo partner): the point is created by its first
-    // inter-stereo match.
+    // -1 for an interest point of a single image (no stereo partner) or an inter-stereo candidate: the
+    // point is created by its first inter-stereo match.
     int32_t point;
+    // An inter-stereo candidate's intra-stereo right observation (added with the left one when the point
+    // is created); has_intra is false for a single image's interest point.
+    float right_px[2];
+    float intra_score;
+    bool has_intra;
   };
   struct StoredPair {
     CameraModel model[2];
@@ -117,6 +132,7 @@ class PanoramaMatcher {
     int32_t tie;
     Vec2 px;
     Mat2 shape;  // local affine map of the stored patch into the target view
+    bool inside;  // predicted inside the image (not only within the probe radius of it)
   };
   struct Candidate {
     int32_t tie;
@@ -127,9 +143,17 @@ class PanoramaMatcher {
   };
 
   void interTies(int32_t new_pair, const ImageView* images[2], PairTieReport& report);
-  // Robust affine field of the offsets (found - predicted) over the image: inlier_[c] per candidate.
+  // Robust affine field of the offsets (found - predicted) over the image, seeded by the offset most
+  // candidates agree with: inlier_[c] per candidate.
   void fitOffsets(int32_t n, double initial_tolerance_px, double tolerance_px, Vec3& fx, Vec3& fy);
   void storeSingleImagePoints(const ImageView& left, const CameraModel& model, StoredPair& stored);
+  // Patch, predicted ground point and shape of an intra-stereo match (point -1); false when the patch
+  // leaves the image.
+  bool fillStoredTie(const ImageView& left, const CameraModel& left_model, const StereoMatch& m, const Vec3& ground,
+                     StoredTie& st) const;
+  // Step 4's inter-stereo candidates (the verified, unselected matches of stereo_workspace_).
+  void storeInterCandidates(const ImageView& left, const CameraModel& left_model, const CameraModel& right_model,
+                            StoredPair& stored, PairTieReport& report);
   bool addObservation(int32_t point, int32_t image, double sample_px, double line_px, TieKind kind, float score);
 
   StereoWorkspace stereo_workspace_;
@@ -137,12 +161,18 @@ class PanoramaMatcher {
   CoarseDem dem_;
   StoredPair pairs_[kMaxPairs];
   int32_t pair_count_ = 0;
+  int32_t planned_pairs_ = kMaxPairs;
+  int32_t birth_limit_ = 0;  // points_.size() below which the pair being added may create inter-stereo points
   FixedVector<TieObservation, kMaxObservations> observations_;
   FixedVector<TiePoint, kMaxTiePoints> points_;
   Prediction predictions_[kMaxTiesPerPair];
   Candidate candidates_[kMaxTiesPerPair];
-  double scratch_[kMaxTiesPerPair];
   bool inlier_[kMaxTiesPerPair];
+  // Inter-stereo candidate grid: at most kCandidateGridSide^2 cells (32 x 32 cells of 32 px on a 1024^2
+  // frame), the best verified unselected match per cell, then ordered by distance to the image border.
+  static constexpr int32_t kCandidateGridSide = 32;
+  int32_t candidate_best_[kCandidateGridSide * kCandidateGridSide];
+  int32_t candidate_border_[kCandidateGridSide * kCandidateGridSide];
 };
 
 // The matcher's share of the rover's static memory (DESIGN.md: 64 MiB in all): ~19 MiB, leaving the rest to

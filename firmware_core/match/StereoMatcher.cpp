@@ -29,6 +29,7 @@ Status matchStereoPair(const ImageView& left, const ImageView& right, const Came
   result.tie_count = 0;
   result.counts = StereoCounts();
   result.curve = ParallaxCurve();
+  workspace.match_count = 0;
   if (!left.valid() || !right.valid() || params.grid_cell_px < 0) return Status::kInvalidArgument;
   if (right.width > kMaxImageWidth || right.height > kMaxImageHeight) return Status::kCapacityExceeded;
   const int32_t grid = selectionGridPx(params, left.width, left.height);
@@ -88,6 +89,7 @@ Status matchStereoPair(const ImageView& left, const ImageView& right, const Came
     ++match_count;
   }
 
+  workspace.match_count = match_count;
   // Parallax consistency.
   const Status fitted = fitParallaxCurve(workspace.rows, workspace.parallax, match_count, params.parallax,
                                          0.5 * (left.height - 1), 0.5 * left.height, workspace.inlier,

@@ -34,6 +34,10 @@ struct StereoParams {
   StereoParams() {
     forstner.border_px = kNccRadius + 1;
     forstner.cell_px = 0;  // 0: 1/32 of the larger side (at least 16 px)
+    // Half the image's mean w: the mean is dominated by the sharp far field, and a threshold at the mean
+    // left the near-range strip at the bottom of a frame (the overlap with the tier below) with few points;
+    // the spreading grid keeps only the best per cell anyway, and w_min still rejects blank images.
+    forstner.w_mean_factor = 0.5;
   }
 };
 
@@ -54,10 +58,14 @@ struct StereoCounts {
   int32_t selected = 0;
 };
 
+// After matchStereoPair, matches[0, match_count) are the left-right consistent matches (with the parallax
+// verdict in `verified`) and cell_best[c] is the index of the match selected in grid cell c (-1: none):
+// PanoramaMatcher keeps verified matches that were not selected as inter-stereo candidates.
 struct StereoWorkspace {
   ForstnerWorkspace forstner;
   InterestPoint points[kMaxInterestPoints];
   StereoMatch matches[kMaxInterestPoints];
+  int32_t match_count = 0;
   EpipolarCurve curve;
   float rows[kMaxInterestPoints];
   float parallax[kMaxInterestPoints];

@@ -103,7 +103,9 @@ TieRun runTiePoints(const Dataset& dataset, bool progress, TieNetwork* network) 
                 std::to_string(report.inter_candidates) + " predicted, " + std::to_string(report.inter_matched) +
                 " matched, " + std::to_string(report.inter_rejected) + " rejected, " +
                 std::to_string(report.inter_observations) + " observations to " + std::to_string(report.neighbours) +
-                " earlier pairs");
+                " earlier pairs; " + std::to_string(report.inter_candidates_stored) + " candidates kept" +
+                (report.births_deferred > 0 ? ", " + std::to_string(report.births_deferred) + " deferred (point share)" : "") +
+                (report.overflow > 0 ? ", " + std::to_string(report.overflow) + " lost to full lists" : ""));
     }
   }
   run.seconds = cli::nowSeconds() - start;
