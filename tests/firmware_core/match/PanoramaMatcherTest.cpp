@@ -54,6 +54,9 @@ TEST(PanoramaMatcher, IntraAndInterTiesAgreeWithTheTruthAndLinkAdjacentPairs) {
     CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(s));
   }
   CHECK_EQUAL(0u, allocations);
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+  CHECK(heapCounterActive());  // the zero above is a count, not an absent counter (sanitizers own malloc)
+#endif
 
   const auto& obs = g_matcher.observations();
   const auto& points = g_matcher.points();

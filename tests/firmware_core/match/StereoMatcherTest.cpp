@@ -37,6 +37,9 @@ TEST(StereoMatcher, TiesAreWithinAPixelOfTheTruthAndSpreadOverTheImage) {
   const Status s = matchStereoPair(scene.leftView(), scene.rightView(), scene.left, scene.right, params, g_stereo,
                                    g_result);
   CHECK_EQUAL(0u, scope.allocations());
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+  CHECK(heapCounterActive());  // the zero above is a count, not an absent counter (sanitizers own malloc)
+#endif
   CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(s));
   int32_t within = 0;
   double sum_sq = 0.0, worst = 0.0;
