@@ -20,10 +20,10 @@ W=$(mktemp -d /tmp/areomap-cross-bench.XXXXXX)
 trap 'rm -rf "$W"' EXIT
 BUDGET=67108864
 
-"$HOST/bin/areomap-sim" "${SIM[@]}" --threads 2 --out "$W/ds" > /dev/null
-"$HOST/bin/areomap-pack" "$W/ds" --out "$W/stream.lcm" > /dev/null
-"$HOST/bin/areomap-sim" --preset tiny --seed 1 --pairs 1 --threads 2 --out "$W/ds1" > /dev/null
-"$HOST/bin/areomap-pack" "$W/ds1" --out "$W/one.lcm" > /dev/null
+"$HOST/bin/areomap-sim" "${SIM[@]}" --threads 2 --out "$W/ds" > /dev/null 2>&1
+"$HOST/bin/areomap-pack" "$W/ds" --out "$W/stream.lcm" > /dev/null 2>&1
+"$HOST/bin/areomap-sim" --preset tiny --seed 1 --pairs 1 --threads 2 --out "$W/ds1" > /dev/null 2>&1
+"$HOST/bin/areomap-pack" "$W/ds1" --out "$W/one.lcm" > /dev/null 2>&1
 echo "input: areomap-sim ${SIM[*]} ($(stat -c %s "$W/stream.lcm") bytes of log); one pair for callgrind"
 
 # stages NAME CMD...: golden_rover's stage line and the user CPU seconds.
