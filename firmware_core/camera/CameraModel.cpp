@@ -333,6 +333,10 @@ Status validateModel(const CameraModel& model, const char*& field) {
     field = model.width < 0 ? "width" : "height";
     return Status::kInvalidArgument;
   }
+  if (model.width > kMaxModelImageSidePx || model.height > kMaxModelImageSidePx) {
+    field = model.width > kMaxModelImageSidePx ? "width" : "height";
+    return Status::kCapacityExceeded;
+  }
   return Status::kOk;
 }
 
@@ -482,8 +486,8 @@ Status parseModelText(const char* text, std::size_t length, CameraModel& model, 
     if (matched) continue;
     if (keyIs(key, key_len, "Dimensions")) {
       double v[2];
-      if (!parseNumbers(values, v, 2) || !allFinite(v, 2) || v[0] < 0.0 || v[1] < 0.0 || v[0] > 1e6 ||
-          v[1] > 1e6) {
+      if (!parseNumbers(values, v, 2) || !allFinite(v, 2) || v[0] < 0.0 || v[1] < 0.0 ||
+          v[0] > kMaxModelImageSidePx || v[1] > kMaxModelImageSidePx) {
         field = "Dimensions";
         return Status::kCorruptData;
       }

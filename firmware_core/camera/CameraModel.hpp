@@ -18,6 +18,11 @@ enum class CameraType : uint8_t { kCahv = 0, kCahvor = 1, kCahvore = 2 };
 // general.
 enum class CahvoreKind : uint8_t { kPerspective = 1, kFisheye = 2, kGeneral = 3 };
 
+// The largest image side a model may declare (width, height): 10^6 px. validateModel and the text reader use
+// the same bound, so every valid model can be written and read back (issue 12: found by the fuzzer, a model
+// of width 1786706496 from a message validated but its text form did not parse).
+constexpr int32_t kMaxModelImageSidePx = 1000000;
+
 struct CameraModel {
   CameraType type = CameraType::kCahv;
   Vec3 c = Vec3::Zero();  // camera centre, metres, in the model's reference frame
@@ -33,7 +38,8 @@ struct CameraModel {
   int32_t height = 0;
 };
 
-// Checks a model: finite numbers, |A| = 1 (and |O| = 1), H and V not parallel to A, sizes >= 0.
+// Checks a model: finite numbers, |A| = 1 (and |O| = 1), H and V not parallel to A, 0 <= sizes <=
+// kMaxModelImageSidePx.
 // On failure `field` names the offending component ("A", "H", "O", "R", ...).
 [[nodiscard]] Status validateModel(const CameraModel& model, const char*& field);
 

@@ -10,6 +10,7 @@
 
 #include "firmware_core/base/Capacities.hpp"
 #include "ground/cli/Cli.hpp"
+#include "ground/io/ImageFile.hpp"
 #include "ground/io/Pds3Label.hpp"
 
 namespace areomap::io {
@@ -120,8 +121,12 @@ CameraFile fromPds3(const std::string& text, const std::string& path, int width,
     out.reference_frame = Pds3Label::unquote(*frame);
   }
   if (label.find("LINES", "IMAGE") != nullptr && label.find("LINE_SAMPLES", "IMAGE") != nullptr) {
-    m.width = static_cast<int32_t>(label.integer("LINE_SAMPLES", "IMAGE"));
-    m.height = static_cast<int32_t>(label.integer("LINES", "IMAGE"));
+    const long samples = label.integer("LINE_SAMPLES", "IMAGE"), lines = label.integer("LINES", "IMAGE");
+    if (samples <= 0 || lines <= 0 || samples > kMaxImageSidePx || lines > kMaxImageSidePx) {
+      throw cli::InputError(path, "IMAGE.LINES", "image size outside 1.." + std::to_string(kMaxImageSidePx) + " px");
+    }
+    m.width = static_cast<int32_t>(samples);
+    m.height = static_cast<int32_t>(lines);
     out.size_from_file = true;
   } else {
     m.width = width;
@@ -206,7 +211,13 @@ CameraFile fromM2020Json(const std::string& text, const std::string& path, int w
   // and shifted by the subframe origin (subframe_rect, 1-based, detector pixels): a delivered pixel's
   // centre lies at detector (first - 1) + scale * pixel + (scale - 1) / 2.
   double w = width, h = height;
-  if (j.contains("dimension") && pairOf(j["dimension"], w, h)) out.size_from_file = true;
+  if (j.contains("dimension") && pairOf(j["dimension"], w, h)) {
+    // Checked before it is narrowed to int32 (and multiplied by the scale below).
+    if (!(w >= 1.0 && w <= kMaxImageSidePx && h >= 1.0 && h <= kMaxImageSidePx)) {
+      throw cli::InputError(path, "dimension", "image size outside 1.." + std::to_string(kMaxImageSidePx) + " px");
+    }
+    out.size_from_file = true;
+  }
   m.width = static_cast<int32_t>(w);
   m.height = static_cast<int32_t>(h);
   out.model = m;
@@ -215,7 +226,7 @@ CameraFile fromM2020Json(const std::string& text, const std::string& path, int w
     const double sx = hc / (0.5 * w), sy = vc / (0.5 * h);
     if (sx > 1.5 || sy > 1.5) {
       const double s = std::round(0.5 * (sx + sy));
-      if (s < 2.0 || std::fabs(sx - s) > 0.25 * s || std::fabs(sy - s) > 0.25 * s) {
+      if (s < 2.0 || s > 64.0 || std::fabs(sx - s) > 0.25 * s || std::fabs(sy - s) > 0.25 * s) {
         throw cli::InputError(path, fieldOf("H"),
                               "the principal point (" + std::to_string(hc) + ", " + std::to_string(vc) +
                                   ") fits no integer downsampling of the " + std::to_string(m.width) + "x" +
@@ -227,10 +238,14 @@ CameraFile fromM2020Json(const std::string& text, const std::string& path, int w
           (*rect)[1].is_number()) {
         first_x = (*rect)[0].get<double>();
         first_y = (*rect)[1].get<double>();
+        if (!(std::fabs(first_x) <= kMaxImageSidePx * s && std::fabs(first_y) <= kMaxImageSidePx * s)) {
+          throw cli::InputError(path, "subframe_rect", "origin outside the detector");
+        }
       }
       out.scale = s;
       out.offset_px = Vec2(first_x - 1.0 + 0.5 * (s - 1.0), first_y - 1.0 + 0.5 * (s - 1.0));
       out.model = rescaledModel(m, out.scale, out.offset_px, m.width, m.height);
+      validateOrThrow(out.model, path, [&](const std::string& f) { return "subframe_rect, " + fieldOf(f); });
       out.file_model.width = static_cast<int32_t>(std::lround(w * s));
       out.file_model.height = static_cast<int32_t>(std::lround(h * s));
     }

@@ -1,6 +1,7 @@
 #include "ground/io/ImageFile.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -49,16 +50,23 @@ bool isPds3File(const std::string& path) {
 Pds3ImageInfo readPds3ImageInfo(const std::string& path) {
   const Pds3Label label = Pds3Label::read(path);
   Pds3ImageInfo info;
-  info.lines = static_cast<int>(label.integer("LINES", "IMAGE"));
-  info.samples = static_cast<int>(label.integer("LINE_SAMPLES", "IMAGE"));
-  info.sample_bits = static_cast<int>(label.integer("SAMPLE_BITS", "IMAGE"));
-  if (label.find("BANDS", "IMAGE") != nullptr) info.bands = static_cast<int>(label.integer("BANDS", "IMAGE"));
-  if (info.lines <= 0 || info.samples <= 0 || info.bands <= 0) {
+  // Sizes are checked against kMaxImageSidePx before they are narrowed to int.
+  const long lines = label.integer("LINES", "IMAGE");
+  const long samples = label.integer("LINE_SAMPLES", "IMAGE");
+  const long bands = label.find("BANDS", "IMAGE") != nullptr ? label.integer("BANDS", "IMAGE") : 1;
+  if (lines <= 0 || samples <= 0 || bands <= 0) {
     throw cli::InputError(path, "IMAGE.LINES", "image size must be positive");
   }
-  if (info.sample_bits != 8 && info.sample_bits != 16) {
-    throw cli::InputError(path, "IMAGE.SAMPLE_BITS", "only 8 and 16 are supported, found " +
-                                                         std::to_string(info.sample_bits));
+  if (lines > kMaxImageSidePx || samples > kMaxImageSidePx || bands > kMaxImageSidePx) {
+    throw cli::InputError(path, "IMAGE.LINES", "image size above " + std::to_string(kMaxImageSidePx) + " px per side");
+  }
+  info.lines = static_cast<int>(lines);
+  info.samples = static_cast<int>(samples);
+  info.bands = static_cast<int>(bands);
+  const long bits = label.integer("SAMPLE_BITS", "IMAGE");
+  info.sample_bits = bits == 8 || bits == 16 ? static_cast<int>(bits) : 0;
+  if (info.sample_bits == 0) {
+    throw cli::InputError(path, "IMAGE.SAMPLE_BITS", "only 8 and 16 are supported, found " + std::to_string(bits));
   }
   const std::string type = Pds3Label::unquote(label.required("SAMPLE_TYPE", "IMAGE"));
   if (type.rfind("LSB", 0) == 0 || type.rfind("PC_", 0) == 0 || type.rfind("VAX", 0) == 0) {
@@ -81,36 +89,45 @@ Pds3ImageInfo readPds3ImageInfo(const std::string& path) {
   const std::string pointer = label.required("^IMAGE", "");
   info.data_file = path;
   std::string where = pointer;
+  // A detached data file is a plain file name beside the label (safe inputs: no folder, no "..").
+  auto detached = [&](const std::string& name) {
+    if (name.empty() || name == "." || name == ".." || name.find('/') != std::string::npos) {
+      throw cli::InputError(path, "^IMAGE", "a detached data file must be a file name beside the label, found '" +
+                                                name + "'");
+    }
+    return (std::filesystem::path(path).parent_path() / name).string();
+  };
   if (pointer.find('(') != std::string::npos) {
     const std::vector<std::string> items = Pds3Label::tuple(pointer);
     if (items.empty()) throw cli::InputError(path, "^IMAGE", "malformed pointer '" + pointer + "'");
-    info.data_file = (std::filesystem::path(path).parent_path() / items[0]).string();
+    info.data_file = detached(items[0]);
     where = items.size() > 1 ? items[1] : "1";
   } else if (!pointer.empty() && pointer[0] == '"') {
-    info.data_file = (std::filesystem::path(path).parent_path() / Pds3Label::unquote(pointer)).string();
+    info.data_file = detached(Pds3Label::unquote(pointer));
     where = "1";
   }
   char* end = nullptr;
   const double at = std::strtod(Pds3Label::unquote(where).c_str(), &end);
   if (!(at >= 1.0)) throw cli::InputError(path, "^IMAGE", "malformed pointer '" + pointer + "'");
-  if (where.find("<BYTES>") != std::string::npos) {
-    info.offset_bytes = static_cast<std::size_t>(at) - 1;
-  } else {
+  // The offset and the end of the image in double first: a pointer or record size from the label may be
+  // any number, and only one within the file is narrowed to size_t (no overflow, no wrap-around).
+  const std::size_t have = fileSize(info.data_file);
+  double offset = at - 1.0;
+  if (where.find("<BYTES>") == std::string::npos) {
     const long record_bytes = label.integer("RECORD_BYTES", "");
     if (record_bytes <= 0) throw cli::InputError(path, "RECORD_BYTES", "must be positive");
-    info.offset_bytes = static_cast<std::size_t>(record_bytes) * (static_cast<std::size_t>(at) - 1);
+    offset = static_cast<double>(record_bytes) * std::floor(offset);
   }
-  const std::size_t need = info.offset_bytes + static_cast<std::size_t>(info.lines) *
-                                                   static_cast<std::size_t>(info.samples) *
-                                                   static_cast<std::size_t>(info.sample_bits / 8);
-  const std::size_t have = fileSize(info.data_file);
-  if (have < need) {
-    throw cli::InputError(info.data_file, "^IMAGE",
-                          "file truncated: the label's image (LINES " + std::to_string(info.lines) +
-                              " x LINE_SAMPLES " + std::to_string(info.samples) + " x " +
-                              std::to_string(info.sample_bits) + " bit at byte " + std::to_string(info.offset_bytes) +
-                              ") needs " + std::to_string(need) + " bytes, the file has " + std::to_string(have));
+  const double image_bytes = static_cast<double>(info.lines) * static_cast<double>(info.samples) *
+                             static_cast<double>(info.sample_bits / 8);
+  if (offset + image_bytes > static_cast<double>(have)) {
+    char what[200];
+    std::snprintf(what, sizeof what, "file truncated: the label's image (LINES %d x LINE_SAMPLES %d x %d bit at byte %.0f) "
+                  "needs %.0f bytes, the file has %zu", info.lines, info.samples, info.sample_bits, offset,
+                  offset + image_bytes, have);
+    throw cli::InputError(info.data_file, "^IMAGE", what);
   }
+  info.offset_bytes = static_cast<std::size_t>(offset);
   return info;
 }
 

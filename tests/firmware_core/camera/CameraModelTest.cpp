@@ -209,6 +209,25 @@ TEST(CameraModel, TextFormRoundTripsExactly) {
   }
   char tiny[16];
   CHECK_EQUAL(0u, formatModelText(test::navcamLike(), tiny, sizeof tiny));
+  // Issue 12 (fuzz_lcm_message): the largest size validateModel accepts round-trips through the text form,
+  // and one more pixel is refused by both (a model of width 1786706496 from a message validated before,
+  // and its text form did not parse).
+  for (const int32_t width : {kMaxModelImageSidePx, kMaxModelImageSidePx + 1, 1786706496}) {
+    CameraModel m = test::navcamLike();
+    m.width = width;
+    const char* field = "";
+    const bool valid = validateModel(m, field) == Status::kOk;
+    CHECK_EQUAL(width <= kMaxModelImageSidePx, valid);
+    if (!valid) {
+      STRCMP_EQUAL("width", field);
+      continue;
+    }
+    char buffer[kModelTextBytes];
+    const std::size_t n = formatModelText(m, buffer, sizeof buffer);
+    CameraModel back;
+    CHECK(parseModelText(buffer, n, back, field) == Status::kOk);
+    CHECK_EQUAL(width, back.width);
+  }
 }
 
 TEST(CameraModel, ParsesThePlainJplFormAndIgnoresOtherLines) {

@@ -111,7 +111,15 @@ TEST(CameraFile, MalformedLabelsNameTheField) {
   struct Case {
     std::string name, text, field;
   };
+  // Issue 12 item 5: sizes read from a file are checked before they are narrowed to int or scaled.
+  std::string huge_lines = pdsLabel(kC, kA, kH, kV, kO, kR);
+  huge_lines.replace(huge_lines.find("  LINES = 1024"), 14, "  LINES = 4294967304");  // 2^32 + 8
+  const std::string cahv_json =
+      "{\"camera_model_type\": \"CAHV\", \"camera_model_component_list\": \"(0,0,0);(1,0,0);(500,1000,0);(500,0,1000)\", ";
   const Case cases[] = {
+      {"lines.lbl", huge_lines, "IMAGE.LINES"},
+      {"json-huge-size.json", cahv_json + "\"dimension\": [1e300, 1e300]}", "dimension"},
+      {"json-negative-size.json", cahv_json + "\"dimension\": [-8, 6]}", "dimension"},
       {"missing.lbl", pdsLabel(kC, kA, "", kV, kO, kR), "MODEL_COMPONENT_3 (H)"},
       {"nan.lbl", pdsLabel(kC, "(0.276192,NaN,0.364419)", kH, kV, kO, kR), "MODEL_COMPONENT_2 (A)"},
       {"norm.lbl", pdsLabel(kC, "(0.5,-0.889336,0.364419)", kH, kV, kO, kR), "MODEL_COMPONENT_2 (A)"},

@@ -133,6 +133,50 @@ TEST(ImageFile, TruncatedOrBadImagesNameTheField) {
   }
 }
 
+// Issue 12 item 5: every size, pointer and record count of the label is checked before it is narrowed or
+// multiplied. Each file here read "successfully" before the checks: LINES 2^32 + 8 narrowed to 8, a
+// pointer whose byte offset wrapped around to 0 (RECORD_BYTES 2^39 x 2^25 = 2^64), a pointer of 1e300
+// bytes (undefined conversion), and a detached data file outside the label's folder.
+TEST(ImageFile, LabelSizesAndPointersAreCheckedBeforeUse) {
+  const std::string dir = test::scratchDir("image_file_limits");
+  auto image = [&](const std::string& name, const std::string& record_bytes, const std::string& pointer,
+                   const std::string& lines) {
+    std::string label = "PDS_VERSION_ID = PDS3\r\nRECORD_TYPE = FIXED_LENGTH\r\nRECORD_BYTES = " + record_bytes +
+                        "\r\n^IMAGE = " + pointer + "\r\nOBJECT = IMAGE\r\n  LINES = " + lines +
+                        "\r\n  LINE_SAMPLES = 8\r\n  SAMPLE_TYPE = UNSIGNED_INTEGER\r\n  SAMPLE_BITS = 8\r\n"
+                        "END_OBJECT = IMAGE\r\nEND\r\n";
+    label.resize(512, ' ');
+    std::ofstream(dir + "/" + name, std::ios::binary) << label << std::string(64, '\x7f');
+    return dir + "/" + name;
+  };
+  // The well-formed reference: 8 x 8 pixels after 512 label bytes.
+  const cv::Mat ok = io::readPds3Image(image("ok.img", "512", "2", "8"));
+  CHECK_EQUAL(8, ok.rows);
+  CHECK_EQUAL(0x7f, static_cast<int>(ok.at<uint8_t>(7, 7)));
+  struct Case {
+    const char* name;
+    std::string path;
+    const char* field;
+  };
+  const Case cases[] = {
+      {"lines 2^32 + 8", image("lines.img", "512", "2", "4294967304"), "IMAGE.LINES"},
+      {"offset wraps to 0", image("wrap.img", "549755813888", "33554433", "8"), "^IMAGE"},
+      {"pointer 1e300 bytes", image("far.img", "512", "1e300 <BYTES>", "8"), "^IMAGE"},
+      {"detached ../", image("up.img", "512", "(\"../ok.img\", 2)", "8"), "^IMAGE"},
+      {"detached /abs", image("abs.img", "512", "(\"" + dir + "/ok.img\", 2)", "8"), "^IMAGE"},
+  };
+  for (const Case& c : cases) {
+    try {
+      (void)io::readPds3Image(c.path);
+      FAIL(c.name);
+    } catch (const cli::InputError& e) {
+      std::printf("\n%-20s -> %s", c.name, e.what());
+      STRCMP_EQUAL(c.field, e.field().c_str());
+    }
+  }
+  std::printf("\n");
+}
+
 TEST(ImageFile, LoadsPngThroughOpenCv) {
   if (!test::requireSharedData("m2020-navcam-cahvore")) return;
   const cv::Mat img = io::loadImage8(test::sharedDataDir() +
