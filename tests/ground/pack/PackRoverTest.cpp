@@ -446,6 +446,57 @@ TEST(RoverMemq, MorePairsThanCapacityRejectedPanoramaKept) {
   CHECK_TRUE(diff < 1e-6);
 }
 
+// Issue 12 item 3, more tie points than kMaxTiePoints: the tiny panorama repeated in groups 1 km apart (a
+// sol each, so nothing is predicted from one group into another) until the matcher's point list runs full.
+// The pair in which it runs full and every later pair are rejected under capacity_exceeded, the network
+// keeps the pairs accepted before, and the final EO of those is published. (Incremental solves capped at a
+// few sweeps: only the bookkeeping is under test here.)
+TEST(RoverMemq, TiePointsAtCapacityRejectedPanoramaKept) {
+  const std::vector<LogEvent>& tiny = tinyStream();
+  const int real = static_cast<int>(tiny.size()) - 1;
+  std::vector<LogEvent> stream;
+  int64_t seq = 0;
+  const int groups = 10;  // ~990 points per group of 8 pairs: the 8192 run out in the 9th
+  for (int g = 0; g < groups; ++g) {
+    for (int i = 0; i < real; ++i) {
+      stereo_pair_t p = decodePair(tiny[static_cast<std::size_t>(i)]);
+      p.sequence = seq++;
+      p.pair_id = static_cast<int32_t>(p.sequence);
+      p.sol = g;
+      p.pairs_planned = real;  // the tiny plan (256 ties per pair), not the 80 pairs of the stream
+      p.gimbal_m[1] += 1000.0 * g;
+      for (stereo_image_t* side : {&p.left, &p.right}) {
+        side->stem += "g" + std::to_string(g);
+        side->model.c_m[1] += 1000.0 * g;
+      }
+      stream.push_back(encodePair(p, 1'700'000'000'000'000 + p.sequence));
+    }
+  }
+  stereo_pair_t end = decodePair(tiny.back());
+  end.sequence = seq;
+  stream.push_back(encodePair(end, 1'700'000'000'000'000 + seq));
+  RoverOptions options;
+  options.adjust.max_sweeps = 3;
+  uint64_t allocs = 99;
+  const Captured c = runThroughMemq(stream, allocs, options);
+  const RoverCounters& k = node().counters();
+  const int full = k.rejected_by_cause[static_cast<int>(Status::kCapacityExceeded)];
+  std::printf("tie points at capacity: %d pairs seen, %d accepted, %d rejected as workspace full, network %d images "
+              "%d points; last error: %s\n",
+              k.pairs_seen, k.pairs_accepted, full, node().network().imageCount(), node().network().pointCount(),
+              node().lastError());
+  CHECK_TRUE(full >= 1);
+  CHECK_EQUAL(groups * real, k.pairs_accepted + full + k.no_texture_pairs);
+  CHECK_EQUAL(full + k.no_texture_pairs, k.pairs_rejected);
+  CHECK_TRUE(k.pairs_accepted >= real);
+  CHECK_EQUAL(2 * k.pairs_accepted, node().network().imageCount());
+  CHECK_TRUE(c.have_final);
+  CHECK_EQUAL(2 * k.pairs_accepted, c.last_eo.num_images);
+  CHECK_EQUAL(rover_status_t::STATE_FINISHED, c.last_status.state);
+  CHECK_EQUAL(full, c.last_status.rejected_by_cause[rover_status_t::CAUSE_CAPACITY_EXCEEDED]);
+  if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
+}
+
 TEST_GROUP(RoverTool){};
 
 // The areomap-rover binary on a file:// replay of the tiny log: exit 0; --help 0; no --lcm 2.
