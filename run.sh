@@ -134,7 +134,15 @@ run_udpm() {
   timed rover "$BIN/areomap-rover" --lcm "$url" --exit-at-end --quiet \
     > "$OUT/rover.out" 2> "$OUT/rover.log" &
   local rover=$!
-  sleep 1
+  # Replay only once both nodes listen (a busy machine can take seconds to start the ground's libraries;
+  # a replay before that is lost to it).
+  local waited=0
+  until grep -q "listening on" "$OUT/ground.log" 2> /dev/null && grep -q "listening on" "$OUT/rover.log" 2> /dev/null; do
+    kill -0 "$ground" 2> /dev/null && kill -0 "$rover" 2> /dev/null || break
+    (( waited++ < 600 )) || { echo "run: the nodes did not start listening within 60 s" >&2; break; }
+    sleep 0.1
+  done
+  sleep 0.5
   local start
   start=$(date +%s%N)
   lcm-logplayer -s "$SPEED" --lcm-url="$url" "$LOG" > "$OUT/logplayer.log" 2>&1
@@ -205,7 +213,8 @@ print("=" * 78)
 print("transport: %s" % ran)
 print("stream:    %s pairs received, %s gaps, %s duplicates, %s reordered, rejected %s" % (
     s.get("pairs"), s.get("gaps"), s.get("duplicates"), s.get("reordered"), s.get("rejected") or "none"))
-print("ties:      tie points %s intra, %s inter (%s observations rejected as outliers)" % (tp.get("intra"), tp.get("inter"), tp.get("rejected")))
+print("ties:      tie points %s intra, %s inter (%s observations rejected as outliers); the %s's" % (
+    tp.get("intra"), tp.get("inter"), tp.get("rejected"), r.get("ground", {}).get("tie_source", "?")))
 print("ground:    method 1 mean distance %.3f px before -> %.3f px after (integrated, %s iterations; fast %s sweeps)" % (
     m1.get("before", {}).get("dist", float("nan")), m1.get("after", {}).get("dist", float("nan")), r.get("iterations"),
     r.get("ground", {}).get("fast_sweeps")))

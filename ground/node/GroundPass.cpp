@@ -20,6 +20,7 @@
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "firmware_core/node/MessageAdapters.hpp"
+#include "ground/node/EventRecorder.hpp"
 #include "ground/node/Sha256.hpp"
 #include "ground/ties/TieAdjust.hpp"
 #include "ground/ties/TieRunner.hpp"
@@ -80,7 +81,38 @@ std::string truthRoot(const Dataset& dataset, const std::string& truth_dir) {
   return fs::exists(dataset.root + "/truth/models") ? dataset.root : std::string();
 }
 
+// The rover's tie observations as the pass's tie run and network (cameras from the dataset's models).
+TieRun roverTieRun(const Dataset& dataset, const RoverInputs& rover, TieNetwork& network,
+                   std::vector<std::string>& warnings) {
+  const double start = cli::nowSeconds();
+  NetworkSource source;
+  buildNetwork(dataset, rover.ties, RigChoice{}, *network.net, source);
+  for (const std::string& w : source.warnings) warnings.push_back("The rover's tie points: " + w);
+  network.sol_of_index = source.sol_of_index;
+  network.stem_of_image = source.stems;
+  network.apriori_of_image = source.apriori_models;
+  TieRun run;
+  run.observations = rover.ties;
+  for (const ImageObservation& o : rover.ties) (o.kind == "inter" ? run.inter_observations : run.intra_observations) += 1;
+  run.seconds = cli::nowSeconds() - start;
+  return run;
+}
+
 }  // namespace
+
+std::string roverTiesIncomplete(const Dataset& dataset, const RoverInputs& rover) {
+  if (rover.ties.empty()) return "none arrived";
+  if (!rover.finished) return "the rover's final EO did not arrive";
+  if (rover.tie_messages_missing > 0) {
+    return std::to_string(rover.tie_messages_missing) + " AREOMAP_TIEPOINTS message(s) were lost";
+  }
+  std::string missing;
+  for (const Pair& p : dataset.pairs) {
+    if (rover.tie_pairs.count(p.id) == 0) missing += (missing.empty() ? "" : ", ") + std::to_string(p.id);
+  }
+  if (!missing.empty()) return "none came for pair(s) " + missing;
+  return std::string();
+}
 
 std::optional<double> eoDifferencePx(const eo_solution_t& rover, const Network& net,
                                      const std::vector<std::string>& stems, const Vec3& gimbal_m,
@@ -110,10 +142,25 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
   AdjustReport report;
   for (const std::string& note : dataset.notes) report.warnings.push_back(note);
 
-  // 1. Tie points: the rover's matcher on the ground's images.
-  if (options.progress) cli::info("tie points on " + std::to_string(dataset.pairs.size()) + " pairs");
+  // 1. Tie points: the rover's when they arrived complete, else the rover's matcher on the ground's images.
   TieNetwork network;
-  const TieRun run = runTiePoints(dataset, options.progress, &network);
+  TieRun run;
+  std::string why_not_rover = "not used (--no-rover-ties)";
+  if (options.use_rover_ties) {
+    why_not_rover = rover == nullptr ? "no rover input (a dataset folder)" : roverTiesIncomplete(dataset, *rover);
+  }
+  if (why_not_rover.empty()) {
+    if (options.progress) cli::info("the rover's tie points (" + std::to_string(rover->ties.size()) + " observations)");
+    run = roverTieRun(dataset, *rover, network, report.warnings);
+    result.rover_ties_used = true;
+  } else {
+    if (rover != nullptr && options.use_rover_ties) {
+      report.warnings.push_back("The rover's tie points are not used (" + why_not_rover +
+                                "): the ground matched its own images instead.");
+    }
+    if (options.progress) cli::info("tie points on " + std::to_string(dataset.pairs.size()) + " pairs");
+    run = runTiePoints(dataset, options.progress, &network);
+  }
   writeTiePoints(out, run);
   report.seconds.emplace_back("tie_points", run.seconds);
   Network& net = *network.net;
@@ -275,7 +322,7 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
     options.products_hook(context);
   } else {
     report.warnings.push_back(
-        "DEM, orthoimage and previews are not made by this build (no products hook: ground/products not linked).");
+        "DEM, orthoimage and previews were not made (no products hook: --no-products, or ground/products not linked).");
   }
   if (stream != nullptr) {
     for (const std::string& w : stream->warnings) report.warnings.push_back(w);
@@ -298,7 +345,9 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
                    {"pairs_planned", stream->pairs_planned}};
   }
   if (rover != nullptr) j["rover"] = rover_json;
-  j["ground"] = {{"ties", "the rover's matcher (firmware_core/match) run on the ground's images"},
+  j["ground"] = {{"ties", result.rover_ties_used ? "the rover's tie points (AREOMAP_TIEPOINTS)"
+                                                : "the rover's matcher (firmware_core/match) run on the ground's images"},
+                 {"tie_source", result.rover_ties_used ? "rover" : "ground"},
                  {"reference", "integrated adjustment, Ceres sparse Schur"},
                  {"method1_fast_px", differences(fast.after)},
                  {"fast_sweeps", fast.result.sweeps_total},
@@ -316,6 +365,7 @@ std::vector<ManifestEntry> buildManifest(const std::string& out_dir, const std::
     if (!e.is_regular_file()) continue;
     const std::string rel = fs::relative(e.path(), out_dir).generic_string();
     if (!exclude_prefix.empty() && rel.rfind(exclude_prefix, 0) == 0) continue;
+    if (rel == kRecordingName) continue;
     if (rel.find(".tmp-") != std::string::npos) continue;
     files.push_back(ManifestEntry{rel, static_cast<int64_t>(e.file_size()), sha256File(e.path().string())});
   }

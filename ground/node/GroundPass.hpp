@@ -2,9 +2,11 @@
 // (`areomap-ground --dataset DIR`) or the one the ground wrote from the camera stream (full-resolution
 // images as decoded from the stream's JPEGs).
 //
-//   1. tie points: the rover's matcher (firmware_core/match, via ground/ties runTiePoints) run again on the
-//      ground's images, in pair-id order: the same pixels give the same ties as on the rover, and the
-//      ground does not depend on the rover's TIEPOINTS arriving;
+//   1. tie points: the rover's own (AREOMAP_TIEPOINTS) when they arrived complete -- the rover's final EO
+//      arrived, no TIEPOINTS message was lost, and one came for every pair the ground kept -- so the
+//      integrated reference adjusts the very observations the rover adjusted; otherwise (no rover, a log
+//      of the camera stream alone, lost messages) the rover's matcher (firmware_core/match, via ground/ties
+//      runTiePoints) run again on the ground's images, with a warning in report.json saying why;
 //   2. the fast adjustment (its outlier rejection and method-1 figures), then the INTEGRATED adjustment
 //      (Ceres sparse Schur, ground/adjust) from the a-priori EO with the same rejections: the reference;
 //   3. products: models/<stem>.cahvor (integrated), eo.csv, tiepoints.csv, rover_models/<stem>.cahvor (the
@@ -15,6 +17,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -38,6 +41,9 @@ struct RoverInputs {
   int32_t tie_observations = 0;
   int32_t dem_messages = 0;
   std::vector<ImageObservation> ties;  // written as rover_tiepoints.csv
+  std::set<int32_t> tie_pairs;         // pairs that a TIEPOINTS message came for
+  int32_t tie_messages_missing = 0;    // TIEPOINTS sequence numbers never received
+  bool finished = false;               // the rover's final EO (or FINISHED status) arrived
   std::vector<std::string> warnings;
 };
 
@@ -59,6 +65,7 @@ struct GroundPassOptions {
   // A dataset folder holding truth/ (or a truth folder itself); "" = the dataset's own truth/ if any.
   std::string truth_dir;
   bool progress = true;
+  bool use_rover_ties = true;  // false: always run the matcher on the ground's images
   ProductsHook products_hook;  // unset: only the adjustment products
 };
 
@@ -81,6 +88,7 @@ struct GroundPassResult {
   int32_t fast_sweeps = 0;
   int32_t integrated_iterations = 0;
   double rms_px = 0.0;
+  bool rover_ties_used = false;  // the adjusted ties are the rover's (else the ground's own matching)
   std::optional<double> truth_eo_before_px, truth_eo_after_px, truth_eo_fast_px;
   std::optional<double> rover_vs_ground_px;   // rover's last EO against the integrated solution
   std::optional<double> fast_vs_ground_px;    // the ground's own fast solution against it
@@ -88,6 +96,9 @@ struct GroundPassResult {
   std::vector<std::string> warnings;
   std::vector<ManifestEntry> files;
 };
+
+// Whether the rover's tie points can stand for the panorama's: "" when they can, else the reason.
+std::string roverTiesIncomplete(const Dataset& dataset, const RoverInputs& rover);
 
 // Runs the pass and writes the products. Throws cli::InputError on bad input or an unsolvable network.
 GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& options,
@@ -100,7 +111,8 @@ std::optional<double> eoDifferencePx(const eo_solution_t& rover, const Network& 
                                      const std::vector<std::string>& stems, const Vec3& gimbal_m,
                                      int32_t* compared = nullptr);
 
-// Every file under out_dir (recursively, sorted), except `exclude_prefix` ("" = none).
+// Every file under out_dir (recursively, sorted), except `exclude_prefix` ("" = none) and the node's
+// recording (kRecordingName at the top).
 std::vector<ManifestEntry> buildManifest(const std::string& out_dir, const std::string& exclude_prefix = "");
 product_t manifestMessage(const std::string& panorama, const std::string& out_dir,
                           const std::vector<ManifestEntry>& files, int64_t sequence);

@@ -53,7 +53,12 @@ std::string sequenceNeighbours(const std::map<int64_t, int32_t>& pair_of_sequenc
 }  // namespace
 
 SequenceTracker::Arrival SequenceTracker::record(int64_t sequence) {
-  if (!seen_.insert(sequence).second) {
+  if (from_first_seen_ && !any_seen_) {
+    floor_ = sequence;
+    highest_ = sequence - 1;
+  }
+  any_seen_ = true;
+  if (sequence < floor_ || !seen_.insert(sequence).second) {
     ++duplicates_;
     return Arrival::kDuplicate;
   }
@@ -67,7 +72,7 @@ SequenceTracker::Arrival SequenceTracker::record(int64_t sequence) {
 
 std::vector<int64_t> SequenceTracker::missing() const {
   std::vector<int64_t> out;
-  int64_t expected = 0;
+  int64_t expected = floor_;
   for (int64_t s : seen_) {
     if (s < 0) continue;
     for (int64_t k = expected; k < s; ++k) out.push_back(k);
@@ -76,7 +81,35 @@ std::vector<int64_t> SequenceTracker::missing() const {
   return out;
 }
 
+void SequenceTracker::restartAfterHighest() {
+  seen_.clear();
+  floor_ = highest_ + 1;
+  duplicates_ = 0;
+  reordered_ = 0;
+}
+
 StreamCollector::StreamCollector() = default;
+
+void StreamCollector::nextPanorama() {
+  std::map<std::string, SequenceTracker> rover_sequences = std::move(rover_sequences_);
+  for (auto& [channel, tracker] : rover_sequences) tracker.restartAfterHighest();
+  std::vector<std::vector<uint8_t>> next = std::move(next_panorama_);
+  *this = StreamCollector();
+  rover_sequences_ = std::move(rover_sequences);
+  for (const std::vector<uint8_t>& m : next) receive(channels::kStereoPair, m.data(), m.size());
+}
+
+void StreamCollector::releaseImages() {
+  for (auto& [id, pair] : pairs_) {
+    pair.left.pixels.release();
+    if (pair.right) pair.right->pixels.release();
+  }
+}
+
+int32_t StreamCollector::roverTieMessagesMissing() const {
+  const auto it = rover_sequences_.find(channels::kTiePoints);
+  return it == rover_sequences_.end() ? 0 : static_cast<int32_t>(it->second.missing().size());
+}
 
 void StreamCollector::onMessage(void* context, const char* channel, const uint8_t* data, std::size_t size) {
   static_cast<StreamCollector*>(context)->receive(channel == nullptr ? "" : channel, data, size);
@@ -85,11 +118,17 @@ void StreamCollector::onMessage(void* context, const char* channel, const uint8_
 void StreamCollector::receive(const std::string& channel, const uint8_t* data, std::size_t size) {
   ++messages_;
   if (channel == channels::kStereoPair) {
+    if (end_of_panorama_) {
+      if (data != nullptr) next_panorama_.emplace_back(data, data + size);
+      return;
+    }
     receivePair(data, size);
     return;
   }
   auto track = [&](int64_t sequence) {
-    return rover_sequences_[channel].record(sequence) != SequenceTracker::Arrival::kDuplicate;
+    const auto [it, inserted] = rover_sequences_.try_emplace(channel);
+    if (inserted) it->second.countFromFirstSeen();
+    return it->second.record(sequence) != SequenceTracker::Arrival::kDuplicate;
   };
   if (channel == channels::kEoSolution) {
     eo_solution_t eo;
@@ -102,6 +141,7 @@ void StreamCollector::receive(const std::string& channel, const uint8_t* data, s
     const std::string cause = decodeOrCause(data, size, status);
     if (!cause.empty()) return reject("rover_status_" + cause);
     if (!track(status.sequence)) return;
+    if (status.state == rover_status_t::STATE_RUNNING) rover_running_seen_ = true;
     if (!rover_status_ || status.sequence > rover_status_->sequence) rover_status_ = std::move(status);
   } else if (channel == channels::kTiePoints) {
     tiepoints_t ties;
@@ -109,6 +149,7 @@ void StreamCollector::receive(const std::string& channel, const uint8_t* data, s
     if (!cause.empty()) return reject("rover_tiepoints_" + cause);
     if (!track(ties.sequence)) return;
     ++rover_tie_messages_;
+    rover_tie_pairs_.insert(ties.pair_id);
     rover_tie_observations_ += ties.num_observations;
     for (int32_t k = 0; k < ties.num_observations; ++k) {
       const int32_t image = ties.image_index[static_cast<std::size_t>(k)];
@@ -231,7 +272,8 @@ void StreamCollector::rejectPair(const stereo_pair_t& pair, const std::string& c
 
 bool StreamCollector::roverFinished() const {
   if (rover_eo_ && rover_eo_->is_final) return true;
-  return rover_status_ && rover_status_->state == rover_status_t::STATE_FINISHED;
+  // The rover's heartbeat repeats FINISHED after a panorama: it ends this one only after a RUNNING status.
+  return rover_running_seen_ && rover_status_ && rover_status_->state == rover_status_t::STATE_FINISHED;
 }
 
 std::vector<const ReceivedPair*> StreamCollector::pairs() const {

@@ -60,7 +60,13 @@ class SequenceTracker {
  public:
   enum class Arrival { kInOrder, kReordered, kDuplicate };
   Arrival record(int64_t sequence);
-  std::vector<int64_t> missing() const;  // never seen in [0, highest]
+  std::vector<int64_t> missing() const;  // never seen in [floor, highest]
+  // The next panorama of a sender whose numbering goes on (the rover's channels): forget what was seen,
+  // count from highest + 1; an older sequence arriving later is a duplicate.
+  void restartAfterHighest();
+  // For a sender that was running before this node listened (the rover): the first sequence seen starts
+  // the count (the earlier ones are not gaps).
+  void countFromFirstSeen() { from_first_seen_ = true; }
   int32_t duplicates() const { return duplicates_; }
   int32_t reordered() const { return reordered_; }
   int64_t highest() const { return highest_; }
@@ -68,6 +74,9 @@ class SequenceTracker {
  private:
   std::set<int64_t> seen_;
   int64_t highest_ = -1;
+  int64_t floor_ = 0;
+  bool from_first_seen_ = false;
+  bool any_seen_ = false;
   int32_t duplicates_ = 0;
   int32_t reordered_ = 0;
 };
@@ -78,10 +87,17 @@ class StreamCollector {
 
   // A platform::MessageHandler: pass the collector as the context.
   static void onMessage(void* context, const char* channel, const uint8_t* data, std::size_t size);
+  // After the end-of-panorama marker, camera-stream messages belong to the next panorama: they are kept
+  // aside (raw) and handed to it by nextPanorama().
   void receive(const std::string& channel, const uint8_t* data, std::size_t size);
 
   bool endOfPanorama() const { return end_of_panorama_; }
-  bool roverFinished() const;  // a final EO solution or a FINISHED status arrived
+  bool roverFinished() const;  // a final EO solution, or a FINISHED status after a RUNNING one, arrived
+  // Ready for the next panorama (after its products are made): the camera stream's numbering starts
+  // again at 0; the rover's channels go on from where they were; everything else is forgotten.
+  void nextPanorama();
+  // Frees the pixels of the kept pairs (after writeDataset: the pass reads the images from disk).
+  void releaseImages();
   int64_t messagesReceived() const { return messages_; }
   const std::string& panorama() const { return panorama_; }
 
@@ -97,6 +113,9 @@ class StreamCollector {
   int32_t roverDemMessages() const { return rover_dem_messages_; }
   // Every tie observation the rover sent (image = stem; kind "intra"/"inter"), in arrival order.
   const std::vector<ImageObservation>& roverTies() const { return rover_ties_; }
+  // The pairs the rover's AREOMAP_TIEPOINTS messages came for, and how many of those messages were lost.
+  const std::set<int32_t>& roverTiePairs() const { return rover_tie_pairs_; }
+  int32_t roverTieMessagesMissing() const;
   std::vector<std::string> roverWarnings() const;
 
   // Writes the kept pairs as a dataset folder (DIR/images/<stem>.png, DIR/models/<stem>.cahvor,
@@ -128,6 +147,9 @@ class StreamCollector {
   int32_t rover_tie_observations_ = 0;
   int32_t rover_dem_messages_ = 0;
   std::vector<ImageObservation> rover_ties_;
+  std::set<int32_t> rover_tie_pairs_;
+  std::vector<std::vector<uint8_t>> next_panorama_;  // camera-stream messages after the end marker
+  bool rover_running_seen_ = false;
   std::map<int32_t, std::vector<double>> gimbal_by_sol_;
 };
 

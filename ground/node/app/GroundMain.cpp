@@ -7,6 +7,7 @@
 
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/Dataset.hpp"
+#include "ground/node/EventRecorder.hpp"
 #include "ground/node/GroundNode.hpp"
 #include "ground/node/GroundPass.hpp"
 #include "platform/TransportUrl.hpp"
@@ -33,8 +34,9 @@ constexpr const char* kUsage =
     "pass, then publishes AREOMAP_PRODUCT (files, sizes, sha256) on the same URL. With --dataset it runs the\n"
     "same pass on a dataset folder, without LCM.\n"
     "\n"
-    "The pass: tie points by the rover's matcher run on the ground's images; the fast adjustment (outlier\n"
-    "rejection); the integrated adjustment (Ceres) as the reference; products in DIR: models/<stem>.cahvor,\n"
+    "The pass: the rover's tie points (AREOMAP_TIEPOINTS) when they arrived complete, else the rover's matcher\n"
+    "run on the ground's images (report.json ground.tie_source, and a warning saying why); the fast adjustment\n"
+    "(outlier rejection); the integrated adjustment (Ceres) as the reference; products in DIR: models/<stem>.cahvor,\n"
     "eo.csv, tiepoints.csv, rover_models/<stem>.cahvor (the rover's last EO), rover_tiepoints.csv,\n"
     "report.json (method1/2/3,\n"
     "stream {pairs, gaps, duplicates, reordered, rejected}, rover {heap_allocs_after_init, static_bytes,\n"
@@ -46,10 +48,19 @@ constexpr const char* kUsage =
     "  --out DIR           output folder (created)\n"
     "  --truth DATASET     a dataset folder with truth/ (true models): truth.eo_px in the report. With\n"
     "                      --dataset the dataset's own truth/ is used when present\n"
-    "  --rover-wait-s S    after the end marker, wait up to S s for the rover's final EO (default 300)\n"
-    "  --rover-silent-s S  ... but stop waiting when the rover sent nothing for S s (default 5)\n"
+    "  --rover-wait-s S    after the end marker, wait up to S s for the rover's final EO (default 1800)\n"
+    "  --rover-silent-s S  ... but stop waiting when the rover sent nothing for S s (default 300: a busy rover\n"
+    "                      sends nothing while it works on a pair; 5 s when no rover was ever heard)\n"
     "  --idle-timeout-s S  the stream stops without an end marker: make products after S s (default 120)\n"
     "  --first-timeout-s S nothing arrives at all within S s: exit 1 (default 600)\n"
+    "  --panoramas N       make products for N panoramas, then exit (default 1; 0 = until the stream ends):\n"
+    "                      with N != 1 panorama k (1-based) goes to DIR/panorama-KKK/ (own stream/, report)\n"
+    "  --no-record         do not record: by default a live node (udpm://, memq://) appends every message it\n"
+    "                      receives to DIR/received.lcm before handling it; after a crash or kill,\n"
+    "                      `--lcm file://DIR/received.lcm` re-makes the same products\n"
+    "  --no-products       adjustment products only (no dense matching, DEM, ortho, previews)\n"
+    "  --no-rover-ties     always match the ground's images (ignore the rover's AREOMAP_TIEPOINTS)\n"
+    "  --stream-only       collect and count the stream only (the `stream:` line), no pass, nothing written\n"
     "  --summary-json      print the figures as one JSON line on stdout at the end\n"
     "\n"
     "Exit: 0 ok, 2 usage error, 1 other error (the message names the file or URL and the field).\n";
@@ -133,15 +144,26 @@ int main(int argc, char** argv) {
     ground::GroundNodeOptions options;
     options.pass.out_dir = out;
     options.pass.truth_dir = args.option("--truth", "");
-    options.rover_wait_s = args.number("--rover-wait-s", 300.0);
-    options.rover_silent_s = args.number("--rover-silent-s", 5.0);
+    options.rover_wait_s = args.number("--rover-wait-s", 1800.0);
+    options.rover_silent_s = args.number("--rover-silent-s", 300.0);
     options.idle_timeout_s = args.number("--idle-timeout-s", 120.0);
     options.first_message_timeout_s = args.number("--first-timeout-s", 600.0);
     const bool summary_json = args.flag("--summary-json");
+    const double panoramas = args.number("--panoramas", 1.0);
+    const bool no_record = args.flag("--no-record");
+    const bool no_products = args.flag("--no-products");
+    options.pass.use_rover_ties = !args.flag("--no-rover-ties");
+    options.stream_only = args.flag("--stream-only");
 #ifdef AREOMAP_HAVE_PRODUCTS
-    options.pass.products_hook = makeGroundProducts;
+    if (!no_products) options.pass.products_hook = makeGroundProducts;
+#else
+    (void)no_products;
 #endif
     args.finish();
+    if (!(panoramas >= 0.0) || panoramas != static_cast<double>(static_cast<int32_t>(panoramas))) {
+      throw cli::UsageError("--panoramas needs a whole number >= 0");
+    }
+    options.panoramas = static_cast<int32_t>(panoramas);
     if (lcm.has_value() == dataset_dir.has_value()) throw cli::UsageError("give exactly one of --lcm URL and --dataset DIR");
     for (double v : {options.rover_wait_s, options.rover_silent_s, options.idle_timeout_s, options.first_message_timeout_s}) {
       if (!(v >= 0.0)) throw cli::UsageError("timeouts must be >= 0 seconds");
@@ -157,14 +179,37 @@ int main(int argc, char** argv) {
       if (scheme == platform::UrlScheme::kInvalid) {
         throw cli::UsageError("--lcm: '" + *lcm + "' is not a udpm://, file:// or memq:// URL");
       }
+      // Per panorama: the stream figures, and the pass summary (several panoramas: each with its folder).
+      const ground::PanoramaDone done = [&](const ground::GroundNodeResult& r) {
+        std::printf("stream: %d pairs, %d gaps, %d duplicates, %d reordered, %d rejected; %lld messages in %.2f s\n",
+                    r.stream.pairs, r.stream.gaps, r.stream.duplicates, r.stream.reordered,
+                    [&] {
+                      int n = 0;
+                      for (const auto& [cause, count] : r.stream.rejected) n += count;
+                      return n;
+                    }(),
+                    static_cast<long long>(r.messages), r.receive_seconds);
+        if (r.rover.status) {
+          const rover_status_t& st = *r.rover.status;
+          std::printf("rover: %d pairs seen, %d accepted, %d rejected, %d sequence gaps; %d tie-point messages "
+                      "(%d lost); heap allocations after start-up %lld; final EO %s\n",
+                      st.pairs_seen, st.pairs_accepted, st.pairs_rejected, st.sequence_gaps, r.rover.tie_messages,
+                      r.rover.tie_messages_missing, static_cast<long long>(st.heap_allocs_after_init),
+                      r.rover.finished ? "arrived" : "missing");
+        }
+        if (options.stream_only) return;
+        if (options.panoramas != 1) std::printf("panorama %d: products in %s\n", r.panorama_index, r.out_dir.c_str());
+        if (options.panoramas != 1) printSummary(r.pass, r.out_dir);
+        std::fflush(stdout);
+      };
       ground::GroundNodeResult result;
       if (scheme == platform::UrlScheme::kFile) {
         std::vector<uint8_t> buffer(kReplayBufferBytes);
         platform::LcmLogReplay replay(buffer.data(), buffer.size());
         if (!ok(replay.open(lcm->c_str()))) throw cli::InputError(*lcm, "file", "cannot open the log");
         options.can_publish = false;
-        options.rover_wait_s = 0.0;  // a log holds whatever was recorded; nothing more will come
-        result = ground::runGroundNode(replay, *lcm, options);
+        options.log_replay = true;  // a log holds whatever was recorded: read on, never wait
+        result = ground::runGroundNode(replay, *lcm, options, done);
         cli::info("log replay: AREOMAP_PRODUCT not published (a log is read-only); " +
                   std::to_string(replay.eventsTooLarge()) + " event(s) larger than the replay buffer skipped");
       } else {
@@ -173,18 +218,12 @@ int main(int argc, char** argv) {
           throw cli::InputError(*lcm, "url", "LCM cannot open it (for udpm: is there a multicast route?)");
         }
         cli::info(std::string("listening on ") + transport.url());
-        result = ground::runGroundNode(transport, *lcm, options);
+        if (!no_record && !options.stream_only) options.record_path = out + "/" + ground::kRecordingName;
+        result = ground::runGroundNode(transport, *lcm, options, done);
         if (!result.product_published) cli::warn("AREOMAP_PRODUCT could not be published");
       }
       pass = result.pass;
-      std::printf("stream: %d pairs, %d gaps, %d duplicates, %d reordered, %d rejected; %lld messages in %.2f s\n",
-                  result.stream.pairs, result.stream.gaps, result.stream.duplicates, result.stream.reordered,
-                  [&] {
-                    int n = 0;
-                    for (const auto& [cause, count] : result.stream.rejected) n += count;
-                    return n;
-                  }(),
-                  static_cast<long long>(result.messages), result.receive_seconds);
+      if (options.stream_only || options.panoramas != 1) return 0;
     }
     printSummary(pass, out);
     if (summary_json) {

@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -17,15 +19,19 @@
 #include "areomap/product_t.hpp"
 #include "areomap/rover_status_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
+#include "areomap/tiepoints_t.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/io/ImageFile.hpp"
+#include "ground/dataset/TruthFiles.hpp"
+#include "ground/node/EventRecorder.hpp"
 #include "ground/node/GroundNode.hpp"
 #include "ground/pack/Pack.hpp"
 #include "ground/node/Sha256.hpp"
 #include "ground/node/StreamCollector.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
+#include "platform/posix/LcmLogReplay.hpp"
 #include "platform/posix/TurboJpegCodec.hpp"
 #include "platform/stub/MemoryTransport.hpp"
 #include "tests/ground/pack/TinyStream.hpp"
@@ -60,6 +66,54 @@ json readJson(const std::string& path) {
   json j;
   in >> j;
   return j;
+}
+
+template <class Message>
+std::vector<uint8_t> encoded(Message& m) {
+  std::vector<uint8_t> bytes(static_cast<std::size_t>(m.getEncodedSize()));
+  CHECK(m.encode(bytes.data(), 0, static_cast<int>(bytes.size())) == static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+// What a rover would send for a panorama whose tie observations are `ties` (one TIEPOINTS message per pair,
+// all observations in the first; sequences from `first_sequence`), then RUNNING and FINISHED statuses.
+std::vector<LogEvent> roverMessages(const Dataset& d, const std::vector<ImageObservation>& ties, int64_t first_sequence) {
+  std::vector<std::string> stems;
+  for (const ImageObservation& o : ties) {
+    if (std::find(stems.begin(), stems.end(), o.image) == stems.end()) stems.push_back(o.image);
+  }
+  std::vector<LogEvent> events;
+  for (std::size_t p = 0; p < d.pairs.size(); ++p) {
+    tiepoints_t m{};
+    m.sequence = first_sequence + static_cast<int64_t>(p);
+    m.panorama = d.name;
+    m.pair_id = d.pairs[p].id;
+    m.num_images = static_cast<int32_t>(stems.size());
+    m.image_stems = stems;
+    if (p == 0) {
+      for (const ImageObservation& o : ties) {
+        m.point_id.push_back(static_cast<int32_t>(o.point));
+        m.image_index.push_back(static_cast<int16_t>(std::find(stems.begin(), stems.end(), o.image) - stems.begin()));
+        m.sample_px.push_back(o.sample_px);
+        m.line_px.push_back(o.line_px);
+        m.kind.push_back(o.kind == "inter" ? int8_t{tiepoints_t::KIND_INTER} : int8_t{tiepoints_t::KIND_INTRA});
+      }
+    }
+    m.num_observations = static_cast<int32_t>(m.point_id.size());
+    events.push_back(LogEvent{channels::kTiePoints, 0, encoded(m)});
+  }
+  for (int8_t state : {rover_status_t::STATE_RUNNING, rover_status_t::STATE_FINISHED}) {
+    rover_status_t st{};
+    st.sequence = first_sequence + (state == rover_status_t::STATE_RUNNING ? 0 : 1);
+    st.state = state;
+    events.push_back(LogEvent{channels::kRoverStatus, 0, encoded(st)});
+  }
+  return events;
+}
+
+std::string fileText(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
 void onProduct(void* context, const char*, const uint8_t* data, std::size_t size) {
@@ -170,4 +224,140 @@ TEST(GroundEndToEnd, TinyThroughMemq) {
     }
   }
   CHECK(has_report);
+}
+
+TEST_GROUP(GroundRecording){};
+
+// The node's recording is a standard LCM log: LcmLogReplay (file://) gives back every event, byte for byte;
+// a half-written last event (a kill in the middle of a write) ends the replay as kTruncated, the events
+// before it intact.
+TEST(GroundRecording, ReplaysByteForByteAndDropsAHalfWrittenTail) {
+  const std::string dir = test::scratchDir("ground-recording");
+  const std::string path = dir + "/" + ground::kRecordingName;
+  const std::vector<LogEvent>& events = tinyStream();
+  {
+    ground::EventRecorder recorder;
+    recorder.open(path);
+    for (const LogEvent& e : events) recorder.record(e.channel.c_str(), e.data.data(), e.data.size());
+    CHECK_EQUAL(static_cast<int64_t>(events.size()), recorder.events());
+    CHECK_EQUAL(0, recorder.writeErrors());
+  }
+  const auto full = std::filesystem::file_size(path);
+  std::filesystem::resize_file(path, full - 5);  // the last event (the end marker) cut short
+  struct Received {
+    std::vector<std::string> channels;
+    std::vector<std::vector<uint8_t>> data;
+  } got;
+  std::vector<uint8_t> buffer(16u * 1024u * 1024u);
+  platform::LcmLogReplay replay(buffer.data(), buffer.size());
+  CHECK(ok(replay.open(("file://" + path).c_str())));
+  for (const char* channel : {channels::kStereoPair}) {
+    CHECK(ok(replay.subscribe(channel, [](void* c, const char* ch, const uint8_t* d, std::size_t n) {
+      auto* r = static_cast<Received*>(c);
+      r->channels.emplace_back(ch);
+      r->data.emplace_back(d, d + n);
+    }, &got)));
+  }
+  Status s = Status::kOk;
+  while (ok(s)) s = replay.handle(0);
+  CHECK_EQUAL(static_cast<int>(Status::kTruncated), static_cast<int>(s));
+  CHECK_EQUAL(events.size() - 1, got.data.size());
+  for (std::size_t k = 0; k < got.data.size(); ++k) {
+    STRCMP_EQUAL(events[k].channel.c_str(), got.channels[k].c_str());
+    CHECK(events[k].data == got.data[k]);
+  }
+}
+
+TEST_GROUP(RoverTies){};
+
+// When the rover's ties may stand for the panorama's, and the reason when not.
+TEST(RoverTies, CompleteOnlyWithTheFinalEoNoLossAndEveryPair) {
+  Dataset d;
+  for (int id : {0, 1, 2}) {
+    Pair p;
+    p.id = id;
+    d.pairs.push_back(p);
+  }
+  ground::RoverInputs r;
+  STRCMP_EQUAL("none arrived", ground::roverTiesIncomplete(d, r).c_str());
+  r.ties.push_back(ImageObservation{});
+  r.tie_pairs = {0, 1, 2};
+  STRCMP_EQUAL("the rover's final EO did not arrive", ground::roverTiesIncomplete(d, r).c_str());
+  r.finished = true;
+  STRCMP_EQUAL("", ground::roverTiesIncomplete(d, r).c_str());
+  r.tie_messages_missing = 2;
+  STRCMP_EQUAL("2 AREOMAP_TIEPOINTS message(s) were lost", ground::roverTiesIncomplete(d, r).c_str());
+  r.tie_messages_missing = 0;
+  r.tie_pairs = {1};
+  STRCMP_EQUAL("none came for pair(s) 0, 2", ground::roverTiesIncomplete(d, r).c_str());
+}
+
+// The rover's numbering goes on across panoramas: after restartAfterHighest the next panorama's messages
+// are neither gaps nor duplicates, and a late message of the previous panorama is a duplicate.
+TEST(RoverTies, SequencesGoOnAcrossPanoramas) {
+  ground::SequenceTracker t;
+  for (int64_t s : {0, 1, 2}) CHECK(t.record(s) == ground::SequenceTracker::Arrival::kInOrder);
+  t.restartAfterHighest();
+  CHECK(t.record(4) == ground::SequenceTracker::Arrival::kInOrder);
+  CHECK(t.record(1) == ground::SequenceTracker::Arrival::kDuplicate);
+  CHECK_EQUAL(1u, t.missing().size());  // 3
+  CHECK_EQUAL(3, t.missing()[0]);
+}
+
+// Two panoramas in one run through memq:// (panoramas = 2): the first with no rover (the ground matches its
+// own images, and says so), the second with "rover" ties that are the first pass's own tiepoints.csv (one
+// TIEPOINTS message per pair, sequences going on from an earlier panorama): the second pass adjusts them
+// (tie_source rover) and must give the first pass's EO -- the same observations by the other route.
+TEST(GroundEndToEnd, TwoPanoramasInOneRunSecondWithRoverTies) {
+  const Dataset d = readDataset(tinyDataset());
+  std::vector<uint8_t> storage(128u * 1024u * 1024u);
+  platform::MemoryTransport memq(storage.data(), storage.size());
+  ground::GroundNodeOptions options;
+  options.pass.out_dir = test::scratchDir("ground-node-two");
+  options.pass.progress = false;
+  options.rover_wait_s = 0.0;
+  options.rover_silent_s = 0.0;
+  options.panoramas = 2;
+  std::vector<ground::GroundNodeResult> results;
+  // Pass 1 alone first (its ties feed pass 2's rover messages), then pass 2 in the same node.
+  for (const LogEvent& e : tinyStream()) CHECK(ok(memq.publish(e.channel.c_str(), e.data.data(), e.data.size())));
+  bool second_fed = false;
+  ground::runGroundNode(memq, "memq://", options, [&](const ground::GroundNodeResult& r) {
+    results.push_back(r);
+    if (second_fed) return;
+    second_fed = true;
+    const std::vector<ImageObservation> ties = readTiePointsCsv(r.out_dir + "/tiepoints.csv");
+    // Rover messages before the pairs (as if the rover was fast), sequences going on from 5.
+    for (const LogEvent& e : roverMessages(d, ties, 5)) CHECK(ok(memq.publish(e.channel.c_str(), e.data.data(), e.data.size())));
+    for (const LogEvent& e : tinyStream()) CHECK(ok(memq.publish(e.channel.c_str(), e.data.data(), e.data.size())));
+  });
+  CHECK_EQUAL(2u, results.size());
+  const std::string first = options.pass.out_dir + "/panorama-001", second = options.pass.out_dir + "/panorama-002";
+  STRCMP_EQUAL(first.c_str(), results[0].out_dir.c_str());
+  STRCMP_EQUAL(second.c_str(), results[1].out_dir.c_str());
+  const json r1 = readJson(first + "/report.json"), r2 = readJson(second + "/report.json");
+  STRCMP_EQUAL("ground", r1["ground"]["tie_source"].get<std::string>().c_str());
+  STRCMP_EQUAL("rover", r2["ground"]["tie_source"].get<std::string>().c_str());
+  bool warned = false;
+  for (const auto& w : r1["warnings"]) warned = warned || w.get<std::string>().find("rover's tie points are not used") != std::string::npos;
+  CHECK(warned);
+  for (const auto* r : {&r1, &r2}) {
+    CHECK_EQUAL(static_cast<int>(d.pairs.size()), (*r)["stream"]["pairs"].get<int>());
+    CHECK_EQUAL(0, (*r)["stream"]["gaps"].get<int>());
+    CHECK_EQUAL(0, (*r)["stream"]["duplicates"].get<int>());
+  }
+  // Same observations, other route (points in another order): the same EO to far below a pixel.
+  const double dist1 = r1["method1_px"]["after"]["dist"].get<double>(), dist2 = r2["method1_px"]["after"]["dist"].get<double>();
+  std::printf("two panoramas: method 1 after %.6f px (ground ties) vs %.6f px (the same ties as the rover's)\n", dist1, dist2);
+  DOUBLES_EQUAL(dist1, dist2, 1e-4);
+  const std::vector<std::string> eo1 = [&] {
+    std::vector<std::string> v;
+    std::istringstream in(fileText(first + "/eo.csv"));
+    for (std::string line; std::getline(in, line);) v.push_back(line);
+    return v;
+  }();
+  CHECK(!eo1.empty());
+  const std::vector<ImageObservation> t1 = readTiePointsCsv(first + "/tiepoints.csv");
+  const std::vector<ImageObservation> t2 = readTiePointsCsv(second + "/tiepoints.csv");
+  CHECK_EQUAL(t1.size(), t2.size());
 }
