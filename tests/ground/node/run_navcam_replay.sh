@@ -4,7 +4,7 @@
 # collector (areomap-ground --stream-only) and the rover must see every pair: 0 sequence gaps, nothing
 # rejected, every pair accepted by the rover and its final EO arrived.
 # The dataset is made once and kept in $AREOMAP_NAVCAM_DATASET or BUILD_DIR/test-scratch/navcam-seed1
-# (areomap-sim takes ~6 min on 2 busy cores; the replay test itself ~1 min).
+# (areomap-sim takes 6-20 min on 2 shared cores; the replay test itself 1-3 min: the rover's panorama).
 # Usage: run_navcam_replay.sh BUILD_DIR SCRATCH_DIR
 set -euo pipefail
 BUILD=$1
