@@ -1,10 +1,11 @@
 #include "ground/adjust/AdjustProducts.hpp"
 
 #include <filesystem>
-#include <fstream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "firmware_core/camera/CameraConversion.hpp"
+#include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/CameraFile.hpp"
@@ -26,13 +27,13 @@ nlohmann::json optionalJson(const std::optional<T>& v) {
   return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
 }
 
-std::ofstream openOut(const std::string& path) {
+// Products are written whole or not at all: the text is built in memory, then written under a temporary
+// name in the same folder and renamed (cli::writeFileAtomic, which names the file on failure).
+void writeTextProduct(const std::string& path, const std::string& text) {
   const std::filesystem::path p(path);
   std::error_code ec;
   if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path(), ec);
-  std::ofstream out(path);
-  if (!out) throw cli::InputError(path, "file", "cannot be written");
-  return out;
+  cli::writeFileAtomic(path, text);
 }
 
 }  // namespace
@@ -66,13 +67,11 @@ void writeReportJson(const std::string& path, const AdjustReport& r) {
                      {"estimated", r.estimated},
                      {"max_gimbal_misfit_m", r.max_gimbal_misfit_m},
                      {"max_base_misfit_m", r.max_base_misfit_m}};
-  std::ofstream out = openOut(path);
-  out << j.dump(2) << "\n";
-  if (!out) throw cli::InputError(path, "file", "write failed");
+  writeTextProduct(path, j.dump(2) + "\n");
 }
 
 void writeEoCsv(const std::string& path, const Network& net, const std::vector<std::string>& stems) {
-  std::ofstream out = openOut(path);
+  std::ostringstream out;
   // Rotation sigmas are about the camera axes (the local update M' = exp([delta]x) M), radians.
   out << "image,pair,side,x_m,y_m,z_m,omega_rad,phi_rad,kappa_rad,sigma_x_m,sigma_y_m,sigma_z_m,"
          "sigma_rot_x_rad,sigma_rot_y_rad,sigma_rot_z_rad\n";
@@ -85,7 +84,7 @@ void writeEoCsv(const std::string& path, const Network& net, const std::vector<s
     for (int c = 0; c < 6; ++c) out << "," << formatDouble(im.sigma(c));
     out << "\n";
   }
-  if (!out) throw cli::InputError(path, "file", "write failed");
+  writeTextProduct(path, out.str());
 }
 
 CameraModel adjustedModelOf(const Network& net, int image, const CameraModel& apriori) {
