@@ -73,6 +73,20 @@ void addPairConstraints(const Network& net, int32_t pair, Mat12& n, Vec12& b) {
   }
 }
 
+// A pair's 12 EO unknowns (left 0-5, right 6-11; a single image leaves 6-11 at zero) in a per-image
+// array of 6 values per image, and back.
+Vec12 gatherPair(const NetPair& pr, const double* per_image) {
+  Vec12 v = Vec12::Zero();
+  v.head<6>() = Eigen::Map<const Vec6>(per_image + 6 * pr.left);
+  if (pr.right >= 0) v.tail<6>() = Eigen::Map<const Vec6>(per_image + 6 * pr.right);
+  return v;
+}
+
+void scatterPair(const NetPair& pr, const Vec12& v, double* per_image) {
+  Eigen::Map<Vec6>(per_image + 6 * pr.left) = v.head<6>();
+  if (pr.right >= 0) Eigen::Map<Vec6>(per_image + 6 * pr.right) = v.tail<6>();
+}
+
 }  // namespace
 
 const char* stopRuleName(StopRule rule) {
@@ -543,10 +557,7 @@ void FastAdjuster::eliminatePoints(Network& net, double damping) {
     const Eigen::LDLT<Mat12> ldlt(n);
     pair_inverse_[pi] = ldlt.info() == Eigen::Success ? Mat12(ldlt.solve(Mat12::Identity())) : Mat12::Identity();
     if (!pair_inverse_[pi].allFinite()) pair_inverse_[pi].setIdentity();
-    for (int32_t c = 0; c < 6; ++c) {
-      pcg_r_[6 * pr.left + c] = b(c);
-      if (pr.right >= 0) pcg_r_[6 * pr.right + c] = b(6 + c);
-    }
+    scatterPair(pr, b, pcg_r_);
   }
 }
 
@@ -554,17 +565,10 @@ void FastAdjuster::reducedProduct(const Network& net, const double* x, double* y
   // y = (C - W N^-1 W^T) x with C the pair blocks, through the cached observation rows.
   for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
     const NetPair& pr = net.pair(pi);
-    Vec12 xx = Vec12::Zero();
-    for (int32_t c = 0; c < 6; ++c) {
-      xx(c) = x[6 * pr.left + c];
-      if (pr.right >= 0) xx(6 + c) = x[6 * pr.right + c];
-    }
+    const Vec12 xx = gatherPair(pr, x);
     Vec12 yy;
     yy.noalias() = pair_normal_[pi] * xx;
-    for (int32_t c = 0; c < 6; ++c) {
-      y[6 * pr.left + c] = yy(c);
-      if (pr.right >= 0) y[6 * pr.right + c] = yy(6 + c);
-    }
+    scatterPair(pr, yy, y);
   }
   for (int32_t p = 0; p < net.pointCount(); ++p) {
     if (!point_eliminated_[p]) continue;
@@ -617,16 +621,8 @@ void FastAdjuster::pcgStep(Network& net, const FastAdjustOptions& options, doubl
     // z = P^-1 r (per pair).
     for (int32_t pi = 0; pi < net.pairCount(); ++pi) {
       const NetPair& pr = net.pair(pi);
-      Vec12 rr = Vec12::Zero();
-      for (int32_t c = 0; c < 6; ++c) {
-        rr(c) = pcg_r_[6 * pr.left + c];
-        if (pr.right >= 0) rr(6 + c) = pcg_r_[6 * pr.right + c];
-      }
-      const Vec12 zz = pair_inverse_[pi] * rr;
-      for (int32_t c = 0; c < 6; ++c) {
-        pcg_z_[6 * pr.left + c] = zz(c);
-        if (pr.right >= 0) pcg_z_[6 * pr.right + c] = zz(6 + c);
-      }
+      const Vec12 zz = pair_inverse_[pi] * gatherPair(pr, pcg_r_);
+      scatterPair(pr, zz, pcg_z_);
     }
     double rz_new = 0.0;
     for (int32_t d = 0; d < dim; ++d) rz_new += pcg_r_[d] * pcg_z_[d];
@@ -805,11 +801,7 @@ void FastAdjuster::solveFactor(const Network& net) {
   }
   for (int32_t pi = 0; pi < n; ++pi) {
     const NetPair& pr = net.pair(pi);
-    const double* x = rcs_b_ + 12 * position_[pi];
-    for (int32_t c = 0; c < 6; ++c) {
-      pcg_x_[6 * pr.left + c] = x[c];
-      if (pr.right >= 0) pcg_x_[6 * pr.right + c] = x[6 + c];
-    }
+    scatterPair(pr, Eigen::Map<const Vec12>(rcs_b_ + 12 * position_[pi]), pcg_x_);
   }
 }
 
