@@ -374,14 +374,7 @@ Status RoverNode::adjustNow(bool final_solve) {
   // EO, rejections cleared, every point re-triangulated (the computation of areomap-ties --adjust). A final
   // solve warm-started from the incremental solution was measured to stop in another local minimum (tiny:
   // weighted cost 648.74 vs 646.04, EO 0.0057 px apart, each a stationary point for all three methods).
-  if (final_solve) {
-    for (int32_t i = 0; i < net_.observationCount(); ++i) net_.observation(i).rejected = false;
-    for (int32_t i = 0; i < net_.imageCount(); ++i) {
-      NetImage& im = net_.image(i);
-      im.center_m = im.center_apriori_m;
-      im.m = im.m_apriori;
-    }
-  }
+  if (final_solve) net_.resetToApriori();
   int32_t failed = 0;
   (void)net_.triangulateAll(failed);
   FastAdjustResult result;
