@@ -6,6 +6,8 @@
 #include <fstream>
 #include <iterator>
 
+#include "ground/cli/AtomicFile.hpp"
+
 namespace areomap {
 
 CameraModel readModelFile(const std::string& path) {
@@ -25,14 +27,21 @@ void writeModelFile(const std::string& path, const CameraModel& model) {
   char buffer[4096];
   const std::size_t n = formatModelText(model, buffer, sizeof(buffer));
   if (n == 0) throw DatasetError(path, "", "camera model does not format");
+  writeDatasetFile(path, std::string(buffer, n));
+}
+
+void writeDatasetFile(const std::string& path, const std::string& text) {
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
   std::error_code ec;
   if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw DatasetError(path, "", std::string("cannot write: ") + std::strerror(errno));
-  out.write(buffer, static_cast<std::streamsize>(n));
-  out.close();
-  if (!out) throw DatasetError(path, "", "write failed");
+  try {
+    cli::writeFileAtomic(path, text);
+  } catch (const cli::InputError& e) {
+    // writeFileAtomic's message is "<path>: <what>"; a DatasetError names the file the same way.
+    const std::string what = e.what();
+    const std::string prefix = path + ": ";
+    throw DatasetError(path, "", what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what);
+  }
 }
 
 }  // namespace areomap

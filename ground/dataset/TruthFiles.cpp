@@ -7,6 +7,9 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
+
+#include "ground/dataset/ModelFile.hpp"
 
 namespace areomap {
 namespace {
@@ -117,19 +120,6 @@ class CsvTable {
   int64_t header_line_ = 0;
 };
 
-std::ofstream openForWriting(const std::string& path) {
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw DatasetError(path, "", std::string("cannot write: ") + std::strerror(errno));
-  return out;
-}
-
-void finish(std::ofstream& out, const std::string& path) {
-  out.close();
-  if (!out) throw DatasetError(path, "", "write failed");
-}
 
 }  // namespace
 
@@ -153,13 +143,13 @@ std::vector<CheckPoint> readPointsCsv(const std::string& path) {
 }
 
 void writePointsCsv(const std::string& path, const std::vector<CheckPoint>& points) {
-  std::ofstream out = openForWriting(path);
+  std::ostringstream out;
   out << "point,x_m,y_m,z_m\n";
   for (const CheckPoint& p : points) {
     out << p.point << ',' << formatDouble(p.site_m.x()) << ',' << formatDouble(p.site_m.y()) << ','
         << formatDouble(p.site_m.z()) << '\n';
   }
-  finish(out, path);
+  writeDatasetFile(path, out.str());
 }
 
 std::vector<ImageObservation> readObservationsCsv(const std::string& path) {
@@ -180,14 +170,14 @@ std::vector<ImageObservation> readObservationsCsv(const std::string& path) {
 }
 
 void writeObservationsCsv(const std::string& path, const std::vector<ImageObservation>& observations, bool with_kind) {
-  std::ofstream out = openForWriting(path);
+  std::ostringstream out;
   out << (with_kind ? "point,image,sample_px,line_px,kind\n" : "point,image,sample_px,line_px\n");
   for (const ImageObservation& o : observations) {
     out << o.point << ',' << o.image << ',' << formatDouble(o.sample_px) << ',' << formatDouble(o.line_px);
     if (with_kind) out << ',' << o.kind;
     out << '\n';
   }
-  finish(out, path);
+  writeDatasetFile(path, out.str());
 }
 
 }  // namespace areomap

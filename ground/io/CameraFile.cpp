@@ -77,8 +77,8 @@ void validateOrThrow(const CameraModel& m, const std::string& file, Describe des
   throw cli::InputError(file, describe(f), what);
 }
 
-CameraFile fromPds3(const std::string& text, const std::string& path, int width, int height) {
-  const Pds3Label label = Pds3Label::parse(text, path);
+CameraFile fromPds3(const Pds3Label& label, int width, int height) {
+  const std::string& path = label.file();
   std::string group;
   for (const char* g : kGeometricGroups) {
     if (label.hasScope(g)) group = g;
@@ -302,12 +302,14 @@ CameraFile parseCameraText(const std::string& text, const std::string& path, int
   std::size_t first = text.find_first_not_of(" \t\r\n");
   if (first == std::string::npos) throw cli::InputError(path, "file", "empty");
   if (text[first] == '{') return fromM2020Json(text, path, width, height);
-  const std::string head = text.substr(0, std::min<std::size_t>(text.size(), 1 << 20));
+  const std::string head = text.substr(0, std::min(text.size(), Pds3Label::kMaxBytes));
   if (head.find("PDS_VERSION_ID") != std::string::npos || head.find("GEOMETRIC_CAMERA_MODEL") != std::string::npos) {
-    return fromPds3(head, path, width, height);
+    return fromPds3(Pds3Label::parse(head, path), width, height);
   }
   return fromJplText(text, path, width, height);
 }
+
+CameraFile readPds3Camera(const Pds3Label& label, int width, int height) { return fromPds3(label, width, height); }
 
 CameraFile readCameraFile(const std::string& path, int width, int height) {
   std::string text = readWhole(path);

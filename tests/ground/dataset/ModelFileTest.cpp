@@ -1,6 +1,7 @@
 #include <string>
 
 #include "ground/dataset/ModelFile.hpp"
+#include "tests/ground/dataset/FileSizeLimit.hpp"
 #include "tests/ground/dataset/TextFiles.hpp"
 #include "tests/support/TestData.hpp"
 
@@ -12,7 +13,9 @@ using areomap::test::writeText;
 
 TEST_GROUP(ModelFile){};
 
-TEST(ModelFile, RoundTripsACahvorModelExactly) {
+namespace {
+
+CameraModel sampleCahvor() {
   CameraModel m;
   m.type = CameraType::kCahvor;
   m.c = Vec3(0.1234567890123, -0.2, -1.5);
@@ -23,6 +26,13 @@ TEST(ModelFile, RoundTripsACahvorModelExactly) {
   m.r = Vec3(0.0, 0.006, -0.004);
   m.width = 1024;
   m.height = 1024;
+  return m;
+}
+
+}  // namespace
+
+TEST(ModelFile, RoundTripsACahvorModelExactly) {
+  const CameraModel m = sampleCahvor();
   const std::string path = test::scratchDir("model-file") + "/models/p000_L.cahvor";
   writeModelFile(path, m);
   const CameraModel back = readModelFile(path);
@@ -52,4 +62,34 @@ TEST(ModelFile, BadFilesNameTheFileAndTheComponent) {
     printf("\n%s\n", e.what());
     CHECK(contains(e.what(), "bad.cahvor: V"));
   }
+}
+
+// A model written on a full disk (a 64-byte file-size limit): DatasetError naming the file; the previous
+// model is still there byte for byte, a new one is absent, and no temporary is left.
+TEST(ModelFile, FailedWriteLeavesThePreviousFileWhole) {
+  const CameraModel m = sampleCahvor();
+  const std::string dir = test::scratchDir("model-file-full");
+  const std::string path = dir + "/models/p000_L.cahvor";
+  writeModelFile(path, m);
+  const std::string before = test::fileBytes(path);
+  CHECK(before.size() > 64);
+  CameraModel moved = m;
+  moved.c.x() += 1.0;
+  for (const std::string& target : {path, dir + "/models/new.cahvor"}) {
+    bool thrown = false;
+    {
+      test::FileSizeLimit full(64);
+      try {
+        writeModelFile(target, moved);
+      } catch (const DatasetError& e) {
+        thrown = true;
+        printf("\n%s\n", e.what());
+        CHECK(contains(e.what(), target + ": cannot write"));
+      }
+    }
+    CHECK(thrown);
+  }
+  CHECK(test::fileBytes(path) == before);
+  CHECK(!test::fileExists(dir + "/models/new.cahvor"));
+  CHECK(test::temporariesIn(dir).empty());
 }

@@ -5,6 +5,7 @@
 
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/dataset/TruthFiles.hpp"
+#include "tests/ground/dataset/FileSizeLimit.hpp"
 #include "tests/ground/dataset/TextFiles.hpp"
 #include "tests/support/TestData.hpp"
 
@@ -109,6 +110,46 @@ TEST(TruthFiles, BadCsvNamesFileLineAndColumn) {
   } catch (const DatasetError& e) {
     CHECK(contains(e.what(), "line 2, column 4 (z_m)"));
   }
+}
+
+// CSVs written on a full disk (a 1 KiB file-size limit): DatasetError naming the file, the previous file
+// byte for byte, no temporary left.
+TEST(TruthFiles, FailedWriteLeavesThePreviousFileWhole) {
+  const std::string dir = test::scratchDir("truth-full");
+  std::vector<ImageObservation> obs;
+  std::vector<CheckPoint> points;
+  for (int i = 0; i < 200; ++i) {
+    obs.push_back(ImageObservation{i, "p000_L", 100.25 + i, 200.5 - i, "intra"});
+    CheckPoint p;
+    p.point = i;
+    p.site_m = Eigen::Vector3d(0.1 * i, -0.2 * i, 1.5);
+    points.push_back(p);
+  }
+  const std::string obs_path = dir + "/tiepoints.csv", pts_path = dir + "/truth/points.csv";
+  writeObservationsCsv(obs_path, std::vector<ImageObservation>(obs.begin(), obs.begin() + 5), true);
+  writePointsCsv(pts_path, std::vector<CheckPoint>(points.begin(), points.begin() + 5));
+  const std::string obs_before = test::fileBytes(obs_path), pts_before = test::fileBytes(pts_path);
+  int thrown = 0;
+  {
+    test::FileSizeLimit full(1024);
+    try {
+      writeObservationsCsv(obs_path, obs, true);
+    } catch (const DatasetError& e) {
+      thrown += contains(e.what(), obs_path + ": cannot write") ? 1 : 0;
+    }
+    try {
+      writePointsCsv(pts_path, points);
+    } catch (const DatasetError& e) {
+      thrown += contains(e.what(), pts_path + ": cannot write") ? 1 : 0;
+    }
+  }
+  CHECK_EQUAL(2, thrown);
+  CHECK(test::fileBytes(obs_path) == obs_before);
+  CHECK(test::fileBytes(pts_path) == pts_before);
+  CHECK(test::temporariesIn(dir).empty());
+  // Without the limit the same writes go through.
+  writeObservationsCsv(obs_path, obs, true);
+  CHECK_EQUAL(obs.size(), readObservationsCsv(obs_path).size());
 }
 
 TEST(TruthFiles, DemGeoTiffFollowsTheRasterContract) {

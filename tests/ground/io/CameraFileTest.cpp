@@ -7,6 +7,7 @@
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "tests/firmware_core/camera/TestModels.hpp"
+#include "tests/ground/dataset/FileSizeLimit.hpp"
 #include "tests/support/TestData.hpp"
 
 #include <CppUTest/TestHarness.h>
@@ -92,6 +93,32 @@ TEST(CameraFile, JplTextRoundTripsThroughAFile) {
   CHECK(!f.size_from_file);
   CHECK_EQUAL(640, f.model.width);
   CHECK_EQUAL(480, f.model.height);
+}
+
+// Written on a full disk (a 64-byte file-size limit): an error naming the file, the previous model byte for
+// byte, no temporary left (temporary name + rename).
+TEST(CameraFile, FailedWriteLeavesThePreviousFileWhole) {
+  const std::string dir = test::scratchDir("camera_file_full");
+  const std::string path = dir + "/m.cahvor";
+  const CameraModel m = test::syntheticModels().front().model;
+  io::writeCameraModelFile(path, m);
+  const std::string before = test::fileBytes(path);
+  CameraModel moved = m;
+  moved.c.x() += 1.0;
+  bool thrown = false;
+  {
+    test::FileSizeLimit full(64);
+    try {
+      io::writeCameraModelFile(path, moved);
+    } catch (const cli::InputError& e) {
+      thrown = std::string(e.what()).find(path) != std::string::npos;
+    }
+  }
+  CHECK(thrown);
+  CHECK(test::fileBytes(path) == before);
+  CHECK(test::temporariesIn(dir).empty());
+  io::writeCameraModelFile(path, moved);
+  CHECK(io::readCameraModelFile(path).c == moved.c);
 }
 
 TEST(CameraFile, RescaledModelIsTheSameCameraInTheNewPixelFrame) {
