@@ -1,8 +1,14 @@
 #include "platform/heap/HeapCounter.hpp"
 
+#include <execinfo.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <cerrno>
 #include <cstddef>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 #define AREOMAP_HEAP_COUNTER_DISABLED 1
@@ -19,10 +25,51 @@ std::atomic<uint64_t> g_frees{0};
 // initial-exec TLS: reading it never calls into the dynamic loader (which could allocate).
 __attribute__((tls_model("initial-exec"))) thread_local uint64_t t_allocations = 0;
 
-inline void countAllocation() {
+// Allocation tracing (HeapCounter.hpp): static records, filled by the armed threads' allocations.
+struct TraceRecord {
+  void* frames[areomap::kHeapTraceFrames];
+  int depth;
+  const char* function;
+  std::size_t size;
+  uint64_t thread_count;  // the thread's allocation count at this allocation
+};
+TraceRecord g_trace[areomap::kHeapTraceRecords];
+std::atomic<uint64_t> g_trace_recorded{0};
+std::atomic<bool> g_trace_exit_registered{false};
+__attribute__((tls_model("initial-exec"))) thread_local bool t_trace_armed = false;
+__attribute__((tls_model("initial-exec"))) thread_local bool t_in_trace = false;
+
+[[maybe_unused]] void recordAllocation(const char* function, std::size_t size) {
+  if (!t_trace_armed || t_in_trace) return;
+  t_in_trace = true;  // backtrace() may allocate (it does not once warmed up); those are not recorded
+  const uint64_t index = g_trace_recorded.fetch_add(1, std::memory_order_relaxed);
+  if (index < static_cast<uint64_t>(areomap::kHeapTraceRecords)) {
+    TraceRecord& r = g_trace[index];
+    r.depth = backtrace(r.frames, areomap::kHeapTraceFrames);
+    r.function = function;
+    r.size = size;
+    r.thread_count = t_allocations;
+  }
+  t_in_trace = false;
+}
+
+inline void countAllocation(const char* function, std::size_t size) {
   g_allocations.fetch_add(1, std::memory_order_relaxed);
   ++t_allocations;
+  recordAllocation(function, size);
 }
+
+void writeText(const char* text) {
+  std::size_t left = std::strlen(text);
+  while (left > 0) {
+    const ssize_t n = write(STDERR_FILENO, text, left);
+    if (n <= 0) return;
+    text += n;
+    left -= static_cast<std::size_t>(n);
+  }
+}
+
+[[maybe_unused]] void printTraceAtExit() { areomap::heapTracePrint(); }
 }  // namespace
 
 namespace areomap {
@@ -36,6 +83,39 @@ uint64_t heapAllocationCount() { return g_allocations.load(std::memory_order_rel
 uint64_t heapFreeCount() { return g_frees.load(std::memory_order_relaxed); }
 uint64_t heapAllocationCountThisThread() { return t_allocations; }
 
+bool heapTraceArmThisThread() {
+#ifdef AREOMAP_HEAP_COUNTER_DISABLED
+  return false;
+#else
+  const char* env = std::getenv("AREOMAP_HEAP_TRACE");
+  if (env == nullptr || env[0] == '\0' || std::strcmp(env, "0") == 0) return false;
+  void* warm[2];
+  (void)backtrace(warm, 2);  // loads libgcc_s now, not at the first traced allocation
+  if (!g_trace_exit_registered.exchange(true)) std::atexit(printTraceAtExit);
+  t_trace_armed = true;
+  return true;
+#endif
+}
+
+uint64_t heapTraceRecorded() { return g_trace_recorded.load(std::memory_order_relaxed); }
+
+void heapTracePrint() {
+  const uint64_t recorded = heapTraceRecorded();
+  char line[200];
+  std::snprintf(line, sizeof(line), "heap trace: %llu allocation(s) of armed threads after their mark\n",
+                static_cast<unsigned long long>(recorded));
+  writeText(line);
+  const uint64_t shown = recorded < static_cast<uint64_t>(kHeapTraceRecords) ? recorded : kHeapTraceRecords;
+  for (uint64_t i = 0; i < shown; ++i) {
+    const TraceRecord& r = g_trace[i];
+    std::snprintf(line, sizeof(line), "heap trace #%llu: %s(%zu), the thread's allocation #%llu, %d frames:\n",
+                  static_cast<unsigned long long>(i), r.function, r.size,
+                  static_cast<unsigned long long>(r.thread_count), r.depth);
+    writeText(line);
+    backtrace_symbols_fd(r.frames, r.depth, STDERR_FILENO);
+  }
+}
+
 }  // namespace areomap
 
 #ifndef AREOMAP_HEAP_COUNTER_DISABLED
@@ -47,15 +127,15 @@ void __libc_free(void* ptr);
 void* __libc_memalign(std::size_t alignment, std::size_t size);
 
 void* malloc(std::size_t size) {
-  countAllocation();
+  countAllocation("malloc", size);
   return __libc_malloc(size);
 }
 void* calloc(std::size_t count, std::size_t size) {
-  countAllocation();
+  countAllocation("calloc", count * size);
   return __libc_calloc(count, size);
 }
 void* realloc(void* ptr, std::size_t size) {
-  countAllocation();
+  countAllocation("realloc", size);
   return __libc_realloc(ptr, size);
 }
 void free(void* ptr) {
@@ -63,15 +143,15 @@ void free(void* ptr) {
   __libc_free(ptr);
 }
 void* memalign(std::size_t alignment, std::size_t size) {
-  countAllocation();
+  countAllocation("memalign", size);
   return __libc_memalign(alignment, size);
 }
 void* aligned_alloc(std::size_t alignment, std::size_t size) {
-  countAllocation();
+  countAllocation("aligned_alloc", size);
   return __libc_memalign(alignment, size);
 }
 int posix_memalign(void** out, std::size_t alignment, std::size_t size) {
-  countAllocation();
+  countAllocation("posix_memalign", size);
   if (alignment < sizeof(void*) || (alignment & (alignment - 1)) != 0) return EINVAL;
   void* p = __libc_memalign(alignment, size);
   if (p == nullptr) return ENOMEM;
@@ -79,7 +159,7 @@ int posix_memalign(void** out, std::size_t alignment, std::size_t size) {
   return 0;
 }
 void* valloc(std::size_t size) {
-  countAllocation();
+  countAllocation("valloc", size);
   return __libc_memalign(4096, size);
 }
 }  // extern "C"

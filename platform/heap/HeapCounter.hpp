@@ -21,6 +21,21 @@ uint64_t heapFreeCount();
 // thread (LCM's receive thread) proves its pipeline thread heap-free with this count.
 uint64_t heapAllocationCountThisThread();
 
+// Allocation tracing, for finding an allocation that a count shows (issue 11): when the environment variable
+// AREOMAP_HEAP_TRACE is set (to anything but "0") at the first call, heapTraceArmThisThread() makes every
+// later allocation of the calling thread record its call stack (glibc backtrace(), into a static buffer of
+// kHeapTraceRecords records, no heap), and the records are printed to stderr at exit (backtrace_symbols_fd:
+// "binary(symbol+offset) [address]"; resolve offsets in the binary with addr2line -f -C -e BINARY OFFSET).
+// Without the variable it does nothing. Returns true when tracing is on. Call it at the thread's start-up
+// mark, before the count that must stay 0: it warms backtrace() up (its first call loads libgcc_s).
+bool heapTraceArmThisThread();
+// Allocations recorded so far (also those beyond the buffer's capacity).
+uint64_t heapTraceRecorded();
+// Prints the records to stderr now (also done at exit once armed); clears nothing.
+void heapTracePrint();
+constexpr int kHeapTraceRecords = 16;
+constexpr int kHeapTraceFrames = 24;
+
 // Measures the allocations made between construction and allocations().
 class HeapAllocationScope {
  public:

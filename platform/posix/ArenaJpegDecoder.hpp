@@ -25,8 +25,13 @@ class ArenaJpegDecoder final : public JpegCodec {
   ArenaJpegDecoder(const ArenaJpegDecoder&) = delete;
   ArenaJpegDecoder& operator=(const ArenaJpegDecoder&) = delete;
 
-  // Creates the decompressor (heap, once). kUnsupported when libjpeg cannot start.
+  // Creates the decompressor (heap, once) and warms the calling thread up. kUnsupported when libjpeg
+  // cannot start.
   [[nodiscard]] Status open();
+  // Decodes a built-in 16x16 JPEG: libjpeg-turbo's per-thread SIMD detection (heap on 64-bit ARM, see the
+  // .cpp) happens now. Every thread that decodes calls it once at its start-up, before its heap mark;
+  // open() does it for the calling thread.
+  [[nodiscard]] Status warmUpThisThread();
 
   [[nodiscard]] Status decodeGray(const uint8_t* jpeg, std::size_t jpeg_bytes, uint8_t* out,
                                   std::size_t capacity_bytes, int32_t& width, int32_t& height) override;

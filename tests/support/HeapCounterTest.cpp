@@ -87,3 +87,34 @@ TEST(HeapCounter, CountsPerThread) {
   CHECK(areomap::heapAllocationCount() - all >= 10u);
   CHECK(areomap::heapAllocationCountThisThread() - mine < 10u);
 }
+
+// AREOMAP_HEAP_TRACE=1: an armed thread records the call stack of each allocation after its mark; other
+// threads and the time before arming are not recorded.
+TEST(HeapCounter, TraceRecordsTheArmedThreadsAllocations) {
+  CHECK_EQUAL(0, setenv("AREOMAP_HEAP_TRACE", "1", 1));
+  const uint64_t before = areomap::heapTraceRecorded();
+  void* q = std::malloc(24);  // this thread is not armed
+  g_sink = q;
+  std::free(q);
+  bool armed = false;
+  uint64_t allocations_after_mark = 0;
+  std::thread traced([&] {
+    armed = areomap::heapTraceArmThisThread();
+    const uint64_t mark = areomap::heapAllocationCountThisThread();
+    for (int i = 0; i < 3; ++i) {
+      void* p = std::malloc(40 + i);
+      g_sink = p;
+      std::free(p);
+    }
+    allocations_after_mark = areomap::heapAllocationCountThisThread() - mark;
+  });
+  traced.join();
+  CHECK_EQUAL(0, unsetenv("AREOMAP_HEAP_TRACE"));
+  CHECK_TRUE(armed);
+  CHECK_EQUAL(3u, allocations_after_mark);
+  CHECK_EQUAL(3u, areomap::heapTraceRecorded() - before);
+  // Without the variable, arming does nothing.
+  std::thread untraced([&] { armed = areomap::heapTraceArmThisThread(); });
+  untraced.join();
+  CHECK_FALSE(armed);
+}

@@ -178,7 +178,14 @@ void drainOutbox(areomap::platform::Transport* output, const areomap::platform::
   }
 }
 
-void pipelineLoop(const Options& options, const areomap::platform::Clock& clock) {
+void pipelineLoop(const Options& options, const areomap::platform::Clock& clock,
+                  areomap::platform::ArenaJpegDecoder& jpeg) {
+  // Start-up of this thread, before its heap mark: libjpeg-turbo's per-thread SIMD detection (3 heap
+  // allocations on 64-bit ARM at the first decode otherwise; ArenaJpegDecoder.cpp).
+  if (!areomap::ok(jpeg.warmUpThisThread())) {
+    std::fprintf(stderr, "areomap-rover: the JPEG warm-up decode failed on the pipeline thread\n");
+  }
+  (void)areomap::heapTraceArmThisThread();  // AREOMAP_HEAP_TRACE=1: the stacks of later allocations, at exit
   const uint64_t allocs_thread_start = areomap::heapAllocationCountThisThread();
   const uint64_t allocs_process_start = areomap::heapAllocationCount();
   int64_t next_heartbeat = clock.monotonicUtime() + static_cast<int64_t>(options.heartbeat_s * 1e6);
@@ -326,7 +333,7 @@ int main(int argc, char** argv) {
                "start-up %lld bytes)\n", options.lcm_url, static_cast<long long>(g_node.staticBytes()),
                static_cast<long long>(g_node.reservedBytes()));
 
-  std::thread pipeline(pipelineLoop, std::cref(options), std::cref(clock));
+  std::thread pipeline(pipelineLoop, std::cref(options), std::cref(clock), std::ref(jpeg));
   const int64_t start_us = clock.monotonicUtime();
   bool input_failed = false;
   for (;;) {
