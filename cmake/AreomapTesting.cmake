@@ -1,3 +1,7 @@
+# areomap_tests: every executable CTest runs (the CppUTest executables, with the tools their tests run through
+# their add_dependencies, and the fuzz replays) and nothing else: no benchmark. The asan build presets build
+# this target only (`cmake --build --preset asan`), so the sanitizer build skips the benchmarks.
+add_custom_target(areomap_tests)
 # areomap_cpputest(NAME SOURCES... LIBS... [LABELS ...])
 # One CppUTest executable; one CTest entry per TEST_GROUP found in its sources (`-sg GROUP`), so that
 # ctest reports every group. Sources are re-read when they change (CMAKE_CONFIGURE_DEPENDS).
@@ -6,6 +10,7 @@ function(areomap_cpputest name)
   add_executable(${name} ${T_SOURCES} ${PROJECT_SOURCE_DIR}/tests/support/TestMain.cpp)
   target_link_libraries(${name} PRIVATE areomap_warnings areomap_test_support PkgConfig::CPPUTEST ${T_LIBS})
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  add_dependencies(areomap_tests ${name})
   set(_groups)
   foreach(src IN LISTS T_SOURCES)
     get_filename_component(_abs ${src} ABSOLUTE)
@@ -43,3 +48,11 @@ function(areomap_test_folder name)
   endif()
 endfunction()
 include(AreomapFuzz)
+# The fuzz targets are defined at the end of the configure (AreomapFuzz.cmake defers them); this call is
+# deferred after them.
+function(_areomap_tests_add_fuzz)
+  if(TARGET fuzz_targets)
+    add_dependencies(areomap_tests fuzz_targets)
+  endif()
+endfunction()
+cmake_language(DEFER CALL _areomap_tests_add_fuzz)
