@@ -59,14 +59,8 @@ inline void countAllocation(const char* function, std::size_t size) {
   recordAllocation(function, size);
 }
 
-void writeText(const char* text) {
-  std::size_t left = std::strlen(text);
-  while (left > 0) {
-    const ssize_t n = write(STDERR_FILENO, text, left);
-    if (n <= 0) return;
-    text += n;
-    left -= static_cast<std::size_t>(n);
-  }
+void writeText(const char* text) {  // no stdio (no heap): one write of a short line
+  if (write(STDERR_FILENO, text, std::strlen(text)) < 0) return;
 }
 
 [[maybe_unused]] void printTraceAtExit() { areomap::heapTracePrint(); }

@@ -1,6 +1,7 @@
 #include "platform/posix/LcmLogReplay.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -77,9 +78,17 @@ Status LcmLogReplay::readExactly(uint8_t* out, std::size_t bytes, bool at_event_
   return done == bytes ? Status::kOk : Status::kIoError;
 }
 
-Status LcmLogReplay::handle(int32_t /*timeout_ms*/) {
+Status LcmLogReplay::handle(int32_t timeout_ms) {
   if (fd_ < 0) return Status::kIoError;
   if (failed_) return Status::kCorruptData;  // lost sync: nothing after it can be trusted
+  if (timeout_ms >= 0) {
+    // A regular file is always readable; a pipe or FIFO with a writer that has nothing to say would block
+    // the caller (and its stop request) until it writes: wait at most timeout_ms for the next event.
+    pollfd p{fd_, POLLIN, 0};
+    const int ready = ::poll(&p, 1, timeout_ms);
+    if (ready == 0 || (ready < 0 && errno == EINTR)) return Status::kTimeout;
+    if (ready < 0) return Status::kIoError;
+  }
   uint8_t header[kEventHeaderBytes];
   Status status = readExactly(header, sizeof(header), true);
   if (!ok(status)) return status;

@@ -31,7 +31,9 @@ class LcmLogReplay final : public Transport {
   // Reads the next event and hands it to the subscribers of its channel. kOk (read, delivered or not),
   // kEndOfStream at the end of the log, kTruncated when the log ends inside an event, kCorruptData for a
   // bad sync word or length, kCapacityExceeded for an event larger than the buffer (skipped, counted; the
-  // next call goes on with the following event), kIoError for a read error. timeout_ms is not used.
+  // next call goes on with the following event), kIoError for a read error. timeout_ms >= 0: kTimeout when
+  // no byte of the next event can be read within it (a pipe or FIFO; a regular file never times out);
+  // < 0 waits. Once an event has begun, its remaining bytes are waited for.
   [[nodiscard]] Status handle(int32_t timeout_ms) override;
 
   int64_t lastEventUtime() const { return last_utime_; }

@@ -18,6 +18,8 @@
 #include <mutex>
 #include <thread>
 
+#include <unistd.h>
+
 #include "firmware_core/node/ByteRing.hpp"
 #include "firmware_core/node/RoverNode.hpp"
 #include "msgs/Channels.hpp"
@@ -71,6 +73,7 @@ areomap::ByteRing g_inbox(g_inbox_storage, kInboxBytes);
 areomap::ByteRing g_outbox(g_outbox_storage, kOutboxBytes);
 bool g_input_done = false;
 std::atomic<bool> g_stop{false};
+std::atomic<bool> g_pipeline_done{false};  // set by the pipeline thread as its last act
 std::atomic<bool> g_finished{false};  // set by the pipeline thread after the final EO (read by the transport thread)
 uint64_t g_inbox_refused = 0;
 
@@ -130,7 +133,11 @@ constexpr const char* kUsage =
     "  --quiet          no per-pair lines on stderr\n"
     "\n"
     "heap_allocs_after_init in the status = heap allocations of the pipeline thread after start-up (0 when\n"
-    "all is well); the whole-process count is printed at exit. Exit: 0 ok, 2 usage error, 1 other error.\n";
+    "all is well); the whole-process count is printed at exit.\n"
+    "\n"
+    "SIGINT or SIGTERM stops after the pair in hand (exit 0), or after 3 s without it (exit 1); a process\n"
+    "stuck elsewhere exits 6 s after the signal, and a second signal exits at once (exit 1).\n"
+    "Exit: 0 ok, 2 usage error, 1 other error.\n";
 
 int usageError(const char* what) {
   std::fprintf(stderr, "areomap-rover: %s\n%s", what, kUsage);
@@ -143,7 +150,33 @@ bool parseNumber(const char* text, double& out) {
   return end != text && *end == '\0';
 }
 
-void onSignal(int) { g_stop.store(true); }
+// Stopping (SIGINT, SIGTERM, --max-seconds) ends the process within seconds whatever it is doing:
+//  - the transport loop sees g_stop within kHandleTimeoutMs and the pipeline stops after the pair in hand;
+//  - a pair in hand for longer than kStopGraceUs (seconds natively, tens of seconds under qemu) is abandoned:
+//    the process exits with status 1 without it (std::_Exit, the pipeline thread still running);
+//  - the handler arms a watchdog (alarm) for a process stuck anywhere else, e.g. the aarch64 rover under
+//    qemu with the wrong sysroot (`-L /usr/aarch64-linux-gnu`: glibc's loader and libc of two builds, the
+//    first pthread_create never returns; toolchains/README.md), which otherwise ran on after SIGTERM;
+//  - a second signal exits at once.
+constexpr int64_t kStopGraceUs = 3'000'000;
+constexpr unsigned kStopWatchdogSeconds = 6;  // > kStopGraceUs: the grace path exits first
+
+void writeStderr(const char* text) {  // async-signal-safe; a short line goes out in one write
+  if (write(STDERR_FILENO, text, std::strlen(text)) < 0) return;
+}
+
+void onSignal(int) {
+  if (g_stop.exchange(true)) {
+    writeStderr("areomap-rover: second stop signal, exiting now\n");
+    _exit(1);
+  }
+  alarm(kStopWatchdogSeconds);
+}
+
+void onStopWatchdog(int) {
+  writeStderr("areomap-rover: a stop signal was not honoured within the watchdog time (stuck), exiting\n");
+  _exit(1);
+}
 
 void putInt64(uint8_t* at, int64_t value) {
   const auto v = static_cast<uint64_t>(value);
@@ -228,6 +261,28 @@ void pipelineLoop(const Options& options, const areomap::platform::Clock& clock,
     if (done && !have) break;
   }
   g_node.heartbeat();
+  g_pipeline_done.store(true);
+}
+
+// Waits for the pipeline thread to end, draining the outbox; false when a stop request is older than
+// kStopGraceUs and the pipeline is still busy (the pair in hand is abandoned).
+bool awaitPipeline(areomap::platform::Transport* output, const areomap::platform::Clock& clock) {
+  int64_t stop_since = -1;
+  while (!g_pipeline_done.load()) {
+    drainOutbox(output, clock);
+    if (g_stop.load()) {
+      {
+        std::lock_guard<std::mutex> lock(g_mutex);
+        g_input_done = true;
+        g_wake.notify_all();
+      }
+      const int64_t now = clock.monotonicUtime();
+      if (stop_since < 0) stop_since = now;
+      if (now - stop_since > kStopGraceUs) return false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(kHandleTimeoutMs));
+  }
+  return true;
 }
 
 }  // namespace
@@ -272,6 +327,7 @@ int main(int argc, char** argv) {
   const bool replay = scheme == areomap::platform::UrlScheme::kFile;
   if (replay) options.exit_at_end = true;
 
+  std::signal(SIGALRM, onStopWatchdog);
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   areomap::platform::PosixClock clock;
@@ -340,7 +396,8 @@ int main(int argc, char** argv) {
     Status s = Status::kOk;
     if (!replay || !g_input_done) {
       s = input->handle(kHandleTimeoutMs);
-      if (s == Status::kEndOfStream || (replay && s != Status::kOk && s != Status::kCapacityExceeded)) {
+      if (s == Status::kEndOfStream ||
+          (replay && s != Status::kOk && s != Status::kCapacityExceeded && s != Status::kTimeout)) {
         if (s != Status::kEndOfStream) {
           std::fprintf(stderr, "areomap-rover: %s: log replay stopped: %s\n", options.lcm_url, areomap::statusName(s));
           input_failed = s == Status::kIoError;
@@ -371,6 +428,12 @@ int main(int argc, char** argv) {
       join = join || (g_input_done && g_inbox.records() == 0 && (finished || replay));
     }
     if (!join) continue;
+    if (!awaitPipeline(output, clock)) {
+      writeStderr("areomap-rover: stopped while the pipeline was busy with a pair for longer than the grace "
+                  "time; exiting without it\n");
+      std::fflush(nullptr);
+      std::_Exit(1);
+    }
     pipeline.join();
     drainOutbox(output, clock);  // last publications
     break;
