@@ -1,6 +1,7 @@
 #include "firmware_core/match/EpipolarSearch.hpp"
 
 #include <cmath>
+#include <cstring>
 
 namespace areomap {
 namespace {
@@ -63,11 +64,12 @@ Status epipolarCurve(const CameraModel& from, const CameraModel& to, const Vec2&
   return curve.count > 0 ? Status::kOk : Status::kBehindCamera;
 }
 
-SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
-                           int32_t band_px) {
-  SearchHit hit;
-  if (band_px < 0) band_px = 0;
-  if (band_px > kMaxEpipolarBandPx) band_px = kMaxEpipolarBandPx;
+namespace {
+
+// Calls visit(x, y) for every searched position, in the search order: along the curve (each rounded pixel
+// once), +-band across it (the local normal rounded to the dominant axis; the curve is close to a line).
+template <typename Visit>
+void forEachCurvePosition(const EpipolarCurve& curve, int32_t band_px, Visit&& visit) {
   int32_t last_x = -1000000, last_y = -1000000;
   for (int32_t k = 0; k < curve.count; ++k) {
     const int32_t cx = static_cast<int32_t>(std::lround(curve.x[k]));
@@ -75,18 +77,143 @@ SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const 
     if (cx == last_x && cy == last_y) continue;
     last_x = cx;
     last_y = cy;
-    // Across the curve: the local normal, rounded to the dominant axis (the curve is close to a line).
     const int32_t k0 = k > 0 ? k - 1 : k;
     const int32_t k1 = k + 1 < curve.count ? k + 1 : k;
     const double dx = curve.x[k1] - curve.x[k0];
     const double dy = curve.y[k1] - curve.y[k0];
     const bool horizontal = std::fabs(dx) >= std::fabs(dy);
-    for (int32_t o = -band_px; o <= band_px; ++o) {
-      const int32_t x = horizontal ? cx : cx + o;
-      const int32_t y = horizontal ? cy + o : cy;
-      consider(hit, nccAt(t, target, x, y), x, y);
+    for (int32_t o = -band_px; o <= band_px; ++o) visit(horizontal ? cx : cx + o, horizontal ? cy + o : cy);
+  }
+}
+
+// Four floats in one vector register (SSE, NEON, AltiVec; plain code elsewhere): GCC/Clang vector extension.
+typedef float Float4 __attribute__((vector_size(16)));
+inline Float4 load4(const float* p) {
+  Float4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// Scores of the positions x = lo..hi of line y (windows inside the image) into out[0..hi-lo]: nccAt's value.
+// tb: the template, each pixel in all four lanes.
+void scoreLine(const NccTemplate& t, const Float4* tb, const ImageView& image, int32_t y, int32_t lo, int32_t hi,
+               CurveSearchScratch& s, double* out) {
+  constexpr int32_t kChunk = CurveSearchScratch::kChunk;
+  const int32_t n = hi - lo + 1;
+  const int32_t padded = ((n + kChunk - 1) / kChunk) * kChunk;
+  const int32_t span = n + kNccSide - 1;  // image columns lo - r .. hi + r
+  for (int32_t i = 0; i < span; ++i) {
+    s.column_sum[i] = 0;
+    s.column_sum_sq[i] = 0;
+  }
+  for (int32_t r = 0; r < kNccSide; ++r) {
+    const uint8_t* src = image.row(y - kNccRadius + r) + (lo - kNccRadius);
+    float* line = s.lines[r];
+    for (int32_t i = 0; i < span; ++i) {
+      const int32_t v = src[i];
+      line[i] = static_cast<float>(v);
+      s.column_sum[i] += v;
+      s.column_sum_sq[i] += v * v;
+    }
+    for (int32_t i = span; i < padded + kNccSide - 1; ++i) line[i] = 0.0f;
+  }
+  const double np = kNccPixels;
+  const double var_t = np * static_cast<double>(t.sum_sq) - static_cast<double>(t.sum) * static_cast<double>(t.sum);
+  int32_t ws = 0, ws2 = 0;  // window sums by a running sum of the column sums
+  for (int32_t i = 0; i < kNccSide - 1; ++i) {
+    ws += s.column_sum[i];
+    ws2 += s.column_sum_sq[i];
+  }
+  for (int32_t i0 = 0; i0 < n; i0 += kChunk) {
+    // The cross products of 16 neighbouring positions, four 4-float vectors (integer products summed in
+    // float: exact, every partial sum is an integer below 2^24).
+    Float4 a0 = {}, a1 = {}, a2 = {}, a3 = {};
+    for (int32_t r = 0; r < kNccSide; ++r) {
+      const float* line = s.lines[r] + i0;
+      const Float4* tr = tb + r * kNccSide;
+      for (int32_t u = 0; u < kNccSide; ++u) {
+        const Float4 tv = tr[u];
+        const float* p = line + u;
+        a0 += tv * load4(p);
+        a1 += tv * load4(p + 4);
+        a2 += tv * load4(p + 8);
+        a3 += tv * load4(p + 12);
+      }
+    }
+    float acc[kChunk];
+    std::memcpy(acc, &a0, sizeof a0);
+    std::memcpy(acc + 4, &a1, sizeof a1);
+    std::memcpy(acc + 8, &a2, sizeof a2);
+    std::memcpy(acc + 12, &a3, sizeof a3);
+    const int32_t end = i0 + kChunk < n ? i0 + kChunk : n;
+    for (int32_t i = i0; i < end; ++i) {
+      ws += s.column_sum[i + kNccSide - 1];
+      ws2 += s.column_sum_sq[i + kNccSide - 1];
+      const double sum = ws, sum_sq = ws2;
+      const double var_s = np * sum_sq - sum * sum;
+      if (var_s < kMinNccVariance * np * np) {
+        out[i] = kNccInvalid;
+      } else {
+        const double cov = np * static_cast<double>(acc[i - i0]) - sum * static_cast<double>(t.sum);
+        out[i] = cov / std::sqrt(var_s * var_t);
+      }
+      ws -= s.column_sum[i];
+      ws2 -= s.column_sum_sq[i];
     }
   }
+}
+
+}  // namespace
+
+SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
+                           int32_t band_px, CurveSearchScratch& scratch) {
+  SearchHit hit;
+  if (band_px < 0) band_px = 0;
+  if (band_px > kMaxEpipolarBandPx) band_px = kMaxEpipolarBandPx;
+  if (!t.textured || curve.count <= 0) return hit;
+  const int32_t w = target.width;
+  const int32_t h = target.height;
+  auto inside_window = [&](int32_t x, int32_t y) {
+    return x - kNccRadius >= 0 && y - kNccRadius >= 0 && x + kNccRadius < w && y + kNccRadius < h;
+  };
+  // 1. The x interval of the searched positions on every line.
+  int32_t y_lo = h, y_hi = -1;
+  for (int32_t y = 0; y < h; ++y) {
+    scratch.line_lo[y] = w;
+    scratch.line_hi[y] = -1;
+  }
+  forEachCurvePosition(curve, band_px, [&](int32_t x, int32_t y) {
+    if (!inside_window(x, y)) return;
+    if (x < scratch.line_lo[y]) scratch.line_lo[y] = x;
+    if (x > scratch.line_hi[y]) scratch.line_hi[y] = x;
+    if (y < y_lo) y_lo = y;
+    if (y > y_hi) y_hi = y;
+  });
+  int32_t total = 0;
+  for (int32_t y = y_lo; y <= y_hi; ++y) {
+    scratch.line_offset[y] = total;
+    if (scratch.line_hi[y] >= scratch.line_lo[y]) total += scratch.line_hi[y] - scratch.line_lo[y] + 1;
+  }
+  if (total > CurveSearchScratch::kMaxScores) {
+    // An unusual curve (long and steep): position by position.
+    forEachCurvePosition(curve, band_px, [&](int32_t x, int32_t y) { consider(hit, nccAt(t, target, x, y), x, y); });
+    return hit;
+  }
+  // 2. Scores line by line.
+  Float4 tb[kNccPixels];
+  for (int32_t i = 0; i < kNccPixels; ++i) {
+    const float v = static_cast<float>(t.pixels[i]);
+    tb[i] = Float4{v, v, v, v};
+  }
+  for (int32_t y = y_lo; y <= y_hi; ++y) {
+    if (scratch.line_hi[y] < scratch.line_lo[y]) continue;
+    scoreLine(t, tb, target, y, scratch.line_lo[y], scratch.line_hi[y], scratch, scratch.score + scratch.line_offset[y]);
+  }
+  // 3. The best and second peak in the search order.
+  forEachCurvePosition(curve, band_px, [&](int32_t x, int32_t y) {
+    if (!inside_window(x, y)) return;
+    consider(hit, scratch.score[scratch.line_offset[y] + x - scratch.line_lo[y]], x, y);
+  });
   return hit;
 }
 

@@ -33,9 +33,27 @@ struct SearchHit {
   double second = kNccInvalid;  // best score at least 3 px away from the peak (ambiguity)
 };
 
+// Scratch of searchAlongCurve (caller-owned, ~190 KiB): the searched positions' x interval per image line,
+// their scores, and the float copy of the 11 lines under one interval. Scores are computed a line at a time
+// (the template's 121 products for 16 neighbouring positions at once, window sums by column sums), then read
+// in the search order, so the result equals nccAt at every position (the sums are integers below 2^24,
+// exact in float).
+struct CurveSearchScratch {
+  static constexpr int32_t kMaxScores = 16384;  // more positions in one search: nccAt per position
+  static constexpr int32_t kChunk = 16;         // positions per inner block
+  static constexpr int32_t kRowFloats = kMaxImageWidth + kNccSide + kChunk;
+  int32_t line_lo[kMaxImageHeight];
+  int32_t line_hi[kMaxImageHeight];
+  int32_t line_offset[kMaxImageHeight];
+  double score[kMaxScores];
+  float lines[kNccSide][kRowFloats];
+  int32_t column_sum[kRowFloats];
+  int32_t column_sum_sq[kRowFloats];
+};
+
 // Best NCC of `t` along the curve within +-band_px across it (band_px <= kMaxEpipolarBandPx).
 SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
-                           int32_t band_px);
+                           int32_t band_px, CurveSearchScratch& scratch);
 
 // Best NCC of `t`, warped by the local affine map `a` (nccWarpedAt; identity = plain NCC), in the square
 // window +-radius around (cx, cy) (radius <= kInterOffsetSearchRadiusPx), and its sub-pixel peak.

@@ -5,8 +5,9 @@
 namespace areomap {
 namespace {
 
-constexpr int32_t kMinCellPx = 16;  // cell_best is sized for 16-px cells
-constexpr int32_t kMaxCells = (kMaxImageWidth / kMinCellPx) * (kMaxImageHeight / kMinCellPx);
+// cell_best holds the cells of a full-size frame at 16 px; smaller cells are allowed where the cell count fits
+// (a small frame at 1/32 of its side).
+constexpr int32_t kMaxCells = (kMaxImageWidth / 16) * (kMaxImageHeight / 16);
 
 // Integer gradient products of one line (gx2 = (I(x+1)-I(x-1))^2 etc., i.e. (2 g)^2), 0 at the borders.
 void gradientProducts(const ImageView& image, int32_t y, int32_t* gxx, int32_t* gxy, int32_t* gyy) {
@@ -131,7 +132,7 @@ Status detectInterestPoints(const ImageView& image, const ForstnerParams& params
                             InterestPoint* points, int32_t capacity, int32_t& count) {
   count = 0;
   if (points == nullptr || capacity < 0 || params.nms_radius < 1 || params.nms_radius > kMaxForstnerRadius ||
-      params.cell_px < kMinCellPx || params.max_per_cell < 1 ||
+      params.cell_px < kMinSpreadingCellPx || params.max_per_cell < 1 ||
       params.max_per_cell > kMaxInterestPointsPerCell || params.border_px < 0) {
     return Status::kInvalidArgument;
   }
@@ -161,8 +162,12 @@ Status detectInterestPoints(const ImageView& image, const ForstnerParams& params
   if (cells > kMaxCells) return Status::kCapacityExceeded;
   for (int32_t c = 0; c < cells; ++c) workspace.cell_count[c] = 0;
 
+  // Candidates need w defined (edge), their NMS neighbourhood in the image (n) and the caller's border; these
+  // are distances from the same image border, so the margin is the largest of them, not their sum (a narrow
+  // overlap at the border keeps its points).
   const int32_t n = params.nms_radius;
-  const int32_t margin = edge + (params.border_px > n ? params.border_px : n);
+  int32_t margin = edge > n ? edge : n;
+  if (params.border_px > margin) margin = params.border_px;
   for (int32_t y = margin; y < h - margin; ++y) {
     for (int32_t x = margin; x < w - margin; ++x) {
       const float v = wm[y * w + x];

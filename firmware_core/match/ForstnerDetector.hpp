@@ -15,6 +15,9 @@
 
 namespace areomap {
 
+// Smallest spreading-grid cell (a 256-px frame at 1/32 of its side): at most 2 points per 8 x 8 px.
+constexpr int32_t kMinSpreadingCellPx = 8;
+
 struct InterestPoint {
   float x_px = 0.0f;  // sub-pixel sample
   float y_px = 0.0f;  // sub-pixel line

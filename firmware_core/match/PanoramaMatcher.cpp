@@ -166,38 +166,56 @@ void PanoramaMatcher::storeInterCandidates(const ImageView& left, const CameraMo
   const StereoWorkspace& ws = stereo_workspace_;
   const int32_t grid = selectionGridPx(stereo, left.width, left.height);
   const int32_t grid_x = (left.width + grid - 1) / grid;
-  // Half the selection cell, coarse enough for kCandidateGridSide cells along the larger side.
+  // Band cells: half the selection cell, coarse enough for kCandidateGridSide cells along the larger side.
+  // Corner cells: the finest (kCandidateGridSide along the larger side) within two band cells of two
+  // perpendicular borders -- a diagonal neighbour (the pair beside the one above or below) overlaps only
+  // such a corner, a few cells in all, so the corners get the densest candidates and come first.
   const int32_t side = left.width > left.height ? left.width : left.height;
-  const int32_t min_cell = (side + kCandidateGridSide - 1) / kCandidateGridSide;
-  const int32_t cell = grid / 2 > min_cell ? grid / 2 : min_cell;
-  const int32_t cells_x = (left.width + cell - 1) / cell;
-  const int32_t cells_y = (left.height + cell - 1) / cell;
+  const int32_t fine = (side + kCandidateGridSide - 1) / kCandidateGridSide;
+  const int32_t band = grid / 2 > fine ? grid / 2 : fine;
+  const int32_t corner_px = 2 * band;
   int32_t* best = candidate_best_;
-  for (int32_t c = 0; c < cells_x * cells_y; ++c) best[c] = -1;
-  for (int32_t i = 0; i < ws.match_count; ++i) {
-    const StereoMatch& m = ws.matches[i];
-    if (!m.verified) continue;
-    const int32_t x = static_cast<int32_t>(m.left_px.x());
-    const int32_t y = static_cast<int32_t>(m.left_px.y());
-    if (ws.cell_best[(y / grid) * grid_x + x / grid] == i) continue;  // selected: already a tie point
-    int32_t& b = best[(y / cell) * cells_x + x / cell];
-    if (b < 0 || ws.matches[b].score < m.score) b = i;
-  }
-  // Nearest the border first (insertion sort by border distance; at most kCandidateGridSide^2 entries).
-  int32_t n = 0;
-  for (int32_t c = 0; c < cells_x * cells_y; ++c) {
-    const int32_t match = best[c];  // the sorted list is built in place: slots 0..c are free to write
-    if (match < 0) continue;
-    const Vec2& px = ws.matches[match].left_px;
-    const int32_t key = static_cast<int32_t>(
-        std::fmin(std::fmin(px.x(), left.width - 1 - px.x()), std::fmin(px.y(), left.height - 1 - px.y())));
-    int32_t k = n++;
-    for (; k > 0 && candidate_border_[k - 1] > key; --k) {
-      candidate_border_[k] = candidate_border_[k - 1];
-      best[k] = best[k - 1];
+  int32_t n = 0;  // entries of the sorted list (candidate_best_ / candidate_border_), corners first
+  for (int32_t pass = 0; pass < 2; ++pass) {
+    const bool corners = pass == 0;
+    const int32_t cell = corners ? fine : band;
+    const int32_t cells_x = (left.width + cell - 1) / cell;
+    const int32_t cells_y = (left.height + cell - 1) / cell;
+    int32_t* cell_best = best + n;  // this pass's cells, after the entries already sorted
+    const int32_t cells = cells_x * cells_y;
+    if (n + cells > 2 * kCandidateGridSide * kCandidateGridSide) break;
+    for (int32_t c = 0; c < cells; ++c) cell_best[c] = -1;
+    for (int32_t i = 0; i < ws.match_count; ++i) {
+      const StereoMatch& m = ws.matches[i];
+      if (!m.verified) continue;
+      const int32_t x = static_cast<int32_t>(m.left_px.x());
+      const int32_t y = static_cast<int32_t>(m.left_px.y());
+      if (ws.cell_best[(y / grid) * grid_x + x / grid] == i) continue;  // selected: already a tie point
+      const int32_t dx = x < left.width - 1 - x ? x : left.width - 1 - x;
+      const int32_t dy = y < left.height - 1 - y ? y : left.height - 1 - y;
+      const bool in_corner = dx < corner_px && dy < corner_px;
+      if (corners != in_corner) continue;
+      int32_t& b = cell_best[(y / cell) * cells_x + x / cell];
+      if (b < 0 || ws.matches[b].score < m.score) b = i;
     }
-    candidate_border_[k] = key;
-    best[k] = match;
+    // Sorted by the distance to the corner (the larger border distance) or to the border (the smaller),
+    // insertion sort in place: slot n + k is free once cell k has been read.
+    const int32_t first = n;
+    for (int32_t c = 0; c < cells; ++c) {
+      const int32_t match = cell_best[c];
+      if (match < 0) continue;
+      const Vec2& px = ws.matches[match].left_px;
+      const double dx = std::fmin(px.x(), left.width - 1 - px.x());
+      const double dy = std::fmin(px.y(), left.height - 1 - px.y());
+      const int32_t key = static_cast<int32_t>(corners ? std::fmax(dx, dy) : std::fmin(dx, dy));
+      int32_t k = n++;
+      for (; k > first && candidate_border_[k - 1] > key; --k) {
+        candidate_border_[k] = candidate_border_[k - 1];
+        best[k] = best[k - 1];
+      }
+      candidate_border_[k] = key;
+      best[k] = match;
+    }
   }
   for (int32_t k = 0; k < n && stored.tie_count < kMaxTiesPerPair; ++k) {
     const StereoMatch& m = ws.matches[best[k]];

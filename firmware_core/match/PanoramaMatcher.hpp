@@ -11,7 +11,8 @@
 //      DEM-predicted ground point (the full images are not kept: 256 pairs x 1 MiB would not fit). The
 //      selected ties (the tie budget of the pair) rarely fill the kMaxTiesPerPair slots; the rest hold
 //      further verified intra-stereo matches nearest the image borders (a finer grid), where the
-//      neighbours of a panorama overlap (pan: left/right strips; tiers: top/bottom strips). Such a
+//      neighbours of a panorama overlap (pan: left/right strips; tiers: top/bottom strips), the corners
+//      first and densest (a diagonal neighbour overlaps only a corner). Such a
 //      candidate becomes a tie point, with its two intra-stereo observations, only when a later pair
 //      matches it, so narrow overlaps get enough inter-stereo ties without spending the point budget.
 // Output: a neutral list of observations (point, image, sample, line, kind, score) and points (a-priori
@@ -168,11 +169,12 @@ class PanoramaMatcher {
   Prediction predictions_[kMaxTiesPerPair];
   Candidate candidates_[kMaxTiesPerPair];
   bool inlier_[kMaxTiesPerPair];
-  // Inter-stereo candidate grid: at most kCandidateGridSide^2 cells (32 x 32 cells of 32 px on a 1024^2
-  // frame), the best verified unselected match per cell, then ordered by distance to the image border.
+  // Inter-stereo candidate grids: corner cells (at most kCandidateGridSide^2) then band cells (as many; 32 x 32
+  // cells of 32 px on a 1024^2 frame), the best verified unselected match per cell, sorted towards the
+  // corner / border.
   static constexpr int32_t kCandidateGridSide = 32;
-  int32_t candidate_best_[kCandidateGridSide * kCandidateGridSide];
-  int32_t candidate_border_[kCandidateGridSide * kCandidateGridSide];
+  int32_t candidate_best_[2 * kCandidateGridSide * kCandidateGridSide];
+  int32_t candidate_border_[2 * kCandidateGridSide * kCandidateGridSide];
 };
 
 // The matcher's share of the rover's static memory (DESIGN.md: 64 MiB in all): ~19 MiB, leaving the rest to

@@ -20,7 +20,7 @@ int32_t spreadingGridPx(const StereoParams& params, int32_t width, int32_t heigh
   if (params.forstner.cell_px > 0) return params.forstner.cell_px;
   const int32_t side = width > height ? width : height;
   const int32_t cell = (side + 31) / 32;
-  return cell < 16 ? 16 : cell;
+  return cell < kMinSpreadingCellPx ? kMinSpreadingCellPx : cell;
 }
 
 Status matchStereoPair(const ImageView& left, const ImageView& right, const CameraModel& left_model,
@@ -60,7 +60,7 @@ Status matchStereoPair(const ImageView& left, const ImageView& right, const Came
     }
     ++result.counts.searched;
     const Vec2 far_px = workspace.curve.far_px;
-    const SearchHit hit = searchAlongCurve(left_template, right, workspace.curve, params.band_px);
+    const SearchHit hit = searchAlongCurve(left_template, right, workspace.curve, params.band_px, workspace.search);
     if (hit.score < params.min_ncc) continue;
     if (hit.second > params.max_second_ratio * hit.score) continue;
     ++result.counts.ncc_passed;
@@ -70,7 +70,7 @@ Status matchStereoPair(const ImageView& left, const ImageView& right, const Came
                           left.width, left.height, workspace.curve))) {
       continue;
     }
-    const SearchHit back = searchAlongCurve(right_template, left, workspace.curve, params.band_px);
+    const SearchHit back = searchAlongCurve(right_template, left, workspace.curve, params.band_px, workspace.search);
     if (back.score < params.min_ncc || std::abs(back.x - lx) > params.lr_tolerance_px ||
         std::abs(back.y - ly) > params.lr_tolerance_px) {
       continue;

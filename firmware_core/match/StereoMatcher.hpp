@@ -33,7 +33,7 @@ struct StereoParams {
   int32_t min_ties = 8;        // fewer verified ties: kNoTexture
   StereoParams() {
     forstner.border_px = kNccRadius + 1;
-    forstner.cell_px = 0;  // 0: 1/32 of the larger side (at least 16 px)
+    forstner.cell_px = 0;  // 0: 1/32 of the larger side (at least kMinSpreadingCellPx)
     // Half the image's mean w: the mean is dominated by the sharp far field, and a threshold at the mean
     // left the near-range strip at the bottom of a frame (the overlap with the tier below) with few points;
     // the spreading grid keeps only the best per cell anyway, and w_min still rejects blank images.
@@ -67,6 +67,7 @@ struct StereoWorkspace {
   StereoMatch matches[kMaxInterestPoints];
   int32_t match_count = 0;
   EpipolarCurve curve;
+  CurveSearchScratch search;
   float rows[kMaxInterestPoints];
   float parallax[kMaxInterestPoints];
   bool inlier[kMaxInterestPoints];
@@ -83,7 +84,7 @@ struct StereoResult {
 
 // The effective selection grid and Förstner spreading grid for an image size (the automatic values when
 // the parameters hold 0: the selection grid has floor(sqrt(tie_budget)) cells along the larger side, at
-// least 16 px; the spreading grid 32 cells, at least 16 px).
+// least 16 px; the spreading grid 32 cells, at least kMinSpreadingCellPx).
 int32_t selectionGridPx(const StereoParams& params, int32_t width, int32_t height);
 int32_t spreadingGridPx(const StereoParams& params, int32_t width, int32_t height);
 
