@@ -1,6 +1,8 @@
 #include "ground/dense/Triangulation.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
@@ -179,6 +181,43 @@ void writePly(const std::string& path, const std::vector<CloudPoint>& points, co
   // Buffered bytes reach the disk at close: a full disk shows there, not at the last write.
   f.close();
   if (!f) throw std::runtime_error(path + ": write failed (disk full?)");
+}
+
+std::vector<CloudPoint> readPly(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw std::runtime_error(path + ": cannot open");
+  std::string line;
+  long long count = -1;
+  bool layout = false;
+  while (std::getline(f, line)) {
+    if (line.rfind("element vertex ", 0) == 0) count = std::atoll(line.c_str() + 15);
+    if (line == "property int line") layout = true;
+    if (line == "end_header") break;
+  }
+  if (line != "end_header" || count < 0 || !layout) throw std::runtime_error(path + ": not an areomap PLY");
+  auto get = [&f](void* data, std::size_t n) {
+    unsigned char* c = static_cast<unsigned char*>(data);
+    f.read(reinterpret_cast<char*>(c), static_cast<std::streamsize>(n));
+    const uint16_t probe = 1;
+    unsigned char first;
+    std::memcpy(&first, &probe, 1);
+    if (first != 1) std::reverse(c, c + n);  // the file is little-endian
+  };
+  std::vector<CloudPoint> points(static_cast<std::size_t>(count));
+  for (CloudPoint& p : points) {
+    for (int k = 0; k < 3; ++k) get(&p.site_m(k), sizeof(double));
+    for (int k = 0; k < 3; ++k) {
+      float s = 0.f;
+      get(&s, sizeof s);
+      p.covariance_m2(k, k) = static_cast<double>(s) * s;
+    }
+    get(&p.grey, 1);
+    int32_t id = 0;
+    get(&id, sizeof id);
+    p.line = id;
+  }
+  if (!f) throw std::runtime_error(path + ": truncated");
+  return points;
 }
 
 }  // namespace areomap::dense

@@ -61,4 +61,8 @@ std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const Came
 // Written in place: products write it through cli::writeViaTemporary.
 void writePly(const std::string& path, const std::vector<CloudPoint>& points, const std::string& comment = "");
 
+// Reads a PLY written by writePly (site_m, the per-axis sigmas as a diagonal covariance, grey, line).
+// Throws std::runtime_error naming the file when it is missing, not in that layout, or truncated.
+std::vector<CloudPoint> readPly(const std::string& path);
+
 }  // namespace areomap::dense

@@ -103,4 +103,13 @@ TEST(Triangulation, DisparityMapToCloudAndPly) {
   CHECK_EQUAL(static_cast<long long>(cloud.size()) * (3 * 8 + 3 * 4 + 1 + 4),
               static_cast<long long>(f.tellg() - start));
   CHECK_THROWS(std::runtime_error, writePly("/nonexistent-dir/x.ply", cloud));
+  // Read back: the same points, their per-axis sigmas and lines.
+  const std::vector<CloudPoint> back = readPly(path);
+  CHECK_EQUAL(cloud.size(), back.size());
+  for (std::size_t i = 0; i < cloud.size(); i += 97) {
+    CHECK(cloud[i].site_m == back[i].site_m);
+    CHECK_EQUAL(cloud[i].line, back[i].line);
+    DOUBLES_EQUAL(cloud[i].sigmaHeight_m(), back[i].sigmaHeight_m(), 1e-6 * cloud[i].sigmaHeight_m());
+  }
+  CHECK_THROWS(std::runtime_error, readPly("/nonexistent-dir/x.ply"));
 }
