@@ -165,6 +165,15 @@ void scoreLine(const NccTemplate& t, const Float4* tb, const ImageView& image, i
 
 }  // namespace
 
+SearchHit searchAlongCurveDirect(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
+                                 int32_t band_px) {
+  SearchHit hit;
+  if (band_px < 0) band_px = 0;
+  if (band_px > kMaxEpipolarBandPx) band_px = kMaxEpipolarBandPx;
+  forEachCurvePosition(curve, band_px, [&](int32_t x, int32_t y) { consider(hit, nccAt(t, target, x, y), x, y); });
+  return hit;
+}
+
 SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
                            int32_t band_px, CurveSearchScratch& scratch) {
   SearchHit hit;
@@ -194,11 +203,7 @@ SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const 
     scratch.line_offset[y] = total;
     if (scratch.line_hi[y] >= scratch.line_lo[y]) total += scratch.line_hi[y] - scratch.line_lo[y] + 1;
   }
-  if (total > CurveSearchScratch::kMaxScores) {
-    // An unusual curve (long and steep): position by position.
-    forEachCurvePosition(curve, band_px, [&](int32_t x, int32_t y) { consider(hit, nccAt(t, target, x, y), x, y); });
-    return hit;
-  }
+  if (total > CurveSearchScratch::kMaxScores) return searchAlongCurveDirect(t, target, curve, band_px);
   // 2. Scores line by line.
   Float4 tb[kNccPixels];
   for (int32_t i = 0; i < kNccPixels; ++i) {

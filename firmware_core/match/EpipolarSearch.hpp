@@ -39,7 +39,8 @@ struct SearchHit {
 // in the search order, so the result equals nccAt at every position (the sums are integers below 2^24,
 // exact in float).
 struct CurveSearchScratch {
-  static constexpr int32_t kMaxScores = 16384;  // more positions in one search: nccAt per position
+  // Enough for the default band (+-4 px: 9 x kMaxEpipolarSteps positions); beyond it nccAt per position.
+  static constexpr int32_t kMaxScores = 16384;
   static constexpr int32_t kChunk = 16;         // positions per inner block
   static constexpr int32_t kRowFloats = kMaxImageWidth + kNccSide + kChunk;
   int32_t line_lo[kMaxImageHeight];
@@ -54,6 +55,10 @@ struct CurveSearchScratch {
 // Best NCC of `t` along the curve within +-band_px across it (band_px <= kMaxEpipolarBandPx).
 SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
                            int32_t band_px, CurveSearchScratch& scratch);
+// The same search with nccAt at every position (the reference of the line-wise one, and its fallback beyond
+// CurveSearchScratch::kMaxScores positions).
+SearchHit searchAlongCurveDirect(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
+                                 int32_t band_px);
 
 // Best NCC of `t`, warped by the local affine map `a` (nccWarpedAt; identity = plain NCC), in the square
 // window +-radius around (cx, cy) (radius <= kInterOffsetSearchRadiusPx), and its sub-pixel peak.
