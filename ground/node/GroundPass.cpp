@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <stdexcept>
 
@@ -98,6 +99,22 @@ TieRun roverTieRun(const Dataset& dataset, const RoverInputs& rover, TieNetwork&
   return run;
 }
 
+void writeNodeReport(const std::string& out, const AdjustReport& report, const StreamCounts* stream,
+                     const RoverInputs* rover, const json& rover_json, const AdjustOutcome& fast,
+                     const GroundPassResult& result);
+
+// Runs one product writer; a failure (full disk, folder not writable: the writers throw an error naming the
+// file) is recorded and the pass goes on with the other products.
+void writeOrRecord(GroundPassResult& result, AdjustReport& report, const std::function<void()>& write) {
+  try {
+    write();
+  } catch (const std::exception& e) {
+    cli::warn(std::string("not written: ") + e.what());
+    result.write_errors.push_back(e.what());
+    report.warnings.push_back(std::string("Not written: ") + e.what());
+  }
+}
+
 }  // namespace
 
 std::string roverTiesIncomplete(const Dataset& dataset, const RoverInputs& rover) {
@@ -161,7 +178,7 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
     if (options.progress) cli::info("tie points on " + std::to_string(dataset.pairs.size()) + " pairs");
     run = runTiePoints(dataset, options.progress, &network);
   }
-  writeTiePoints(out, run);
+  writeOrRecord(result, report, [&] { writeTiePoints(out, run); });
   report.seconds.emplace_back("tie_points", run.seconds);
   Network& net = *network.net;
   const std::vector<std::string>& stems = network.stem_of_image;
@@ -263,8 +280,15 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
 
   // 3. Products.
   t0 = cli::nowSeconds();
-  writeAdjustedModels(out + "/models", net, network.apriori_of_image, stems);
-  writeEoCsv(out + "/eo.csv", net, stems);
+  std::error_code ec;
+  fs::create_directories(out + "/models", ec);  // a failure shows as each model's write error
+  for (int32_t i = 0; i < net.imageCount(); ++i) {
+    writeOrRecord(result, report, [&] {
+      io::writeCameraModelFile(out + "/models/" + stems[i] + ".cahvor",
+                               adjustedModelOf(net, i, network.apriori_of_image[i]));
+    });
+  }
+  writeOrRecord(result, report, [&] { writeEoCsv(out + "/eo.csv", net, stems); });
   json rover_json = json::object();
   if (rover != nullptr && rover->eo) {
     fs::create_directories(out + "/rover_models");
@@ -277,7 +301,7 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
         report.warnings.push_back("The rover's EO entry '" + e.stem + "' has no usable model; not written.");
         continue;
       }
-      io::writeCameraModelFile(out + "/rover_models/" + e.stem + ".cahvor", model);
+      writeOrRecord(result, report, [&] { io::writeCameraModelFile(out + "/rover_models/" + e.stem + ".cahvor", model); });
     }
     int32_t compared = 0;
     result.rover_vs_ground_px = eoDifferencePx(*rover->eo, net, stems, gimbal, &compared);
@@ -309,7 +333,9 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
       rover_json["sequence_gaps"] = s.sequence_gaps;
       if (!s.last_error.empty()) report.warnings.push_back("The rover reported: " + s.last_error);
     }
-    if (!rover->ties.empty()) writeObservationsCsv(out + "/rover_tiepoints.csv", rover->ties, true);
+    if (!rover->ties.empty()) {
+      writeOrRecord(result, report, [&] { writeObservationsCsv(out + "/rover_tiepoints.csv", rover->ties, true); });
+    }
     rover_json["tiepoint_messages"] = rover->tie_messages;
     rover_json["tiepoint_observations"] = rover->tie_observations;
     rover_json["coarse_dem_messages"] = rover->dem_messages;
@@ -318,7 +344,8 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
   }
   report.seconds.emplace_back("write_adjustment", cli::nowSeconds() - t0);
   if (options.products_hook) {
-    ProductContext context{&dataset, out, &net, &stems, &network.apriori_of_image, &run.observations, &report, truth_root};
+    ProductContext context{&dataset,         out,     &net,       &stems, &network.apriori_of_image,
+                           &run.observations, &report, truth_root, &result.write_errors};
     options.products_hook(context);
   } else {
     report.warnings.push_back(
@@ -327,9 +354,19 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
   if (stream != nullptr) {
     for (const std::string& w : stream->warnings) report.warnings.push_back(w);
   }
-  writeReportJson(out + "/report.json", report);
+  writeOrRecord(result, report, [&] { writeNodeReport(out, report, stream, rover, rover_json, fast, result); });
+  result.seconds = report.seconds;
+  result.warnings = report.warnings;
+  return result;
+}
 
-  // The node's keys, added to the report written by ground/adjust.
+namespace {
+
+// report.json: ground/adjust's report, then the node's keys added to it.
+void writeNodeReport(const std::string& out, const AdjustReport& report, const StreamCounts* stream,
+                     const RoverInputs* rover, const json& rover_json, const AdjustOutcome& fast,
+                     const GroundPassResult& result) {
+  writeReportJson(out + "/report.json", report);
   json j;
   {
     std::ifstream in(out + "/report.json");
@@ -354,10 +391,9 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
                  {"fast_vs_integrated_px", *result.fast_vs_ground_px}};
   if (result.truth_eo_fast_px) j["truth"]["eo_px_fast"] = *result.truth_eo_fast_px;
   cli::writeFileAtomic(out + "/report.json", j.dump(2) + "\n");
-  result.seconds = report.seconds;
-  result.warnings = report.warnings;
-  return result;
 }
+
+}  // namespace
 
 std::vector<ManifestEntry> buildManifest(const std::string& out_dir, const std::string& exclude_prefix) {
   std::vector<ManifestEntry> files;

@@ -57,6 +57,9 @@ struct ProductContext {
   const std::vector<ImageObservation>* ties = nullptr;  // tie observations (image = stem)
   AdjustReport* report = nullptr;  // add stage timings, warnings, truth.dem_rmse_m (written after the hook)
   std::string truth_root;          // the folder holding truth/ ("" when none)
+  // The hook appends one message per product it could not write (naming the file; ProductsResult::
+  // write_errors); they end up in GroundPassResult::write_errors.
+  std::vector<std::string>* write_errors = nullptr;
 };
 using ProductsHook = std::function<void(const ProductContext&)>;
 
@@ -95,12 +98,17 @@ struct GroundPassResult {
   std::vector<std::pair<std::string, double>> seconds;
   std::vector<std::string> warnings;
   std::vector<ManifestEntry> files;
+  // Products that could not be written (full disk, folder not writable), one message each naming the file.
+  // The pass goes on with the other products; areomap-ground then exits 1 (DESIGN.md exit codes).
+  std::vector<std::string> write_errors;
 };
 
 // Whether the rover's tie points can stand for the panorama's: "" when they can, else the reason.
 std::string roverTiesIncomplete(const Dataset& dataset, const RoverInputs& rover);
 
-// Runs the pass and writes the products. Throws cli::InputError on bad input or an unsolvable network.
+// Runs the pass and writes the products. Throws cli::InputError on bad input or an unsolvable network; a
+// product that cannot be written does not stop the pass: it is named in `write_errors` (and report.json's
+// warnings when report.json itself can be written).
 GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& options,
                                const StreamCounts* stream, const RoverInputs* rover);
 

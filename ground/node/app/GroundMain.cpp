@@ -63,7 +63,9 @@ constexpr const char* kUsage =
     "  --stream-only       collect and count the stream only (the `stream:` line), no pass, nothing written\n"
     "  --summary-json      print the figures as one JSON line on stdout at the end\n"
     "\n"
-    "Exit: 0 ok, 2 usage error, 1 other error (the message names the file or URL and the field).\n";
+    "Exit: 0 ok, 2 usage error, 1 other error (the message names the file or URL and the field); also 1 when a\n"
+    "product could not be written (full disk, folder not writable): every other product is still made, and each\n"
+    "file not written is named on stderr.\n";
 
 constexpr std::size_t kReplayBufferBytes = 16u * 1024u * 1024u;  // one log event: a stereo pair is <= ~4 MiB
 
@@ -129,9 +131,19 @@ void makeGroundProducts(const areomap::ground::ProductContext& c) {
   if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
     in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
   }
-  products::makeProducts(in, products::ProductOptions{}, c.out_dir, *c.report);
+  const products::ProductsResult made = products::makeProducts(in, products::ProductOptions{}, c.out_dir, *c.report);
+  if (c.write_errors != nullptr) c.write_errors->insert(c.write_errors->end(), made.write_errors.begin(), made.write_errors.end());
 }
 #endif
+
+// DESIGN.md exit codes: a product that could not be written (full disk, folder not writable) is an error,
+// reported once every other product is made: each file named on stderr, then exit 1.
+int writeErrorsExit(const std::vector<std::string>& errors) {
+  for (const std::string& e : errors) std::fprintf(stderr, "areomap-ground: error: not written: %s\n", e.c_str());
+  std::fprintf(stderr, "areomap-ground: error: %zu product file(s) could not be written; the other products were made\n",
+               errors.size());
+  return 1;
+}
 
 }  // namespace
 
@@ -169,10 +181,12 @@ int main(int argc, char** argv) {
       if (!(v >= 0.0)) throw cli::UsageError("timeouts must be >= 0 seconds");
     }
     ground::GroundPassResult pass;
+    std::vector<std::string> write_errors;  // over every panorama
     if (dataset_dir) {
       const Dataset dataset = readDataset(*dataset_dir);
       pass = ground::runGroundPass(dataset, options.pass, nullptr, nullptr);
       pass.files = ground::buildManifest(out);
+      write_errors = pass.write_errors;
       std::printf("ground: ran on dataset %s (no LCM)\n", dataset_dir->c_str());
     } else {
       const platform::UrlScheme scheme = platform::urlScheme(lcm->c_str());
@@ -198,6 +212,7 @@ int main(int argc, char** argv) {
                       r.rover.finished ? "arrived" : "missing");
         }
         if (options.stream_only) return;
+        write_errors.insert(write_errors.end(), r.pass.write_errors.begin(), r.pass.write_errors.end());
         if (options.panoramas != 1) std::printf("panorama %d: products in %s\n", r.panorama_index, r.out_dir.c_str());
         if (options.panoramas != 1) printSummary(r.pass, r.out_dir);
         std::fflush(stdout);
@@ -223,13 +238,14 @@ int main(int argc, char** argv) {
         if (!result.product_published) cli::warn("AREOMAP_PRODUCT could not be published");
       }
       pass = result.pass;
-      if (options.stream_only || options.panoramas != 1) return 0;
+      if (options.stream_only) return 0;
+      if (options.panoramas != 1) return write_errors.empty() ? 0 : writeErrorsExit(write_errors);
     }
     printSummary(pass, out);
     if (summary_json) {
       std::printf("{\"pairs\": %d, \"method1_before_px\": %.6f, \"method1_after_px\": %.6f, \"files\": %zu}\n", pass.pairs,
                   pass.method1_before_px, pass.method1_after_px, pass.files.size());
     }
-    return 0;
+    return write_errors.empty() ? 0 : writeErrorsExit(write_errors);
   });
 }
