@@ -108,13 +108,16 @@ double autoCell(double extent_m) {
   return 1.0;
 }
 
-// The cloud binned to DEM cells (mean height, sigma of the mean) so that kriging sees one point per cell.
-std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid) {
+// The cloud binned to DEM cells (mean height, sigma of the mean) so that kriging sees one point per cell;
+// only the points for which keep(p) holds (no copy of the cloud for a subset).
+template <class Keep>
+std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid, const Keep& keep) {
   struct Acc {
     double n = 0, x = 0, y = 0, z = 0, s2 = 0;
   };
   std::unordered_map<long long, Acc> bins;
   for (const dem::DemPoint& p : pts) {
+    if (!keep(p)) continue;
     const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
     const long long r = static_cast<long long>(std::floor((grid.north0_m - p.north_m) / grid.cell_m));
     Acc& a = bins[r * 1000003LL + c];
@@ -143,50 +146,64 @@ std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, cons
   return out;
 }
 
-// A dense point as the products keep it (56 bytes instead of CloudPoint's 120: a navcam panorama has
-// ~1.7e7 of them): the DEM point (north, east, elevation, height sigma, equi-parallax line) and what
-// points.ply needs besides (sigma per axis, grey).
-struct StoredPoint {
-  dem::DemPoint dem;
+// The dense cloud as the products keep it (a navcam panorama has ~1.7e7 points): the DEM points (40 B
+// each) in a vector of their own, so that the DEM step takes them over by a move, and beside them what
+// points.ply needs besides (sigma per axis, grey: 16 B), freed before the DEM is made.
+struct PlyExtra {
   float sigma_xyz_m[3] = {0.f, 0.f, 0.f};
   uint8_t grey = 0;
 };
 
-StoredPoint stored(const dense::CloudPoint& c) {
-  StoredPoint p;
-  p.dem.north_m = c.site_m.x();
-  p.dem.east_m = c.site_m.y();
-  p.dem.elevation_m = -c.site_m.z();
-  p.dem.sigma_m = c.sigmaHeight_m();
-  p.dem.line = c.line;
-  for (int k = 0; k < 3; ++k) p.sigma_xyz_m[k] = static_cast<float>(std::sqrt(std::max(0.0, c.covariance_m2(k, k))));
-  p.grey = c.grey;
-  return p;
-}
-
-dense::CloudPoint cloudPoint(const StoredPoint& p) {
-  dense::CloudPoint c;
-  c.site_m = Vec3(p.dem.north_m, p.dem.east_m, -p.dem.elevation_m);
-  for (int k = 0; k < 3; ++k) c.covariance_m2(k, k) = static_cast<double>(p.sigma_xyz_m[k]) * p.sigma_xyz_m[k];
-  c.grey = p.grey;
-  c.line = p.dem.line;
-  return c;
-}
+struct Cloud {
+  std::vector<dem::DemPoint> dem;
+  std::vector<PlyExtra> extra;  // extra[i] belongs to dem[i]
+  std::size_t size() const { return dem.size(); }
+  bool empty() const { return dem.empty(); }
+  void reserve(std::size_t n) {
+    dem.reserve(n);
+    extra.reserve(n);
+  }
+  void push(const dense::CloudPoint& c) {
+    dem::DemPoint p;
+    p.north_m = c.site_m.x();
+    p.east_m = c.site_m.y();
+    p.elevation_m = -c.site_m.z();
+    p.sigma_m = c.sigmaHeight_m();
+    p.line = c.line;
+    dem.push_back(p);
+    PlyExtra e;
+    for (int k = 0; k < 3; ++k) e.sigma_xyz_m[k] = static_cast<float>(std::sqrt(std::max(0.0, c.covariance_m2(k, k))));
+    e.grey = c.grey;
+    extra.push_back(e);
+  }
+  dense::CloudPoint cloudPoint(std::size_t i) const {
+    const dem::DemPoint& p = dem[i];
+    dense::CloudPoint c;
+    c.site_m = Vec3(p.north_m, p.east_m, -p.elevation_m);
+    for (int k = 0; k < 3; ++k) {
+      c.covariance_m2(k, k) = static_cast<double>(extra[i].sigma_xyz_m[k]) * extra[i].sigma_xyz_m[k];
+    }
+    c.grey = extra[i].grey;
+    c.line = p.line;
+    return c;
+  }
+};
 
 // Drops gross outliers before gridding: points whose height sigma exceeds `max_sigma_m`, and points far
 // from the median height of their polar bin (1 m in range x 2 degrees in azimuth about the gimbal centre):
 // more than max(0.3 m, 6 MAD-sigmas) away. Mismatches at depth edges and near the horizon are such points.
 // In place (the cloud of a full panorama is gigabytes).
-void dropOutliers(std::vector<StoredPoint>& in, const Vec3& centre, double max_sigma_m, long long& dropped) {
+void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long long& dropped) {
+  std::vector<dem::DemPoint>& in = cloud.dem;
   std::unordered_map<long long, std::vector<float>> bins;
-  auto key = [&](const StoredPoint& p) {
-    const double dn = p.dem.north_m - centre.x(), de = p.dem.east_m - centre.y();
+  auto key = [&](const dem::DemPoint& p) {
+    const double dn = p.north_m - centre.x(), de = p.east_m - centre.y();
     const long long r = static_cast<long long>(std::floor(std::hypot(dn, de)));
     const long long a = static_cast<long long>(std::floor((std::atan2(de, dn) + M_PI) / (2.0 * M_PI / 180.0)));
     return r * 1000 + a;
   };
-  for (const StoredPoint& p : in) {
-    if (p.dem.sigma_m <= max_sigma_m) bins[key(p)].push_back(static_cast<float>(p.dem.elevation_m));
+  for (const dem::DemPoint& p : in) {
+    if (p.sigma_m <= max_sigma_m) bins[key(p)].push_back(static_cast<float>(p.elevation_m));
   }
   std::unordered_map<long long, std::pair<float, float>> stat;  // median, tolerance
   for (auto& kv : bins) {
@@ -198,17 +215,22 @@ void dropOutliers(std::vector<StoredPoint>& in, const Vec3& centre, double max_s
     const float mad = v[v.size() / 2];
     stat[kv.first] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
   }
+  std::unordered_map<long long, std::vector<float>>().swap(bins);
   std::size_t kept = 0;
   for (std::size_t i = 0; i < in.size(); ++i) {
-    const StoredPoint& p = in[i];
-    if (p.dem.sigma_m > max_sigma_m) continue;
+    const dem::DemPoint& p = in[i];
+    if (p.sigma_m > max_sigma_m) continue;
     const auto& st = stat[key(p)];
-    if (std::fabs(p.dem.elevation_m - st.first) > st.second) continue;
-    if (kept != i) in[kept] = p;
+    if (std::fabs(p.elevation_m - st.first) > st.second) continue;
+    if (kept != i) {
+      in[kept] = p;
+      cloud.extra[kept] = cloud.extra[i];
+    }
     ++kept;
   }
   dropped = static_cast<long long>(in.size() - kept);
   in.resize(kept);
+  cloud.extra.resize(kept);
 }
 
 // Pixels of a rectified image that come from inside the original, eroded by the matching window.
@@ -318,7 +340,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
   for (const ProductTie& t : in.ties) tie_px[{t.image, t.point}] = t.pixel_px;
 
   // 1. Rectify, match and triangulate every pair.
-  std::vector<StoredPoint> cloud;
+  Cloud cloud;
   {
     // Reserved for the largest possible cloud (address space only: pages are touched as points arrive), so
     // that growing never copies gigabytes or doubles the footprint.
@@ -412,7 +434,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       for (dense::CloudPoint& p : pts) {
         const double range = (p.site_m - in.gimbal_site_m).head<2>().norm();
         if (range > options.max_range_m) continue;
-        cloud.push_back(stored(p));
+        cloud.push(p);
         ++kept;
       }
       t_tri += cli::nowSeconds() - t0;
@@ -452,7 +474,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
           std::max<std::size_t>(1, (cloud.size() + options.ply_max_points - 1) / std::max<std::size_t>(1, options.ply_max_points));
       std::vector<dense::CloudPoint> thinned;
       thinned.reserve(cloud.size() / stride + 1);
-      for (std::size_t i = 0; i < cloud.size(); i += stride) thinned.push_back(cloudPoint(cloud[i]));
+      for (std::size_t i = 0; i < cloud.size(); i += stride) thinned.push_back(cloud.cloudPoint(i));
       cli::writeViaTemporary(out_dir + "/points.ply", [&](const std::string& tmp) {
         dense::writePly(tmp, thinned,
                         "areomap " + in.site + " site frame; every " + std::to_string(stride) + ". dense point");
@@ -468,35 +490,68 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
   // 2. DEM: kriging of the binned cloud, equi-parallax beyond the seam, blended.
   double t0 = cli::nowSeconds();
   if (!cloud.empty()) {
-    std::vector<dem::DemPoint> pts;
-    pts.reserve(cloud.size());
-    for (const StoredPoint& c : cloud) pts.push_back(c.dem);
-    std::vector<StoredPoint>().swap(cloud);  // the DEM needs only the heights: free the cloud
+    // The DEM needs only the DEM points: taken over (no copy), and the rest of the cloud freed.
+    std::vector<dem::DemPoint> pts = std::move(cloud.dem);
+    std::vector<PlyExtra>().swap(cloud.extra);
     double extent = 0;
     for (const dem::DemPoint& p : pts) {
       extent = std::max({extent, std::fabs(p.north_m - in.gimbal_site_m.x()), std::fabs(p.east_m - in.gimbal_site_m.y())});
     }
     const double cell = options.cell_m > 0 ? options.cell_m : autoCell(2 * extent);
     DemGrid grid = dem::gridAround(pts, cell);
-    const std::vector<dem::DemPoint> binned = binPoints(pts, grid);
+    const auto all = [](const dem::DemPoint&) { return true; };
+    const std::vector<dem::DemPoint> binned = binPoints(pts, grid, all);
+    dem::EquiParallaxOptions eo;
+    eo.centre_north_m = in.gimbal_site_m.x();
+    eo.centre_east_m = in.gimbal_site_m.y();
+    eo.seam_m = options.seam_m;
+    std::vector<dem::DemPoint> far;
+    for (const dem::DemPoint& p : pts) {
+      if (std::hypot(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m) > eo.seam_m - eo.blend_m - 1.0) {
+        far.push_back(p);
+      }
+    }
+    // The finer DEM near the rover (DESIGN.md fixes dem.tif as one grid): when dem.tif is coarser than
+    // near_cell_m, the points within near_range_m are kriged again at near_cell_m into dem_near.tif. Its
+    // points are binned here, so that the cloud is freed before any kriging.
+    std::optional<DemGrid> near_grid;
+    std::vector<dem::DemPoint> near_binned;
+    if (options.near_cell_m > 0 && options.near_range_m > 0 && cell > options.near_cell_m * 1.001) {
+      const double reach = options.near_range_m + 0.5;  // points just beyond the edge support it
+      const auto is_near = [&](const dem::DemPoint& p) {
+        return std::fabs(p.north_m - in.gimbal_site_m.x()) <= reach && std::fabs(p.east_m - in.gimbal_site_m.y()) <= reach;
+      };
+      std::vector<dem::DemPoint> corners(2);  // the near points' bounding box: the grid gridAround(near) makes
+      corners[0].north_m = corners[0].east_m = 1e300;
+      corners[1].north_m = corners[1].east_m = -1e300;
+      std::size_t count = 0;
+      for (const dem::DemPoint& p : pts) {
+        if (!is_near(p)) continue;
+        ++count;
+        corners[0].north_m = std::min(corners[0].north_m, p.north_m);
+        corners[0].east_m = std::min(corners[0].east_m, p.east_m);
+        corners[1].north_m = std::max(corners[1].north_m, p.north_m);
+        corners[1].east_m = std::max(corners[1].east_m, p.east_m);
+      }
+      if (count >= 16) {
+        try {
+          near_grid = dem::gridAround(corners, options.near_cell_m);
+          near_binned = binPoints(pts, *near_grid, is_near);
+        } catch (const std::exception& e) {
+          ctx.warn(std::string("near-rover DEM not made: ") + e.what());
+        }
+      }
+    }
+    std::vector<dem::DemPoint>().swap(pts);
     try {
       dem::KrigingOptions kopt;
       dem::KrigingResult kr = dem::krigeDem(binned, grid, kopt);
-      dem::EquiParallaxOptions eo;
-      eo.centre_north_m = in.gimbal_site_m.x();
-      eo.centre_east_m = in.gimbal_site_m.y();
-      eo.seam_m = options.seam_m;
-      std::vector<dem::DemPoint> far;
-      for (const dem::DemPoint& p : pts) {
-        if (std::hypot(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m) > eo.seam_m - eo.blend_m - 1.0) {
-          far.push_back(p);
-        }
-      }
       if (!far.empty()) {
         DemGrid far_sigma;
         const DemGrid far_dem = dem::equiParallaxDem(far, grid, eo, &far_sigma);
         dem::blendFarRange(kr, far_dem, &far_sigma, eo);
       }
+      std::vector<dem::DemPoint>().swap(far);
       ctx.result.dem = kr.elevation;
       try {
         dem::writeDemProducts(out_dir, kr, meta);
@@ -527,29 +582,16 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     } catch (const std::exception& e) {
       ctx.warn(std::string("DEM not made: ") + e.what());
     }
-    // The finer DEM near the rover (DESIGN.md fixes dem.tif as one grid): when dem.tif is coarser than
-    // near_cell_m, the points within near_range_m are kriged again at near_cell_m into dem_near.tif.
-    if (ctx.result.dem && options.near_cell_m > 0 && options.near_range_m > 0 &&
-        ctx.result.dem->cell_m > options.near_cell_m * 1.001) {
+    if (ctx.result.dem && near_grid) {
       try {
-        std::vector<dem::DemPoint> near;
-        const double reach = options.near_range_m + 0.5;  // points just beyond the edge support it
-        for (const dem::DemPoint& p : pts) {
-          if (std::fabs(p.north_m - in.gimbal_site_m.x()) <= reach && std::fabs(p.east_m - in.gimbal_site_m.y()) <= reach) {
-            near.push_back(p);
-          }
-        }
-        if (near.size() >= 16) {
-          DemGrid near_grid = dem::gridAround(near, options.near_cell_m);
-          const dem::KrigingResult nk = dem::krigeDem(binPoints(near, near_grid), near_grid, dem::KrigingOptions{});
-          ctx.result.dem_near = nk.elevation;
-          try {
-            dem::writeDemProducts(out_dir, nk, meta, "dem_near");
-            ctx.result.files.push_back(out_dir + "/dem_near.tif");
-            ctx.result.files.push_back(out_dir + "/dem_near_sigma.tif");
-          } catch (const cli::InputError& e) {
-            ctx.writeFailed(e);
-          }
+        const dem::KrigingResult nk = dem::krigeDem(near_binned, *near_grid, dem::KrigingOptions{});
+        ctx.result.dem_near = nk.elevation;
+        try {
+          dem::writeDemProducts(out_dir, nk, meta, "dem_near");
+          ctx.result.files.push_back(out_dir + "/dem_near.tif");
+          ctx.result.files.push_back(out_dir + "/dem_near_sigma.tif");
+        } catch (const cli::InputError& e) {
+          ctx.writeFailed(e);
         }
       } catch (const std::exception& e) {
         ctx.warn(std::string("near-rover DEM not made: ") + e.what());
