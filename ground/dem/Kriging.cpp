@@ -4,10 +4,10 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
-
-#include <Eigen/Dense>
+#include <thread>
 
 #include "ground/dem/KdTree.hpp"
+#include "ground/dem/KrigingSystem.hpp"
 
 namespace areomap::dem {
 
@@ -20,51 +20,29 @@ double nowS() {
 constexpr int kGapSample = 2000;  // points sampled for the automatic gap limit
 constexpr double kLagPerNeighbourhood = 3.0;  // automatic variogram extent, in neighbourhood radii
 
-using KMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxNeighbours + 1, kMaxNeighbours + 1>;
-using KVec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxNeighbours + 1, 1>;
-
 constexpr int kCalibrationSample = 400;   // points of the leave-one-out sigma calibration
 constexpr int kMinCalibrationPoints = 30;
 
 // One ordinary-kriging solve (covariance form with the Lagrange row) for a query whose neighbours and
-// their squared distances are given.
+// their squared distances are given: KrigingSystem (Cholesky of the covariance block, the Lagrange row by
+// its Schur complement, the factorisation reused for cells with the same neighbour set). One per thread.
 struct Solver {
   const std::vector<DemPoint>& points;
-  const VariogramModel& m;
-  bool use_point_sigma;
+  KrigingSystem system;
 
-  double noise(const DemPoint& p) const {
-    return use_point_sigma ? std::max(m.nugget_m2, p.sigma_m * p.sigma_m) : m.nugget_m2;
-  }
+  double noise(const DemPoint& p) const { return system.noise(p); }
 
-  bool solve(int f, const int32_t* idx, const double* d2, double& z, double& var) const {
-    const double psill = std::max(m.partial_sill_m2, 1e-12);
-    const double jitter = 1e-9 * (psill + m.nugget_m2);
-    KMat a(f + 1, f + 1);
-    KVec b(f + 1);
-    for (int i = 0; i < f; ++i) {
-      const DemPoint& pi = points[static_cast<std::size_t>(idx[i])];
-      for (int j = i + 1; j < f; ++j) {
-        const DemPoint& pj = points[static_cast<std::size_t>(idx[j])];
-        const double c = psill * m.correlation(std::hypot(pi.north_m - pj.north_m, pi.east_m - pj.east_m));
-        a(i, j) = c;
-        a(j, i) = c;
-      }
-      a(i, i) = psill + noise(pi) + jitter;
-      a(i, f) = 1.0;
-      a(f, i) = 1.0;
-      b(i) = psill * m.correlation(std::sqrt(d2[i]));
-    }
-    a(f, f) = 0.0;
-    b(f) = 1.0;
-    const KVec sol = a.partialPivLu().solve(b);
+  bool solve(int f, const int32_t* idx, const double* d2, double& z, double& var) {
+    double w[kMaxNeighbours + 1];  // weights, then the Lagrange multiplier w[f]
+    double c[kMaxNeighbours];      // covariances with the query
+    if (!system.solve(f, idx, d2, w, c)) return false;
     z = 0.0;
     double lc = 0.0;
     for (int i = 0; i < f; ++i) {
-      z += sol(i) * points[static_cast<std::size_t>(idx[i])].elevation_m;
-      lc += sol(i) * b(i);
+      z += w[i] * points[static_cast<std::size_t>(idx[i])].elevation_m;
+      lc += w[i] * c[i];
     }
-    var = std::max(0.0, psill - lc - sol(f));
+    var = std::max(0.0, system.partialSill() - lc - w[f]);
     return std::isfinite(z) && std::isfinite(var);
   }
 };
@@ -144,7 +122,7 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   res.elevation = grid;
   res.elevation.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
   res.sigma = res.elevation;
-  const Solver solver{points, res.model, o.use_point_sigma};
+  Solver solver{points, KrigingSystem(points, res.model, o.use_point_sigma)};
   int32_t idx[kMaxNeighbours + 1];
   double d2[kMaxNeighbours + 1];
   // Sigma calibration by leave-one-out cross-validation on a sample of points: the kriging variance plus
@@ -173,19 +151,41 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
     }
     res.sigma_scale = used >= kMinCalibrationPoints ? std::sqrt(sum_ratio / static_cast<double>(used)) : 1.0;
   }
-  for (int row = 0; row < grid.rows; ++row) {
-    const double qn = grid.northOfRow(row);
-    for (int col = 0; col < grid.cols; ++col) {
-      const double qe = grid.eastOfCol(col);
-      const int f = tree.nearest(qn, qe, k, idx, d2);
-      if (f == 0 || d2[0] > gap * gap) continue;
-      double z = 0.0, var = 0.0;
-      if (!solver.solve(f, idx, d2, z, var)) continue;
-      res.elevation.at(col, row) = static_cast<float>(z);
-      res.sigma.at(col, row) = static_cast<float>(res.sigma_scale * std::sqrt(var));
-      ++res.cells_kriged;
+  // The cells, rows split between threads (row r to thread r mod T). A cell's result does not depend on
+  // the cells solved before it (KrigingSystem's canonical order), so the DEM is the same for any T.
+  const int threads = std::clamp(o.threads > 0 ? o.threads : static_cast<int>(std::thread::hardware_concurrency()), 1,
+                                 std::max(1, std::min(grid.rows, kMaxKrigingThreads)));
+  std::vector<long long> kriged(static_cast<std::size_t>(threads), 0), reused(kriged), factorised(kriged);
+  const auto krigeRows = [&](int t) {
+    Solver s{points, KrigingSystem(points, res.model, o.use_point_sigma)};
+    int32_t cell_idx[kMaxNeighbours + 1];
+    double cell_d2[kMaxNeighbours + 1];
+    for (int row = t; row < grid.rows; row += threads) {
+      const double qn = grid.northOfRow(row);
+      for (int col = 0; col < grid.cols; ++col) {
+        const double qe = grid.eastOfCol(col);
+        const int f = tree.nearest(qn, qe, k, cell_idx, cell_d2);
+        if (f == 0 || cell_d2[0] > gap * gap) continue;
+        double z = 0.0, var = 0.0;
+        if (!s.solve(f, cell_idx, cell_d2, z, var)) continue;
+        res.elevation.at(col, row) = static_cast<float>(z);
+        res.sigma.at(col, row) = static_cast<float>(res.sigma_scale * std::sqrt(var));
+        ++kriged[static_cast<std::size_t>(t)];
+      }
     }
+    reused[static_cast<std::size_t>(t)] = s.system.reuses();
+    factorised[static_cast<std::size_t>(t)] = s.system.factorisations();
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(krigeRows, t);
+  krigeRows(0);
+  for (std::thread& th : pool) th.join();
+  for (int t = 0; t < threads; ++t) {
+    res.cells_kriged += kriged[static_cast<std::size_t>(t)];
+    res.factorisations += factorised[static_cast<std::size_t>(t)];
+    res.factorisation_reuses += reused[static_cast<std::size_t>(t)];
   }
+  res.threads = threads;
   res.kriging_seconds = nowS() - t1;
   return res;
 }

@@ -31,7 +31,10 @@ struct KrigingOptions {
   double max_lag_m = -1.0;       // variogram extent (-1: 6 neighbourhood radii, at most 1/3 of the cloud)
   bool use_point_sigma = true;   // point sigmas enter the diagonal (at least the nugget)
   const VariogramModel* model = nullptr;  // given model instead of the fitted one
+  int threads = 0;  // threads for the cells (0: one per core); the result is the same for any number
 };
+
+inline constexpr int kMaxKrigingThreads = 64;
 
 inline constexpr int kMaxNeighbours = 64;
 
@@ -45,6 +48,9 @@ struct KrigingResult {
   long long cells_kriged = 0;
   double variogram_seconds = 0.0;
   double kriging_seconds = 0.0;
+  int threads = 1;                     // threads used for the cells
+  long long factorisations = 0;        // covariance blocks factorised (grid cells; LOO calibration apart)
+  long long factorisation_reuses = 0;  // cells that reused the previous cell's (same neighbour set)
 };
 
 // `grid` gives the geometry (east0, north0, cell, cols, rows, nodata); its values are ignored.

@@ -1,0 +1,61 @@
+// The per-cell solve of ordinary kriging, made fast (issue 10 benchmark: kriging against R's gstat):
+//
+//   [C 1; 1^T 0] [w; mu] = [c; 1]     C: covariances of the k neighbours (+ their noise on the diagonal),
+//                                     c: their covariances with the query point
+//
+// solved without the indefinite (k+1)x(k+1) matrix: C is symmetric positive definite, so it is factorised
+// by Cholesky (C = L L^T) and the Lagrange row eliminated by its Schur complement: with y = C^-1 1 and
+// s = 1^T y, x = C^-1 c, the multiplier is mu = (1^T x - 1) / s and the weights w = x - mu y.
+//
+// The neighbours are put in a canonical order (ascending point index) before C is built, so that one
+// neighbour SET always gives the same matrix bit for bit: the factorisation (L, y, s) of the last set is
+// kept and reused when the next cell has the same neighbours (cells denser than the points), and a cell's
+// result never depends on which cell was solved before it (rows can be split between threads and the
+// result stays identical). Fixed storage (kMaxNeighbours): no allocation per cell. One object per thread.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "ground/dem/Kriging.hpp"
+#include "ground/dem/Variogram.hpp"
+
+namespace areomap::dem {
+
+class KrigingSystem {
+ public:
+  KrigingSystem(const std::vector<DemPoint>& points, const VariogramModel& model, bool use_point_sigma);
+
+  // A point's noise variance on the diagonal: max(nugget, sigma^2) with point sigmas, else the nugget.
+  double noise(const DemPoint& p) const {
+    return use_point_sigma_ ? std::max(model_.nugget_m2, p.sigma_m * p.sigma_m) : model_.nugget_m2;
+  }
+  double partialSill() const { return psill_; }
+
+  // The weights of the f neighbours idx[0..f) (squared distances d2 to the query), in the caller's order:
+  // w[0..f), the multiplier w[f] (= mu), and the covariances c[0..f) with the query. False when the system
+  // is singular or not finite (the caller leaves the cell empty). 1 <= f <= kMaxNeighbours.
+  bool solve(int f, const int32_t* idx, const double* d2, double* w, double* c);
+
+  long long factorisations() const { return factorisations_; }
+  long long reuses() const { return reuses_; }
+
+ private:
+  bool factorise(int f);
+
+  const std::vector<DemPoint>& points_;
+  VariogramModel model_;
+  bool use_point_sigma_;
+  double psill_, jitter_;
+  // The cached neighbour set (ascending indices), its Cholesky factor (row-major lower triangle, row i
+  // at l_[i * kMaxNeighbours]), y = C^-1 1 and s = 1^T y.
+  int cached_f_ = 0;
+  bool cached_ok_ = false;
+  int32_t cached_idx_[kMaxNeighbours];
+  double l_[kMaxNeighbours * kMaxNeighbours];
+  double y_[kMaxNeighbours];
+  double s_ = 0.0;
+  long long factorisations_ = 0, reuses_ = 0;
+};
+
+}  // namespace areomap::dem
