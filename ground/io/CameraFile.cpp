@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "firmware_core/base/Capacities.hpp"
+#include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/io/ImageFile.hpp"
 #include "ground/io/Pds3Label.hpp"
@@ -327,10 +328,7 @@ void writeCameraModelFile(const std::string& path, const CameraModel& model) {
   char buffer[kModelTextBytes];
   const std::size_t n = formatModelText(model, buffer, sizeof buffer);
   if (n == 0) throw cli::InputError(path, "model", "does not fit the text buffer");
-  std::ofstream f(path, std::ios::binary);
-  if (!f) throw cli::InputError(path, "file", "cannot write");
-  f.write(buffer, static_cast<std::streamsize>(n));
-  if (!f) throw cli::InputError(path, "file", "write failed");
+  cli::writeFileAtomic(path, buffer, n);  // temporary name, fsync, rename: whole or not at all
 }
 
 }  // namespace areomap::io

@@ -10,6 +10,8 @@
 
 namespace areomap::io {
 
+class Pds3Label;
+
 enum class CameraFileFormat { kJplText, kPds3, kM2020Json };
 const char* formatName(CameraFileFormat format);  // "jpl-text", "pds3", "m2020-json"
 
@@ -31,8 +33,11 @@ CameraFile readCameraFile(const std::string& path, int width = 0, int height = 0
 CameraModel readCameraModelFile(const std::string& path, int width = 0, int height = 0);
 // Parses text already in memory (`path` names it in errors).
 CameraFile parseCameraText(const std::string& text, const std::string& path, int width = 0, int height = 0);
+// The GEOMETRIC_CAMERA_MODEL group of a PDS3 label already parsed (label.file() names it in errors).
+CameraFile readPds3Camera(const Pds3Label& label, int width = 0, int height = 0);
 
-// Writes the JPL text form (formatModelText); throws cli::InputError(path, "file", …) if it cannot.
+// Writes the JPL text form (formatModelText) whole or not at all (cli::writeFileAtomic: temporary name,
+// fsync, rename; the previous file is kept on failure); throws cli::InputError naming `path` if it cannot.
 void writeCameraModelFile(const std::string& path, const CameraModel& model);
 
 // The same camera in a resampled pixel frame: pixel' = (pixel - offset) / scale, size width x height.

@@ -47,8 +47,10 @@ bool isPds3File(const std::string& path) {
   return std::strstr(head, "PDS_VERSION_ID") != nullptr;
 }
 
-Pds3ImageInfo readPds3ImageInfo(const std::string& path) {
-  const Pds3Label label = Pds3Label::read(path);
+Pds3ImageInfo readPds3ImageInfo(const std::string& path) { return readPds3ImageInfo(Pds3Label::read(path)); }
+
+Pds3ImageInfo readPds3ImageInfo(const Pds3Label& label) {
+  const std::string& path = label.file();
   Pds3ImageInfo info;
   // Sizes are checked against kMaxImageSidePx before they are narrowed to int.
   const long lines = label.integer("LINES", "IMAGE");
@@ -131,8 +133,9 @@ Pds3ImageInfo readPds3ImageInfo(const std::string& path) {
   return info;
 }
 
-cv::Mat readPds3Image(const std::string& path) {
-  const Pds3ImageInfo info = readPds3ImageInfo(path);
+cv::Mat readPds3Image(const std::string& path) { return readPds3Image(readPds3ImageInfo(path)); }
+
+cv::Mat readPds3Image(const Pds3ImageInfo& info) {
   const std::size_t bytes_per = static_cast<std::size_t>(info.sample_bits / 8);
   const std::size_t n = static_cast<std::size_t>(info.lines) * static_cast<std::size_t>(info.samples);
   std::vector<unsigned char> raw(n * bytes_per);
@@ -175,15 +178,16 @@ cv::Mat loadImage16(const std::string& path) {
   return img;
 }
 
+cv::Mat readPds3Image8(const Pds3ImageInfo& info) {
+  cv::Mat img = readPds3Image(info);
+  if (img.type() == CV_8UC1) return img;
+  cv::Mat out;
+  img.convertTo(out, CV_8UC1, 255.0 / static_cast<double>(info.valid_max));  // rounds and saturates
+  return out;
+}
+
 cv::Mat loadImage8(const std::string& path) {
-  if (isPds3File(path)) {
-    const Pds3ImageInfo info = readPds3ImageInfo(path);
-    cv::Mat img = readPds3Image(path);
-    if (img.type() == CV_8UC1) return img;
-    cv::Mat out;
-    img.convertTo(out, CV_8UC1, 255.0 / static_cast<double>(info.valid_max));  // rounds and saturates
-    return out;
-  }
+  if (isPds3File(path)) return readPds3Image8(readPds3ImageInfo(path));  // the label read once
   cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
   if (img.empty()) throw cli::InputError(path, "image", "cannot read as PNG/JPEG/PGM or PDS3");
   return img;

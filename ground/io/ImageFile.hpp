@@ -14,6 +14,8 @@
 
 namespace areomap::io {
 
+class Pds3Label;
+
 // The largest image side (lines or samples) a label or metadata file may declare: 2^20 px, beyond every rover
 // and orbiter frame read here, so that sizes fit int and byte counts fit size_t with room (issue 12: every
 // size read from a file is checked before use).
@@ -33,9 +35,16 @@ struct Pds3ImageInfo {
 
 // The IMAGE object of a PDS3 label; checks that the file is long enough (field "^IMAGE"/"LINES").
 Pds3ImageInfo readPds3ImageInfo(const std::string& path);
+// The same from a label already parsed (label.file() is the file it came from: a detached data file is
+// beside it), so that a caller that also needs the label's other groups parses it once.
+Pds3ImageInfo readPds3ImageInfo(const Pds3Label& label);
 
 // The pixels of a PDS3 image: CV_8UC1 or CV_16UC1 (first band; signed data clamped at 0).
 cv::Mat readPds3Image(const std::string& path);
+// The same for an IMAGE object already read (no second parse of the label).
+cv::Mat readPds3Image(const Pds3ImageInfo& info);
+// The pixels as 8-bit grey by the 16 -> 8 bit rule above (what loadImage8 gives for a PDS3 file).
+cv::Mat readPds3Image8(const Pds3ImageInfo& info);
 
 // True for a file that starts with a PDS3 label (PDS_VERSION_ID).
 bool isPds3File(const std::string& path);

@@ -1,8 +1,11 @@
 #include "ground/io/Pds3Label.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -10,9 +13,6 @@
 
 namespace areomap::io {
 namespace {
-
-// A label is at most this many bytes; MER labels are ~40 kB with the VICAR header, MSL ~60 kB.
-constexpr std::size_t kMaxLabelBytes = 1 << 20;
 
 std::string trim(const std::string& s) {
   std::size_t b = 0, e = s.size();
@@ -41,22 +41,33 @@ std::string stripComments(const std::string& line, bool& in_comment) {
   return out;
 }
 
-// Open parentheses/braces and quotes: a value continues on the next line while this is not balanced.
-bool balanced(const std::string& v) {
-  int depth = 0;
-  bool quote = false;
-  for (char c : v) {
-    if (c == '"') quote = !quote;
-    if (quote) continue;
-    if (c == '(' || c == '{') ++depth;
-    if (c == ')' || c == '}') --depth;
+// Open parentheses/braces and quotes: a value continues on the next line while it is not balanced. The
+// state is carried from line to line, so a value over n lines is scanned once, not n times (a long unclosed
+// value would otherwise make the parse quadratic).
+class Balance {
+ public:
+  void scan(const std::string& text, std::size_t& counted) {
+    for (char c : text) {
+      if (c == '"') quote_ = !quote_;
+      if (quote_) continue;
+      if (c == '(' || c == '{') ++depth_;
+      if (c == ')' || c == '}') --depth_;
+    }
+    counted += text.size();
   }
-  return depth <= 0 && !quote;
-}
+  bool closed() const { return depth_ <= 0 && !quote_; }
+
+ private:
+  long depth_ = 0;
+  bool quote_ = false;
+};
 
 }  // namespace
 
-Pds3Label Pds3Label::parse(const std::string& text, const std::string& file) {
+Pds3Label Pds3Label::parse(const std::string& text, const std::string& file, Pds3ParseWork* work) {
+  Pds3ParseWork local;
+  Pds3ParseWork& counted = work != nullptr ? *work : local;
+  counted = Pds3ParseWork{};
   Pds3Label label;
   label.file_ = file;
   std::vector<std::string> scopes;
@@ -65,11 +76,14 @@ Pds3Label Pds3Label::parse(const std::string& text, const std::string& file) {
   bool in_comment = false;
   bool ended = false;
   std::string pending_key, pending_value;
+  Balance pending_balance;
   while (std::getline(in, raw)) {
     const std::string line = trim(stripComments(raw, in_comment));
     if (!pending_key.empty()) {
-      pending_value += " " + line;
-      if (!balanced(pending_value)) continue;
+      pending_value += ' ';
+      pending_value += line;
+      pending_balance.scan(line, counted.balance_chars);
+      if (!pending_balance.closed()) continue;
       label.statements_.push_back({scopes.empty() ? "" : scopes.back(), pending_key, trim(pending_value)});
       pending_key.clear();
       continue;
@@ -92,9 +106,12 @@ Pds3Label Pds3Label::parse(const std::string& text, const std::string& file) {
       scopes.pop_back();
       continue;
     }
-    if (!balanced(value)) {
+    Balance balance;
+    balance.scan(value, counted.balance_chars);
+    if (!balance.closed()) {
       pending_key = key;
       pending_value = value;
+      pending_balance = balance;
       continue;
     }
     label.statements_.push_back({scopes.empty() ? "" : scopes.back(), key, value});
@@ -109,12 +126,27 @@ Pds3Label Pds3Label::parse(const std::string& text, const std::string& file) {
 Pds3Label Pds3Label::read(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   if (!f) throw cli::InputError(path, "file", "cannot open");
-  std::string text(kMaxLabelBytes, '\0');
-  f.read(&text[0], static_cast<std::streamsize>(text.size()));
-  text.resize(static_cast<std::size_t>(f.gcount()));
-  // The label is text: stop at the first NUL (the image data of an attached label may follow END).
-  const std::size_t nul = text.find('\0');
-  if (nul != std::string::npos) text.resize(nul);
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);  // not a regular file: read to the end
+  // In chunks of at most 64 KiB, up to the first NUL (the label is text; the image data of an attached
+  // label may follow END): a 40 kB label of a 2 MB image reads one chunk, a fuzz input of 100 bytes
+  // allocates 100 bytes (no 1 MiB buffer zeroed per file).
+  const std::size_t have = ec ? kMaxBytes : static_cast<std::size_t>(std::min<std::uintmax_t>(size, kMaxBytes));
+  constexpr std::size_t kChunk = std::size_t{1} << 16;
+  std::string text;
+  while (text.size() < have) {
+    const std::size_t at = text.size();
+    text.resize(at + std::min(kChunk, have - at));
+    f.read(&text[at], static_cast<std::streamsize>(text.size() - at));
+    const std::size_t got = static_cast<std::size_t>(f.gcount());
+    text.resize(at + got);
+    const std::size_t nul = text.find('\0', at);
+    if (nul != std::string::npos) {
+      text.resize(nul);
+      break;
+    }
+    if (got == 0) break;
+  }
   return parse(text, path);
 }
 

@@ -2,6 +2,7 @@
 // nesting, values that continue over lines inside parentheses or quotes, /* comments */, ending at END.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -13,12 +14,24 @@ struct Pds3Statement {
   std::string value;  // raw text without comments, whitespace collapsed
 };
 
+// The work of one Pds3Label::parse, for tests that bound it: the characters the bracket/quote balance check
+// looked at. Each character of a value is looked at once (values continued over many lines are scanned
+// incrementally), so this is at most the text's size: the parse is linear in the input.
+struct Pds3ParseWork {
+  std::size_t balance_chars = 0;
+};
+
 class Pds3Label {
  public:
+  // A label is at most this many bytes (read() stops there); MER labels are ~40 kB with the VICAR header,
+  // MSL ~60 kB.
+  static constexpr std::size_t kMaxBytes = std::size_t{1} << 20;
+
   // Parses the label at the start of `text`; throws cli::InputError(file, "label", ...) if no END is found
-  // or a statement is malformed.
-  static Pds3Label parse(const std::string& text, const std::string& file);
-  // Reads the label of a file (the first bytes up to END).
+  // or a statement is malformed. `work` (optional) receives the work done, also when it throws.
+  static Pds3Label parse(const std::string& text, const std::string& file, Pds3ParseWork* work = nullptr);
+  // Reads the label of a file: its text up to the first NUL (the image data of an attached label may follow
+  // END), at most kMaxBytes; only the bytes read are allocated.
   static Pds3Label read(const std::string& path);
 
   // Value of `key` in `scope` ("" = top level, "*" = any scope); nullptr when absent.

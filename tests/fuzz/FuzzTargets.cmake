@@ -4,7 +4,8 @@
 #   lcm_message  msgs::decodeMessage<T> for all 9 types (first byte picks the type) + the rover's checks
 #   lcm_log      platform LcmLogReplay over a log file, each event decoded as a stereo pair
 #   jpeg         platform ArenaJpegDecoder and TurboJpegCodec into the rover's fixed buffers
-#   pds3         PDS3 labels and image bodies (ground/io Pds3Label, readPds3ImageInfo/readPds3Image)
+#   pds3         PDS3 labels and image bodies (ground/io Pds3Label parsed once per input, readPds3ImageInfo,
+#                readPds3Image8, readPds3Camera)
 #   camera_file  camera model text: core parseModelText (.cahvor) and ground/io parseCameraText (JPL text,
 #                PDS3 label, M2020 metadata JSON)
 #   panorama     panorama.json (ground/dataset readDataset)
