@@ -20,6 +20,12 @@
 
 namespace areomap::dense {
 
+// Standard deviation (px) of a fine match's position that the products propagate into each point's
+// covariance through the intersection (Triangulation.hpp, all four image coordinates): calibrated against
+// truth on the navcam preset (tests/ground/products/NavcamAccuracyTest.cpp, PointSigmaAgainstTruth,
+// prints the ratio of the actual height errors to these sigmas per range band).
+inline constexpr double kMatchSigmaPx = 0.15;
+
 struct DenseOptions {
   int min_disparity_px = 0;
   int max_disparity_px = 64;       // inclusive

@@ -31,10 +31,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Standard deviation of a dense match (pixels) for the intersection's covariance. Larger than the
-// census-SGM sub-pixel noise alone (~0.2 px): it also covers the window's smoothing of relief, so that
-// the point sigmas grow with range as the DEM errors do.
-constexpr double kMatchSigmaPx = 0.6;
+// Standard deviation of a dense match (pixels) for the intersection's covariance: the matcher's
+// sub-pixel precision, calibrated against truth (ground/dense/DenseMatcher.hpp).
+constexpr double kMatchSigmaPx = dense::kMatchSigmaPx;
 
 struct Context {
   ProductsResult result;

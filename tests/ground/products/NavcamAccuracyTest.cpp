@@ -4,7 +4,8 @@
 // the common datum rotation is zero and the "datum removed" figures equal the raw ones.
 //  - DEM vs the true DEM over cells that the cameras see in truth (ray cast in the true terrain):
 //    RMSE <= 3 cm at 2-5 m, <= 10 cm at 5-10 m from the gimbal centre, >= 95 % filled, 50-80 % of the
-//    errors within 1 sigma.
+//    errors within 1 sigma over 2-10 m (per band printed; not yet honest per band).
+//  - The points' own sigmas against their actual height errors (the calibration of dense::kMatchSigmaPx).
 //  - Orthoimage from the made DEM vs one from the true DEM: shift <= 0.5 cell within 10 m; seams <= 0.5 px.
 #include <algorithm>
 #include <cmath>
@@ -12,6 +13,8 @@
 #include <vector>
 
 #include "ground/dataset/DemRaster.hpp"
+#include "ground/dense/DenseMatcher.hpp"
+#include "ground/dense/Triangulation.hpp"
 #include "ground/ortho/Orthoimage.hpp"
 #include "ground/products/Products.hpp"
 #include "tests/ground/products/SimScene.hpp"
@@ -33,6 +36,7 @@ struct NavcamRun {
   sim::Terrain terrain;
   products::ProductsResult result;
   DemGrid sigma;
+  std::string out;  // the products folder
 };
 
 const NavcamRun& navcam() {
@@ -44,6 +48,7 @@ const NavcamRun& navcam() {
     r.terrain = sim::Terrain::build(config);
     r.scene = test::makeSimScene("navcam", 2, &reduce);
     const std::string out = test::scratchDir("products_navcam");
+    r.out = out;
     ground::AdjustReport report;
     products::ProductOptions options;
     options.max_range_m = 12.5;
@@ -82,7 +87,7 @@ TEST(NavcamProducts, DemAgainstTruthOverSeenCells) {
   const DemGrid truth = run.terrain.dem();
   const Vec3 g = run.scene.inputs.gimbal_site_m;
   struct Band {
-    double lo, hi, s2 = 0;
+    double lo, hi, s2 = 0, sig2 = 0;
     long long seen = 0, filled = 0, within = 0;
   } bands[2] = {{2.0, 5.0}, {5.0, 10.0}};
   for (int r = 0; r < dem.rows; ++r) {
@@ -101,6 +106,7 @@ TEST(NavcamProducts, DemAgainstTruthOverSeenCells) {
       const double err = v - t;
       b->s2 += err * err;
       if (std::fabs(err) <= run.sigma.at(c, r)) ++b->within;
+      b->sig2 += static_cast<double>(run.sigma.at(c, r)) * run.sigma.at(c, r);
     }
   }
   bool ok[2][4];
@@ -110,16 +116,17 @@ TEST(NavcamProducts, DemAgainstTruthOverSeenCells) {
     const double filled = static_cast<double>(b.filled) / std::max(1LL, b.seen);
     const double within = static_cast<double>(b.within) / std::max(1LL, b.filled);
     std::printf("\n  navcam (2 pairs, true models) %.0f-%.0f m: %lld seen cells, %.1f %% filled, RMSE %.4f m "
-                "(datum removed: %.4f m, no datum rotation with true models), %.1f %% of errors within 1 sigma",
-                b.lo, b.hi, b.seen, 100 * filled, rmse, rmse, 100 * within);
+                "(datum removed: %.4f m, no datum rotation with true models), sigma RMS %.4f m, %.1f %% of errors "
+                "within 1 sigma (datum removed: the same)",
+                b.lo, b.hi, b.seen, 100 * filled, rmse, rmse, std::sqrt(b.sig2 / std::max(1LL, b.filled)), 100 * within);
     ok[k][0] = b.seen > 1000;
     ok[k][1] = filled >= 0.95;
     ok[k][2] = rmse <= (b.lo < 3 ? 0.03 : 0.10);
     ok[k][3] = true;
     ++k;
   }
-  // Sigma honesty over all seen cells 2-10 m (the criterion); per band it is printed above: the
-  // sigma is somewhat large near the rover and small beyond 5 m (see the report's weak points).
+  // Sigma honesty over all seen cells 2-10 m (the criterion). Per band it is printed above; at
+  // 2-5 m it is NOT yet met (the sigma is too large there, BENCHMARKS.md).
   const double within_all = static_cast<double>(bands[0].within + bands[1].within) /
                             std::max(1LL, bands[0].filled + bands[1].filled);
   std::printf("\n  all seen cells 2-10 m: %.1f %% of errors within 1 sigma\n", 100 * within_all);
@@ -169,4 +176,46 @@ TEST(NavcamProducts, OrthoAgreesWithTruthOrtho) {
   CHECK(std::hypot(se, ss) <= 0.5);
   CHECK(made.seams.checked >= 20);
   CHECK(made.seams.geometric_median_px <= 0.5);
+}
+
+// The points' own sigma (the matcher's sub-pixel precision, dense::kMatchSigmaPx, propagated through the
+// intersection) against their actual height errors: each point of points.ply against the true DEM at its
+// (north, east). Robust figures (the cloud keeps some mismatches): the median of |error| / sigma over
+// 0.6745 (1 for an honest Gaussian sigma) and the share of points within 1 sigma (68 % for one).
+TEST(NavcamProducts, PointSigmaAgainstTruth) {
+  const NavcamRun& run = navcam();
+  const std::vector<dense::CloudPoint> cloud = dense::readPly(run.out + "/points.ply");
+  const DemGrid truth = run.terrain.dem();
+  const Vec3 g = run.scene.inputs.gimbal_site_m;
+  struct Band {
+    double lo, hi;
+    std::vector<double> ratio;
+    double e2 = 0, s2 = 0, robust = 0, within = 0;
+  } bands[2] = {{2.0, 5.0, {}, 0, 0, 0, 0}, {5.0, 10.0, {}, 0, 0, 0, 0}};
+  for (const dense::CloudPoint& p : cloud) {
+    const double range = std::hypot(p.site_m.x() - g.x(), p.site_m.y() - g.y());
+    Band* b = range >= 2 && range < 5 ? &bands[0] : range >= 5 && range < 10 ? &bands[1] : nullptr;
+    double t = 0;
+    if (b == nullptr || !(p.sigmaHeight_m() > 0) || !ortho::demElevation(truth, p.site_m.x(), p.site_m.y(), t)) continue;
+    const double e = -p.site_m.z() - t;
+    b->ratio.push_back(std::fabs(e) / p.sigmaHeight_m());
+    b->e2 += e * e;
+    b->s2 += p.sigmaHeight_m() * p.sigmaHeight_m();
+  }
+  for (Band& b : bands) {
+    const std::size_t n = b.ratio.size();
+    CHECK(n > 1000);
+    std::sort(b.ratio.begin(), b.ratio.end());
+    b.robust = b.ratio[n / 2] / 0.6745;
+    b.within = static_cast<double>(std::upper_bound(b.ratio.begin(), b.ratio.end(), 1.0) - b.ratio.begin()) / n;
+    std::printf("\n  points %.0f-%.0f m: %zu, height error RMS %.4f m, sigma RMS %.4f m (ratio %.2f), robust "
+                "error/sigma %.2f, %.1f %% within 1 sigma (sigma from %.2f px)",
+                b.lo, b.hi, n, std::sqrt(b.e2 / n), std::sqrt(b.s2 / n), std::sqrt(b.e2 / b.s2), b.robust,
+                100 * b.within, dense::kMatchSigmaPx);
+  }
+  std::printf("\n");
+  for (const Band& b : bands) {
+    CHECK_TEXT(b.robust > 0.7 && b.robust < 1.4, "robust error/sigma within 0.7-1.4");
+    CHECK_TEXT(b.within > 0.5 && b.within < 0.85, "50-85 % of point errors within 1 sigma");
+  }
 }
