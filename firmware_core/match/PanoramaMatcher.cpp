@@ -133,10 +133,11 @@ bool PanoramaMatcher::fillStoredTie(const ImageView& left, const CameraModel& le
   NccTemplate t;
   if (!extractTemplate(left, static_cast<int32_t>(m.left_px.x()), static_cast<int32_t>(m.left_px.y()), t)) return false;
   for (int32_t k = 0; k < kNccPixels; ++k) st.patch[k] = t.pixels[k];
-  Vec3 origin, direction, predicted;
-  st.predicted_m = ground;
+  Vec3 origin, direction, on_dem;
+  Vec3 predicted = ground;
   const bool have_ray = ok(unproject(left_model, m.left_px, origin, direction));
-  if (have_ray && ok(dem_.intersectRay(origin, direction, predicted))) st.predicted_m = predicted;
+  if (have_ray && ok(dem_.intersectRay(origin, direction, on_dem))) predicted = on_dem;
+  st.predicted_m = predicted.cast<float>();
   // The patch's shape on the surface: where its neighbouring pixels meet the DEM (or, without a DEM there,
   // the plane through the point facing the camera).
   st.has_shape = have_ray;
@@ -146,12 +147,13 @@ bool PanoramaMatcher::fillStoredTie(const ImageView& left, const CameraModel& le
     st.has_shape = ok(unproject(left_model, offset_px, o2, d2));
     if (!st.has_shape) break;
     if (!ok(dem_.intersectRay(o2, d2, p2))) {
-      const double range = (st.predicted_m - o2).dot(direction) / d2.dot(direction);
+      const double range = (predicted - o2).dot(direction) / d2.dot(direction);
       p2 = o2 + range * d2;
     }
-    (axis == 0 ? st.predicted_dx_m : st.predicted_dy_m) = p2;
+    (axis == 0 ? st.predicted_dx_m : st.predicted_dy_m) = p2.cast<float>();
   }
-  st.source_px = m.left_px;
+  st.source_px[0] = static_cast<int16_t>(m.left_px.x());
+  st.source_px[1] = static_cast<int16_t>(m.left_px.y());
   st.right_px[0] = static_cast<float>(m.right_px.x());
   st.right_px[1] = static_cast<float>(m.right_px.y());
   st.intra_score = static_cast<float>(m.score);
@@ -162,18 +164,18 @@ bool PanoramaMatcher::fillStoredTie(const ImageView& left, const CameraModel& le
 
 void PanoramaMatcher::storeInterCandidates(const ImageView& left, const CameraModel& left_model,
                                            const CameraModel& right_model, StoredPair& stored, PairTieReport& report) {
-  if (stored.tie_count >= kMaxTiesPerPair) return;
+  if (stored.tie_count >= kMaxStoredTiesPerPair) return;
   const StereoWorkspace& ws = stereo_workspace_;
   const int32_t grid = selectionGridPx(stereo, left.width, left.height);
   const int32_t grid_x = (left.width + grid - 1) / grid;
   // Band cells: half the selection cell, coarse enough for kCandidateGridSide cells along the larger side.
-  // Corner cells: the finest (kCandidateGridSide along the larger side) within two band cells of two
+  // Corner cells: the finest (kCandidateGridSide along the larger side) within three band cells of two
   // perpendicular borders -- a diagonal neighbour (the pair beside the one above or below) overlaps only
   // such a corner, a few cells in all, so the corners get the densest candidates and come first.
   const int32_t side = left.width > left.height ? left.width : left.height;
   const int32_t fine = (side + kCandidateGridSide - 1) / kCandidateGridSide;
   const int32_t band = grid / 2 > fine ? grid / 2 : fine;
-  const int32_t corner_px = 2 * band;
+  const int32_t corner_px = 3 * band;
   int32_t* best = candidate_best_;
   int32_t n = 0;  // entries of the sorted list (candidate_best_ / candidate_border_), corners first
   for (int32_t pass = 0; pass < 2; ++pass) {
@@ -217,7 +219,7 @@ void PanoramaMatcher::storeInterCandidates(const ImageView& left, const CameraMo
       best[k] = match;
     }
   }
-  for (int32_t k = 0; k < n && stored.tie_count < kMaxTiesPerPair; ++k) {
+  for (int32_t k = 0; k < n && stored.tie_count < kMaxStoredTiesPerPair; ++k) {
     const StereoMatch& m = ws.matches[best[k]];
     Vec3 ground;
     double miss_m = 0.0;
@@ -320,14 +322,15 @@ void PanoramaMatcher::storeSingleImagePoints(const ImageView& left, const Camera
     range = std::fmax(inter.single_min_range_m, std::fmin(inter.single_max_range_m, range));
     StoredTie& st = stored.ties[stored.tie_count++];
     for (int32_t k = 0; k < kNccPixels; ++k) st.patch[k] = t.pixels[k];
-    st.predicted_m = origin + range * direction;
+    st.predicted_m = (origin + range * direction).cast<float>();
     // Shape: the neighbouring pixels' rays at the same range (exact for frames turned about the mast).
     Vec3 o2, d2;
     st.has_shape = ok(unproject(model, Vec2(x + kWarpBasePx, y), o2, d2));
-    st.predicted_dx_m = o2 + range * d2;
+    st.predicted_dx_m = (o2 + range * d2).cast<float>();
     st.has_shape = st.has_shape && ok(unproject(model, Vec2(x, y + kWarpBasePx), o2, d2));
-    st.predicted_dy_m = o2 + range * d2;
-    st.source_px = Vec2(x, y);
+    st.predicted_dy_m = (o2 + range * d2).cast<float>();
+    st.source_px[0] = static_cast<int16_t>(x);
+    st.source_px[1] = static_cast<int16_t>(y);
     st.has_intra = false;
     st.point = -1;
   }
@@ -352,7 +355,7 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
         const StoredTie& st = source.ties[k];
         if (st.point >= 0 && points_[st.point].observation_count >= kMaxObsPerPoint) continue;
         Vec2 predicted;
-        if (!ok(project(model, st.predicted_m, predicted))) continue;
+        if (!ok(project(model, st.predicted_m.cast<double>(), predicted))) continue;
         if (predicted.x() < -reach || predicted.y() < -reach || predicted.x() > image->width - 1 + reach ||
             predicted.y() > image->height - 1 + reach) {
           continue;
@@ -360,7 +363,8 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
         ++report.inter_candidates;
         Mat2 a = Mat2::Identity();
         Vec2 px_dx, px_dy;
-        if (st.has_shape && ok(project(model, st.predicted_dx_m, px_dx)) && ok(project(model, st.predicted_dy_m, px_dy))) {
+        if (st.has_shape && ok(project(model, st.predicted_dx_m.cast<double>(), px_dx)) &&
+            ok(project(model, st.predicted_dy_m.cast<double>(), px_dy))) {
           a.col(0) = (px_dx - predicted) / kWarpBasePx;
           a.col(1) = (px_dy - predicted) / kWarpBasePx;
           const double det = a.determinant();
@@ -448,7 +452,7 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
             continue;
           }
           TiePoint p;
-          p.ground_m = st.predicted_m;
+          p.ground_m = st.predicted_m.cast<double>();
           p.pair = i;
           if (!points_.push(p)) {
             ++report.overflow;
@@ -457,10 +461,10 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
           st.point = points_.size() - 1;
           const bool born =
               st.has_intra
-                  ? addObservation(st.point, 2 * i, st.source_px.x(), st.source_px.y(), TieKind::kIntra, 1.0f) &&
+                  ? addObservation(st.point, 2 * i, st.source_px[0], st.source_px[1], TieKind::kIntra, 1.0f) &&
                         addObservation(st.point, 2 * i + 1, st.right_px[0], st.right_px[1], TieKind::kIntra,
                                        st.intra_score)
-                  : addObservation(st.point, 2 * i, st.source_px.x(), st.source_px.y(), TieKind::kInter, 1.0f);
+                  : addObservation(st.point, 2 * i, st.source_px[0], st.source_px[1], TieKind::kInter, 1.0f);
           if (!born) {
             ++report.overflow;
             continue;

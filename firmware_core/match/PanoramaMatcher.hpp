@@ -9,7 +9,7 @@
 //      identity, it gains observations,
 //   4. the new pair's ties are stored for later pairs: the 11 x 11 left-image patch around each tie and its
 //      DEM-predicted ground point (the full images are not kept: 256 pairs x 1 MiB would not fit). The
-//      selected ties (the tie budget of the pair) rarely fill the kMaxTiesPerPair slots; the rest hold
+//      selected ties (the tie budget of the pair) rarely fill the kMaxStoredTiesPerPair slots; the rest hold
 //      further verified intra-stereo matches nearest the image borders (a finer grid), where the
 //      neighbours of a panorama overlap (pan: left/right strips; tiers: top/bottom strips), the corners
 //      first and densest (a diagonal neighbour overlaps only a corner). Such a
@@ -34,6 +34,10 @@
 namespace areomap {
 
 enum class TieKind : uint8_t { kIntra = 0, kInter = 1 };
+
+// Stored ties per pair for later pairs (step 4): the selected ties (<= kMaxTiesPerPair) and further
+// inter-stereo candidates.
+constexpr int32_t kMaxStoredTiesPerPair = 352;
 
 struct TieObservation {
   int32_t point = -1;
@@ -105,28 +109,30 @@ class PanoramaMatcher {
  private:
   // The left-image patch is centred exactly on the tie's left observation, so a match of it anywhere is an
   // observation of the same surface point.
+  // Compact (180 bytes): ground points in float (site frame, metres: ~10 um at 100 m, far below a pixel),
+  // the integer left pixel in int16, so that kMaxStoredTiesPerPair slots fit where 256 did in double.
   struct StoredTie {
     uint8_t patch[kNccPixels];
-    Vec3 predicted_m;
+    bool has_shape;
+    bool has_intra;  // false for a single image's interest point
+    Eigen::Vector3f predicted_m;
     // Ground points (through the DEM) of the pixels kWarpBasePx to the right of and below the tie: with
     // predicted_m they give the local affine map of the patch into any other view.
-    Vec3 predicted_dx_m;
-    Vec3 predicted_dy_m;
-    bool has_shape;
-    Vec2 source_px;  // its observation in the left image of the pair that stored it
+    Eigen::Vector3f predicted_dx_m;
+    Eigen::Vector3f predicted_dy_m;
+    int16_t source_px[2];  // its observation (integer) in the left image of the pair that stored it
     // -1 for an interest point of a single image (no stereo partner) or an inter-stereo candidate: the
     // point is created by its first inter-stereo match.
     int32_t point;
     // An inter-stereo candidate's intra-stereo right observation (added with the left one when the point
-    // is created); has_intra is false for a single image's interest point.
+    // is created).
     float right_px[2];
     float intra_score;
-    bool has_intra;
   };
   struct StoredPair {
     CameraModel model[2];
     bool has_right = false;
-    StoredTie ties[kMaxTiesPerPair];
+    StoredTie ties[kMaxStoredTiesPerPair];
     int32_t tie_count = 0;
   };
   struct Prediction {
@@ -166,9 +172,9 @@ class PanoramaMatcher {
   int32_t birth_limit_ = 0;  // points_.size() below which the pair being added may create inter-stereo points
   FixedVector<TieObservation, kMaxObservations> observations_;
   FixedVector<TiePoint, kMaxTiePoints> points_;
-  Prediction predictions_[kMaxTiesPerPair];
-  Candidate candidates_[kMaxTiesPerPair];
-  bool inlier_[kMaxTiesPerPair];
+  Prediction predictions_[kMaxStoredTiesPerPair];
+  Candidate candidates_[kMaxStoredTiesPerPair];
+  bool inlier_[kMaxStoredTiesPerPair];
   // Inter-stereo candidate grids: corner cells (at most kCandidateGridSide^2) then band cells (as many; 32 x 32
   // cells of 32 px on a 1024^2 frame), the best verified unselected match per cell, sorted towards the
   // corner / border.
