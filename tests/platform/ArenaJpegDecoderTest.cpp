@@ -10,6 +10,8 @@
 #include "platform/posix/ArenaJpegDecoder.hpp"
 #include "platform/posix/TurboJpegCodec.hpp"
 
+#include <turbojpeg.h>
+
 #include <CppUTest/TestHarness.h>
 
 using areomap::Status;
@@ -146,4 +148,42 @@ TEST(ArenaJpegDecoder, ArenaTooSmallIsCapacityExceeded) {
   CHECK_EQUAL(code(Status::kCapacityExceeded),
               code(decoder.decodeGray(jpeg.data(), jpeg.size(), g_out, sizeof(g_out), w, h)));
   CHECK_EQUAL(0u, scope.allocations());
+}
+
+// Found by fuzz_jpeg (tests/fuzz/regressions/jpeg/multiscan_coefficient_buffer_leaked_per_decode): a
+// progressive (multi-scan) JPEG needs libjpeg's whole-image coefficient buffer, which its memory manager
+// allocates past the arena methods (malloc). It used to stay allocated after every such decode (RSS past
+// 2.5 GB in 680 000 fuzz runs); now all of it is freed when the decode ends, and the pixels are right.
+TEST(ArenaJpegDecoder, HeapThatLibjpegTakesPastTheArenaIsFreedAfterEveryDecode) {
+  if (!areomap::heapCounterActive()) {
+    std::printf("SKIP: the heap counter is compiled out in this build (sanitizers)\n");
+    return;
+  }
+  std::vector<uint8_t> reference;
+  (void)makeJpeg(256, 128, 90, &reference);  // the pixels, decoded from a baseline JPEG of the same image
+  std::vector<uint8_t> pixels(256 * 128);
+  for (int y = 0; y < 128; ++y) {
+    for (int x = 0; x < 256; ++x) {
+      const double v = 128.0 + 60.0 * std::sin(x * 0.029) * std::cos(y * 0.019) + 25.0 * std::sin((x + 3 * y) * 0.23);
+      pixels[static_cast<std::size_t>(y) * 256 + x] = static_cast<uint8_t>(std::lround(v));
+    }
+  }
+  tjhandle compressor = tjInitCompress();
+  unsigned char* progressive = nullptr;
+  unsigned long bytes = 0;
+  CHECK_EQUAL(0, tjCompress2(compressor, pixels.data(), 256, 0, 128, TJPF_GRAY, &progressive, &bytes, TJSAMP_GRAY, 90,
+                             TJFLAG_PROGRESSIVE));
+  ArenaJpegDecoder decoder(g_arena, sizeof(g_arena));
+  CHECK_EQUAL(code(Status::kOk), code(decoder.open()));
+  const uint64_t allocations = areomap::heapAllocationCount(), frees = areomap::heapFreeCount();
+  for (int k = 0; k < 20; ++k) {
+    int32_t w = 0, h = 0;
+    CHECK_EQUAL(code(Status::kOk), code(decoder.decodeGray(progressive, bytes, g_out, sizeof(g_out), w, h)));
+  }
+  const uint64_t allocated = areomap::heapAllocationCount() - allocations, freed = areomap::heapFreeCount() - frees;
+  tjFree(progressive);
+  tjDestroy(compressor);
+  CHECK(allocated >= 20);  // a progressive decode does take heap (libjpeg's own allocation), and
+  CHECK_EQUAL(allocated, freed);  // gives all of it back
+  CHECK_EQUAL(0, std::memcmp(reference.data(), g_out, reference.size()));  // same pixels as baseline
 }
