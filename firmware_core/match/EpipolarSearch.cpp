@@ -87,12 +87,8 @@ void forEachCurvePosition(const EpipolarCurve& curve, int32_t band_px, Visit&& v
 }
 
 // Four floats in one vector register (SSE, NEON, AltiVec; plain code elsewhere): GCC/Clang vector extension.
+// Loaded by memcpy (unaligned) and never passed or returned by value (no vector ABI on a 750 PowerPC).
 typedef float Float4 __attribute__((vector_size(16)));
-inline Float4 load4(const float* p) {
-  Float4 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
 
 // Scores of the positions x = lo..hi of line y (windows inside the image) into out[0..hi-lo]: nccAt's value.
 // tb: the template, each pixel in all four lanes.
@@ -133,11 +129,12 @@ void scoreLine(const NccTemplate& t, const Float4* tb, const ImageView& image, i
       const Float4* tr = tb + r * kNccSide;
       for (int32_t u = 0; u < kNccSide; ++u) {
         const Float4 tv = tr[u];
-        const float* p = line + u;
-        a0 += tv * load4(p);
-        a1 += tv * load4(p + 4);
-        a2 += tv * load4(p + 8);
-        a3 += tv * load4(p + 12);
+        Float4 v[4];
+        std::memcpy(v, line + u, sizeof v);
+        a0 += tv * v[0];
+        a1 += tv * v[1];
+        a2 += tv * v[2];
+        a3 += tv * v[3];
       }
     }
     float acc[kChunk];
