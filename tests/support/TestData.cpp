@@ -43,10 +43,13 @@ bool requireSharedData(const std::string& folder) {
   return false;
 }
 
-int runTool(const std::string& tool, const std::string& args) {
+std::string toolPath(const std::string& tool) {
   const char* env = std::getenv("AREOMAP_BINARY_DIR");
-  const std::string bin = env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR);
-  const std::string command = bin + "/bin/" + tool + " " + args + " > /dev/null 2>&1";
+  return (env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR)) + "/bin/" + tool;
+}
+
+int runTool(const std::string& tool, const std::string& args) {
+  const std::string command = toolPath(tool) + " " + args + " > /dev/null 2>&1";
   const int status = std::system(command.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }

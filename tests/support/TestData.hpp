@@ -13,6 +13,8 @@ std::string scratchDir(const std::string& name);  // an empty folder under the b
 bool requireSharedData(const std::string& folder);
 bool fileExists(const std::string& path);
 
+// build/bin/<tool> ($AREOMAP_BINARY_DIR, else the build tree this test was configured in).
+std::string toolPath(const std::string& tool);
 // Runs build/bin/<tool> with `args` (a shell word list), output discarded; returns its exit code, 128 when
 // it did not exit normally.
 int runTool(const std::string& tool, const std::string& args);

@@ -39,11 +39,7 @@ const std::string& tinyDataset() {
 // Runs bin/areomap-ground with `args`; its files limited to `fsize_limit` bytes (0: no limit), stderr into
 // `err_path`. Returns the exit code, 128 + signal when it was killed.
 int runGround(const std::vector<std::string>& args, rlim_t fsize_limit, const std::string& err_path) {
-  const char* env = std::getenv("AREOMAP_BINARY_DIR");
-  // CTest sets AREOMAP_BINARY_DIR; run by hand, the test executable is in BUILD/tests.
-  const std::string build = env != nullptr ? std::string(env)
-                                           : std::filesystem::read_symlink("/proc/self/exe").parent_path().parent_path().string();
-  const std::string bin = build + "/bin/areomap-ground";
+  const std::string bin = test::toolPath("areomap-ground");
   std::fflush(nullptr);
   const pid_t pid = ::fork();
   if (pid == 0) {
@@ -53,11 +49,7 @@ int runGround(const std::vector<std::string>& args, rlim_t fsize_limit, const st
     ::dup2(null, 1);
     ::dup2(err, 2);
     if (fsize_limit > 0) {
-      std::signal(SIGXFSZ, SIG_IGN);  // kept across exec
-      rlimit r{};
-      ::getrlimit(RLIMIT_FSIZE, &r);
-      r.rlim_cur = fsize_limit;
-      ::setrlimit(RLIMIT_FSIZE, &r);
+      static test::FileSizeLimit limit(fsize_limit);  // the limit and the ignored SIGXFSZ are kept across exec
     }
     std::vector<char*> argv{const_cast<char*>(bin.c_str())};
     for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
