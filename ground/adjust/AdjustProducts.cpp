@@ -93,11 +93,16 @@ CameraModel adjustedModelOf(const Network& net, int image, const CameraModel& ap
 }
 
 void writeAdjustedModels(const std::string& dir, const Network& net, const std::vector<CameraModel>& apriori,
-                         const std::vector<std::string>& stems) {
+                         const std::vector<std::string>& stems, std::vector<std::string>* errors) {
   std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
+  std::filesystem::create_directories(dir, ec);  // a failure shows as each model's write error
   for (int i = 0; i < net.imageCount(); ++i) {
-    io::writeCameraModelFile(dir + "/" + stems[i] + ".cahvor", adjustedModelOf(net, i, apriori[i]));
+    try {
+      io::writeCameraModelFile(dir + "/" + stems[i] + ".cahvor", adjustedModelOf(net, i, apriori[i]));
+    } catch (const std::exception& e) {
+      if (errors == nullptr) throw;
+      errors->push_back(e.what());
+    }
   }
 }
 

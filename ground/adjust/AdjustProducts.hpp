@@ -50,9 +50,11 @@ struct AdjustReport {
 // Each throws cli::InputError naming the file when it cannot be written.
 void writeReportJson(const std::string& path, const AdjustReport& report);
 void writeEoCsv(const std::string& path, const Network& net, const std::vector<std::string>& stems);
-// `apriori[i]` is image i's a-priori model; the adjusted one is written to dir/<stem>.cahvor.
+// `apriori[i]` is image i's a-priori model; the adjusted one is written to dir/<stem>.cahvor. With `errors`,
+// a model that cannot be written is recorded there (its error naming the file) and the others are still
+// written; without, the first failure throws.
 void writeAdjustedModels(const std::string& dir, const Network& net, const std::vector<CameraModel>& apriori,
-                         const std::vector<std::string>& stems);
+                         const std::vector<std::string>& stems, std::vector<std::string>* errors = nullptr);
 // The adjusted model of image i (the a-priori model moved by M_new^T M_old to the new centre).
 CameraModel adjustedModelOf(const Network& net, int image, const CameraModel& apriori);
 

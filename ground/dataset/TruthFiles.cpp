@@ -120,7 +120,6 @@ class CsvTable {
   int64_t header_line_ = 0;
 };
 
-
 }  // namespace
 
 std::string formatDouble(double value) {

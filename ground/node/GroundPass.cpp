@@ -103,15 +103,20 @@ void writeNodeReport(const std::string& out, const AdjustReport& report, const S
                      const RoverInputs* rover, const json& rover_json, const AdjustOutcome& fast,
                      const GroundPassResult& result);
 
-// Runs one product writer; a failure (full disk, folder not writable: the writers throw an error naming the
-// file) is recorded and the pass goes on with the other products.
+// A product that could not be written (full disk, folder not writable: `error` names the file): recorded,
+// and the pass goes on with the other products.
+void recordWriteError(GroundPassResult& result, AdjustReport& report, const std::string& error) {
+  cli::warn("not written: " + error);
+  result.write_errors.push_back(error);
+  report.warnings.push_back("Not written: " + error);
+}
+
+// Runs one product writer; a failure (the writers throw an error naming the file) is recorded.
 void writeOrRecord(GroundPassResult& result, AdjustReport& report, const std::function<void()>& write) {
   try {
     write();
   } catch (const std::exception& e) {
-    cli::warn(std::string("not written: ") + e.what());
-    result.write_errors.push_back(e.what());
-    report.warnings.push_back(std::string("Not written: ") + e.what());
+    recordWriteError(result, report, e.what());
   }
 }
 
@@ -280,14 +285,9 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
 
   // 3. Products.
   t0 = cli::nowSeconds();
-  std::error_code ec;
-  fs::create_directories(out + "/models", ec);  // a failure shows as each model's write error
-  for (int32_t i = 0; i < net.imageCount(); ++i) {
-    writeOrRecord(result, report, [&] {
-      io::writeCameraModelFile(out + "/models/" + stems[i] + ".cahvor",
-                               adjustedModelOf(net, i, network.apriori_of_image[i]));
-    });
-  }
+  std::vector<std::string> model_errors;
+  writeAdjustedModels(out + "/models", net, network.apriori_of_image, stems, &model_errors);
+  for (const std::string& e : model_errors) recordWriteError(result, report, e);
   writeOrRecord(result, report, [&] { writeEoCsv(out + "/eo.csv", net, stems); });
   json rover_json = json::object();
   if (rover != nullptr && rover->eo) {
