@@ -113,8 +113,7 @@ void scoreLine(const NccTemplate& t, const Float4* tb, const ImageView& image, i
     }
     for (int32_t i = span; i < padded + kNccSide - 1; ++i) line[i] = 0.0f;
   }
-  const double np = kNccPixels;
-  const double var_t = np * static_cast<double>(t.sum_sq) - static_cast<double>(t.sum) * static_cast<double>(t.sum);
+  const double var_t = nccTemplateVariance(t);
   int32_t ws = 0, ws2 = 0;  // window sums by a running sum of the column sums
   for (int32_t i = 0; i < kNccSide - 1; ++i) {
     ws += s.column_sum[i];
@@ -146,14 +145,7 @@ void scoreLine(const NccTemplate& t, const Float4* tb, const ImageView& image, i
     for (int32_t i = i0; i < end; ++i) {
       ws += s.column_sum[i + kNccSide - 1];
       ws2 += s.column_sum_sq[i + kNccSide - 1];
-      const double sum = ws, sum_sq = ws2;
-      const double var_s = np * sum_sq - sum * sum;
-      if (var_s < kMinNccVariance * np * np) {
-        out[i] = kNccInvalid;
-      } else {
-        const double cov = np * static_cast<double>(acc[i - i0]) - sum * static_cast<double>(t.sum);
-        out[i] = cov / std::sqrt(var_s * var_t);
-      }
+      out[i] = nccFromSums(t, var_t, ws, ws2, static_cast<double>(acc[i - i0]));
       ws -= s.column_sum[i];
       ws2 -= s.column_sum_sq[i];
     }

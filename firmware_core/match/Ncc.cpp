@@ -58,12 +58,8 @@ double nccAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t c
     s2 += rs2;
     st += rst;
   }
-  const double n = kNccPixels;
-  const double var_s = n * static_cast<double>(s2) - static_cast<double>(s) * static_cast<double>(s);
-  const double var_t = n * static_cast<double>(t.sum_sq) - static_cast<double>(t.sum) * static_cast<double>(t.sum);
-  if (var_s < kMinNccVariance * n * n) return kNccInvalid;
-  const double cov = n * static_cast<double>(st) - static_cast<double>(s) * static_cast<double>(t.sum);
-  return cov / std::sqrt(var_s * var_t);
+  return nccFromSums(t, nccTemplateVariance(t), static_cast<double>(s), static_cast<double>(s2),
+                     static_cast<double>(st));
 }
 
 double nccWarpedAt(const NccTemplate& t, const ImageView& image, double cx, double cy, const Mat2& a) {
@@ -92,11 +88,7 @@ double nccWarpedAt(const NccTemplate& t, const ImageView& image, double cx, doub
       st += value * tv;
     }
   }
-  const double n = kNccPixels;
-  const double var_s = n * s2 - s * s;
-  const double var_t = n * static_cast<double>(t.sum_sq) - static_cast<double>(t.sum) * static_cast<double>(t.sum);
-  if (var_s < kMinNccVariance * n * n) return kNccInvalid;
-  return (n * st - s * static_cast<double>(t.sum)) / std::sqrt(var_s * var_t);
+  return nccFromSums(t, nccTemplateVariance(t), s, s2, st);
 }
 
 double parabolaOffset(double minus, double centre, double plus) {

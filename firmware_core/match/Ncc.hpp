@@ -2,6 +2,7 @@
 // integer sums, and the sub-pixel peak of a correlation surface (parabola in x and in y).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "firmware_core/base/Capacities.hpp"
@@ -22,6 +23,22 @@ struct NccTemplate {
   int64_t sum_sq = 0;
   bool textured = false;  // variance >= kMinNccVariance
 };
+
+// n * sum_sq - sum^2 of the template (n = kNccPixels): the denominator's template part.
+inline double nccTemplateVariance(const NccTemplate& t) {
+  const double n = kNccPixels;
+  return n * static_cast<double>(t.sum_sq) - static_cast<double>(t.sum) * static_cast<double>(t.sum);
+}
+
+// The NCC of a window from its sums (pixels, squares, products with the template) and the template's
+// nccTemplateVariance; kNccInvalid when the window is flat. The one formula of nccAt, nccWarpedAt and the
+// line-wise curve search, so that they agree bit for bit.
+inline double nccFromSums(const NccTemplate& t, double var_t, double sum, double sum_sq, double cross) {
+  const double n = kNccPixels;
+  const double var_s = n * sum_sq - sum * sum;
+  if (var_s < kMinNccVariance * n * n) return kNccInvalid;
+  return (n * cross - sum * static_cast<double>(t.sum)) / std::sqrt(var_s * var_t);
+}
 
 // The template centred on pixel (cx, cy); false when the window leaves the image.
 bool extractTemplate(const ImageView& image, int32_t cx, int32_t cy, NccTemplate& t);
