@@ -6,8 +6,8 @@
 // The correlation length is the INTEGRAL scale, L = 1/2 + sum_{k>=1} r(k) (= L for r(k) = exp(-k / L);
 // summed up to the first lag where r <= 0): what sets how the errors average down over a neighbourhood,
 // which is how the DEM's sigma model (ground/dem/Kriging.hpp) uses it. The 1/e lag is printed too: the
-// autocorrelation is not exponential (a sharp drop within the first pixels, then a long tail: the sub-pixel error depends on the disparity's
-// fractional part, which changes slowly across the image), so the two differ.
+// autocorrelation is not exponential (a sharp drop within the first pixels, then a long tail: the
+// sub-pixel error depends on the disparity's fractional part, which changes slowly across the image).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
