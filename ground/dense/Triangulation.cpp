@@ -144,12 +144,17 @@ std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const Came
 }
 
 void writePly(const std::string& path, const std::vector<CloudPoint>& points, const std::string& comment) {
+  writePly(path, points.size(), [&points](std::size_t i) { return points[i]; }, comment);
+}
+
+void writePly(const std::string& path, std::size_t count, const std::function<CloudPoint(std::size_t)>& point,
+              const std::string& comment) {
   std::ofstream f(path, std::ios::binary);
   if (!f) throw std::runtime_error(path + ": cannot open for writing");
   f << "ply\nformat binary_little_endian 1.0\n";
   f << "comment areomap point cloud, site frame (+X north, +Y east, +Z down), metres\n";
   if (!comment.empty()) f << "comment " << comment << "\n";
-  f << "element vertex " << points.size() << "\n"
+  f << "element vertex " << count << "\n"
     << "property double x\nproperty double y\nproperty double z\n"
     << "property float sigma_x\nproperty float sigma_y\nproperty float sigma_z\n"
     << "property uchar grey\nproperty int line\nend_header\n";
@@ -165,7 +170,8 @@ void writePly(const std::string& path, const std::vector<CloudPoint>& points, co
       for (std::size_t i = n; i > 0; --i) f.put(static_cast<char>(c[i - 1]));
     }
   };
-  for (const CloudPoint& p : points) {
+  for (std::size_t i = 0; i < count; ++i) {
+    const CloudPoint p = point(i);
     for (int k = 0; k < 3; ++k) {
       const double v = p.site_m(k);
       put(&v, sizeof v);

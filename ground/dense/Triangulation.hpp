@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -60,6 +61,10 @@ std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const Came
 // int line. Throws std::runtime_error naming the file when it cannot be written (checked after close).
 // Written in place: products write it through cli::writeViaTemporary.
 void writePly(const std::string& path, const std::vector<CloudPoint>& points, const std::string& comment = "");
+// The same, streamed: `count` points, the i-th made by `point(i)` as it is written (no copy of a cloud kept
+// in another layout).
+void writePly(const std::string& path, std::size_t count, const std::function<CloudPoint(std::size_t)>& point,
+              const std::string& comment = "");
 
 // Reads a PLY written by writePly (site_m, the per-axis sigmas as a diagonal covariance, grey, line).
 // Throws std::runtime_error naming the file when it is missing, not in that layout, or truncated.
