@@ -188,6 +188,8 @@ GroundNodeResult runGroundNode(platform::Transport& transport, const std::string
     last = std::move(result);
     collector.nextPanorama();
   }
+  last.recorded = recorder.events();
+  last.record_write_errors = recorder.writeErrors();
   return last;
 }
 

@@ -40,6 +40,10 @@ struct GroundNodeResult {
   double receive_seconds = 0.0;    // first message to end of collection
   std::string out_dir;             // where this panorama's products are
   int32_t panorama_index = 0;      // 1-based
+  // The recording (GroundNodeOptions::record_path) over the whole run: events appended, and received
+  // messages that could not be appended (a full disk); set on the result runGroundNode returns.
+  int64_t recorded = 0;
+  int64_t record_write_errors = 0;
 };
 
 // Called after each panorama (products made) with its result.

@@ -236,6 +236,12 @@ int main(int argc, char** argv) {
         if (!no_record && !options.stream_only) options.record_path = out + "/" + ground::kRecordingName;
         result = ground::runGroundNode(transport, *lcm, options, done);
         if (!result.product_published) cli::warn("AREOMAP_PRODUCT could not be published");
+        if (result.record_write_errors > 0) {
+          // The products are made, but a restarted node could not resume from this recording.
+          write_errors.push_back(options.record_path + ": " + std::to_string(result.record_write_errors) + " of " +
+                                 std::to_string(result.recorded + result.record_write_errors) +
+                                 " received messages not recorded (disk full?); a restart cannot resume from it");
+        }
       }
       pass = result.pass;
       if (options.stream_only) return 0;

@@ -268,6 +268,35 @@ TEST(GroundRecording, ReplaysByteForByteAndDropsAHalfWrittenTail) {
   }
 }
 
+// A recording on a full disk (/dev/full: every write fails with ENOSPC): each lost message is counted, the
+// node goes on and makes the panorama from what it received; the counts reach the result (areomap-ground
+// then names the recording among the files not written and exits 1).
+TEST(GroundRecording, AFullDiskIsCountedAndThePanoramaIsStillMade) {
+  if (!std::filesystem::exists("/dev/full")) {
+    std::printf("SKIP: no /dev/full on this system\n");
+    return;
+  }
+  const Dataset d = readDataset(tinyDataset());
+  std::vector<uint8_t> storage(96u * 1024u * 1024u);
+  platform::MemoryTransport memq(storage.data(), storage.size());
+  for (const LogEvent& e : tinyStream()) CHECK(ok(memq.publish(e.channel.c_str(), e.data.data(), e.data.size())));
+  ground::GroundNodeOptions options;
+  options.pass.out_dir = test::scratchDir("ground-node-recording-full");
+  options.pass.progress = false;
+  options.rover_wait_s = 0.0;
+  options.rover_silent_s = 0.0;
+  options.record_path = "/dev/full";
+  const ground::GroundNodeResult r = ground::runGroundNode(memq, "memq://", options);
+  std::printf("recording on /dev/full: %lld recorded, %lld not recorded, %lld messages\n",
+              static_cast<long long>(r.recorded), static_cast<long long>(r.record_write_errors),
+              static_cast<long long>(r.messages));
+  CHECK_EQUAL(0, r.recorded);
+  CHECK(r.record_write_errors > 0);
+  CHECK_EQUAL(r.messages, r.record_write_errors);
+  CHECK_EQUAL(static_cast<int32_t>(d.pairs.size()), r.stream.pairs);
+  CHECK(test::fileExists(options.pass.out_dir + "/eo.csv"));
+}
+
 TEST_GROUP(RoverTies){};
 
 // When the rover's ties may stand for the panorama's, and the reason when not.
