@@ -72,6 +72,9 @@ wait_for() {
   return 0
 }
 
+# sanitizer_build: true when BUILD was configured with AddressSanitizer (the asan preset; CMakeCache.txt).
+sanitizer_build() { grep -q -- '-fsanitize=[a-z,]*address' "$BUILD/CMakeCache.txt" 2> /dev/null; }
+
 # rss_kib PID: the resident set now (KiB), from /proc.
 rss_kib() { awk '/^VmRSS:/ {print $2}' "/proc/$1/status" 2> /dev/null || echo 0; }
 
