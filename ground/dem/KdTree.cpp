@@ -14,6 +14,12 @@ KdTree2::KdTree2(const std::vector<double>& x, const std::vector<double>& y) : x
   for (std::size_t i = 0; i < order_.size(); ++i) order_[i] = static_cast<int32_t>(i);
   nodes_.reserve(2 * (x_.size() / kLeafSize + 1));
   if (!x_.empty()) build(0, static_cast<int32_t>(x_.size()), 0);
+  points_.reserve(order_.size());
+  for (const int32_t p : order_) points_.push_back(Point{x_[p], y_[p], p});
+  // Only points_ is read by the queries.
+  std::vector<double>().swap(x_);
+  std::vector<double>().swap(y_);
+  std::vector<int32_t>().swap(order_);
 }
 
 int32_t KdTree2::build(int32_t begin, int32_t end, int depth) {
@@ -60,8 +66,9 @@ int KdTree2::nearest(double qx, double qy, int k, int32_t* index, double* dist2,
     const Node& n = nodes_[static_cast<std::size_t>(it.node)];
     if (n.left < 0) {
       for (int32_t i = n.begin; i < n.end; ++i) {
-        const int32_t p = order_[static_cast<std::size_t>(i)];
-        const double dx = x_[p] - qx, dy = y_[p] - qy;
+        const Point& pt = points_[static_cast<std::size_t>(i)];
+        const int32_t p = pt.index;
+        const double dx = pt.x - qx, dy = pt.y - qy;
         const double d2 = dx * dx + dy * dy;
         if (d2 > worst || (found == k && d2 >= worst)) continue;
         // Insert sorted.

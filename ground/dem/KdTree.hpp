@@ -17,7 +17,7 @@ class KdTree2 {
   // Returns how many were found (min(k, n)). `max_dist2` (optional) bounds the search radius.
   int nearest(double qx, double qy, int k, int32_t* index, double* dist2,
               double max_dist2 = 1e300) const;
-  std::size_t size() const { return x_.size(); }
+  std::size_t size() const { return points_.size(); }
 
  private:
   struct Node {
@@ -26,10 +26,16 @@ class KdTree2 {
     int8_t axis;
     double split;
   };
+  // A point in leaf order: the query reads a leaf's points from one contiguous run of memory.
+  struct Point {
+    double x, y;
+    int32_t index;  // into the input
+  };
   int32_t build(int32_t begin, int32_t end, int depth);
-  std::vector<double> x_, y_;
-  std::vector<int32_t> order_;
+  std::vector<double> x_, y_;  // the input, during the build only
+  std::vector<int32_t> order_;  // during the build only
   std::vector<Node> nodes_;
+  std::vector<Point> points_;  // the input in leaf order
 };
 
 }  // namespace areomap::dem

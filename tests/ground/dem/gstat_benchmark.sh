@@ -13,8 +13,8 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 "$build/tests/ground_products_bench" --kriging-only --export "$work" $quick
 echo
-echo "| points | cells | k | model | gstat time | areomap time | gstat / areomap | gstat RMSE | areomap RMSE |"
-echo "|---|---|---|---|---|---|---|---|---|"
+echo "| points | cells | k | model | gstat time | areomap time | gstat / areomap | areomap time, 1 thread | gstat / areomap 1 thread | gstat RMSE | areomap RMSE |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for n in 10000 100000; do
   Rscript "$here/gstat_kriging.R" "$work/points_$n"
 done

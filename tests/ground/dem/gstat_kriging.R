@@ -22,6 +22,7 @@ t <- proc.time()[["elapsed"]] - t0
 cc <- coordinates(grid)
 # The field's x is north, y is east (as in the benchmark).
 rmse <- sqrt(mean((k$var1.pred - field(cc[, "north"], cc[, "east"]))^2))
-cat(sprintf("| %d | %d x %d | %d | %s | gstat %.2f s | areomap %.2f s | %.1f x | gstat %.4f m | areomap %.4f m |\n",
-            length(pts), side, side, m$k, m$kind, t, m$areomap_kriging_s, t / m$areomap_kriging_s, rmse,
+cat(sprintf("| %d | %d x %d | %d | %s | gstat %.2f s | areomap %.2f s (%d threads) | %.1f x | areomap %.2f s (1 thread) | %.1f x | gstat %.4f m | areomap %.4f m |\n",
+            length(pts), side, side, m$k, m$kind, t, m$areomap_kriging_s, m$areomap_threads,
+            t / m$areomap_kriging_s, m$areomap_kriging_1thread_s, t / m$areomap_kriging_1thread_s, rmse,
             m$areomap_rmse_m))
