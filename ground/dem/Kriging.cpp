@@ -20,15 +20,79 @@ double nowS() {
 constexpr int kGapSample = 2000;  // points sampled for the automatic gap limit
 constexpr double kLagPerNeighbourhood = 3.0;  // automatic variogram extent, in neighbourhood radii
 
+constexpr int64_t kLinesPerPair = 65536;  // DemPoint::line = pair id * 65536 + row (dense::triangulateDisparity)
+
 constexpr int kCalibrationSample = 400;   // points of the leave-one-out sigma calibration
 constexpr int kMinCalibrationPoints = 30;
+
+// The error variance of a cell's estimate sum_i w_i z_i when the points' errors are correlated
+// (Kriging.hpp): the interpolation variance under the SIGNAL variogram (fitted to the experimental
+// variogram less the points' noise semivariances: the noise-free surface; its nugget is sub-cell relief)
+//   2 sum_i w_i gamma_s(d_i0) - sum_ij w_i w_j gamma_s(d_ij)      (sum_i w_i = 1)
+// plus Var(sum_i w_i e_i) = sum_ij w_i w_j s_i s_j rho_ij, s_i the point's own sigma.
+struct CorrelatedNoise {
+  double l_px = 0.0;
+  const std::vector<float>* gsd = nullptr;
+  double bin_m = 0.0;
+  VariogramModel signal;
+
+  bool on() const { return l_px > 0.0 && gsd != nullptr; }
+
+  double rho(const DemPoint& a, const DemPoint& b, double gsd_a, double gsd_b) const {
+    if (a.line >= 0 && b.line >= 0 && a.line / kLinesPerPair != b.line / kLinesPerPair) return 0.0;  // other images
+    const double g = std::max(1e-6, 0.5 * (gsd_a + gsd_b));
+    return patchCorrelation(std::fabs(a.north_m - b.north_m) / g, std::fabs(a.east_m - b.east_m) / g,
+                            std::max(1.0, bin_m / g), l_px);
+  }
+
+  // 1/2 Var(e_i - e_j): what the noise adds to the pair's semivariance.
+  double pairNoise(const std::vector<DemPoint>& points, std::size_t i, std::size_t j) const {
+    const DemPoint &a = points[i], &b = points[j];
+    return 0.5 * (a.sigma_m * a.sigma_m + b.sigma_m * b.sigma_m) -
+           a.sigma_m * b.sigma_m * rho(a, b, (*gsd)[i], (*gsd)[j]);
+  }
+
+  double variance(const std::vector<DemPoint>& points, int f, const int32_t* idx, const double* d2,
+                  const double* w) const {
+    double v = 0.0;
+    for (int i = 0; i < f; ++i) {
+      const std::size_t pi = static_cast<std::size_t>(idx[i]);
+      const DemPoint& a = points[pi];
+      v += 2.0 * w[i] * signal.gamma(std::sqrt(d2[i])) + w[i] * w[i] * a.sigma_m * a.sigma_m;
+      for (int j = 0; j < i; ++j) {
+        const std::size_t pj = static_cast<std::size_t>(idx[j]);
+        const DemPoint& b = points[pj];
+        const double h = std::hypot(a.north_m - b.north_m, a.east_m - b.east_m);
+        v += 2.0 * w[i] * w[j] * (a.sigma_m * b.sigma_m * rho(a, b, (*gsd)[pi], (*gsd)[pj]) - signal.gamma(h));
+      }
+    }
+    return v;
+  }
+};
+
+// Along one axis: the mean correlation within a segment of m pixels (g) and between two segments whose
+// centres are d >= m pixels apart, for pixel correlation q^|k|, q = exp(-1 / L).
+double segmentVariance(double m, double q) {
+  const double s = q * (m * (1.0 - q) - 1.0 + std::pow(q, m)) / ((1.0 - q) * (1.0 - q));
+  return (m + 2.0 * s) / (m * m);
+}
+
+double segmentCorrelation(double d, double m, double q) {
+  const double g = segmentVariance(m, q);
+  const double a = (1.0 - std::pow(q, m)) / (1.0 - q);
+  const double at_m = q * a * a / (m * m) / g;  // adjacent segments (d = m)
+  if (d >= m) return at_m * std::pow(q, d - m);
+  return 1.0 + (at_m - 1.0) * d / m;  // overlapping along this axis: between 1 (same) and adjacent
+}
 
 // One ordinary-kriging solve (covariance form with the Lagrange row) for a query whose neighbours and
 // their squared distances are given: KrigingSystem (Cholesky of the covariance block, the Lagrange row by
 // its Schur complement, the factorisation reused for cells with the same neighbour set). One per thread.
+// With correlated noise (CorrelatedNoise::on) the variance is CorrelatedNoise::variance of the weights.
 struct Solver {
   const std::vector<DemPoint>& points;
   KrigingSystem system;
+  CorrelatedNoise correlated;
 
   double noise(const DemPoint& p) const { return system.noise(p); }
 
@@ -39,15 +103,29 @@ struct Solver {
     z = 0.0;
     double lc = 0.0;
     for (int i = 0; i < f; ++i) {
-      z += w[i] * points[static_cast<std::size_t>(idx[i])].elevation_m;
+      const DemPoint& p = points[static_cast<std::size_t>(idx[i])];
+      z += w[i] * p.elevation_m;
       lc += w[i] * c[i];
     }
     var = std::max(0.0, system.partialSill() - lc - w[f]);
+    if (correlated.on()) var = std::max(0.0, correlated.variance(points, f, idx, d2, w));
     return std::isfinite(z) && std::isfinite(var);
   }
 };
 
 }  // namespace
+
+double patchVarianceFactor(double m_px, double l_px) {
+  if (!(l_px > 0.0)) return 1.0 / (std::max(1.0, m_px) * std::max(1.0, m_px));
+  const double g = segmentVariance(std::max(1.0, m_px), std::exp(-1.0 / l_px));
+  return g * g;
+}
+
+double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px) {
+  if (!(l_px > 0.0)) return dx_px == 0.0 && dy_px == 0.0 ? 1.0 : 0.0;
+  const double q = std::exp(-1.0 / l_px), m = std::max(1.0, m_px);
+  return segmentCorrelation(dx_px, m, q) * segmentCorrelation(dy_px, m, q);
+}
 
 DemGrid gridAround(const std::vector<DemPoint>& points, double cell_m) {
   if (points.empty() || !(cell_m > 0.0)) throw std::invalid_argument("gridAround: no points or cell <= 0");
@@ -122,12 +200,27 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   res.elevation = grid;
   res.elevation.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
   res.sigma = res.elevation;
-  Solver solver{points, KrigingSystem(points, res.model, o.use_point_sigma)};
+  CorrelatedNoise correlated{o.noise_correlation_px,
+                             o.point_gsd_m != nullptr && o.point_gsd_m->size() == points.size() ? o.point_gsd_m
+                                                                                              : nullptr,
+                             o.bin_cell_m, VariogramModel{}};
+  if (correlated.on()) {
+    res.signal_experimental =
+        experimentalVariogram(xs, ys, zs, max_lag, 20, 2000000, 1,
+                              [&](std::size_t i, std::size_t j) { return correlated.pairNoise(points, i, j); },
+                              true);
+    res.signal_model = fitVariogram(res.signal_experimental);
+    correlated.signal = res.signal_model;
+  }
+  Solver solver{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated};
   int32_t idx[kMaxNeighbours + 1];
   double d2[kMaxNeighbours + 1];
   // Sigma calibration by leave-one-out cross-validation on a sample of points: the kriging variance plus
-  // the point's noise should explain the squared LOO error on average; the ratio scales every sigma.
-  {
+  // the point's noise should explain the squared LOO error on average; the ratio scales every sigma. Not
+  // with correlated point errors: that sigma is a model of its own (the calibrated point sigmas, their
+  // correlation and the signal variogram), and a point's LOO error would need its covariance with its
+  // neighbours' errors, which the independent-noise ratio leaves out.
+  if (!correlated.on()) {
     double sum_ratio = 0.0;
     long long used = 0;
     const std::size_t step = std::max<std::size_t>(1, points.size() / kCalibrationSample);
@@ -157,7 +250,7 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
                                  std::max(1, std::min(grid.rows, kMaxKrigingThreads)));
   std::vector<long long> kriged(static_cast<std::size_t>(threads), 0), reused(kriged), factorised(kriged);
   const auto krigeRows = [&](int t) {
-    Solver s{points, KrigingSystem(points, res.model, o.use_point_sigma)};
+    Solver s{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated};
     int32_t cell_idx[kMaxNeighbours + 1];
     double cell_d2[kMaxNeighbours + 1];
     for (int row = t; row < grid.rows; row += threads) {

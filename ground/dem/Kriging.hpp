@@ -3,9 +3,13 @@
 // standard deviation as a second raster (dem_sigma.tif).
 //
 // The kriging is "filtered": the nugget and each point's own sigma are treated as measurement noise, so
-// the estimate and its sigma are those of the noise-free surface. The sigma is calibrated by leave-one-out
-// cross-validation on a sample of points (sigma_scale), so that it stays honest when the variogram model
-// only approximates the surface. Grids are ground/dataset's DemGrid
+// the estimate is that of the noise-free surface. Its sigma, with independent point errors: the kriging
+// variance, calibrated by leave-one-out cross-validation on a sample of points (sigma_scale). With
+// correlated point errors (dense matches; KrigingOptions::noise_correlation_px): the variance of the
+// estimate's error under a model of both parts, the surface between the points (the signal variogram:
+// the robust experimental variogram less the points' noise) and the points' errors averaged with their
+// correlation (issue 10: honest per range band, tests/ground/products/NavcamAccuracyTest.cpp).
+// Grids are ground/dataset's DemGrid
 // (north-up, columns east = site +Y, rows south = site -X, elevation up = -Z).
 #pragma once
 
@@ -31,6 +35,17 @@ struct KrigingOptions {
   double max_lag_m = -1.0;       // variogram extent (-1: 6 neighbourhood radii, at most 1/3 of the cloud)
   bool use_point_sigma = true;   // point sigmas enter the diagonal (at least the nugget)
   const VariogramModel* model = nullptr;  // given model instead of the fitted one
+  // Correlated point errors (dense matches share their matching footprint in the image). With
+  // noise_correlation_px = L > 0 and a ground sample distance per point (point_gsd_m[i]: the ground size of
+  // one image pixel at point i), the sigma of a cell is that of the estimate's error,
+  //   Var = interpolation variance (filtered kriging: the noise-free surface) + Var(sum_i w_i e_i),
+  //   Cov(e_i, e_j) = s_i s_j rho_ij,  s_i^2 = the point's noise variance (max(nugget, sigma^2)),
+  // rho_ij = patchCorrelation(...) of the two points' separation in pixels; bin_cell_m > 0 says that each
+  // point is the mean of the dense points in a square bin of that size (its sigma already that of the mean),
+  // 0 that points are single pixels. L = 0 (or no gsd): errors independent, Var = the kriging variance.
+  double noise_correlation_px = 0.0;
+  const std::vector<float>* point_gsd_m = nullptr;
+  double bin_cell_m = 0.0;
   int threads = 0;  // threads for the cells (0: one per core); the result is the same for any number
 };
 
@@ -43,6 +58,10 @@ struct KrigingResult {
   DemGrid sigma;      // kriging standard deviation, metres
   VariogramModel model;
   ExperimentalVariogram experimental;
+  // With correlated point errors (KrigingOptions::noise_correlation_px): the variogram of the noise-free
+  // surface (the experimental one less the points' noise semivariances) that the sigma uses.
+  VariogramModel signal_model;
+  ExperimentalVariogram signal_experimental;
   double max_gap_m = 0.0;  // the gap limit used
   double sigma_scale = 1.0;  // leave-one-out calibration factor applied to the kriging sigma
   long long cells_kriged = 0;
@@ -52,6 +71,12 @@ struct KrigingResult {
   long long factorisations = 0;        // covariance blocks factorised (grid cells; LOO calibration apart)
   long long factorisation_reuses = 0;  // cells that reused the previous cell's (same neighbour set)
 };
+
+// Mean correlation of the errors of a square patch of m x m pixels (m >= 1, real), pixel errors correlated
+// as exp(-|dx| / L) exp(-|dy| / L): the variance of the patch mean is sigma^2 * patchVarianceFactor(m, L).
+double patchVarianceFactor(double m_px, double l_px);
+// Correlation of the means of two such patches (m x m pixels each) whose centres are dx, dy pixels apart.
+double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px);
 
 // `grid` gives the geometry (east0, north0, cell, cols, rows, nodata); its values are ignored.
 // Throws std::invalid_argument on an empty cloud or a bad grid.

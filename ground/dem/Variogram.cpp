@@ -12,6 +12,7 @@ namespace areomap::dem {
 namespace {
 constexpr int kNeighbourPairs = 8;     // short-lag pairs per point from the k-d tree
 constexpr int kRangeCandidates = 80;   // log-spaced ranges tried per model kind
+constexpr double kMedianChi2 = 0.4549;  // median of chi^2 with 1 degree of freedom
 }  // namespace
 
 const char* variogramName(VariogramKind kind) {
@@ -44,12 +45,16 @@ double VariogramModel::gamma(double h) const {
 
 ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const std::vector<double>& y,
                                             const std::vector<double>& z, double max_lag_m, int bins,
-                                            int64_t max_pairs, uint32_t seed) {
+                                            int64_t max_pairs, uint32_t seed,
+                                            const std::function<double(std::size_t, std::size_t)>& pair_noise_m2,
+                                            bool robust) {
   if (x.size() != y.size() || x.size() != z.size()) throw std::invalid_argument("variogram: sizes differ");
   if (bins < 1 || !(max_lag_m > 0.0)) throw std::invalid_argument("variogram: bins and max lag must be > 0");
   const std::size_t n = x.size();
   std::vector<double> sum_d(static_cast<std::size_t>(bins), 0.0), sum_g(sum_d.size(), 0.0);
   std::vector<int64_t> count(sum_d.size(), 0);
+  std::vector<double> sum_noise(sum_d.size(), 0.0);
+  std::vector<std::vector<float>> half_d2(robust ? sum_d.size() : 0);  // robust: every pair's 1/2 dz^2
   const double bin_w = max_lag_m / bins;
   auto add = [&](std::size_t i, std::size_t j) {
     const double dx = x[i] - x[j], dy = y[i] - y[j];
@@ -59,6 +64,8 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
     const double dz = z[i] - z[j];
     sum_d[b] += h;
     sum_g[b] += 0.5 * dz * dz;
+    if (robust) half_d2[b].push_back(static_cast<float>(0.5 * dz * dz));
+    if (pair_noise_m2) sum_noise[b] += pair_noise_m2(i, j);
     ++count[b];
   };
   const int64_t all_pairs = static_cast<int64_t>(n) * static_cast<int64_t>(n > 0 ? n - 1 : 0) / 2;
@@ -96,7 +103,13 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
   for (std::size_t b = 0; b < sum_d.size(); ++b) {
     if (count[b] < 3) continue;
     ev.lag_m.push_back(sum_d[b] / count[b]);
-    ev.gamma_m2.push_back(sum_g[b] / count[b]);
+    double g = sum_g[b] / count[b];
+    if (robust) {
+      std::vector<float>& v = half_d2[b];
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      g = v[v.size() / 2] / kMedianChi2;
+    }
+    ev.gamma_m2.push_back(std::max(0.0, g - sum_noise[b] / count[b]));
     ev.pairs.push_back(count[b]);
   }
   return ev;

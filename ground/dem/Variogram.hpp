@@ -3,7 +3,9 @@
 // shared/reference/camera-models.md "kriging".
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -35,9 +37,16 @@ struct ExperimentalVariogram {
 // Bins pairs of points up to `max_lag_m` into `bins` lags. With more than `max_pairs` candidate pairs,
 // pairs are sampled (deterministically, seeded), each point with its neighbours from the k-d tree and
 // random partners, so that short lags are well represented.
+// `pair_noise_m2` (optional): the semivariance of the two points' measurement errors, 1/2 Var(e_i - e_j),
+// subtracted from each pair's 1/2 (z_i - z_j)^2: the variogram of the noise-free surface. `robust`: each
+// lag's semivariance from the MEDIAN of 1/2 (z_i - z_j)^2 (over 0.4549, the median of chi^2 with 1 degree
+// of freedom: equal to the mean for Gaussian differences), so that a few gross errors (mismatches) do not
+// make the variogram of the bulk; the noise then subtracted as the lag's mean pair noise.
 ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const std::vector<double>& y,
                                             const std::vector<double>& z, double max_lag_m, int bins = 20,
-                                            int64_t max_pairs = 2000000, uint32_t seed = 1);
+                                            int64_t max_pairs = 2000000, uint32_t seed = 1,
+                                            const std::function<double(std::size_t, std::size_t)>& pair_noise_m2 = {},
+                                            bool robust = false);
 
 // Fits each kind (range by golden search on a grid, nugget and partial sill by non-negative weighted
 // least squares for each range) and returns the best.

@@ -109,40 +109,88 @@ double autoCell(double extent_m) {
 
 // The cloud binned to DEM cells (mean height, sigma of the mean) so that kriging sees one point per cell;
 // only the points for which keep(p) holds (no copy of the cloud for a subset).
+// The mean's sigma: the points of one pair in a cell are n_p neighbouring pixels of one image, whose match
+// errors are correlated (dense::kMatchErrorCorrelationPx, exp(-lag / L)); the cell is taken as a square
+// patch of sqrt(n_p) x sqrt(n_p) pixels, so Var(the pair's mean) = s_p^2 patchVarianceFactor(sqrt(n_p), L)
+// (s_p^2 the points' mean sigma^2); pairs are independent: Var(mean) = sum_p (n_p / n)^2 Var(pair's mean).
+// The cell's ground sample distance (gsd_m, what the kriging's error correlation needs): cell / sqrt(n_p)
+// of the pair with the most points there (the ground size of one of its pixels).
+struct BinnedCloud {
+  std::vector<dem::DemPoint> points;
+  std::vector<float> gsd_m;  // per point
+};
+
 template <class Keep>
-std::vector<dem::DemPoint> binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid, const Keep& keep) {
+BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid, const Keep& keep) {
   struct Acc {
     double n = 0, x = 0, y = 0, z = 0, s2 = 0;
   };
-  std::unordered_map<long long, Acc> bins;
+  constexpr long long kPairSlots = 4096;  // pairs per cell key (pair ids beyond share a slot: one pair)
+  std::unordered_map<long long, Acc> bins;  // key: cell * kPairSlots + pair slot
   for (const dem::DemPoint& p : pts) {
     if (!keep(p)) continue;
     const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
     const long long r = static_cast<long long>(std::floor((grid.north0_m - p.north_m) / grid.cell_m));
-    Acc& a = bins[r * 1000003LL + c];
+    const long long pair = p.line >= 0 ? (p.line / 65536 + 1) % kPairSlots : 0;
+    Acc& a = bins[(r * 1000003LL + c) * kPairSlots + pair];
     a.n += 1;
     a.x += p.north_m;
     a.y += p.east_m;
     a.z += p.elevation_m;
     a.s2 += p.sigma_m * p.sigma_m;
   }
-  std::vector<dem::DemPoint> out;
-  out.reserve(bins.size());
-  for (const auto& kv : bins) {
-    const Acc& a = kv.second;
+  std::vector<std::pair<long long, Acc>> by_cell(bins.begin(), bins.end());
+  std::unordered_map<long long, Acc>().swap(bins);
+  std::sort(by_cell.begin(), by_cell.end(),
+            [](const std::pair<long long, Acc>& a, const std::pair<long long, Acc>& b) { return a.first < b.first; });
+  const double l_px = dense::kMatchErrorCorrelationPx;
+  std::vector<std::pair<dem::DemPoint, float>> out;
+  for (std::size_t i = 0; i < by_cell.size();) {
+    const long long cell = by_cell[i].first / kPairSlots;
+    Acc all;
+    double var_n2 = 0.0, n_max = 0.0;  // sum_p n_p^2 Var(pair's mean); the most points of one pair
+    long long pair_max = 0;
+    for (; i < by_cell.size() && by_cell[i].first / kPairSlots == cell; ++i) {
+      const Acc& a = by_cell[i].second;
+      all.n += a.n;
+      all.x += a.x;
+      all.y += a.y;
+      all.z += a.z;
+      var_n2 += a.n * a.n * (a.s2 / a.n) * dem::patchVarianceFactor(std::sqrt(a.n), l_px);
+      if (a.n > n_max) {
+        n_max = a.n;
+        pair_max = by_cell[i].first % kPairSlots;
+      }
+    }
     dem::DemPoint p;
-    p.north_m = a.x / a.n;
-    p.east_m = a.y / a.n;
-    p.elevation_m = a.z / a.n;
-    // The mean's sigma: neighbouring dense matches share most of their matching window, so their errors
-    // are correlated and do not average down as 1/sqrt(n); the cell keeps the points' RMS sigma.
-    p.sigma_m = std::sqrt(a.s2 / a.n);
-    out.push_back(p);
+    p.north_m = all.x / all.n;
+    p.east_m = all.y / all.n;
+    p.elevation_m = all.z / all.n;
+    p.sigma_m = std::sqrt(var_n2) / all.n;
+    p.line = pair_max > 0 ? (pair_max - 1) * 65536 : -1;  // the pair of most of its points (row 0)
+    out.emplace_back(p, static_cast<float>(grid.cell_m / std::sqrt(n_max)));
   }
-  std::sort(out.begin(), out.end(), [](const dem::DemPoint& a, const dem::DemPoint& b) {
-    return a.north_m != b.north_m ? a.north_m < b.north_m : a.east_m < b.east_m;
+  using Binned = std::pair<dem::DemPoint, float>;
+  std::sort(out.begin(), out.end(), [](const Binned& a, const Binned& b) {
+    return a.first.north_m != b.first.north_m ? a.first.north_m < b.first.north_m : a.first.east_m < b.first.east_m;
   });
-  return out;
+  BinnedCloud binned;
+  binned.points.reserve(out.size());
+  binned.gsd_m.reserve(out.size());
+  for (const auto& pg : out) {
+    binned.points.push_back(pg.first);
+    binned.gsd_m.push_back(pg.second);
+  }
+  return binned;
+}
+
+// Kriging of a binned cloud with the matcher's error correlation (the DEM sigma of Kriging.hpp).
+dem::KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGrid& grid) {
+  dem::KrigingOptions o;
+  o.noise_correlation_px = dense::kMatchErrorCorrelationPx;
+  o.point_gsd_m = &binned.gsd_m;
+  o.bin_cell_m = grid.cell_m;
+  return o;
 }
 
 // The dense cloud as the products keep it (a navcam panorama has ~1.7e7 points): the DEM points (40 B
@@ -498,7 +546,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     const double cell = options.cell_m > 0 ? options.cell_m : autoCell(2 * extent);
     DemGrid grid = dem::gridAround(pts, cell);
     const auto all = [](const dem::DemPoint&) { return true; };
-    const std::vector<dem::DemPoint> binned = binPoints(pts, grid, all);
+    const BinnedCloud binned = binPoints(pts, grid, all);
     dem::EquiParallaxOptions eo;
     eo.centre_north_m = in.gimbal_site_m.x();
     eo.centre_east_m = in.gimbal_site_m.y();
@@ -513,7 +561,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     // near_cell_m, the points within near_range_m are kriged again at near_cell_m into dem_near.tif. Its
     // points are binned here, so that the cloud is freed before any kriging.
     std::optional<DemGrid> near_grid;
-    std::vector<dem::DemPoint> near_binned;
+    BinnedCloud near_binned;
     if (options.near_cell_m > 0 && options.near_range_m > 0 && cell > options.near_cell_m * 1.001) {
       const double reach = options.near_range_m + 0.5;  // points just beyond the edge support it
       const auto is_near = [&](const dem::DemPoint& p) {
@@ -542,8 +590,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     }
     std::vector<dem::DemPoint>().swap(pts);
     try {
-      dem::KrigingOptions kopt;
-      dem::KrigingResult kr = dem::krigeDem(binned, grid, kopt);
+      dem::KrigingResult kr = dem::krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid));
       if (!far.empty()) {
         DemGrid far_sigma;
         const DemGrid far_dem = dem::equiParallaxDem(far, grid, eo, &far_sigma);
@@ -582,7 +629,8 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     }
     if (ctx.result.dem && near_grid) {
       try {
-        const dem::KrigingResult nk = dem::krigeDem(near_binned, *near_grid, dem::KrigingOptions{});
+        const dem::KrigingResult nk = dem::krigeDem(near_binned.points, *near_grid,
+                                                      binnedKrigingOptions(near_binned, *near_grid));
         ctx.result.dem_near = nk.elevation;
         try {
           dem::writeDemProducts(out_dir, nk, meta, "dem_near");

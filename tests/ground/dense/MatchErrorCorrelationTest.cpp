@@ -24,7 +24,9 @@ namespace {
 
 constexpr double kA = 12.3, kB = 0.021, kC = 0.017;  // d(x, y) = kA + kB x + kC y (left pixel)
 
-double trueDisparity(int x, int y) { return kA + kB * x + kC * y; }
+double trueDisparity(int x, int y) {
+  return kA + kB * x + kC * y;
+}
 
 // Left(x, y) = T(x, y); right(xr, y) = T(x, y) where x - d(x, y) = xr, i.e. x = (xr + kA + kC y) / (1 - kB).
 void slantedPair(cv::Mat& left, cv::Mat& right) {
@@ -119,18 +121,22 @@ TEST(MatchErrorCorrelation, MeasuredLengthIsTheNamedConstant) {
   const double sd = std::sqrt(std::max(0.0, sum2 / static_cast<double>(n) - bias * bias));
   err -= bias;  // NaN stays NaN
   const int max_lag = 16;
-  const std::vector<double> rx = autocorrelation(err, 1, 0, max_lag), ry = autocorrelation(err, 0, 1, max_lag);
+  const std::vector<double> rx = autocorrelation(err, 1, 0, max_lag),
+                            ry = autocorrelation(err, 0, 1, max_lag);
   const double ex = eFoldingLag(rx), ey = eFoldingLag(ry);
   const double lx = integralScale(rx), ly = integralScale(ry), l = 0.5 * (lx + ly);
-  std::printf("\n  match errors on %lld pixels (%lld gross > 1 px left out): bias %.3f px, sd %.3f px (kMatchSigmaPx "
-              "%.2f)\n  autocorrelation along rows:   ",
-              n, gross, bias, sd, kMatchSigmaPx);
+  std::printf(
+      "\n  match errors on %lld pixels (%lld gross > 1 px left out): bias %.3f px, sd %.3f px (kMatchSigmaPx "
+      "%.2f)\n  autocorrelation along rows:   ",
+      n, gross, bias, sd, kMatchSigmaPx);
   for (double v : rx) std::printf(" %.2f", v);
   std::printf("\n  autocorrelation along columns:");
   for (double v : ry) std::printf(" %.2f", v);
-  std::printf("\n  1/e lag: rows %.2f px, columns %.2f px; integral scale: rows %.2f px, columns %.2f px, mean %.2f px "
-              "(kMatchErrorCorrelationPx %.2f)\n",
-              ex, ey, lx, ly, l, kMatchErrorCorrelationPx);
+  std::printf(
+      "\n  1/e lag: rows %.2f px, columns %.2f px; integral scale: rows %.2f px, columns %.2f px, mean %.2f "
+      "px "
+      "(kMatchErrorCorrelationPx %.2f)\n",
+      ex, ey, lx, ly, l, kMatchErrorCorrelationPx);
   // The constant is this measurement (rounded); the errors are correlated over more than one pixel
   // (census window + SGM) and decorrelate within a few matching footprints.
   CHECK(std::fabs(l - kMatchErrorCorrelationPx) <= 0.15 * kMatchErrorCorrelationPx);
