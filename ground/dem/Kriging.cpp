@@ -70,19 +70,11 @@ struct CorrelatedNoise {
   }
 };
 
-// Along one axis: the mean correlation within a segment of m pixels (g) and between two segments whose
-// centres are d >= m pixels apart, for pixel correlation q^|k|, q = exp(-1 / L).
-double segmentVariance(double m, double q) {
-  const double s = q * (m * (1.0 - q) - 1.0 + std::pow(q, m)) / ((1.0 - q) * (1.0 - q));
+// Along one axis: the mean correlation within a segment of m pixels (g) for pixel correlation q^|k|,
+// q = exp(-1 / L), qm = q^m.
+double segmentVariance(double m, double q, double qm) {
+  const double s = q * (m * (1.0 - q) - 1.0 + qm) / ((1.0 - q) * (1.0 - q));
   return (m + 2.0 * s) / (m * m);
-}
-
-double segmentCorrelation(double d, double m, double q) {
-  const double g = segmentVariance(m, q);
-  const double a = (1.0 - std::pow(q, m)) / (1.0 - q);
-  const double at_m = q * a * a / (m * m) / g;  // adjacent segments (d = m)
-  if (d >= m) return at_m * std::pow(q, d - m);
-  return 1.0 + (at_m - 1.0) * d / m;  // overlapping along this axis: between 1 (same) and adjacent
 }
 
 // One ordinary-kriging solve (covariance form with the Lagrange row) for a query whose neighbours and
@@ -116,15 +108,25 @@ struct Solver {
 }  // namespace
 
 double patchVarianceFactor(double m_px, double l_px) {
-  if (!(l_px > 0.0)) return 1.0 / (std::max(1.0, m_px) * std::max(1.0, m_px));
-  const double g = segmentVariance(std::max(1.0, m_px), std::exp(-1.0 / l_px));
+  const double m = std::max(1.0, m_px);
+  if (!(l_px > 0.0)) return 1.0 / (m * m);
+  const double g = segmentVariance(m, std::exp(-1.0 / l_px), std::exp(-m / l_px));
   return g * g;
 }
 
+// Per axis: 1 for the same segment, at_m for adjacent ones (centres m apart: the mean over the pixel pairs
+// q * ((1 - q^m) / (1 - q))^2 / m^2, over g), at_m q^(d - m) beyond, linear in between (overlapping).
 double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px) {
   if (!(l_px > 0.0)) return dx_px == 0.0 && dy_px == 0.0 ? 1.0 : 0.0;
-  const double q = std::exp(-1.0 / l_px), m = std::max(1.0, m_px);
-  return segmentCorrelation(dx_px, m, q) * segmentCorrelation(dy_px, m, q);
+  const double m = std::max(1.0, m_px), q = std::exp(-1.0 / l_px), qm = std::exp(-m / l_px);
+  const double a = (1.0 - qm) / (1.0 - q);
+  const double at_m = q * a * a / (m * m) / segmentVariance(m, q, qm);
+  const bool far_x = dx_px >= m, far_y = dy_px >= m;
+  if (far_x && far_y) return at_m * at_m * std::exp(-(dx_px + dy_px - 2.0 * m) / l_px);
+  const auto axis = [&](double d, bool far) {
+    return far ? at_m * std::exp(-(d - m) / l_px) : 1.0 + (at_m - 1.0) * d / m;
+  };
+  return axis(dx_px, far_x) * axis(dy_px, far_y);
 }
 
 DemGrid gridAround(const std::vector<DemPoint>& points, double cell_m) {
@@ -194,12 +196,6 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
     res.model = fitVariogram(res.experimental);
   }
   res.max_gap_m = gap;
-  const double t1 = nowS();
-  res.variogram_seconds = t1 - t0;
-
-  res.elevation = grid;
-  res.elevation.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
-  res.sigma = res.elevation;
   CorrelatedNoise correlated{o.noise_correlation_px,
                              o.point_gsd_m != nullptr && o.point_gsd_m->size() == points.size() ? o.point_gsd_m
                                                                                               : nullptr,
@@ -212,6 +208,12 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
     res.signal_model = fitVariogram(res.signal_experimental);
     correlated.signal = res.signal_model;
   }
+  const double t1 = nowS();
+  res.variogram_seconds = t1 - t0;
+
+  res.elevation = grid;
+  res.elevation.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
+  res.sigma = res.elevation;
   Solver solver{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated};
   int32_t idx[kMaxNeighbours + 1];
   double d2[kMaxNeighbours + 1];
