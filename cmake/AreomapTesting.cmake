@@ -2,6 +2,23 @@
 # their add_dependencies, and the fuzz replays) and nothing else: no benchmark. The asan build presets build
 # this target only (`cmake --build --preset asan`), so the sanitizer build skips the benchmarks.
 add_custom_target(areomap_tests)
+# Sanitizer builds (the asan preset: the C/C++ flags hold -fsanitize=address). The process-level tests
+# (scripts that run the tools: e2e, kill-and-resume, soak, navcam replay) run the whole pipeline, which
+# ASan + UBSan make several times slower (e2e: ~1 min natively, 10 min under ASan at load 10); their CTest
+# TIMEOUT is multiplied by AREOMAP_TEST_TIMEOUT_SCALE there (areomap_script_test_timeout). What they check
+# is the same.
+if(CMAKE_CXX_FLAGS MATCHES "-fsanitize=[a-z,]*address" OR CMAKE_C_FLAGS MATCHES "-fsanitize=[a-z,]*address")
+  set(_scale 3)
+else()
+  set(_scale 1)
+endif()
+set(AREOMAP_TEST_TIMEOUT_SCALE ${_scale} CACHE STRING "TIMEOUT factor of the process-level tests (3 in sanitizer builds)")
+# areomap_script_test_timeout(TEST SECONDS): TIMEOUT SECONDS x AREOMAP_TEST_TIMEOUT_SCALE.
+function(areomap_script_test_timeout test seconds)
+  math(EXPR _t "${seconds} * ${AREOMAP_TEST_TIMEOUT_SCALE}")
+  set_tests_properties(${test} PROPERTIES TIMEOUT ${_t})
+endfunction()
+
 # areomap_cpputest(NAME SOURCES... LIBS... [LABELS ...])
 # One CppUTest executable; one CTest entry per TEST_GROUP found in its sources (`-sg GROUP`), so that
 # ctest reports every group. Sources are re-read when they change (CMAKE_CONFIGURE_DEPENDS).
