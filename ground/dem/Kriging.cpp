@@ -26,10 +26,11 @@ constexpr int kCalibrationSample = 400;   // points of the leave-one-out sigma c
 constexpr int kMinCalibrationPoints = 30;
 
 // The error variance of a cell's estimate sum_i w_i z_i when the points' errors are correlated
-// (Kriging.hpp): the interpolation variance under the SIGNAL variogram (fitted to the experimental
-// variogram less the points' noise semivariances: the noise-free surface; its nugget is sub-cell relief)
-//   2 sum_i w_i gamma_s(d_i0) - sum_ij w_i w_j gamma_s(d_ij)      (sum_i w_i = 1)
-// plus Var(sum_i w_i e_i) = sum_ij w_i w_j s_i s_j rho_ij, s_i the point's own sigma.
+// (Kriging.hpp): the interpolation variance under the SIGNAL variogram (fitted to the robust experimental
+// variogram less the points' noise semivariances: the noise-free surface), its nugget filtered (treated
+// as measurement error that the point sigmas do not explain, independent from point to point):
+//   2 sum_i w_i g(d_i0) - sum_ij w_i w_j g(d_ij),  g = the partial sill's part of gamma_s  (sum_i w_i = 1)
+// plus Var(sum_i w_i e_i) = sum_ij w_i w_j s_i s_j rho_ij (s_i the point's own sigma) + nugget sum_i w_i^2.
 struct CorrelatedNoise {
   double l_px = 0.0;
   const std::vector<float>* gsd = nullptr;
@@ -52,18 +53,21 @@ struct CorrelatedNoise {
            a.sigma_m * b.sigma_m * rho(a, b, (*gsd)[i], (*gsd)[j]);
   }
 
+  // The signal's semivariance without its nugget (filtered kriging: the nugget is measurement error).
+  double filtered(double h) const { return signal.partial_sill_m2 * (1.0 - signal.correlation(h)); }
+
   double variance(const std::vector<DemPoint>& points, int f, const int32_t* idx, const double* d2,
                   const double* w) const {
     double v = 0.0;
     for (int i = 0; i < f; ++i) {
       const std::size_t pi = static_cast<std::size_t>(idx[i]);
       const DemPoint& a = points[pi];
-      v += 2.0 * w[i] * signal.gamma(std::sqrt(d2[i])) + w[i] * w[i] * a.sigma_m * a.sigma_m;
+      v += 2.0 * w[i] * filtered(std::sqrt(d2[i])) + w[i] * w[i] * (a.sigma_m * a.sigma_m + signal.nugget_m2);
       for (int j = 0; j < i; ++j) {
         const std::size_t pj = static_cast<std::size_t>(idx[j]);
         const DemPoint& b = points[pj];
         const double h = std::hypot(a.north_m - b.north_m, a.east_m - b.east_m);
-        v += 2.0 * w[i] * w[j] * (a.sigma_m * b.sigma_m * rho(a, b, (*gsd)[pi], (*gsd)[pj]) - signal.gamma(h));
+        v += 2.0 * w[i] * w[j] * (a.sigma_m * b.sigma_m * rho(a, b, (*gsd)[pi], (*gsd)[pj]) - filtered(h));
       }
     }
     return v;

@@ -54,7 +54,8 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
   std::vector<double> sum_d(static_cast<std::size_t>(bins), 0.0), sum_g(sum_d.size(), 0.0);
   std::vector<int64_t> count(sum_d.size(), 0);
   std::vector<double> sum_noise(sum_d.size(), 0.0);
-  std::vector<std::vector<float>> half_d2(robust ? sum_d.size() : 0);  // robust: every pair's 1/2 dz^2
+  // robust: every pair's noise-free semivariance, 1/2 dz^2 / kMedianChi2 - its noise
+  std::vector<std::vector<float>> pair_g(robust ? sum_d.size() : 0);
   const double bin_w = max_lag_m / bins;
   auto add = [&](std::size_t i, std::size_t j) {
     const double dx = x[i] - x[j], dy = y[i] - y[j];
@@ -64,8 +65,9 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
     const double dz = z[i] - z[j];
     sum_d[b] += h;
     sum_g[b] += 0.5 * dz * dz;
-    if (robust) half_d2[b].push_back(static_cast<float>(0.5 * dz * dz));
-    if (pair_noise_m2) sum_noise[b] += pair_noise_m2(i, j);
+    const double pn = pair_noise_m2 ? pair_noise_m2(i, j) : 0.0;
+    if (robust) pair_g[b].push_back(static_cast<float>(0.5 * dz * dz / kMedianChi2 - pn));
+    sum_noise[b] += pn;
     ++count[b];
   };
   const int64_t all_pairs = static_cast<int64_t>(n) * static_cast<int64_t>(n > 0 ? n - 1 : 0) / 2;
@@ -103,13 +105,13 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
   for (std::size_t b = 0; b < sum_d.size(); ++b) {
     if (count[b] < 3) continue;
     ev.lag_m.push_back(sum_d[b] / count[b]);
-    double g = sum_g[b] / count[b];
+    double g = (sum_g[b] - sum_noise[b]) / count[b];
     if (robust) {
-      std::vector<float>& v = half_d2[b];
+      std::vector<float>& v = pair_g[b];
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      g = v[v.size() / 2] / kMedianChi2;
+      g = v[v.size() / 2];
     }
-    ev.gamma_m2.push_back(std::max(0.0, g - sum_noise[b] / count[b]));
+    ev.gamma_m2.push_back(std::max(0.0, g));
     ev.pairs.push_back(count[b]);
   }
   return ev;

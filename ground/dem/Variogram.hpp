@@ -39,9 +39,9 @@ struct ExperimentalVariogram {
 // random partners, so that short lags are well represented.
 // `pair_noise_m2` (optional): the semivariance of the two points' measurement errors, 1/2 Var(e_i - e_j),
 // subtracted from each pair's 1/2 (z_i - z_j)^2: the variogram of the noise-free surface. `robust`: each
-// lag's semivariance from the MEDIAN of 1/2 (z_i - z_j)^2 (over 0.4549, the median of chi^2 with 1 degree
-// of freedom: equal to the mean for Gaussian differences), so that a few gross errors (mismatches) do not
-// make the variogram of the bulk; the noise then subtracted as the lag's mean pair noise.
+// lag's semivariance is the MEDIAN over its pairs of 1/2 (z_i - z_j)^2 / 0.4549 less the pair's noise
+// (0.4549: the median of chi^2 with 1 degree of freedom, so that it equals the mean for Gaussian
+// differences), so that a few gross errors (mismatches) do not make the variogram of the bulk.
 ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const std::vector<double>& y,
                                             const std::vector<double>& z, double max_lag_m, int bins = 20,
                                             int64_t max_pairs = 2000000, uint32_t seed = 1,
