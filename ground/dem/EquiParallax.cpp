@@ -2,15 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
+#include <map>
 #include <stdexcept>
-#include <unordered_map>
+
+#include <Eigen/Dense>
 
 namespace areomap::dem {
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr int64_t kRowsPerPair = 65536;  // line id = pair id * 65536 + rectified row (dense::triangulateDisparity)
 
 double wrapAngle(double a) {
   while (a > kPi) a -= 2.0 * kPi;
@@ -46,19 +48,202 @@ bool sampleLine(const Line& l, double az, double max_gap, Sample& out) {
   return true;
 }
 
-void smooth(std::vector<double>& v, int half) {
-  if (half <= 0 || v.size() < 3) return;
-  std::vector<double> prefix(v.size() + 1, 0.0);
-  for (std::size_t i = 0; i < v.size(); ++i) prefix[i + 1] = prefix[i] + v[i];
-  const long n = static_cast<long>(v.size());
-  for (long i = 0; i < n; ++i) {
-    const long a = std::max(0L, i - half), b = std::min(n - 1, i + half);
-    v[static_cast<std::size_t>(i)] = (prefix[static_cast<std::size_t>(b + 1)] - prefix[static_cast<std::size_t>(a)]) /
-                                     static_cast<double>(b - a + 1);
+// A point of a pair before it is placed on its line: rectified row, azimuth (relative to the pair's
+// reference), horizontal range, elevation, distance from the ray origin and its inverse (the disparity up
+// to the factor f b and the depth/distance ratio, which varies slowly across the image).
+struct RayPoint {
+  double az, r, z, s, rho, q;
+  std::size_t index;   // in the input points
+  double scale = 1.0;  // fitted distance / measured distance
+};
+
+// Rows of one pair, each sorted by azimuth.
+struct PairRows {
+  double ref_az = 0.0;
+  std::map<int64_t, std::vector<RayPoint>> rows;  // rectified row -> points
+};
+
+// Median azimuth step between neighbouring points of a row (one image column).
+double columnStep(const std::vector<RayPoint>& row) {
+  std::vector<double> d;
+  for (std::size_t i = 1; i < row.size(); ++i) {
+    if (row[i].az > row[i - 1].az) d.push_back(row[i].az - row[i - 1].az);
+  }
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+
+struct WindowPoint {
+  double col, row, q, w;  // column and row offsets from the centre point, inverse distance, weight
+};
+
+// Fit q = c0 + c1 col [+ c2 row [+ c3 row^2]] (row_terms 0, 1 or 2) of the window, then `iterations`
+// reweightings with Tukey's biweight (c = 4.685 robust sigmas, the sigma from the median absolute
+// residual): mismatches (the disparity errors are heavy-tailed, ~6 % above 1 px on a rendered navcam pair)
+// get no weight. With row_terms 2 the row^2 term is dropped at the end unless it is significant. False
+// when the window cannot be fitted. The weights are left in `win`.
+bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iterations, std::vector<double>& res,
+                     double& c0) {
+  if (win.size() < 5) return false;
+  const auto basis = [row_terms](const WindowPoint& p) {
+    return Eigen::Vector4d(1.0, p.col, row_terms >= 1 ? p.row : 0.0, row_terms >= 2 ? p.row * p.row : 0.0);
+  };
+  Eigen::Vector4d c = Eigen::Vector4d::Zero();
+  for (int iter = 0; iter <= iterations; ++iter) {
+    Eigen::Matrix4d ata = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d atb = Eigen::Vector4d::Zero();
+    for (const WindowPoint& p : win) {
+      const Eigen::Vector4d x = basis(p);
+      ata.noalias() += p.w * x * x.transpose();
+      atb.noalias() += p.w * p.q * x;
+    }
+    for (int k = row_terms + 2; k < 4; ++k) ata(k, k) = 1.0;  // unused terms
+    if (ata(0, 0) < 3.0) return false;
+    const Eigen::LDLT<Eigen::Matrix4d> ldlt(ata);
+    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
+    c = ldlt.solve(atb);
+    if (!c.allFinite()) return false;
+    if (iter == iterations && row_terms == 2) {
+      // The row^2 term only where the curvature is significant (|c3| > 2 of its standard deviations, from
+      // the weighted residuals); elsewhere it would only add variance: refit without it, same weights.
+      double ss = 0.0, sw = 0.0;
+      for (const WindowPoint& p : win) {
+        const double r = p.q - c.dot(basis(p));
+        ss += p.w * r * r;
+        sw += p.w;
+      }
+      const double var_c3 = ss / std::max(1.0, sw - 4.0) * ldlt.solve(Eigen::Vector4d::UnitW())(3);
+      if (c(3) * c(3) > 4.0 * var_c3) break;
+      return robustAffineFit(win, 1, 0, res, c0);
+    }
+    if (iter == iterations) break;
+    res.resize(win.size());
+    for (std::size_t k = 0; k < win.size(); ++k) res[k] = std::fabs(win[k].q - c.dot(basis(win[k])));
+    std::vector<double> sorted = res;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const double scale = 4.685 * 1.4826 * sorted[sorted.size() / 2];
+    if (scale <= 0.0) break;
+    for (std::size_t k = 0; k < win.size(); ++k) {
+      const double u = res[k] / scale;
+      win[k].w = u < 1.0 ? (1.0 - u * u) * (1.0 - u * u) : 0.0;
+    }
+  }
+  c0 = c(0);
+  return c0 > 0.0;
+}
+
+// Replaces each point's inverse distance q by a local affine fit q = c0 + c1 column + c2 row over the
+// points within +-col_half columns and +-row_half rows (a plane is an affine disparity field in a
+// rectified pair, and the disparity noise is the same everywhere), then moves the point along its own ray
+// (through the ray origin) to the fitted distance: the range error, which lies along the ray, is averaged
+// in the domain where the regressors (row, column) are exact.
+void fitInverseDistance(PairRows& pr, int col_half, int row_half, bool quadratic_in_row, int robust_iterations,
+                        double origin_up_m) {
+  std::map<int64_t, double> steps;
+  for (const auto& kv : pr.rows) steps[kv.first] = columnStep(kv.second);
+  std::map<int64_t, std::vector<double>> fitted;
+  for (const auto& kv : pr.rows) {
+    const std::vector<RayPoint>& row = kv.second;
+    const double step = steps[kv.first];
+    std::vector<double>& out = fitted[kv.first];
+    out.resize(row.size());
+    for (std::size_t i = 0; i < row.size(); ++i) out[i] = row[i].q;
+    if (step <= 0.0 || col_half <= 0) continue;
+    const double w = col_half * step;
+    std::vector<WindowPoint> window;
+    std::vector<double> residuals;
+    for (std::size_t i = 0; i < row.size(); ++i) {
+      const double a = row[i].az;
+      window.clear();
+      int below = 0, above = 0;
+      for (auto it = pr.rows.lower_bound(kv.first - row_half); it != pr.rows.end() && it->first <= kv.first + row_half;
+           ++it) {
+        const std::vector<RayPoint>& nb = it->second;
+        auto lo = std::lower_bound(nb.begin(), nb.end(), a - w, [](const RayPoint& p, double v) { return p.az < v; });
+        const int d = static_cast<int>(it->first - kv.first);
+        for (auto p = lo; p != nb.end() && p->az <= a + w; ++p) {
+          window.push_back({(p->az - a) / step, static_cast<double>(d), p->q, 1.0});
+          below = std::max(below, -d);
+          above = std::max(above, d);
+        }
+      }
+      // Rows used: 1 = this row only, fit along it; 2 = affine across rows; 3 or more = a row^2 term too,
+      // kept only where it is significant.
+      const int spread = below + above;
+      const int row_terms = spread >= 2 && quadratic_in_row ? 2 : std::min(spread, 1);
+      double c0 = 0.0;
+      if (robustAffineFit(window, row_terms, robust_iterations, residuals, c0)) out[i] = c0;
+    }
+  }
+  for (auto& kv : pr.rows) {
+    const std::vector<double>& f = fitted[kv.first];
+    for (std::size_t i = 0; i < kv.second.size(); ++i) {
+      RayPoint& p = kv.second[i];
+      const double k = p.q / f[i];  // new distance / old distance
+      p.scale = k;
+      p.r *= k;
+      p.z = origin_up_m + (p.z - origin_up_m) * k;
+    }
   }
 }
 
+// The points with a line id beyond seam - blend - max_range_gap (so that the first lines bracket the
+// blend zone), grouped by pair and rectified row (line id = pair * 65536 + row), each row sorted by azimuth.
+std::vector<PairRows> groupRows(const std::vector<DemPoint>& points, const EquiParallaxOptions& o) {
+  const double r_min = o.seam_m - o.blend_m - o.max_range_gap_m;
+  std::map<int64_t, std::vector<std::size_t>> by_pair;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const DemPoint& p = points[i];
+    if (p.line < 0) continue;
+    if (std::hypot(p.north_m - o.centre_north_m, p.east_m - o.centre_east_m) < r_min) continue;
+    by_pair[p.line / kRowsPerPair].push_back(i);
+  }
+  std::vector<PairRows> out;
+  for (auto& g : by_pair) {
+    PairRows pr;
+    double sx = 0.0, sy = 0.0;
+    for (std::size_t i : g.second) {
+      const double a = std::atan2(points[i].east_m - o.centre_east_m, points[i].north_m - o.centre_north_m);
+      sx += std::cos(a);
+      sy += std::sin(a);
+    }
+    pr.ref_az = std::atan2(sy, sx);
+    for (std::size_t i : g.second) {
+      const DemPoint& p = points[i];
+      const double dn = p.north_m - o.centre_north_m, de = p.east_m - o.centre_east_m;
+      const double r = std::hypot(dn, de);
+      const double rho = std::hypot(r, p.elevation_m - o.centre_up_m);
+      if (rho <= 0.0) continue;
+      pr.rows[p.line % kRowsPerPair].push_back(
+          RayPoint{wrapAngle(std::atan2(de, dn) - pr.ref_az), r, p.elevation_m, p.sigma_m, rho, 1.0 / rho, i});
+    }
+    for (auto& kv : pr.rows) {
+      std::sort(kv.second.begin(), kv.second.end(), [](const RayPoint& x, const RayPoint& y) { return x.az < y.az; });
+    }
+    out.push_back(std::move(pr));
+  }
+  return out;
+}
+
 }  // namespace
+
+std::vector<DemPoint> fitAlongRays(const std::vector<DemPoint>& points, const EquiParallaxOptions& o) {
+  std::vector<DemPoint> out = points;
+  for (PairRows& pr : groupRows(points, o)) {
+    fitInverseDistance(pr, o.smoothing_half_window, o.row_half_window, o.quadratic_in_row, o.robust_iterations,
+                       o.centre_up_m);
+    for (const auto& kv : pr.rows) {
+      for (const RayPoint& rp : kv.second) {
+        DemPoint& p = out[rp.index];
+        p.north_m = o.centre_north_m + (p.north_m - o.centre_north_m) * rp.scale;
+        p.east_m = o.centre_east_m + (p.east_m - o.centre_east_m) * rp.scale;
+        p.elevation_m = o.centre_up_m + (p.elevation_m - o.centre_up_m) * rp.scale;
+      }
+    }
+  }
+  return out;
+}
 
 DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid, const EquiParallaxOptions& o,
                         DemGrid* sigma) {
@@ -67,45 +252,25 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
   out.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
   if (sigma != nullptr) *sigma = out;
   const double r_min = o.seam_m - o.blend_m;
-  // Lines: points grouped by id, beyond r_min less a margin so that the first lines bracket the blend zone.
-  std::unordered_map<int64_t, std::vector<std::size_t>> groups;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const DemPoint& p = points[i];
-    if (p.line < 0) continue;
-    if (std::hypot(p.north_m - o.centre_north_m, p.east_m - o.centre_east_m) < r_min - o.max_range_gap_m) continue;
-    groups[p.line].push_back(i);
-  }
   std::vector<Line> lines;
-  lines.reserve(groups.size());
-  for (auto& g : groups) {
-    if (g.second.size() < 2) continue;
-    Line l;
-    double sx = 0.0, sy = 0.0;
-    for (std::size_t i : g.second) {
-      const double a = std::atan2(points[i].east_m - o.centre_east_m, points[i].north_m - o.centre_north_m);
-      sx += std::cos(a);
-      sy += std::sin(a);
+  for (PairRows& pr : groupRows(points, o)) {
+    fitInverseDistance(pr, o.smoothing_half_window, o.row_half_window, o.quadratic_in_row, o.robust_iterations,
+                       o.centre_up_m);
+    for (const auto& kv : pr.rows) {
+      if (kv.second.size() < 2) continue;
+      Line l;
+      l.ref_az = pr.ref_az;
+      for (const RayPoint& p : kv.second) {
+        l.az.push_back(p.az);
+        l.r.push_back(p.r);
+        l.z.push_back(p.z);
+        l.s.push_back(p.s);
+      }
+      std::vector<double> rr = l.r;
+      std::nth_element(rr.begin(), rr.begin() + rr.size() / 2, rr.end());
+      l.median_r = rr[rr.size() / 2];
+      lines.push_back(std::move(l));
     }
-    l.ref_az = std::atan2(sy, sx);
-    std::vector<std::pair<double, std::size_t>> order;
-    for (std::size_t i : g.second) {
-      const double a = std::atan2(points[i].east_m - o.centre_east_m, points[i].north_m - o.centre_north_m);
-      order.emplace_back(wrapAngle(a - l.ref_az), i);
-    }
-    std::sort(order.begin(), order.end());
-    for (const auto& e : order) {
-      const DemPoint& p = points[e.second];
-      l.az.push_back(e.first);
-      l.r.push_back(std::hypot(p.north_m - o.centre_north_m, p.east_m - o.centre_east_m));
-      l.z.push_back(p.elevation_m);
-      l.s.push_back(p.sigma_m);
-    }
-    smooth(l.r, o.smoothing_half_window);
-    smooth(l.z, o.smoothing_half_window);
-    std::vector<double> rr = l.r;
-    std::nth_element(rr.begin(), rr.begin() + rr.size() / 2, rr.end());
-    l.median_r = rr[rr.size() / 2];
-    lines.push_back(std::move(l));
   }
   std::sort(lines.begin(), lines.end(), [](const Line& a, const Line& b) { return a.median_r < b.median_r; });
   std::vector<double> medians(lines.size());

@@ -550,6 +550,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     dem::EquiParallaxOptions eo;
     eo.centre_north_m = in.gimbal_site_m.x();
     eo.centre_east_m = in.gimbal_site_m.y();
+    eo.centre_up_m = -in.gimbal_site_m.z();
     eo.seam_m = options.seam_m;
     std::vector<dem::DemPoint> far;
     for (const dem::DemPoint& p : pts) {

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -21,32 +22,44 @@ double terrain(double n, double e) {
 // Points of a stereo rig 1.5 m above the ground at the origin looking over a 60 degree sector: one point
 // per image column (azimuth step 2/f) and row (depression atan(row/f)); range noise from the disparity
 // noise along the ray (sigma_r = r^2 sigma_d / (f b)). Each row is one equi-parallax line.
-std::vector<DemPoint> rigPoints(uint32_t seed) {
+// Distance along the ray from the rig (1.5 m up at the origin) in direction (dn, de, dz) to the terrain;
+// -1 when it does not reach it within 90 m.
+double castRay(double dn, double de, double dz) {
+  const double height_m = 1.5;
+  double t0 = 0.0, t1 = -1.0;  // march to the first crossing of the terrain, then bisect
+  for (double t = 0.5; t < 90.0; t += 0.5) {
+    if (height_m + t * dz < terrain(t * dn, t * de)) {
+      t1 = t;
+      break;
+    }
+    t0 = t;
+  }
+  if (t1 < 0.0) return -1.0;
+  for (int it = 0; it < 30; ++it) {
+    const double tm = 0.5 * (t0 + t1);
+    (height_m + tm * dz < terrain(tm * dn, tm * de) ? t1 : t0) = tm;
+  }
+  return 0.5 * (t0 + t1);
+}
+
+// `gross` of the points get a disparity error of +-2 px (mismatches) instead of the noise.
+std::vector<DemPoint> rigPoints(uint32_t seed, double gross = 0.0) {
   const double f_px = 800.0, base_m = 0.3, sigma_d_px = 0.2, height_m = 1.5;
   std::mt19937 rng(seed);
   std::normal_distribution<double> unit(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::vector<DemPoint> pts;
   for (int row = 18; row <= 260; ++row) {
     const double alpha = std::atan(row / f_px);
     for (double az = -0.5; az <= 0.5; az += 2.0 / f_px) {
       const double dn = std::cos(alpha) * std::cos(az), de = std::cos(alpha) * std::sin(az), dz = -std::sin(alpha);
-      // March to the first crossing of the terrain, then bisect.
-      double t0 = 0.0, t1 = -1.0;
-      for (double t = 0.5; t < 90.0; t += 0.5) {
-        if (height_m + t * dz < terrain(t * dn, t * de)) {
-          t1 = t;
-          break;
-        }
-        t0 = t;
-      }
-      if (t1 < 0.0) continue;
-      for (int it = 0; it < 30; ++it) {
-        const double tm = 0.5 * (t0 + t1);
-        (height_m + tm * dz < terrain(tm * dn, tm * de) ? t1 : t0) = tm;
-      }
-      const double t = 0.5 * (t0 + t1);
+      const double t = castRay(dn, de, dz);
+      if (t < 0.0) continue;
       const double sr = t * t * sigma_d_px / (f_px * base_m);
-      const double tn = t + sr * unit(rng);
+      const bool mismatch = gross > 0.0 && uniform(rng) < gross;
+      const double tn = mismatch ? 1.0 / (1.0 / t + (uniform(rng) < 0.5 ? -2.0 : 2.0) / (f_px * base_m))
+                                 : t + sr * unit(rng);
+      if (tn <= 0.0) continue;
       DemPoint p;
       p.north_m = tn * dn;
       p.east_m = tn * de;
@@ -57,6 +70,23 @@ std::vector<DemPoint> rigPoints(uint32_t seed) {
     }
   }
   return pts;
+}
+
+// RMS over the points 20-55 m out of |1/measured distance - 1/true distance| * f b (the disparity error,
+// px) along each point's own ray.
+double disparityRms(const std::vector<DemPoint>& pts) {
+  double ss = 0;
+  long long n = 0;
+  for (const DemPoint& p : pts) {
+    const double dz = p.elevation_m - 1.5, h = std::hypot(p.north_m, p.east_m), rho = std::hypot(h, dz);
+    if (h < 20.0 || h > 55.0) continue;
+    const double t = castRay(p.north_m / rho, p.east_m / rho, dz / rho);
+    if (t < 0.0) continue;
+    const double e = (1.0 / rho - 1.0 / t) * 800.0 * 0.3;
+    ss += e * e;
+    ++n;
+  }
+  return std::sqrt(ss / std::max(1LL, n));
 }
 
 }  // namespace
@@ -73,6 +103,7 @@ TEST(EquiParallax, BeatsKrigingBeyondTwentyMetres) {
   grid.rows = 124;
   KrigingResult kr = krigeDem(pts, grid, KrigingOptions{});
   EquiParallaxOptions o;
+  o.centre_up_m = 1.5;  // the rig's cameras
   areomap::DemGrid far_sigma;
   const areomap::DemGrid far = equiParallaxDem(pts, grid, o, &far_sigma);
   KrigingResult blended = kr;
@@ -122,5 +153,30 @@ TEST(EquiParallax, BlendIsContinuousAtTheSeam) {
     const double r = g.northOfRow(row);
     const double w = std::clamp((r - 18.0) / 4.0, 0.0, 1.0);
     DOUBLES_EQUAL(1.0 + 2.0 * w, k.elevation.at(0, row), 1e-6);
+  }
+}
+
+TEST(EquiParallax, FitAlongRaysAveragesTheDisparityNoiseAndIgnoresMismatches) {
+  // 0.2 px of independent disparity noise, 3 % mismatches of +-2 px: the fitted points, each moved along
+  // its own ray, have a fraction of the raw disparity error (a +-20 column x +-3 row window holds ~280
+  // points); a least-squares fit (no reweighting) lets the mismatches through.
+  const std::vector<DemPoint> pts = rigPoints(5, 0.03);
+  EquiParallaxOptions o;
+  o.centre_up_m = 1.5;
+  const double raw = disparityRms(pts), fitted = disparityRms(fitAlongRays(pts, o));
+  o.robust_iterations = 0;
+  const double least_squares = disparityRms(fitAlongRays(pts, o));
+  std::printf("\ndisparity error RMS 20-55 m: raw %.3f px, fitted %.3f px, fitted without reweighting %.3f px\n", raw,
+              fitted, least_squares);
+  CHECK(raw > 0.3);
+  CHECK(fitted < 0.4 * raw);
+  CHECK(fitted < least_squares);
+  // The points stay on their rays: azimuth and depression unchanged.
+  o.robust_iterations = EquiParallaxOptions{}.robust_iterations;
+  const std::vector<DemPoint> moved = fitAlongRays(pts, o);
+  for (std::size_t i = 0; i < pts.size(); i += 97) {
+    DOUBLES_EQUAL(std::atan2(pts[i].east_m, pts[i].north_m), std::atan2(moved[i].east_m, moved[i].north_m), 1e-9);
+    DOUBLES_EQUAL(std::atan2(pts[i].elevation_m - 1.5, std::hypot(pts[i].north_m, pts[i].east_m)),
+                  std::atan2(moved[i].elevation_m - 1.5, std::hypot(moved[i].north_m, moved[i].east_m)), 1e-9);
   }
 }
