@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <stdexcept>
+#include <thread>
 
 #include <Eigen/Dense>
 
@@ -12,7 +13,8 @@ namespace areomap::dem {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int64_t kRowsPerPair = 65536;  // line id = pair id * 65536 + rectified row (dense::triangulateDisparity)
+// Line id = pair id * 65536 + rectified row (dense::triangulateDisparity).
+constexpr int64_t kRowsPerPair = 65536;
 
 double wrapAngle(double a) {
   while (a > kPi) a -= 2.0 * kPi;
@@ -21,7 +23,7 @@ double wrapAngle(double a) {
 }
 
 struct Line {
-  double ref_az = 0.0;            // azimuth the relative angles are taken from
+  double ref_az = 0.0;              // azimuth the relative angles are taken from
   std::vector<double> az, r, z, s;  // sorted by relative azimuth
   double median_r = 0.0;
 };
@@ -84,7 +86,7 @@ struct WindowPoint {
 // get no weight. With row_terms 2 the row^2 term is dropped at the end unless it is significant. False
 // when the window cannot be fitted. The weights are left in `win`.
 bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iterations, std::vector<double>& res,
-                     double& c0) {
+                     std::vector<double>& sorted, double& c0) {
   if (win.size() < 5) return false;
   const auto basis = [row_terms](const WindowPoint& p) {
     return Eigen::Vector4d(1.0, p.col, row_terms >= 1 ? p.row : 0.0, row_terms >= 2 ? p.row * p.row : 0.0);
@@ -115,12 +117,12 @@ bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iteration
       }
       const double var_c3 = ss / std::max(1.0, sw - 4.0) * ldlt.solve(Eigen::Vector4d::UnitW())(3);
       if (c(3) * c(3) > 4.0 * var_c3) break;
-      return robustAffineFit(win, 1, 0, res, c0);
+      return robustAffineFit(win, 1, 0, res, sorted, c0);
     }
     if (iter == iterations) break;
     res.resize(win.size());
     for (std::size_t k = 0; k < win.size(); ++k) res[k] = std::fabs(win[k].q - c.dot(basis(win[k])));
-    std::vector<double> sorted = res;
+    sorted = res;
     std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
     const double scale = 4.685 * 1.4826 * sorted[sorted.size() / 2];
     if (scale <= 0.0) break;
@@ -138,44 +140,61 @@ bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iteration
 // rectified pair, and the disparity noise is the same everywhere), then moves the point along its own ray
 // (through the ray origin) to the fitted distance: the range error, which lies along the ray, is averaged
 // in the domain where the regressors (row, column) are exact.
-void fitInverseDistance(PairRows& pr, int col_half, int row_half, bool quadratic_in_row, int robust_iterations,
-                        double origin_up_m) {
+void fitInverseDistance(PairRows& pr, int col_half, int row_half, bool quadratic_in_row,
+                        int robust_iterations, double origin_up_m) {
   std::map<int64_t, double> steps;
   for (const auto& kv : pr.rows) steps[kv.first] = columnStep(kv.second);
+  // The rows are fitted in parallel (row k by thread k mod T); each reads the measured q of its neighbours
+  // and writes only its own fitted values, so the result does not depend on the thread count.
   std::map<int64_t, std::vector<double>> fitted;
-  for (const auto& kv : pr.rows) {
-    const std::vector<RayPoint>& row = kv.second;
-    const double step = steps[kv.first];
-    std::vector<double>& out = fitted[kv.first];
-    out.resize(row.size());
-    for (std::size_t i = 0; i < row.size(); ++i) out[i] = row[i].q;
-    if (step <= 0.0 || col_half <= 0) continue;
-    const double w = col_half * step;
-    std::vector<WindowPoint> window;
-    std::vector<double> residuals;
-    for (std::size_t i = 0; i < row.size(); ++i) {
-      const double a = row[i].az;
-      window.clear();
-      int below = 0, above = 0;
-      for (auto it = pr.rows.lower_bound(kv.first - row_half); it != pr.rows.end() && it->first <= kv.first + row_half;
-           ++it) {
-        const std::vector<RayPoint>& nb = it->second;
-        auto lo = std::lower_bound(nb.begin(), nb.end(), a - w, [](const RayPoint& p, double v) { return p.az < v; });
-        const int d = static_cast<int>(it->first - kv.first);
-        for (auto p = lo; p != nb.end() && p->az <= a + w; ++p) {
-          window.push_back({(p->az - a) / step, static_cast<double>(d), p->q, 1.0});
-          below = std::max(below, -d);
-          above = std::max(above, d);
-        }
-      }
-      // Rows used: 1 = this row only, fit along it; 2 = affine across rows; 3 or more = a row^2 term too,
-      // kept only where it is significant.
-      const int spread = below + above;
-      const int row_terms = spread >= 2 && quadratic_in_row ? 2 : std::min(spread, 1);
-      double c0 = 0.0;
-      if (robustAffineFit(window, row_terms, robust_iterations, residuals, c0)) out[i] = c0;
-    }
+  std::vector<std::map<int64_t, std::vector<RayPoint>>::const_iterator> order;
+  for (auto it = pr.rows.cbegin(); it != pr.rows.cend(); ++it) {
+    order.push_back(it);
+    fitted[it->first];
   }
+  const int threads = std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16);
+  const auto work = [&](int t) {
+    std::vector<WindowPoint> window;
+    std::vector<double> residuals, sorted;
+    for (std::size_t k = static_cast<std::size_t>(t); k < order.size();
+         k += static_cast<std::size_t>(threads)) {
+      const auto& kv = *order[k];
+      const std::vector<RayPoint>& row = kv.second;
+      const double step = steps.at(kv.first);
+      std::vector<double>& out = fitted.at(kv.first);
+      out.resize(row.size());
+      for (std::size_t i = 0; i < row.size(); ++i) out[i] = row[i].q;
+      if (step <= 0.0 || col_half <= 0) continue;
+      const double w = col_half * step;
+      for (std::size_t i = 0; i < row.size(); ++i) {
+        const double a = row[i].az;
+        window.clear();
+        int below = 0, above = 0;
+        for (auto it = pr.rows.lower_bound(kv.first - row_half);
+             it != pr.rows.end() && it->first <= kv.first + row_half; ++it) {
+          const std::vector<RayPoint>& nb = it->second;
+          auto lo = std::lower_bound(nb.begin(), nb.end(), a - w,
+                                     [](const RayPoint& p, double v) { return p.az < v; });
+          const int d = static_cast<int>(it->first - kv.first);
+          for (auto p = lo; p != nb.end() && p->az <= a + w; ++p) {
+            window.push_back({(p->az - a) / step, static_cast<double>(d), p->q, 1.0});
+            below = std::max(below, -d);
+            above = std::max(above, d);
+          }
+        }
+        // Rows used: 1 = this row only, fit along it; 2 = affine across rows; 3 or more = a row^2 term too,
+        // kept only where it is significant.
+        const int spread = below + above;
+        const int row_terms = spread >= 2 && quadratic_in_row ? 2 : std::min(spread, 1);
+        double c0 = 0.0;
+        if (robustAffineFit(window, row_terms, robust_iterations, residuals, sorted, c0)) out[i] = c0;
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(work, t);
+  work(0);
+  for (std::thread& th : pool) th.join();
   for (auto& kv : pr.rows) {
     const std::vector<double>& f = fitted[kv.first];
     for (std::size_t i = 0; i < kv.second.size(); ++i) {
@@ -215,11 +234,12 @@ std::vector<PairRows> groupRows(const std::vector<DemPoint>& points, const EquiP
       const double r = std::hypot(dn, de);
       const double rho = std::hypot(r, p.elevation_m - o.centre_up_m);
       if (rho <= 0.0) continue;
-      pr.rows[p.line % kRowsPerPair].push_back(
-          RayPoint{wrapAngle(std::atan2(de, dn) - pr.ref_az), r, p.elevation_m, p.sigma_m, rho, 1.0 / rho, i});
+      pr.rows[p.line % kRowsPerPair].push_back(RayPoint{wrapAngle(std::atan2(de, dn) - pr.ref_az), r,
+                                                        p.elevation_m, p.sigma_m, rho, 1.0 / rho, i});
     }
     for (auto& kv : pr.rows) {
-      std::sort(kv.second.begin(), kv.second.end(), [](const RayPoint& x, const RayPoint& y) { return x.az < y.az; });
+      std::sort(kv.second.begin(), kv.second.end(),
+                [](const RayPoint& x, const RayPoint& y) { return x.az < y.az; });
     }
     out.push_back(std::move(pr));
   }
@@ -231,8 +251,8 @@ std::vector<PairRows> groupRows(const std::vector<DemPoint>& points, const EquiP
 std::vector<DemPoint> fitAlongRays(const std::vector<DemPoint>& points, const EquiParallaxOptions& o) {
   std::vector<DemPoint> out = points;
   for (PairRows& pr : groupRows(points, o)) {
-    fitInverseDistance(pr, o.smoothing_half_window, o.row_half_window, o.quadratic_in_row, o.robust_iterations,
-                       o.centre_up_m);
+    fitInverseDistance(pr, o.smoothing_half_window, o.row_half_window, o.quadratic_in_row,
+                       o.robust_iterations, o.centre_up_m);
     for (const auto& kv : pr.rows) {
       for (const RayPoint& rp : kv.second) {
         DemPoint& p = out[rp.index];
@@ -245,8 +265,8 @@ std::vector<DemPoint> fitAlongRays(const std::vector<DemPoint>& points, const Eq
   return out;
 }
 
-DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid, const EquiParallaxOptions& o,
-                        DemGrid* sigma) {
+DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid,
+                        const EquiParallaxOptions& o, DemGrid* sigma) {
   if (grid.cols <= 0 || grid.rows <= 0) throw std::invalid_argument("equi-parallax: bad grid");
   DemGrid out = grid;
   out.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
@@ -254,8 +274,8 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
   const double r_min = o.seam_m - o.blend_m;
   std::vector<Line> lines;
   for (PairRows& pr : groupRows(points, o)) {
-    fitInverseDistance(pr, o.smoothing_half_window, o.row_half_window, o.quadratic_in_row, o.robust_iterations,
-                       o.centre_up_m);
+    fitInverseDistance(pr, o.smoothing_half_window, o.row_half_window, o.quadratic_in_row,
+                       o.robust_iterations, o.centre_up_m);
     for (const auto& kv : pr.rows) {
       if (kv.second.size() < 2) continue;
       Line l;
@@ -309,15 +329,17 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
   return out;
 }
 
-void blendFarRange(KrigingResult& kriged, const DemGrid& far, const DemGrid* far_sigma, const EquiParallaxOptions& o) {
+void blendFarRange(KrigingResult& kriged, const DemGrid& far, const DemGrid* far_sigma,
+                   const EquiParallaxOptions& o) {
   DemGrid& z = kriged.elevation;
   DemGrid& s = kriged.sigma;
   if (far.cols != z.cols || far.rows != z.rows) throw std::invalid_argument("blendFarRange: grids differ");
   for (int row = 0; row < z.rows; ++row) {
     for (int col = 0; col < z.cols; ++col) {
       const double r = std::hypot(z.northOfRow(row) - o.centre_north_m, z.eastOfCol(col) - o.centre_east_m);
-      const double w = o.blend_m > 0.0 ? std::clamp((r - (o.seam_m - o.blend_m)) / (2.0 * o.blend_m), 0.0, 1.0)
-                                        : (r >= o.seam_m ? 1.0 : 0.0);
+      const double w = o.blend_m > 0.0
+                           ? std::clamp((r - (o.seam_m - o.blend_m)) / (2.0 * o.blend_m), 0.0, 1.0)
+                           : (r >= o.seam_m ? 1.0 : 0.0);
       if (w <= 0.0) continue;
       const float fz = far.at(col, row);
       if (fz == far.nodata) continue;
