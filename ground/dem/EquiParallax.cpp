@@ -8,13 +8,13 @@
 
 #include <Eigen/Dense>
 
+#include "ground/dense/LineId.hpp"
+
 namespace areomap::dem {
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-// Line id = pair id * 65536 + rectified row (dense::triangulateDisparity).
-constexpr int64_t kRowsPerPair = 65536;
 
 double wrapAngle(double a) {
   while (a > kPi) a -= 2.0 * kPi;
@@ -208,7 +208,7 @@ void fitInverseDistance(PairRows& pr, int col_half, int row_half, bool quadratic
 }
 
 // The points with a line id beyond seam - blend - max_range_gap (so that the first lines bracket the
-// blend zone), grouped by pair and rectified row (line id = pair * 65536 + row), each row sorted by azimuth.
+// blend zone), grouped by pair and rectified row (dense::lineId), each row sorted by azimuth.
 std::vector<PairRows> groupRows(const std::vector<DemPoint>& points, const EquiParallaxOptions& o) {
   const double r_min = o.seam_m - o.blend_m - o.max_range_gap_m;
   std::map<int64_t, std::vector<std::size_t>> by_pair;
@@ -216,7 +216,7 @@ std::vector<PairRows> groupRows(const std::vector<DemPoint>& points, const EquiP
     const DemPoint& p = points[i];
     if (p.line < 0) continue;
     if (std::hypot(p.north_m - o.centre_north_m, p.east_m - o.centre_east_m) < r_min) continue;
-    by_pair[p.line / kRowsPerPair].push_back(i);
+    by_pair[dense::linePair(p.line)].push_back(i);
   }
   std::vector<PairRows> out;
   for (auto& g : by_pair) {
@@ -234,7 +234,7 @@ std::vector<PairRows> groupRows(const std::vector<DemPoint>& points, const EquiP
       const double r = std::hypot(dn, de);
       const double rho = std::hypot(r, p.elevation_m - o.centre_up_m);
       if (rho <= 0.0) continue;
-      pr.rows[p.line % kRowsPerPair].push_back(RayPoint{wrapAngle(std::atan2(de, dn) - pr.ref_az), r,
+      pr.rows[dense::lineRow(p.line)].push_back(RayPoint{wrapAngle(std::atan2(de, dn) - pr.ref_az), r,
                                                         p.elevation_m, p.sigma_m, rho, 1.0 / rho, i});
     }
     for (auto& kv : pr.rows) {

@@ -36,7 +36,7 @@ struct EquiParallaxOptions {
 // without a line id or short of seam - blend - max_range_gap are returned unchanged.
 std::vector<DemPoint> fitAlongRays(const std::vector<DemPoint>& points, const EquiParallaxOptions& o);
 
-// Equi-parallax DEM of the points with a line id (DemPoint::line >= 0: pair id * 65536 + rectified row)
+// Equi-parallax DEM of the points with a line id (DemPoint::line >= 0: dense::lineId(pair id, rectified row))
 // on `grid`; nodata where no pair of lines brackets a cell or inside seam - blend. Values also in `sigma`
 // (the line points' sigmas, interpolated the same way) when it is non-null.
 DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid, const EquiParallaxOptions& o,

@@ -8,6 +8,7 @@
 
 #include "ground/dem/KdTree.hpp"
 #include "ground/dem/KrigingSystem.hpp"
+#include "ground/dense/LineId.hpp"
 
 namespace areomap::dem {
 
@@ -20,7 +21,6 @@ double nowS() {
 constexpr int kGapSample = 2000;  // points sampled for the automatic gap limit
 constexpr double kLagPerNeighbourhood = 3.0;  // automatic variogram extent, in neighbourhood radii
 
-constexpr int64_t kLinesPerPair = 65536;  // DemPoint::line = pair id * 65536 + row (dense::triangulateDisparity)
 
 constexpr int kCalibrationSample = 400;   // points of the leave-one-out sigma calibration
 constexpr int kMinCalibrationPoints = 30;
@@ -40,7 +40,7 @@ struct CorrelatedNoise {
   bool on() const { return l_px > 0.0 && gsd != nullptr; }
 
   double rho(const DemPoint& a, const DemPoint& b, double gsd_a, double gsd_b) const {
-    if (a.line >= 0 && b.line >= 0 && a.line / kLinesPerPair != b.line / kLinesPerPair) return 0.0;  // other images
+    if (a.line >= 0 && b.line >= 0 && dense::linePair(a.line) != dense::linePair(b.line)) return 0.0;  // other images
     const double g = std::max(1e-6, 0.5 * (gsd_a + gsd_b));
     return patchCorrelation(std::fabs(a.north_m - b.north_m) / g, std::fabs(a.east_m - b.east_m) / g,
                             std::max(1.0, bin_m / g), l_px);

@@ -9,6 +9,8 @@
 
 #include <Eigen/Dense>
 
+#include "ground/dense/LineId.hpp"
+
 namespace areomap::dense {
 
 namespace {
@@ -135,7 +137,7 @@ std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const Came
         continue;
       }
       p.grey = grey.empty() ? 0 : grey.at<uint8_t>(y, x);
-      p.line = pair_id * 65536 + y;
+      p.line = lineId(pair_id, y);
       cloud.push_back(p);
       ++stats.triangulated;
     }

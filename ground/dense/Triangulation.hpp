@@ -21,7 +21,7 @@ struct CloudPoint {
   Mat3 covariance_m2 = Mat3::Zero();  // from the pixel sigma through the intersection
   double residual_px = 0.0;            // RMS reprojection residual of the intersection
   uint8_t grey = 0;
-  int64_t line = -1;                   // equi-parallax line: pair id * 65536 + left row
+  int64_t line = -1;                   // equi-parallax line: lineId(pair id, left row) (LineId.hpp)
   double sigmaHeight_m() const { return std::sqrt(std::max(0.0, covariance_m2(2, 2))); }
 };
 

@@ -19,6 +19,7 @@
 #include "ground/dem/EquiParallax.hpp"
 #include "ground/dem/Kriging.hpp"
 #include "ground/dense/DenseMatcher.hpp"
+#include "ground/dense/LineId.hpp"
 #include "ground/dense/Rectification.hpp"
 #include "ground/dense/Triangulation.hpp"
 #include "ground/ortho/Orthoimage.hpp"
@@ -131,7 +132,7 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
     if (!keep(p)) continue;
     const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
     const long long r = static_cast<long long>(std::floor((grid.north0_m - p.north_m) / grid.cell_m));
-    const long long pair = p.line >= 0 ? (p.line / 65536 + 1) % kPairSlots : 0;
+    const long long pair = p.line >= 0 ? (dense::linePair(p.line) + 1) % kPairSlots : 0;
     Acc& a = bins[(r * 1000003LL + c) * kPairSlots + pair];
     a.n += 1;
     a.x += p.north_m;
@@ -167,7 +168,7 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
     p.east_m = all.y / all.n;
     p.elevation_m = all.z / all.n;
     p.sigma_m = std::sqrt(var_n2) / all.n;
-    p.line = pair_max > 0 ? (pair_max - 1) * 65536 : -1;  // the pair of most of its points (row 0)
+    p.line = pair_max > 0 ? dense::lineId(pair_max - 1, 0) : -1;  // the pair of most of its points (row 0)
     out.emplace_back(p, static_cast<float>(grid.cell_m / std::sqrt(n_max)));
   }
   using Binned = std::pair<dem::DemPoint, float>;

@@ -88,7 +88,7 @@ TEST(Triangulation, DisparityMapToCloudAndPly) {
   for (const CloudPoint& p : cloud) worst = std::max(worst, std::abs(p.site_m.z()));
   std::printf("\nflat ground: %lld points, largest |Z| %.2e m\n", st.triangulated, worst);
   CHECK(worst < 1e-4);  // float32 disparities
-  CHECK_EQUAL(3 * 65536 + 600, cloud.front().line);
+  CHECK_EQUAL(3 * 65536 + 600, cloud.front().line);  // lineId(3, 600), written out
   const std::string path = areomap::test::scratchDir("triangulation") + "/points.ply";
   writePly(path, cloud, "test");
   std::ifstream f(path, std::ios::binary);
