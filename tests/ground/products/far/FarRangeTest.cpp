@@ -11,6 +11,8 @@
 // Label `long` (runs with AREOMAP_LONG_TESTS=1): ~25 s CPU, 75 s to 3 min wall on the shared 2-core machine.
 // It FAILS today (BENCHMARKS.md, far range): equi-parallax wins 20-30, 30-45 and 20-60 m and loses 45-60 m,
 // where the matcher's disparities are biased (+0.33 px against truth): averaging cannot remove a bias.
+// The test prints that bias per range band (printDisparityErrors); AREOMAP_FAR_SUPERSAMPLE=N renders the
+// pair with N x N rays per pixel instead of 2 x 2 (diagnostic).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -40,6 +42,8 @@ void farView(sim::SimConfig& c) {
   t.pan0_deg = 30.0;  // along a diagonal of the terrain square: the farthest ground
   c.tiers = {t};
   c.max_range_m = 60.0;
+  // Diagnostic knob (issue 10, the far-range bias): the renderer's rays per pixel side (default 2).
+  if (const char* ss = std::getenv("AREOMAP_FAR_SUPERSAMPLE")) c.supersample = std::max(1, std::atoi(ss));
 }
 
 struct BandRmse {
@@ -70,6 +74,118 @@ bool seenInTruth(const products::ProductInputs& in, const DemGrid& truth, const 
     if (!blocked) return true;
   }
   return false;
+}
+
+// Distance along the ray (origin o, unit direction u) to the true DEM: 5 cm march, then bisection.
+// Returns false when the ray leaves the DEM or stays above it up to max_m.
+bool trueDistance(const DemGrid& truth, const Vec3& o, const Vec3& u, double max_m, double& dist) {
+  double prev = 0.5;
+  for (double t = 0.5; t < max_m; t += 0.05) {
+    const Vec3 x = o + t * u;
+    double ground = 0;
+    if (!ortho::demElevation(truth, x.x(), x.y(), ground)) return false;
+    if (-x.z() < ground) {
+      double a = prev, b = t;
+      for (int k = 0; k < 20; ++k) {
+        const double m = 0.5 * (a + b);
+        const Vec3 xm = o + m * u;
+        double g = 0;
+        ortho::demElevation(truth, xm.x(), xm.y(), g);
+        (-xm.z() < g ? b : a) = m;
+      }
+      dist = 0.5 * (a + b);
+      return true;
+    }
+    prev = t;
+  }
+  return false;
+}
+
+// Sorts (key, error) pairs by key and prints the mean error of each of `groups` equal groups.
+void printGroups(const char* key, std::vector<std::pair<double, double>>& v, std::size_t groups) {
+  std::sort(v.begin(), v.end());
+  const std::size_t q = v.size() / groups;
+  for (std::size_t k = 0; k < groups && q > 0; ++k) {
+    double s = 0;
+    for (std::size_t i = k * q; i < (k + 1) * q; ++i) s += v[i].second;
+    std::printf("\n      %s %.2f..%.2f: mean error %+.3f px", key, v[k * q].first, v[(k + 1) * q - 1].first,
+                s / static_cast<double>(q));
+  }
+}
+
+// Diagnostic (issue 10, the far-range bias): the disparity error of each far point, (1/measured - 1/true
+// distance) * f b along its own ray from the left camera (true distance: that ray cast into the true
+// DEM), binned by true range; mean, median, sd, share beyond 1 px; and apart for the points within 3 rows
+// ABOVE a depth edge of the true surface (the true disparity 3 rows below exceeds the point's by > 1 px:
+// a nearer surface there that the 7-row census window reaches, foreground fattening); then the mean error
+// by quintile of that 3-row disparity step (the surface's slant in rows: grazing back slopes have large
+// steps) and by quartile of the image texture around the point. BENCHMARKS.md, far range, has the result
+// (the bias follows the slant in every matcher tried and shrinks with the renderer's supersampling).
+void printDisparityErrors(const products::ProductInputs& in, const DemGrid& truth,
+                          const std::vector<dem::DemPoint>& far) {
+  const CameraModel& lm = in.images[static_cast<std::size_t>(in.pairs.front().left)].model;
+  const CameraModel& rm = in.images[static_cast<std::size_t>(in.pairs.front().right)].model;
+  const double b = (lm.c - rm.c).norm();
+  const double f = lm.h.cross(lm.a).norm();  // |A x H| = horizontal focal length in pixels
+  const double fb = f * b;
+  struct Bin {
+    double lo, hi;
+    std::vector<double> e[2];  // [0] away from edges, [1] within 3 rows above a depth edge
+    std::vector<std::pair<double, double>> tex;  // (window grey sd, error) away from edges
+    std::vector<std::pair<double, double>> jump;  // (true d 3 rows below - true d here, error), all points
+  } bins[3] = {{20, 30, {}, {}, {}}, {30, 45, {}, {}, {}}, {45, 60, {}, {}, {}}};
+  const cv::Mat& grey = in.images[static_cast<std::size_t>(in.pairs.front().left)].grey;
+  for (const dem::DemPoint& p : far) {
+    const Vec3 x(p.north_m, p.east_m, -p.elevation_m);
+    const Vec3 d = x - lm.c;
+    const double measured = d.norm();
+    double t = 0;
+    if (!trueDistance(truth, lm.c, d / measured, 90.0, t)) continue;
+    Vec2 px;
+    if (project(lm, x, px) != Status::kOk) continue;
+    bool edge = false;
+    Vec3 o, u;
+    double t3 = 0, jump = NAN;
+    if (unproject(lm, Vec2(px.x(), px.y() + 3.0), o, u) == Status::kOk && trueDistance(truth, o, u, 90.0, t3)) {
+      jump = fb / t3 - fb / t;
+      edge = jump > 1.0;
+    }
+    const Vec3 tp = lm.c + t * d / measured;
+    const double range = std::hypot(tp.x() - in.gimbal_site_m.x(), tp.y() - in.gimbal_site_m.y());
+    for (Bin& bin : bins) {
+      if (range >= bin.lo && range < bin.hi) {
+        bin.e[edge ? 1 : 0].push_back(fb / measured - fb / t);
+        if (!std::isnan(jump)) bin.jump.emplace_back(jump, fb / measured - fb / t);
+        const int cx = static_cast<int>(std::lround(px.x())), cy = static_cast<int>(std::lround(px.y()));
+        if (!edge && cx >= 4 && cy >= 3 && cx + 4 < grey.cols && cy + 3 < grey.rows) {
+          cv::Scalar m, sd;
+          cv::meanStdDev(grey(cv::Rect(cx - 4, cy - 3, 9, 7)), m, sd);
+          bin.tex.emplace_back(sd[0], fb / measured - fb / t);
+        }
+      }
+    }
+  }
+  std::printf("\n  disparity error of the far points against truth (f b = %.1f px m), by true range:", fb);
+  for (Bin& bin : bins) {
+    for (int k = 0; k < 2; ++k) {
+      std::vector<double>& e = bin.e[k];
+      if (e.empty()) continue;
+      double s = 0, s2 = 0;
+      long long big = 0;
+      for (double v : e) {
+        s += v;
+        s2 += v * v;
+        big += std::fabs(v) > 1.0;
+      }
+      const double n = static_cast<double>(e.size());
+      std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+      std::printf("\n  %2.0f-%2.0f m %-18s %7zu points: mean %+.3f px, median %+.3f px, sd %.3f px, %.1f %% beyond 1 px",
+                  bin.lo, bin.hi, k == 0 ? "away from edges" : "above a depth edge", e.size(), s / n,
+                  e[e.size() / 2], std::sqrt(std::max(0.0, s2 / n - (s / n) * (s / n))), 100.0 * big / n);
+    }
+    printGroups("true d 3 rows below - here, px", bin.jump, 5);
+    printGroups("9x7 window grey sd, away from edges", bin.tex, 4);
+  }
 }
 
 }  // namespace
@@ -108,6 +224,7 @@ TEST(FarRange, EquiParallaxBeatsKrigingAloneBeyondTwentyMetres) {
       far.push_back(p);
     }
   }
+  printDisparityErrors(scene.inputs, *scene.inputs.truth_dem, far);
   DemGrid far_sigma;
   const auto t0 = std::chrono::steady_clock::now();
   const DemGrid far_dem = dem::equiParallaxDem(far, with.elevation, eo, &far_sigma);
