@@ -10,13 +10,8 @@
 #include <cstdlib>
 #include <cstring>
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#if AREOMAP_SANITIZER_BUILD
 #define AREOMAP_HEAP_COUNTER_DISABLED 1
-#endif
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
-#define AREOMAP_HEAP_COUNTER_DISABLED 1
-#endif
 #endif
 
 namespace {

@@ -9,6 +9,19 @@
 
 #include <cstdint>
 
+// 1 in a translation unit compiled with a sanitizer that owns malloc (GCC's __SANITIZE_* or clang's
+// __has_feature), else 0. The counter compiles itself out there; tests that assert on it skip.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define AREOMAP_SANITIZER_BUILD 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
+#define AREOMAP_SANITIZER_BUILD 1
+#endif
+#endif
+#ifndef AREOMAP_SANITIZER_BUILD
+#define AREOMAP_SANITIZER_BUILD 0
+#endif
+
 namespace areomap {
 
 // True when allocations are being counted in this process.
