@@ -12,7 +12,7 @@
 // It FAILS today (BENCHMARKS.md, far range): equi-parallax wins 20-30, 30-45 and 20-60 m and loses 45-60 m,
 // where the matcher's disparities are biased (+0.33 px against truth): averaging cannot remove a bias.
 // The test prints that bias per range band (printDisparityErrors); AREOMAP_FAR_SUPERSAMPLE=N renders the
-// pair with N x N rays per pixel instead of 2 x 2 (diagnostic).
+// pair with N x N rays per pixel (N = 1-4, the simulator's range) instead of 2 x 2 (diagnostic).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -42,7 +42,7 @@ void farView(sim::SimConfig& c) {
   t.pan0_deg = 30.0;  // along a diagonal of the terrain square: the farthest ground
   c.tiers = {t};
   c.max_range_m = 60.0;
-  // Diagnostic knob (issue 10, the far-range bias): the renderer's rays per pixel side (default 2).
+  // Diagnostic knob (issue 10, the far-range bias): the renderer's rays per pixel side (1-4, default 2).
   if (const char* ss = std::getenv("AREOMAP_FAR_SUPERSAMPLE")) c.supersample = std::max(1, std::atoi(ss));
 }
 
