@@ -10,7 +10,10 @@
 // in truth in every band 20-30, 30-45, 45-60 m and over 20-60 m.
 // Label `long` (runs with AREOMAP_LONG_TESTS=1): ~25 s CPU, 75 s to 3 min wall on the shared 2-core machine.
 // It FAILS today (BENCHMARKS.md, far range): equi-parallax wins 20-30, 30-45 and 20-60 m and loses 45-60 m,
-// where the matcher's disparities are biased (+0.33 px against truth): averaging cannot remove a bias.
+// where the far disparities are biased (+0.33 px against truth; averaging cannot remove a bias). The bias
+// is in every matcher tried (ours, OpenCV's BM and SGBM) and halves with 4x4 rays per pixel: most likely the
+// rendered texture aliasing along the range at grazing incidence (ground/sim/Terrain::albedo band-limits it
+// by the lateral pixel footprint only), not the matcher (BENCHMARKS.md, far range).
 // The test prints that bias per range band (printDisparityErrors); AREOMAP_FAR_SUPERSAMPLE=N renders the
 // pair with N x N rays per pixel (N = 1-4, the simulator's range) instead of 2 x 2 (diagnostic).
 #include <algorithm>
