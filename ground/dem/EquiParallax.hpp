@@ -6,8 +6,9 @@
 // and columns (with a row^2 term where the curvature across rows is significant): a plane is an affine
 // disparity field, the disparity noise is uniform, and the regressors are exact, whereas a point's range
 // error lies along its ray (a fit of height on range, tried before, regresses on the noisy variable). Each
-// point is moved along its own ray to the fitted distance. A cell is then interpolated along the two rows that bracket it in range (linearly in
-// azimuth), then linearly in range between them. The result is blended with kriging across the seam.
+// point is moved along its own ray to the fitted distance. A cell is then interpolated along the two rows
+// that bracket it in range (linearly in azimuth), then linearly in range between them. The result is
+// blended with kriging across the seam.
 #pragma once
 
 #include "ground/dataset/DemRaster.hpp"

@@ -21,7 +21,6 @@ double nowS() {
 constexpr int kGapSample = 2000;  // points sampled for the automatic gap limit
 constexpr double kLagPerNeighbourhood = 3.0;  // automatic variogram extent, in neighbourhood radii
 
-
 constexpr int kCalibrationSample = 400;   // points of the leave-one-out sigma calibration
 constexpr int kMinCalibrationPoints = 30;
 
