@@ -50,11 +50,11 @@ bool sampleLine(const Line& l, double az, double max_gap, Sample& out) {
   return true;
 }
 
-// A point of a pair before it is placed on its line: rectified row, azimuth (relative to the pair's
-// reference), horizontal range, elevation, distance from the ray origin and its inverse (the disparity up
-// to the factor f b and the depth/distance ratio, which varies slowly across the image).
+// A point of a pair before it is placed on its line: azimuth (relative to the pair's reference),
+// horizontal range, elevation, sigma, and its inverse distance from the ray origin (the disparity up to the
+// factor f b and the depth/distance ratio, which varies slowly across the image).
 struct RayPoint {
-  double az, r, z, s, rho, q;
+  double az, r, z, s, q;
   std::size_t index;   // in the input points
   double scale = 1.0;  // fitted distance / measured distance
 };
@@ -235,7 +235,7 @@ std::vector<PairRows> groupRows(const std::vector<DemPoint>& points, const EquiP
       const double rho = std::hypot(r, p.elevation_m - o.centre_up_m);
       if (rho <= 0.0) continue;
       pr.rows[dense::lineRow(p.line)].push_back(RayPoint{wrapAngle(std::atan2(de, dn) - pr.ref_az), r,
-                                                        p.elevation_m, p.sigma_m, rho, 1.0 / rho, i});
+                                                        p.elevation_m, p.sigma_m, 1.0 / rho, i});
     }
     for (auto& kv : pr.rows) {
       std::sort(kv.second.begin(), kv.second.end(),
@@ -246,13 +246,21 @@ std::vector<PairRows> groupRows(const std::vector<DemPoint>& points, const EquiP
   return out;
 }
 
+// groupRows, each pair's points moved along their rays by fitInverseDistance with the options' window.
+std::vector<PairRows> fittedRows(const std::vector<DemPoint>& points, const EquiParallaxOptions& o) {
+  std::vector<PairRows> pairs = groupRows(points, o);
+  for (PairRows& pr : pairs) {
+    fitInverseDistance(pr, o.smoothing_half_window, o.row_half_window, o.quadratic_in_row,
+                       o.robust_iterations, o.centre_up_m);
+  }
+  return pairs;
+}
+
 }  // namespace
 
 std::vector<DemPoint> fitAlongRays(const std::vector<DemPoint>& points, const EquiParallaxOptions& o) {
   std::vector<DemPoint> out = points;
-  for (PairRows& pr : groupRows(points, o)) {
-    fitInverseDistance(pr, o.smoothing_half_window, o.row_half_window, o.quadratic_in_row,
-                       o.robust_iterations, o.centre_up_m);
+  for (const PairRows& pr : fittedRows(points, o)) {
     for (const auto& kv : pr.rows) {
       for (const RayPoint& rp : kv.second) {
         DemPoint& p = out[rp.index];
@@ -273,9 +281,7 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
   if (sigma != nullptr) *sigma = out;
   const double r_min = o.seam_m - o.blend_m;
   std::vector<Line> lines;
-  for (PairRows& pr : groupRows(points, o)) {
-    fitInverseDistance(pr, o.smoothing_half_window, o.row_half_window, o.quadratic_in_row,
-                       o.robust_iterations, o.centre_up_m);
+  for (const PairRows& pr : fittedRows(points, o)) {
     for (const auto& kv : pr.rows) {
       if (kv.second.size() < 2) continue;
       Line l;

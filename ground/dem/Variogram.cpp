@@ -105,11 +105,13 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
   for (std::size_t b = 0; b < sum_d.size(); ++b) {
     if (count[b] < 3) continue;
     ev.lag_m.push_back(sum_d[b] / count[b]);
-    double g = (sum_g[b] - sum_noise[b]) / count[b];
+    double g = 0.0;
     if (robust) {
       std::vector<float>& v = pair_g[b];
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       g = v[v.size() / 2];
+    } else {
+      g = (sum_g[b] - sum_noise[b]) / count[b];
     }
     ev.gamma_m2.push_back(std::max(0.0, g));
     ev.pairs.push_back(count[b]);

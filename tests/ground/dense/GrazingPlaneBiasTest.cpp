@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ground/dense/DenseMatcher.hpp"
+#include "tests/ground/dense/TexturePair.hpp"
 
 #include <CppUTest/TestHarness.h>
 
@@ -25,7 +26,6 @@ constexpr int kWidth = 480, kHeight = 240, kHorizon = 40;
 constexpr double kSlope = 0.2 / 1.5;  // px of disparity per row below the horizon
 constexpr int kSky = 140;             // grey of the textureless sky
 
-
 struct Look {
   double contrast = 255.0;  // grey range of the texture
   double blur_px = 1.0;     // Gaussian blur of the random field
@@ -34,8 +34,8 @@ struct Look {
   double d0 = 0.0;          // disparity at the horizon row (the terrain's far edge)
   double fade_rows = 0.0;   // > 0: texture contrast grows as (y - horizon) / fade_rows (capped at 1):
                             // farther rows, more averaged by the pixel footprint, carry less texture
-  bool sky = true;
-  double slope = kSlope;          // textureless above the horizon (else the texture goes on at disparity d0)
+  bool sky = true;          // textureless above the horizon (else the texture goes on at disparity d0)
+  double slope = kSlope;    // px of disparity per row below the horizon
 };
 Look g_look;
 
@@ -47,17 +47,8 @@ void grazingPair(cv::Mat& left, cv::Mat& right, const Look& look) {
   cv::Mat tex(kHeight + 2 * pad, kWidth + 2 * pad, CV_32FC1);
   rng.fill(tex, cv::RNG::UNIFORM, 128.0 - 0.5 * look.contrast, 128.0 + 0.5 * look.contrast);
   cv::GaussianBlur(tex, tex, cv::Size(0, 0), look.blur_px, look.blur_px / look.squash);
-  cv::Mat lx(kHeight, kWidth, CV_32FC1), rx(kHeight, kWidth, CV_32FC1), my(kHeight, kWidth, CV_32FC1);
-  for (int y = 0; y < kHeight; ++y) {
-    for (int x = 0; x < kWidth; ++x) {
-      lx.at<float>(y, x) = static_cast<float>(x + pad);
-      rx.at<float>(y, x) = static_cast<float>(x + trueDisparity(y) + pad);  // right(xr) = T(xr + d)
-      my.at<float>(y, x) = static_cast<float>(y + pad);
-    }
-  }
-  cv::Mat l, r;
-  cv::remap(tex, l, lx, my, cv::INTER_CUBIC, cv::BORDER_REFLECT);
-  cv::remap(tex, r, rx, my, cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  cv::Mat l, r;  // right(xr) = T(xr + d)
+  areomap::test::remapPair(tex, pad, kWidth, kHeight, [](int x, int y) { return x + trueDisparity(y); }, l, r);
   if (look.fade_rows > 0.0) {
     for (int y = 0; y < kHeight; ++y) {
       const double g = std::clamp((y - kHorizon) / look.fade_rows, 0.05, 1.0);

@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ground/dense/DenseMatcher.hpp"
+#include "tests/ground/dense/TexturePair.hpp"
 
 #include <CppUTest/TestHarness.h>
 
@@ -35,17 +36,8 @@ void slantedPair(cv::Mat& left, cv::Mat& right) {
   cv::Mat tex(h + 2 * pad, w + 2 * pad, CV_32FC1);
   rng.fill(tex, cv::RNG::UNIFORM, 0.0, 255.0);
   cv::GaussianBlur(tex, tex, cv::Size(0, 0), 1.0);
-  cv::Mat lx(h, w, CV_32FC1), rx(h, w, CV_32FC1), my(h, w, CV_32FC1);
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      lx.at<float>(y, x) = static_cast<float>(x + pad);
-      rx.at<float>(y, x) = static_cast<float>((x + kA + kC * y) / (1.0 - kB) + pad);
-      my.at<float>(y, x) = static_cast<float>(y + pad);
-    }
-  }
   cv::Mat l, r;
-  cv::remap(tex, l, lx, my, cv::INTER_CUBIC, cv::BORDER_REFLECT);
-  cv::remap(tex, r, rx, my, cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  areomap::test::remapPair(tex, pad, w, h, [](int x, int y) { return (x + kA + kC * y) / (1.0 - kB); }, l, r);
   l.convertTo(left, CV_8UC1);
   r.convertTo(right, CV_8UC1);
 }
