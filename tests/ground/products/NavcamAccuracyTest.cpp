@@ -61,20 +61,13 @@ const NavcamRun& navcam() {
   return run;
 }
 
-// A ground point is seen in truth when some true camera projects it inside its image and the ray from the
-// camera reaches it before hitting the terrain elsewhere.
+// A ground point is seen in truth (test::seenInTruth) when the ray from the camera reaches it before
+// hitting the terrain elsewhere.
 bool seenInTruth(const NavcamRun& run, const Vec3& point) {
-  for (const products::ProductImage& im : run.scene.inputs.images) {
-    Vec2 px;
-    if (project(im.model, point, px) != Status::kOk) continue;
-    if (px.x() < 0 || px.y() < 0 || px.x() > im.grey.cols - 1 || px.y() > im.grey.rows - 1) continue;
-    const Vec3 d = point - im.model.c;
-    const double dist = d.norm();
+  return test::seenInTruth(run.scene.inputs, point, [&run](const Vec3& c, const Vec3& u, double dist) {
     double t = 0;
-    if (!run.terrain.castRay(im.model.c, d / dist, t, dist + 1.0)) continue;
-    if (t >= dist - 0.03) return true;
-  }
-  return false;
+    return run.terrain.castRay(c, u, t, dist + 1.0) && t >= dist - 0.03;
+  });
 }
 
 }  // namespace

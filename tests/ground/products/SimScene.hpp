@@ -66,4 +66,20 @@ inline SimScene makeSimScene(const std::string& preset, int pairs, void (*edit)(
   return s;
 }
 
+// The "seen in truth": some true camera of `in` projects the ground point inside its image and
+// `clear(camera centre, unit direction, distance)` finds no terrain between the camera and the point (each
+// test says how it casts the ray).
+template <class Clear>
+bool seenInTruth(const products::ProductInputs& in, const Vec3& point, const Clear& clear) {
+  for (const products::ProductImage& im : in.images) {
+    Vec2 px;
+    if (project(im.model, point, px) != Status::kOk) continue;
+    if (px.x() < 0 || px.y() < 0 || px.x() > im.grey.cols - 1 || px.y() > im.grey.rows - 1) continue;
+    const Vec3 d = point - im.model.c;
+    const double dist = d.norm();
+    if (clear(im.model.c, Vec3(d / dist), dist)) return true;
+  }
+  return false;
+}
+
 }  // namespace areomap::test

@@ -61,22 +61,15 @@ struct BandRmse {
 // bilinear, 2 cm tolerance) until 0.5 m before the point (at grazing incidence the ray runs within
 // centimetres of the ground there). Cells behind relief are extrapolations for both methods.
 bool seenInTruth(const products::ProductInputs& in, const DemGrid& truth, const Vec3& point) {
-  for (const products::ProductImage& im : in.images) {
-    Vec2 px;
-    if (project(im.model, point, px) != Status::kOk) continue;
-    if (px.x() < 0 || px.y() < 0 || px.x() > im.grey.cols - 1 || px.y() > im.grey.rows - 1) continue;
-    const Vec3 d = point - im.model.c;
-    const double dist = d.norm();
-    const Vec3 u = d / dist;
+  return test::seenInTruth(in, point, [&truth](const Vec3& c, const Vec3& u, double dist) {
     bool blocked = false;
     for (double t = 0.5; t < dist - 0.5 && !blocked; t += 0.05) {
-      const Vec3 x = im.model.c + t * u;
+      const Vec3 x = c + t * u;
       double ground = 0;
       blocked = ortho::demElevation(truth, x.x(), x.y(), ground) && -x.z() < ground - 0.02;
     }
-    if (!blocked) return true;
-  }
-  return false;
+    return !blocked;
+  });
 }
 
 // Distance along the ray (origin o, unit direction u) to the true DEM: 5 cm march, then bisection.
