@@ -21,6 +21,41 @@ double skyDn(const Eigen::Vector3d& dir) {
   return kSkyDn - 60.0 * std::clamp(elevation / (30.0 * kDeg), 0.0, 1.0);
 }
 
+// The most taps a ray's footprint is integrated with along its long axis (see footprintRadiance).
+constexpr int kMaxFootprintTaps = 32;
+
+// Radiance integrated over a ray's footprint on the surface, not read at its centre alone. A ray stands
+// for a sub-pixel of angular size `ray_rad`; where it meets the surface at incidence cosine |dir . n| its
+// footprint is ray_rad * t across and ray_rad * t / |dir . n| along the projection of the ray on the surface
+// (~30x longer at 50 m from a 1.5 m mast). Across it the texture is already band-limited (Terrain::albedo
+// fades octaves below 1.5 pixel footprints); along it the albedo and the Lambert term are averaged over taps
+// spaced at most 0.75 pixel footprints apart (a box filter; a cast shadow is taken at the centre). Without
+// this, grazing ground aliases its texture along the range and each view of a stereo pair aliases it
+// differently, which biased far disparities (BENCHMARKS.md, "Far range on a rendered scene").
+double footprintRadiance(const Terrain& terrain, const Eigen::Vector3d& hit, const Eigen::Vector3d& dir,
+                         const Eigen::Vector3d& normal, double t, double ray_rad, double pixel_rad,
+                         const Eigen::Vector3d& sun, double shadow) {
+  auto radiance = [&](double x, double y, const Eigen::Vector3d& n) {
+    const double direct = std::max(0.0, n.dot(sun)) * shadow;
+    return terrain.albedo(x, y) * (kAmbient + (1.0 - kAmbient) * direct / std::max(0.2, -sun.z()) * 0.8);
+  };
+  const double cos_incidence = std::max(0.01, std::fabs(dir.dot(normal)));
+  const double length_m = ray_rad * t / cos_incidence;
+  const double spacing_m = 0.75 * pixel_rad * t;
+  const int taps = std::clamp(static_cast<int>(std::ceil(length_m / spacing_m)), 1, kMaxFootprintTaps);
+  if (taps == 1) return radiance(hit.x(), hit.y(), normal);
+  Eigen::Vector3d along = dir - dir.dot(normal) * normal;
+  if (along.squaredNorm() < 1e-18) return radiance(hit.x(), hit.y(), normal);
+  along *= length_m / along.norm();
+  const bool flat = normal.z() == -1.0 && normal.x() == 0.0 && normal.y() == 0.0;  // the far plane
+  double sum = 0.0;
+  for (int k = 0; k < taps; ++k) {
+    const Eigen::Vector3d p = hit + ((k + 0.5) / taps - 0.5) * along;
+    sum += radiance(p.x(), p.y(), flat ? normal : terrain.normal(p.x(), p.y()));
+  }
+  return sum / taps;
+}
+
 }  // namespace
 
 RenderedImage renderImage(const Terrain& terrain, const SimConfig& config, const CameraModel& model, int image_index) {
@@ -34,6 +69,7 @@ RenderedImage renderImage(const Terrain& terrain, const SimConfig& config, const
   const int s = config.supersample;
   const uint64_t noise_seed = hash3(config.seed, 0x1a6e, image_index);
   const double far_elevation = terrain.farElevation();
+  const double pixel_rad = 1.0 / config.focalPx();
 
   parallelFor(image.height, config.threads, [&](int row) {
     for (int col = 0; col < image.width; ++col) {
@@ -65,13 +101,12 @@ RenderedImage renderImage(const Terrain& terrain, const SimConfig& config, const
             sum += skyDn(dir);
             continue;
           }
-          double direct = std::max(0.0, normal.dot(sun));
-          if (config.shadows && direct > 0.0 && on_grid) {
+          double shadow = 1.0;
+          if (config.shadows && normal.dot(sun) > 0.0 && on_grid) {
             double ts = 0.0;
-            if (terrain.castRay(hit + 1e-3 * normal, sun, ts)) direct = 0.0;
+            if (terrain.castRay(hit + 1e-3 * normal, sun, ts)) shadow = 0.0;
           }
-          const double radiance = terrain.albedo(hit.x(), hit.y()) * (kAmbient + (1.0 - kAmbient) * direct / std::max(0.2, -sun.z()) * 0.8);
-          sum += kExposureDn * radiance;
+          sum += kExposureDn * footprintRadiance(terrain, hit, dir, normal, t, pixel_rad / s, pixel_rad, sun, shadow);
         }
       }
       double dn = sum / (s * s);
