@@ -7,19 +7,27 @@ namespace areomap::dem {
 
 namespace {
 
-// v <- C^-1 v for C = L L^T (L row-major lower triangle, rows kMaxNeighbours apart): L u = v, L^T v = u.
-void solveInPlace(const double* l, int f, double* v) {
-  constexpr int n = kMaxNeighbours;
-  for (int i = 0; i < f; ++i) {
-    double a = v[i];
-    const double* li = &l[i * n];
-    for (int k = 0; k < i; ++k) a -= li[k] * v[k];
-    v[i] = a / li[i];
+// v <- C^-1 v for C = L L^T, U = L^T (rows f apart), for one right-hand side or two at once (their chains
+// interleave): L t = v column by column, then L^T v = t row by row. Every entry subtracts its terms in the
+// order of the row-by-row substitution (k ascending), so the result does not depend on the layout.
+template <int kRhs>
+void solveInPlace(const double* u, int f, double* const (&v)[kRhs]) {
+  for (int k = 0; k < f; ++k) {
+    const double* uk = &u[k * f];
+    for (int r = 0; r < kRhs; ++r) {
+      double* vr = v[r];
+      vr[k] /= uk[k];
+      for (int i = k + 1; i < f; ++i) vr[i] -= uk[i] * vr[k];
+    }
   }
   for (int i = f - 1; i >= 0; --i) {
-    double a = v[i];
-    for (int k = i + 1; k < f; ++k) a -= l[k * n + i] * v[k];
-    v[i] = a / l[i * n + i];
+    const double* ui = &u[i * f];
+    for (int r = 0; r < kRhs; ++r) {
+      double* vr = v[r];
+      double a = vr[i];
+      for (int k = i + 1; k < f; ++k) a -= ui[k] * vr[k];
+      vr[i] = a / ui[i];
+    }
   }
 }
 
@@ -32,37 +40,65 @@ KrigingSystem::KrigingSystem(const std::vector<DemPoint>& points, const Variogra
       psill_(std::max(model.partial_sill_m2, 1e-12)),
       jitter_(1e-9 * (std::max(model.partial_sill_m2, 1e-12) + model.nugget_m2)) {}
 
-// C = L L^T for the cached set (row-major lower triangle); y = C^-1 1, s = 1^T y.
-bool KrigingSystem::factorise(int f) {
-  ++factorisations_;
-  constexpr int n = kMaxNeighbours;
+// C of the new set (ascending indices) into the other buffer, which becomes the current one: entries of two
+// points that were both in the cached set are copied, the others computed.
+void KrigingSystem::covariances(int f, const int32_t* set) {
+  const double* before = cov_[current_];
+  double* c = cov_[1 - current_];
+  const int before_f = cached_f_;
+  int was_at[kMaxNeighbours];  // position of set[i] in the cached set, -1 if new (both ascending: a merge)
+  for (int i = 0, j = 0; i < f; ++i) {
+    while (j < before_f && cached_idx_[j] < set[i]) ++j;
+    was_at[i] = j < before_f && cached_idx_[j] == set[i] ? j : -1;
+  }
   for (int i = 0; i < f; ++i) {
-    const DemPoint& pi = points_[static_cast<std::size_t>(cached_idx_[i])];
-    double* li = &l_[i * n];
-    for (int j = 0; j <= i; ++j) {
-      double a;
-      if (j == i) {
-        a = psill_ + noise(pi) + jitter_;
+    const DemPoint& pi = points_[static_cast<std::size_t>(set[i])];
+    double* ci = &c[i * f];
+    const double* bi = was_at[i] >= 0 ? &before[was_at[i] * before_f] : nullptr;
+    for (int j = 0; j < i; ++j) {
+      if (bi != nullptr && was_at[j] >= 0) {
+        ci[j] = bi[was_at[j]];
       } else {
-        const DemPoint& pj = points_[static_cast<std::size_t>(cached_idx_[j])];
+        const DemPoint& pj = points_[static_cast<std::size_t>(set[j])];
         const double dn = pi.north_m - pj.north_m, de = pi.east_m - pj.east_m;
-        a = psill_ * model_.correlation(std::sqrt(dn * dn + de * de));
-      }
-      const double* lj = &l_[j * n];
-      for (int k = 0; k < j; ++k) a -= li[k] * lj[k];
-      if (j < i) {
-        li[j] = a / lj[j];
-      } else {
-        if (!(a > 0.0)) return false;
-        li[i] = std::sqrt(a);
+        ci[j] = psill_ * model_.correlation(std::sqrt(dn * dn + de * de));
       }
     }
+    ci[i] = psill_ + noise(pi) + jitter_;
   }
-  for (int i = 0; i < f; ++i) y_[i] = 1.0;
-  solveInPlace(l_, f, y_);
-  s_ = 0.0;
-  for (int i = 0; i < f; ++i) s_ += y_[i];
-  return s_ > 0.0 && std::isfinite(s_);
+  current_ = 1 - current_;
+  cached_f_ = f;
+  std::copy(set, set + f, cached_idx_);
+}
+
+// C = L L^T of the cached set into u_ (U = L^T), keeping the columns of L before `first_changed` (rows of U
+// the same as for the last set) when the size is unchanged. Right-looking: step k finishes column k of L and
+// subtracts its part from the entries to its right.
+bool KrigingSystem::factorise(int f, int first_changed) {
+  ++factorisations_;
+  const double* c = cov_[current_];
+  const int p = first_changed;
+  for (int i = p; i < f; ++i)
+    for (int m = 0; m <= i; ++m) u_[m * f + i] = c[i * f + m];
+  for (int k = 0; k < f; ++k) {
+    double* uk = &u_[k * f];
+    if (k >= p) {
+      if (!(uk[k] > 0.0)) {
+        factor_rows_ = k;
+        return false;
+      }
+      uk[k] = std::sqrt(uk[k]);
+    }
+    const int i0 = std::max(p, k + 1);
+    for (int i = i0; i < f; ++i) uk[i] /= uk[k];
+    for (int m = k + 1; m < f; ++m) {
+      const double lmk = uk[m];
+      double* um = &u_[m * f];
+      for (int i = std::max(m, p); i < f; ++i) um[i] -= lmk * uk[i];
+    }
+  }
+  factor_rows_ = f;
+  return true;
 }
 
 bool KrigingSystem::solve(int f, const int32_t* idx, const double* d2, double* w, double* c) {
@@ -78,21 +114,37 @@ bool KrigingSystem::solve(int f, const int32_t* idx, const double* d2, double* w
     }
     order[j] = i;
   }
-  bool same = cached_f_ == f;
-  for (int i = 0; same && i < f; ++i) same = cached_idx_[i] == idx[order[i]];
+  int32_t set[kMaxNeighbours];
+  for (int i = 0; i < f; ++i) set[i] = idx[order[i]];
+  // The first canonical position where the set differs from the cached one (f: the same set).
+  int same_up_to = 0;
+  if (cached_f_ == f) {
+    while (same_up_to < f && cached_idx_[same_up_to] == set[same_up_to]) ++same_up_to;
+  }
+  const bool same = same_up_to == f;
+  double x[kMaxNeighbours];
   if (same) {
     ++reuses_;
+    if (!cached_ok_) return false;
   } else {
-    cached_f_ = f;
-    for (int i = 0; i < f; ++i) cached_idx_[i] = idx[order[i]];
-    cached_ok_ = factorise(f);
+    const int keep = cached_f_ == f ? std::min(same_up_to, factor_rows_) : 0;
+    covariances(f, set);
+    cached_ok_ = factorise(f, keep);
+    if (!cached_ok_) return false;
   }
-  if (!cached_ok_) return false;
-  // x = C^-1 c in the canonical order (c in the caller's order).
-  double x[kMaxNeighbours];
+  // x = C^-1 c in the canonical order (c in the caller's order); with a new factorisation y = C^-1 1 too.
   for (int i = 0; i < f; ++i) c[i] = psill_ * model_.correlation(std::sqrt(d2[i]));
   for (int i = 0; i < f; ++i) x[i] = c[order[i]];
-  solveInPlace(l_, f, x);
+  if (same) {
+    solveInPlace<1>(u_, f, {x});
+  } else {
+    std::fill(y_, y_ + f, 1.0);
+    solveInPlace<2>(u_, f, {y_, x});
+    s_ = 0.0;
+    for (int i = 0; i < f; ++i) s_ += y_[i];
+    cached_ok_ = s_ > 0.0 && std::isfinite(s_);
+    if (!cached_ok_) return false;
+  }
   double sum_x = 0.0;
   for (int i = 0; i < f; ++i) sum_x += x[i];
   const double mu = (sum_x - 1.0) / s_;

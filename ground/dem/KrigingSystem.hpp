@@ -12,6 +12,14 @@
 // kept and reused when the next cell has the same neighbours (cells denser than the points), and a cell's
 // result never depends on which cell was solved before it (rows can be split between threads and the
 // result stays identical). Fixed storage (kMaxNeighbours): no allocation per cell. One object per thread.
+//
+// A new set usually differs from the last one by a point or two (the next cell along a row), and every
+// number of the factorisation is computed as if from scratch, so the parts that do not change are kept
+// bit for bit: the covariance of two points that were both in the last set is copied (no exp), and the
+// rows of L before the first changed canonical position are kept (row i of L depends only on rows and
+// columns 0..i of C). L is computed column by column (right-looking): each entry still subtracts its terms
+// in the same order as the textbook row-by-row loop, so the factor is the same bit for bit, but the entries
+// of a column are independent of each other and do not wait on one chain of additions.
 #pragma once
 
 #include <cstdint>
@@ -41,18 +49,24 @@ class KrigingSystem {
   long long reuses() const { return reuses_; }
 
  private:
-  bool factorise(int f);
+  void covariances(int f, const int32_t* set);
+  bool factorise(int f, int first_changed);
 
   const std::vector<DemPoint>& points_;
   VariogramModel model_;
   bool use_point_sigma_;
   double psill_, jitter_;
-  // The cached neighbour set (ascending indices), its Cholesky factor (row-major lower triangle, row i
-  // at l_[i * kMaxNeighbours]), y = C^-1 1 and s = 1^T y.
+  // The cached neighbour set (ascending indices); its covariance matrix C (lower triangle, row i at
+  // cov_[current_][i * cached_f_]; the other buffer holds the set before, for copying); U = L^T, the
+  // transposed Cholesky factor (upper triangle, row k at u_[k * cached_f_]: column k of L), complete in its
+  // first factor_rows_ columns (all of them unless the factorisation failed); y = C^-1 1 and s = 1^T y.
   int cached_f_ = 0;
   bool cached_ok_ = false;
+  int factor_rows_ = 0;
+  int current_ = 0;
   int32_t cached_idx_[kMaxNeighbours];
-  double l_[kMaxNeighbours * kMaxNeighbours];
+  double cov_[2][kMaxNeighbours * kMaxNeighbours];
+  double u_[kMaxNeighbours * kMaxNeighbours];
   double y_[kMaxNeighbours];
   double s_ = 0.0;
   long long factorisations_ = 0, reuses_ = 0;

@@ -1,6 +1,7 @@
 // The fast per-cell kriging solve (ground/dem/KrigingSystem): its weights against an independent solve of
-// the full (k+1)x(k+1) ordinary-kriging system (Eigen's full-pivoting LU), the cached factorisation giving
-// the same result bit for bit as a fresh one, and krigeDem's DEM identical for 1 and 2 threads.
+// the full (k+1)x(k+1) ordinary-kriging system (Eigen's full-pivoting LU), the cached factorisation (and the
+// one updated from the previous neighbour set) giving the same result bit for bit as a fresh one, and
+// krigeDem's DEM identical for 1 and 2 threads.
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -32,6 +33,27 @@ std::vector<DemPoint> scatteredPoints(int n, uint32_t seed) {
   return pts;
 }
 
+KdTree2 treeOf(const std::vector<DemPoint>& pts) {
+  std::vector<double> xs, ys;
+  for (const DemPoint& p : pts) {
+    xs.push_back(p.north_m);
+    ys.push_back(p.east_m);
+  }
+  return KdTree2(xs, ys);
+}
+
+VariogramModel testModel(VariogramKind kind, double range_m) {
+  VariogramModel m;
+  m.kind = kind;
+  m.nugget_m2 = 1e-5;
+  m.partial_sill_m2 = 0.04;
+  m.range_m = range_m;
+  return m;
+}
+
+constexpr VariogramKind kAllKinds[] = {VariogramKind::kSpherical, VariogramKind::kExponential,
+                                       VariogramKind::kGaussian};
+
 }  // namespace
 
 TEST_GROUP(KrigingSystem){};
@@ -41,18 +63,9 @@ TEST_GROUP(KrigingSystem){};
 // and gives bit-identical weights, also when the neighbours come in another order.
 TEST(KrigingSystem, WeightsEqualTheFullBorderedSolve) {
   const std::vector<DemPoint> pts = scatteredPoints(400, 7);
-  std::vector<double> xs, ys;
-  for (const DemPoint& p : pts) {
-    xs.push_back(p.north_m);
-    ys.push_back(p.east_m);
-  }
-  const KdTree2 tree(xs, ys);
-  for (VariogramKind kind : {VariogramKind::kSpherical, VariogramKind::kExponential, VariogramKind::kGaussian}) {
-    VariogramModel m;
-    m.kind = kind;
-    m.nugget_m2 = 1e-5;
-    m.partial_sill_m2 = 0.04;
-    m.range_m = 3.0;
+  const KdTree2 tree = treeOf(pts);
+  for (VariogramKind kind : kAllKinds) {
+    const VariogramModel m = testModel(kind, 3.0);
     KrigingSystem system(pts, m, true);
     double worst = 0.0;
     for (int q = 0; q < 50; ++q) {
@@ -95,6 +108,36 @@ TEST(KrigingSystem, WeightsEqualTheFullBorderedSolve) {
     }
     std::printf("\n%s: largest weight difference to the full LU solve %.2e\n", variogramName(kind), worst);
     CHECK(worst < 1e-9);
+  }
+}
+
+// Cells along a row: each neighbour set shares most points with the one before, so the system copies their
+// covariances and keeps the leading columns of the factor. The weights equal those of a fresh system (which
+// computes everything) bit for bit, for every kind of model and every k, whether the set changed or not.
+TEST(KrigingSystem, UpdatedFactorisationEqualsAFreshOne) {
+  const std::vector<DemPoint> pts = scatteredPoints(2000, 3);
+  const KdTree2 tree = treeOf(pts);
+  for (VariogramKind kind : kAllKinds) {
+    const VariogramModel m = testModel(kind, 2.0);
+    for (const int k : {3, 16, 40}) {
+      KrigingSystem walking(pts, m, true);
+      for (int q = 0; q < 300; ++q) {
+        const double qn = 2.0 + 0.003 * q, qe = 1.0 + 0.027 * q;
+        int32_t idx[kMaxNeighbours];
+        double d2[kMaxNeighbours], w[kMaxNeighbours + 1], c[kMaxNeighbours], fw[kMaxNeighbours + 1],
+            fc[kMaxNeighbours];
+        const int f = tree.nearest(qn, qe, k, idx, d2);
+        KrigingSystem fresh(pts, m, true);
+        CHECK(walking.solve(f, idx, d2, w, c));
+        CHECK(fresh.solve(f, idx, d2, fw, fc));
+        for (int i = 0; i <= f; ++i) CHECK(w[i] == fw[i]);
+        for (int i = 0; i < f; ++i) CHECK(c[i] == fc[i]);
+      }
+      std::printf("\n%s, k = %d: %lld factorisations, %lld reuses\n", variogramName(kind), k,
+                  walking.factorisations(), walking.reuses());
+      CHECK(walking.factorisations() > 30);  // the sets did change
+      CHECK(walking.reuses() > 0);
+    }
   }
 }
 
