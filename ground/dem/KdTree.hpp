@@ -38,4 +38,33 @@ class KdTree2 {
   std::vector<Point> points_;  // the input in leaf order
 };
 
+// Uniform buckets over the same points, for the k nearest of a query near one whose neighbours are known
+// (the next kriging cell along a row): given a bound on the k-th distance (the farthest of the last cell's
+// neighbours from this query), only the buckets within it are read. The answer is returned only when it is
+// unique, i.e. when the k + 1 nearest distances are all different: then it is exactly KdTree2::nearest's,
+// order included; with a tie (points on a lattice, duplicates), too few points within the bound, or too
+// many points to read (sparse parts of the cloud), it returns -1 and the caller asks the k-d tree, whose
+// tie order (the order of its search) decides.
+class PointBuckets {
+ public:
+  PointBuckets() = default;
+  // Keeps a copy of the coordinates; about kPointsPerBucket points per bucket over the bounding box.
+  PointBuckets(const std::vector<double>& x, const std::vector<double>& y);
+
+  // The k nearest points of (qx, qy) as KdTree2::nearest gives them (k <= kMaxBucketNeighbours), given
+  // that at least k points lie within max_dist2 (squared distance); -1 when not unique or too costly.
+  int nearestWithin(double qx, double qy, int k, double max_dist2, int32_t* index, double* dist2) const;
+
+  static constexpr int kMaxBucketNeighbours = 64;
+  static constexpr int kPointsPerBucket = 3;
+  static constexpr int kMaxPointsRead = 256;  // beyond this the k-d tree is faster
+
+ private:
+  double x0_ = 0.0, y0_ = 0.0, inv_cell_ = 1.0;
+  int cols_ = 0, rows_ = 0;
+  std::vector<int32_t> start_;  // rows_ * cols_ + 1 offsets into the points, bucket by bucket (row-major)
+  std::vector<double> x_, y_;   // the points, bucket by bucket
+  std::vector<int32_t> index_;  // into the input
+};
+
 }  // namespace areomap::dem

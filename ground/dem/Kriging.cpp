@@ -164,6 +164,7 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
     zs[i] = points[i].elevation_m;
   }
   const KdTree2 tree(xs, ys);
+  const PointBuckets buckets(xs, ys);  // the cells' neighbours near the last cell's (the k-d tree on ties)
   // Point spacing: the median distance to the 8th and to the k-th neighbour over a sample of points.
   double spacing8 = 0.0, spacing_k = 0.0;
   {
@@ -260,9 +261,23 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
     double cell_d2[kMaxNeighbours + 1];
     for (int row = t; row < grid.rows; row += threads) {
       const double qn = grid.northOfRow(row);
+      int f = 0;
       for (int col = 0; col < grid.cols; ++col) {
         const double qe = grid.eastOfCol(col);
-        const int f = tree.nearest(qn, qe, k, cell_idx, cell_d2);
+        // The last cell's k neighbours lie within `bound` of this one, so its k-th distance is at most that:
+        // the buckets within it give the neighbours when they are unique (else the k-d tree, which also
+        // skips the nodes beyond the bound): the same neighbours, found sooner.
+        double bound = 1e300;
+        if (f == k) {
+          bound = 0.0;
+          for (int i = 0; i < f; ++i) {
+            const DemPoint& p = points[static_cast<std::size_t>(cell_idx[i])];
+            const double dn = p.north_m - qn, de = p.east_m - qe;
+            bound = std::max(bound, dn * dn + de * de);
+          }
+          f = buckets.nearestWithin(qn, qe, k, bound, cell_idx, cell_d2);
+        }
+        if (f != k) f = tree.nearest(qn, qe, k, cell_idx, cell_d2, bound);
         if (f == 0 || cell_d2[0] > gap * gap) continue;
         double z = 0.0, var = 0.0;
         if (!s.solve(f, cell_idx, cell_d2, z, var)) continue;

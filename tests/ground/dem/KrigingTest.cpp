@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -59,6 +60,77 @@ TEST(KdTree, NearestMatchesBruteForce) {
     for (std::size_t i = 0; i < x.size(); ++i) all[i] = (x[i] - qx) * (x[i] - qx) + (y[i] - qy) * (y[i] - qy);
     std::sort(all.begin(), all.end());
     for (int j = 0; j < 10; ++j) DOUBLES_EQUAL(all[static_cast<std::size_t>(j)], d2[j], 1e-12);
+  }
+}
+
+// PointBuckets (the kriging cells' fast path): queries walking along rows, each bounded by the farthest of
+// the previous query's neighbours as krigeDem does. Whenever it answers, the answer is the k-d tree's bit
+// for bit (indices, distances, order); on random points it answers nearly always; on a lattice with queries
+// on lattice lines (exact distance ties) it declines and the tree decides; with a bound that holds fewer
+// than k points it declines.
+TEST(KdTree, BucketsGiveTheTreesNeighboursOrDecline) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<double> x, y;
+  for (int i = 0; i < 20000; ++i) {  // denser towards the origin, as a rover's cloud
+    const double r = 2.0 + 30.0 * u(rng) * u(rng), a = 1.5 * u(rng);
+    x.push_back(r * std::cos(a));
+    y.push_back(r * std::sin(a));
+  }
+  std::vector<double> lx, ly;
+  for (int i = 0; i < 60; ++i) {
+    for (int j = 0; j < 60; ++j) {
+      lx.push_back(0.004 * i);
+      ly.push_back(0.004 * j);
+    }
+  }
+  struct Case {
+    const std::vector<double>& x;
+    const std::vector<double>& y;
+    double row_step, col_step, n0, e0;
+    int rows, cols, k;
+  };
+  const Case cases[] = {{x, y, 0.37, 0.05, 1.0, 0.5, 60, 200, 16},
+                        {x, y, 0.71, 0.11, 3.0, 0.0, 30, 150, 5},
+                        {lx, ly, 0.008, 0.004, 0.02, 0.0, 25, 60, 16}};
+  for (const Case& c : cases) {
+    const KdTree2 tree(c.x, c.y);
+    const PointBuckets buckets(c.x, c.y);
+    long long answered = 0, queries = 0;
+    for (int row = 0; row < c.rows; ++row) {
+      int32_t idx[kMaxNeighbours], tidx[kMaxNeighbours];
+      double d2[kMaxNeighbours], td2[kMaxNeighbours];
+      int f = 0;
+      for (int col = 0; col < c.cols; ++col) {
+        const double qn = c.n0 + c.row_step * row, qe = c.e0 + c.col_step * col;
+        const int tf = tree.nearest(qn, qe, c.k, tidx, td2);
+        if (f == c.k) {
+          double bound = 0.0;
+          for (int i = 0; i < f; ++i)
+            bound = std::max(bound, (c.x[idx[i]] - qn) * (c.x[idx[i]] - qn) + (c.y[idx[i]] - qe) * (c.y[idx[i]] - qe));
+          ++queries;
+          const int bf = buckets.nearestWithin(qn, qe, c.k, bound, idx, d2);
+          if (bf >= 0) {
+            ++answered;
+            CHECK_EQUAL(tf, bf);
+            for (int i = 0; i < bf; ++i) {
+              CHECK_EQUAL(tidx[i], idx[i]);
+              CHECK(td2[i] == d2[i]);
+            }
+          }
+          // A bound below the k-th distance holds fewer than k points.
+          CHECK_EQUAL(-1, buckets.nearestWithin(qn, qe, c.k, 0.999 * td2[c.k - 1], idx, d2));
+        }
+        f = tf;
+        std::copy(tidx, tidx + tf, idx);
+      }
+    }
+    std::printf("\n%zu points, k = %d: the buckets answered %lld of %lld queries", c.x.size(), c.k, answered, queries);
+    if (&c.x == &x) {
+      CHECK(answered > 0.95 * queries);
+    } else {
+      CHECK(answered < 0.5 * queries);
+    }
   }
 }
 
