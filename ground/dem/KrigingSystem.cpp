@@ -104,15 +104,14 @@ bool KrigingSystem::factorise(int f, int first_changed) {
 bool KrigingSystem::solve(int f, const int32_t* idx, const double* d2, double* w, double* c) {
   constexpr int n = kMaxNeighbours;
   if (f < 1 || f > n) return false;
-  // Canonical order: the neighbours by ascending index (insertion sort of a permutation; f is small).
+  // Canonical order: the neighbours by ascending index, a neighbour's place being the count of those before
+  // it (smaller, or equal and earlier: a stable sort) without data-dependent branches (a sort's would mostly
+  // mispredict).
   int order[kMaxNeighbours];
   for (int i = 0; i < f; ++i) {
-    int j = i;
-    while (j > 0 && idx[order[j - 1]] > idx[i]) {
-      order[j] = order[j - 1];
-      --j;
-    }
-    order[j] = i;
+    int rank = 0;
+    for (int j = 0; j < f; ++j) rank += (idx[j] < idx[i] || (idx[j] == idx[i] && j < i)) ? 1 : 0;
+    order[rank] = i;
   }
   int32_t set[kMaxNeighbours];
   for (int i = 0; i < f; ++i) set[i] = idx[order[i]];
