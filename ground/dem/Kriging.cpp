@@ -55,18 +55,24 @@ struct CorrelatedNoise {
   // The signal's semivariance without its nugget (filtered kriging: the nugget is measurement error).
   double filtered(double h) const { return signal.partial_sill_m2 * (1.0 - signal.correlation(h)); }
 
-  double variance(const std::vector<DemPoint>& points, int f, const int32_t* idx, const double* d2,
-                  const double* w) const {
+  // A pair's part of the double sum: s_i s_j rho_ij - g(d_ij) (symmetric in i and j, bit for bit).
+  double pairTerm(const std::vector<DemPoint>& points, std::size_t pi, std::size_t pj) const {
+    const DemPoint &a = points[pi], &b = points[pj];
+    const double h = std::hypot(a.north_m - b.north_m, a.east_m - b.east_m);
+    return a.sigma_m * b.sigma_m * rho(a, b, (*gsd)[pi], (*gsd)[pj]) - filtered(h);
+  }
+
+  // The pair terms come from `terms` (the set's PairTable, filled by pairTerm; `position`: where each
+  // neighbour stands in it): a pair that stays in the next cell's neighbourhood is not evaluated again.
+  double variance(const std::vector<DemPoint>& points, int f, const int32_t* idx, const double* d2, const double* w,
+                  const PairTable& terms, const int* position) const {
     double v = 0.0;
     for (int i = 0; i < f; ++i) {
-      const std::size_t pi = static_cast<std::size_t>(idx[i]);
-      const DemPoint& a = points[pi];
+      const DemPoint& a = points[static_cast<std::size_t>(idx[i])];
       v += 2.0 * w[i] * filtered(std::sqrt(d2[i])) + w[i] * w[i] * (a.sigma_m * a.sigma_m + signal.nugget_m2);
       for (int j = 0; j < i; ++j) {
-        const std::size_t pj = static_cast<std::size_t>(idx[j]);
-        const DemPoint& b = points[pj];
-        const double h = std::hypot(a.north_m - b.north_m, a.east_m - b.east_m);
-        v += 2.0 * w[i] * w[j] * (a.sigma_m * b.sigma_m * rho(a, b, (*gsd)[pi], (*gsd)[pj]) - filtered(h));
+        const int pi = position[i], pj = position[j];
+        v += 2.0 * w[i] * w[j] * (pi > pj ? terms.row(pi)[pj] : terms.row(pj)[pi]);
       }
     }
     return v;
@@ -88,6 +94,7 @@ struct Solver {
   const std::vector<DemPoint>& points;
   KrigingSystem system;
   CorrelatedNoise correlated;
+  PairTable pair_terms;  // CorrelatedNoise::pairTerm of the neighbour set, kept from cell to cell
 
   double noise(const DemPoint& p) const { return system.noise(p); }
 
@@ -103,7 +110,12 @@ struct Solver {
       lc += w[i] * c[i];
     }
     var = std::max(0.0, system.partialSill() - lc - w[f]);
-    if (correlated.on()) var = std::max(0.0, correlated.variance(points, f, idx, d2, w));
+    if (correlated.on()) {
+      pair_terms.update(f, system.canonicalSet(), [this](int32_t a, int32_t b) {
+        return a == b ? 0.0 : correlated.pairTerm(points, static_cast<std::size_t>(a), static_cast<std::size_t>(b));
+      });
+      var = std::max(0.0, correlated.variance(points, f, idx, d2, w, pair_terms, system.canonicalPositions()));
+    }
     return std::isfinite(z) && std::isfinite(var);
   }
 };
@@ -218,7 +230,7 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   res.elevation = grid;
   res.elevation.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
   res.sigma = res.elevation;
-  Solver solver{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated};
+  Solver solver{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated, PairTable()};
   int32_t idx[kMaxNeighbours + 1];
   double d2[kMaxNeighbours + 1];
   // Sigma calibration by leave-one-out cross-validation on a sample of points: the kriging variance plus
@@ -256,7 +268,7 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
                                  std::max(1, std::min(grid.rows, kMaxKrigingThreads)));
   std::vector<long long> kriged(static_cast<std::size_t>(threads), 0), reused(kriged), factorised(kriged);
   const auto krigeRows = [&](int t) {
-    Solver s{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated};
+    Solver s{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated, PairTable()};
     int32_t cell_idx[kMaxNeighbours + 1];
     double cell_d2[kMaxNeighbours + 1];
     for (int row = t; row < grid.rows; row += threads) {

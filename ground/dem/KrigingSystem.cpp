@@ -40,46 +40,16 @@ KrigingSystem::KrigingSystem(const std::vector<DemPoint>& points, const Variogra
       psill_(std::max(model.partial_sill_m2, 1e-12)),
       jitter_(1e-9 * (std::max(model.partial_sill_m2, 1e-12) + model.nugget_m2)) {}
 
-// C of the new set (ascending indices) into the other buffer, which becomes the current one: entries of two
-// points that were both in the cached set are copied, the others computed.
-void KrigingSystem::covariances(int f, const int32_t* set) {
-  const double* before = cov_[current_];
-  double* c = cov_[1 - current_];
-  const int before_f = cached_f_;
-  int was_at[kMaxNeighbours];  // position of set[i] in the cached set, -1 if new (both ascending: a merge)
-  for (int i = 0, j = 0; i < f; ++i) {
-    while (j < before_f && cached_idx_[j] < set[i]) ++j;
-    was_at[i] = j < before_f && cached_idx_[j] == set[i] ? j : -1;
-  }
-  for (int i = 0; i < f; ++i) {
-    const DemPoint& pi = points_[static_cast<std::size_t>(set[i])];
-    double* ci = &c[i * f];
-    const double* bi = was_at[i] >= 0 ? &before[was_at[i] * before_f] : nullptr;
-    for (int j = 0; j < i; ++j) {
-      if (bi != nullptr && was_at[j] >= 0) {
-        ci[j] = bi[was_at[j]];
-      } else {
-        const DemPoint& pj = points_[static_cast<std::size_t>(set[j])];
-        const double dn = pi.north_m - pj.north_m, de = pi.east_m - pj.east_m;
-        ci[j] = psill_ * model_.correlation(std::sqrt(dn * dn + de * de));
-      }
-    }
-    ci[i] = psill_ + noise(pi) + jitter_;
-  }
-  current_ = 1 - current_;
-  cached_f_ = f;
-  std::copy(set, set + f, cached_idx_);
-}
-
 // C = L L^T of the cached set into u_ (U = L^T), keeping the columns of L before `first_changed` (rows of U
 // the same as for the last set) when the size is unchanged. Right-looking: step k finishes column k of L and
 // subtracts its part from the entries to its right.
 bool KrigingSystem::factorise(int f, int first_changed) {
   ++factorisations_;
-  const double* c = cov_[current_];
   const int p = first_changed;
-  for (int i = p; i < f; ++i)
-    for (int m = 0; m <= i; ++m) u_[m * f + i] = c[i * f + m];
+  for (int i = p; i < f; ++i) {
+    const double* ci = cov_.row(i);
+    for (int m = 0; m <= i; ++m) u_[m * f + i] = ci[m];
+  }
   for (int k = 0; k < f; ++k) {
     double* uk = &u_[k * f];
     if (k >= p) {
@@ -112,13 +82,15 @@ bool KrigingSystem::solve(int f, const int32_t* idx, const double* d2, double* w
     int rank = 0;
     for (int j = 0; j < f; ++j) rank += (idx[j] < idx[i] || (idx[j] == idx[i] && j < i)) ? 1 : 0;
     order[rank] = i;
+    position_[i] = rank;
   }
   int32_t set[kMaxNeighbours];
   for (int i = 0; i < f; ++i) set[i] = idx[order[i]];
   // The first canonical position where the set differs from the cached one (f: the same set).
+  const int cached_f = cov_.size();
   int same_up_to = 0;
-  if (cached_f_ == f) {
-    while (same_up_to < f && cached_idx_[same_up_to] == set[same_up_to]) ++same_up_to;
+  if (cached_f == f) {
+    while (same_up_to < f && cov_.set()[same_up_to] == set[same_up_to]) ++same_up_to;
   }
   const bool same = same_up_to == f;
   double x[kMaxNeighbours];
@@ -126,8 +98,14 @@ bool KrigingSystem::solve(int f, const int32_t* idx, const double* d2, double* w
     ++reuses_;
     if (!cached_ok_) return false;
   } else {
-    const int keep = cached_f_ == f ? std::min(same_up_to, factor_rows_) : 0;
-    covariances(f, set);
+    const int keep = cached_f == f ? std::min(same_up_to, factor_rows_) : 0;
+    cov_.update(f, set, [this](int32_t a, int32_t b) {
+      const DemPoint& pa = points_[static_cast<std::size_t>(a)];
+      if (a == b) return psill_ + noise(pa) + jitter_;
+      const DemPoint& pb = points_[static_cast<std::size_t>(b)];
+      const double dn = pa.north_m - pb.north_m, de = pa.east_m - pb.east_m;
+      return psill_ * model_.correlation(std::sqrt(dn * dn + de * de));
+    });
     cached_ok_ = factorise(f, keep);
     if (!cached_ok_) return false;
   }

@@ -30,6 +30,47 @@
 
 namespace areomap::dem {
 
+// A value per pair of points of a neighbour set in canonical order (ascending point index; lower triangle
+// with the diagonal, row i at row(i), f apart), kept from one set to the next: a pair whose points were
+// both in the last set keeps its value (copied, the same bits), the others are computed. Fixed storage.
+class PairTable {
+ public:
+  // Makes `set` (f ascending indices, 1 <= f <= kMaxNeighbours) the current set; pair(a, b) gives the
+  // value of points a and b (a == b on the diagonal) where it is not kept. Nothing to do for the same set.
+  template <typename Pair>
+  void update(int f, const int32_t* set, Pair pair) {
+    bool same = f == f_;
+    for (int i = 0; same && i < f; ++i) same = set[i] == set_[i];
+    if (same) return;
+    const double* before = values_[current_];
+    double* now = values_[1 - current_];
+    int was_at[kMaxNeighbours];  // position of set[i] in the last set, -1 if new (both ascending: a merge)
+    for (int i = 0, j = 0; i < f; ++i) {
+      while (j < f_ && set_[j] < set[i]) ++j;
+      was_at[i] = j < f_ && set_[j] == set[i] ? j : -1;
+    }
+    for (int i = 0; i < f; ++i) {
+      double* row = &now[i * f];
+      const double* kept = was_at[i] >= 0 ? &before[was_at[i] * f_] : nullptr;
+      for (int j = 0; j <= i; ++j) row[j] = kept != nullptr && was_at[j] >= 0 ? kept[was_at[j]] : pair(set[i], set[j]);
+    }
+    current_ = 1 - current_;
+    f_ = f;
+    for (int i = 0; i < f; ++i) set_[i] = set[i];
+  }
+  void clear() { f_ = 0; }
+
+  int size() const { return f_; }
+  const int32_t* set() const { return set_; }
+  const double* row(int i) const { return &values_[current_][i * f_]; }
+
+ private:
+  int f_ = 0;
+  int current_ = 0;
+  int32_t set_[kMaxNeighbours];
+  double values_[2][kMaxNeighbours * kMaxNeighbours];
+};
+
 class KrigingSystem {
  public:
   KrigingSystem(const std::vector<DemPoint>& points, const VariogramModel& model, bool use_point_sigma);
@@ -45,27 +86,28 @@ class KrigingSystem {
   // is singular or not finite (the caller leaves the cell empty). 1 <= f <= kMaxNeighbours.
   bool solve(int f, const int32_t* idx, const double* d2, double* w, double* c);
 
+  // The neighbour set of the last solve in canonical order (ascending indices), and where each of its
+  // neighbours (in the caller's order) stands in it.
+  const int32_t* canonicalSet() const { return cov_.set(); }
+  const int* canonicalPositions() const { return position_; }
+
   long long factorisations() const { return factorisations_; }
   long long reuses() const { return reuses_; }
 
  private:
-  void covariances(int f, const int32_t* set);
   bool factorise(int f, int first_changed);
 
   const std::vector<DemPoint>& points_;
   VariogramModel model_;
   bool use_point_sigma_;
   double psill_, jitter_;
-  // The cached neighbour set (ascending indices); its covariance matrix C (lower triangle, row i at
-  // cov_[current_][i * cached_f_]; the other buffer holds the set before, for copying); U = L^T, the
-  // transposed Cholesky factor (upper triangle, row k at u_[k * cached_f_]: column k of L), complete in its
-  // first factor_rows_ columns (all of them unless the factorisation failed); y = C^-1 1 and s = 1^T y.
-  int cached_f_ = 0;
+  // The cached neighbour set with its covariance matrix C; U = L^T, the transposed Cholesky factor (upper
+  // triangle, row k at u_[k * f]: column k of L), complete in its first factor_rows_ columns (all of them
+  // unless the factorisation failed); y = C^-1 1 and s = 1^T y.
+  PairTable cov_;
   bool cached_ok_ = false;
   int factor_rows_ = 0;
-  int current_ = 0;
-  int32_t cached_idx_[kMaxNeighbours];
-  double cov_[2][kMaxNeighbours * kMaxNeighbours];
+  int position_[kMaxNeighbours];
   double u_[kMaxNeighbours * kMaxNeighbours];
   double y_[kMaxNeighbours];
   double s_ = 0.0;

@@ -9,7 +9,10 @@
 #include <random>
 #include <vector>
 
+#include "ground/dem/KdTree.hpp"
 #include "ground/dem/Kriging.hpp"
+#include "ground/dem/KrigingSystem.hpp"
+#include "ground/dense/LineId.hpp"
 
 #include <CppUTest/TestHarness.h>
 
@@ -123,4 +126,72 @@ TEST(KrigingCorrelated, SigmaHonestWithCorrelatedErrors) {
   CHECK(model.within > 0.55 && model.within < 0.80);
   CHECK(model.sigma_rms > 0.7 * model.error_rms && model.sigma_rms < 1.4 * model.error_rms);
   CHECK(independent.within < 0.5);
+}
+
+// krigeDem's sigma with correlated errors (its pair terms kept from cell to cell) against the double sum of
+// Kriging.hpp written out for each cell: the weights of a fresh KrigingSystem for the cell's k nearest,
+//   Var = sum_i 2 w_i g(d_i0) + w_i^2 (s_i^2 + nugget) + sum_{j<i} 2 w_i w_j (s_i s_j rho_ij - g(d_ij)),
+// g the signal variogram's partial-sill part, rho of the two points' patches (0 between stereo pairs).
+TEST(KrigingCorrelated, SigmaIsTheDirectDoubleSum) {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<DemPoint> pts;
+  std::vector<float> gsds;
+  for (int i = 0; i < 4000; ++i) {
+    DemPoint p;
+    p.north_m = 3.0 * u(rng);
+    p.east_m = 2.0 * u(rng);
+    p.sigma_m = 0.002 + 0.004 * u(rng);
+    p.elevation_m = 0.05 * std::sin(3.0 * p.north_m) * std::cos(2.0 * p.east_m) + p.sigma_m * (u(rng) - 0.5);
+    p.line = areomap::dense::lineId(i % 2, static_cast<int64_t>(p.north_m * 100.0));
+    pts.push_back(p);
+    gsds.push_back(static_cast<float>(0.002 + 0.002 * p.north_m));
+  }
+  const areomap::DemGrid grid = gridAround(pts, 0.03);
+  KrigingOptions o;
+  o.noise_correlation_px = 3.8;
+  o.point_gsd_m = &gsds;
+  o.bin_cell_m = 0.01;
+  o.threads = 1;
+  const KrigingResult r = krigeDem(pts, grid, o);
+  const VariogramModel& s = r.signal_model;
+  const auto g = [&s](double h) { return s.partial_sill_m2 * (1.0 - s.correlation(h)); };
+  std::vector<double> xs, ys;
+  for (const DemPoint& p : pts) {
+    xs.push_back(p.north_m);
+    ys.push_back(p.east_m);
+  }
+  const KdTree2 tree(xs, ys);
+  long long checked = 0;
+  double worst = 0.0;
+  for (int cell = 0; cell < grid.cols * grid.rows; cell += 7) {
+    const int col = cell % grid.cols, row = cell / grid.cols;
+    if (r.sigma.at(col, row) == r.sigma.nodata) continue;
+    int32_t idx[kMaxNeighbours];
+    double d2[kMaxNeighbours], w[kMaxNeighbours + 1], c[kMaxNeighbours];
+    const int f = tree.nearest(grid.northOfRow(row), grid.eastOfCol(col), 16, idx, d2);
+    KrigingSystem system(pts, r.model, true);
+    CHECK(system.solve(f, idx, d2, w, c));
+    double var = 0.0;
+    for (int i = 0; i < f; ++i) {
+      const DemPoint& a = pts[static_cast<std::size_t>(idx[i])];
+      var += 2.0 * w[i] * g(std::sqrt(d2[i])) + w[i] * w[i] * (a.sigma_m * a.sigma_m + s.nugget_m2);
+      for (int j = 0; j < i; ++j) {
+        const DemPoint& b = pts[static_cast<std::size_t>(idx[j])];
+        double rho = 0.0;
+        if (areomap::dense::linePair(a.line) == areomap::dense::linePair(b.line)) {
+          const double px = 0.5 * (gsds[static_cast<std::size_t>(idx[i])] + gsds[static_cast<std::size_t>(idx[j])]);
+          rho = patchCorrelation(std::fabs(a.north_m - b.north_m) / px, std::fabs(a.east_m - b.east_m) / px,
+                                 std::max(1.0, o.bin_cell_m / px), o.noise_correlation_px);
+        }
+        var += 2.0 * w[i] * w[j] * (a.sigma_m * b.sigma_m * rho - g(std::hypot(a.north_m - b.north_m, a.east_m - b.east_m)));
+      }
+    }
+    const double expected = std::sqrt(std::max(0.0, var));
+    worst = std::max(worst, std::fabs(r.sigma.at(col, row) - expected) / expected);
+    ++checked;
+  }
+  std::printf("\n  %lld cells: largest relative difference of the sigma to the direct double sum %.2e", checked, worst);
+  CHECK(checked > 500);
+  CHECK(worst < 1e-6);
 }
