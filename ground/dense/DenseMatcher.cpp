@@ -313,7 +313,10 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
           right_disp[static_cast<std::size_t>(xr)] = v.lo[p] + j;
         }
       }
-      if (w.unique && !no_band[p] && texture.at<uint8_t>(y, x)) {
+      // The winner's own census cost: above chance level the pixel's window gives no evidence for it, only
+      // the aggregation does (sky, parts of the left image the right one does not see).
+      const uint16_t own_cost = v.cost[static_cast<std::size_t>(v.offset[p]) + (w.integer - v.lo[p])];
+      if (w.unique && !no_band[p] && texture.at<uint8_t>(y, x) && own_cost <= o.max_census_cost_bits) {
         drow[x] = w.disparity;
         vrow[x] = 255;
       }
