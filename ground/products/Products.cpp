@@ -35,6 +35,10 @@ namespace fs = std::filesystem;
 // Standard deviation of a dense match (pixels) for the intersection's covariance: the matcher's
 // sub-pixel precision, calibrated against truth (ground/dense/DenseMatcher.hpp).
 constexpr double kMatchSigmaPx = dense::kMatchSigmaPx;
+// Points are kept out to this factor times max_range_m, as support for the DEM, which stops at max_range_m.
+// Cut at max_range_m itself, the outermost rows would keep only their points measured nearer than they are
+// (the range noise is metres at 60 m): a selection bias that lifted the DEM's outer metres by decimetres.
+constexpr double kSupportRangeFactor = 1.25;
 
 struct Context {
   ProductsResult result;
@@ -481,7 +485,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       long long kept = 0;
       for (dense::CloudPoint& p : pts) {
         const double range = (p.site_m - in.gimbal_site_m).head<2>().norm();
-        if (range > options.max_range_m) continue;
+        if (range > options.max_range_m * kSupportRangeFactor) continue;
         cloud.push(p);
         ++kept;
       }
@@ -540,12 +544,25 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     // The DEM needs only the DEM points: taken over (no copy), and the rest of the cloud freed.
     std::vector<dem::DemPoint> pts = std::move(cloud.dem);
     std::vector<PlyExtra>().swap(cloud.extra);
+    // The grid covers the points within max_range_m (those beyond only support it).
+    const auto in_range = [&](double north_m, double east_m) {
+      return std::hypot(north_m - in.gimbal_site_m.x(), east_m - in.gimbal_site_m.y()) <= options.max_range_m;
+    };
     double extent = 0;
+    std::vector<dem::DemPoint> box(2);  // the bounding box of those points: the grid gridAround(them) makes
+    box[0].north_m = box[0].east_m = 1e300;
+    box[1].north_m = box[1].east_m = -1e300;
     for (const dem::DemPoint& p : pts) {
+      if (!in_range(p.north_m, p.east_m)) continue;
       extent = std::max({extent, std::fabs(p.north_m - in.gimbal_site_m.x()), std::fabs(p.east_m - in.gimbal_site_m.y())});
+      box[0].north_m = std::min(box[0].north_m, p.north_m);
+      box[0].east_m = std::min(box[0].east_m, p.east_m);
+      box[1].north_m = std::max(box[1].north_m, p.north_m);
+      box[1].east_m = std::max(box[1].east_m, p.east_m);
     }
+    if (box[0].north_m > box[1].north_m) box = pts;  // every point beyond max_range_m: grid around them all
     const double cell = options.cell_m > 0 ? options.cell_m : autoCell(2 * extent);
-    DemGrid grid = dem::gridAround(pts, cell);
+    DemGrid grid = dem::gridAround(box, cell);
     const auto all = [](const dem::DemPoint&) { return true; };
     const BinnedCloud binned = binPoints(pts, grid, all);
     dem::EquiParallaxOptions eo;
@@ -599,6 +616,13 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
         dem::blendFarRange(kr, far_dem, &far_sigma, eo);
       }
       std::vector<dem::DemPoint>().swap(far);
+      for (int r = 0; r < grid.rows; ++r) {
+        for (int c = 0; c < grid.cols; ++c) {
+          if (in_range(grid.northOfRow(r), grid.eastOfCol(c))) continue;
+          kr.elevation.at(c, r) = kr.elevation.nodata;
+          kr.sigma.at(c, r) = kr.sigma.nodata;
+        }
+      }
       ctx.result.dem = kr.elevation;
       try {
         dem::writeDemProducts(out_dir, kr, meta);
