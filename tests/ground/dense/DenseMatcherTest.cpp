@@ -125,6 +125,45 @@ TEST(DenseMatcher, TexturelessPairGivesFewMatchesAndNoCrash) {
   CHECK(r.matched_fraction < 0.05);
 }
 
+// A "sky" over the synthetic pair: its top 80 rows are a flat grey with independent sensor noise in each
+// image (sd 1.5 DN), which has texture but no correspondence. Semi-global aggregation carries the ground's
+// disparities up into such a region and the left-right check passes them; the census-cost test
+// (DenseOptions::max_census_cost_bits) must refuse them, and leave the ground as matched as before.
+TEST(DenseMatcher, NoMatchesInANoiseOnlySky) {
+  cv::Mat left, right, truth;
+  syntheticPair(left, right, truth);
+  const int sky_rows = 80;
+  cv::RNG rng(11);
+  for (cv::Mat* image : {&left, &right}) {
+    cv::Mat noise(sky_rows, image->cols, CV_32FC1);
+    rng.fill(noise, cv::RNG::NORMAL, 150.0, 1.5);
+    noise.convertTo((*image)(cv::Rect(0, 0, image->cols, sky_rows)), CV_8UC1);
+  }
+  DenseOptions o;
+  o.max_disparity_px = 48;
+  // Row ranges as tie points give them (the ground's disparity +-4 px, carried up into the sky rows).
+  std::vector<RowRange> ranges(static_cast<std::size_t>(left.rows));
+  for (int y = 0; y < left.rows; ++y) {
+    const int d = static_cast<int>(10.0 + 0.03 * std::max(y, sky_rows));
+    ranges[static_cast<std::size_t>(y)] = RowRange{d - 4, d + 4};
+  }
+  const cv::Rect sky(50, 0, left.cols - 50, sky_rows - 4);  // 4 rows: the census window's reach
+  const cv::Rect ground(230, sky_rows + 4, left.cols - 230, 40);  // right of the raised square
+  const DenseResult with = matchRectified(left, right, o, &ranges);
+  o.max_census_cost_bits = 62;  // the test off
+  const DenseResult without = matchRectified(left, right, o, &ranges);
+  const auto fraction = [](const DenseResult& r, const cv::Rect& box) {
+    return static_cast<double>(cv::countNonZero(r.valid(box))) / box.area();
+  };
+  std::printf("\nnoise-only sky: matched %.1f %% with the census-cost test, %.1f %% without; ground below it %.1f / %.1f %%\n",
+              100.0 * fraction(with, sky), 100.0 * fraction(without, sky), 100.0 * fraction(with, ground),
+              100.0 * fraction(without, ground));
+  CHECK(fraction(without, sky) > 0.08);  // the failure this guards against is there
+  CHECK(fraction(with, sky) < 0.025);    // chance (2.8 % of windows) less the speckle filter
+  CHECK(fraction(with, ground) > 0.97);
+  CHECK(fraction(with, ground) > fraction(without, ground) - 0.01);
+}
+
 TEST(DenseMatcher, ConesAgainstStereoSgbm) {
   if (!areomap::test::requireSharedData("middlebury-cones")) return;
   const std::string dir = areomap::test::sharedDataDir() + "/middlebury-cones/";
