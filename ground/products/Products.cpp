@@ -35,10 +35,20 @@ namespace fs = std::filesystem;
 // Standard deviation of a dense match (pixels) for the intersection's covariance: the matcher's
 // sub-pixel precision, calibrated against truth (ground/dense/DenseMatcher.hpp).
 constexpr double kMatchSigmaPx = dense::kMatchSigmaPx;
-// Points are kept out to this factor times max_range_m, as support for the DEM, which stops at max_range_m.
-// Cut at max_range_m itself, the outermost rows would keep only their points measured nearer than they are
-// (the range noise is metres at 60 m): a selection bias that lifted the DEM's outer metres by decimetres.
-constexpr double kSupportRangeFactor = 1.25;
+// Points are kept beyond max_range_m as support for the DEM, which stops at max_range_m: out to the range
+// whose disparity is this much below that of max_range_m (about 3 sd of the far matches' disparity error,
+// 0.33-0.36 px in tests/ground/products/far/FarRangeTest.cpp), at most twice max_range_m. Cut at max_range_m
+// itself, the outermost rows would keep only their points measured nearer than they are (the range noise is
+// metres at 60 m): a selection bias that lifted the DEM's outer metres by decimetres.
+constexpr double kSupportDisparityPx = 1.0;
+
+// The support range of a pair (horizontal focal length f px, baseline b m) for a DEM out to max_range_m.
+double supportRangeM(const dense::RectifiedPair& rect, double max_range_m) {
+  const double fb = rect.left.h.cross(rect.left.a).norm() * rect.baseline_m;
+  const double d_edge = fb / max_range_m;
+  return d_edge > 2.0 * kSupportDisparityPx ? std::min(2.0 * max_range_m, fb / (d_edge - kSupportDisparityPx))
+                                            : 2.0 * max_range_m;
+}
 
 struct Context {
   ProductsResult result;
@@ -483,9 +493,10 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       std::vector<dense::CloudPoint> pts =
           dense::triangulateDisparity(rect.left, rect.right, d.disparity, kMatchSigmaPx, pair.id, left, stats);
       long long kept = 0;
+      const double support_m = supportRangeM(rect, options.max_range_m);
       for (dense::CloudPoint& p : pts) {
         const double range = (p.site_m - in.gimbal_site_m).head<2>().norm();
-        if (range > options.max_range_m * kSupportRangeFactor) continue;
+        if (range > support_m) continue;
         cloud.push(p);
         ++kept;
       }
