@@ -146,8 +146,10 @@ int PointBuckets::nearestWithin(double qx, double qy, int k, double max_dist2, i
   const double r = std::sqrt(max_dist2) * inv_cell_ + 1e-3;
   const double rf = (qx - x0_) * inv_cell_, cf = (qy - y0_) * inv_cell_;
   if (!(r < 1e6) || !std::isfinite(rf) || !std::isfinite(cf)) return -1;
-  const int r0 = std::max(0, static_cast<int>(std::floor(rf - r))), r1 = std::min(rows_ - 1, static_cast<int>(std::floor(rf + r)));
-  const int c0 = std::max(0, static_cast<int>(std::floor(cf - r))), c1 = std::min(cols_ - 1, static_cast<int>(std::floor(cf + r)));
+  const int r0 = std::max(0, static_cast<int>(std::floor(rf - r))),
+            r1 = std::min(rows_ - 1, static_cast<int>(std::floor(rf + r)));
+  const int c0 = std::max(0, static_cast<int>(std::floor(cf - r))),
+            c1 = std::min(cols_ - 1, static_cast<int>(std::floor(cf + r)));
   if (r0 > r1 || c0 > c1) return -1;
   int to_read = 0;
   for (int row = r0; row <= r1; ++row) {

@@ -1,5 +1,6 @@
 // A static 2-D k-d tree over points in the plane (site north/east), for the k nearest neighbours of a
-// kriging cell. Built once (median splits, implicit layout in one index array), queried many times.
+// kriging cell. Built once (median splits, implicit layout in one index array), queried many times. Beside
+// it, PointBuckets: the same answer, faster, for a cell next to one whose neighbours are known.
 #pragma once
 
 #include <cstdint>

@@ -64,8 +64,8 @@ struct CorrelatedNoise {
 
   // The pair terms come from `terms` (the set's PairTable, filled by pairTerm; `position`: where each
   // neighbour stands in it): a pair that stays in the next cell's neighbourhood is not evaluated again.
-  double variance(const std::vector<DemPoint>& points, int f, const int32_t* idx, const double* d2, const double* w,
-                  const PairTable& terms, const int* position) const {
+  double variance(const std::vector<DemPoint>& points, int f, const int32_t* idx, const double* d2,
+                  const double* w, const PairTable& terms, const int* position) const {
     double v = 0.0;
     for (int i = 0; i < f; ++i) {
       const DemPoint& a = points[static_cast<std::size_t>(idx[i])];
@@ -112,9 +112,11 @@ struct Solver {
     var = std::max(0.0, system.partialSill() - lc - w[f]);
     if (correlated.on()) {
       pair_terms.update(f, system.canonicalSet(), [this](int32_t a, int32_t b) {
-        return a == b ? 0.0 : correlated.pairTerm(points, static_cast<std::size_t>(a), static_cast<std::size_t>(b));
+        return a == b ? 0.0
+                      : correlated.pairTerm(points, static_cast<std::size_t>(a), static_cast<std::size_t>(b));
       });
-      var = std::max(0.0, correlated.variance(points, f, idx, d2, w, pair_terms, system.canonicalPositions()));
+      const double v = correlated.variance(points, f, idx, d2, w, pair_terms, system.canonicalPositions());
+      var = std::max(0.0, v);
     }
     return std::isfinite(z) && std::isfinite(var);
   }

@@ -52,7 +52,8 @@ class PairTable {
     for (int i = 0; i < f; ++i) {
       double* row = &now[i * f];
       const double* kept = was_at[i] >= 0 ? &before[was_at[i] * f_] : nullptr;
-      for (int j = 0; j <= i; ++j) row[j] = kept != nullptr && was_at[j] >= 0 ? kept[was_at[j]] : pair(set[i], set[j]);
+      for (int j = 0; j <= i; ++j)
+        row[j] = kept != nullptr && was_at[j] >= 0 ? kept[was_at[j]] : pair(set[i], set[j]);
     }
     current_ = 1 - current_;
     f_ = f;

@@ -180,18 +180,21 @@ TEST(KrigingCorrelated, SigmaIsTheDirectDoubleSum) {
         const DemPoint& b = pts[static_cast<std::size_t>(idx[j])];
         double rho = 0.0;
         if (areomap::dense::linePair(a.line) == areomap::dense::linePair(b.line)) {
-          const double px = 0.5 * (gsds[static_cast<std::size_t>(idx[i])] + gsds[static_cast<std::size_t>(idx[j])]);
+          const double px =
+              0.5 * (gsds[static_cast<std::size_t>(idx[i])] + gsds[static_cast<std::size_t>(idx[j])]);
           rho = patchCorrelation(std::fabs(a.north_m - b.north_m) / px, std::fabs(a.east_m - b.east_m) / px,
                                  std::max(1.0, o.bin_cell_m / px), o.noise_correlation_px);
         }
-        var += 2.0 * w[i] * w[j] * (a.sigma_m * b.sigma_m * rho - g(std::hypot(a.north_m - b.north_m, a.east_m - b.east_m)));
+        var += 2.0 * w[i] * w[j] *
+               (a.sigma_m * b.sigma_m * rho - g(std::hypot(a.north_m - b.north_m, a.east_m - b.east_m)));
       }
     }
     const double expected = std::sqrt(std::max(0.0, var));
     worst = std::max(worst, std::fabs(r.sigma.at(col, row) - expected) / expected);
     ++checked;
   }
-  std::printf("\n  %lld cells: largest relative difference of the sigma to the direct double sum %.2e", checked, worst);
+  std::printf("\n  %lld cells: largest relative difference of the sigma to the direct double sum %.2e",
+              checked, worst);
   CHECK(checked > 500);
   CHECK(worst < 1e-6);
 }

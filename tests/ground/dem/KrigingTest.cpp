@@ -107,7 +107,8 @@ TEST(KdTree, BucketsGiveTheTreesNeighboursOrDecline) {
         if (f == c.k) {
           double bound = 0.0;
           for (int i = 0; i < f; ++i)
-            bound = std::max(bound, (c.x[idx[i]] - qn) * (c.x[idx[i]] - qn) + (c.y[idx[i]] - qe) * (c.y[idx[i]] - qe));
+            bound = std::max(
+                bound, (c.x[idx[i]] - qn) * (c.x[idx[i]] - qn) + (c.y[idx[i]] - qe) * (c.y[idx[i]] - qe));
           ++queries;
           const int bf = buckets.nearestWithin(qn, qe, c.k, bound, idx, d2);
           if (bf >= 0) {
@@ -125,7 +126,8 @@ TEST(KdTree, BucketsGiveTheTreesNeighboursOrDecline) {
         std::copy(tidx, tidx + tf, idx);
       }
     }
-    std::printf("\n%zu points, k = %d: the buckets answered %lld of %lld queries", c.x.size(), c.k, answered, queries);
+    std::printf("\n%zu points, k = %d: the buckets answered %lld of %lld queries", c.x.size(), c.k, answered,
+                queries);
     if (&c.x == &x) {
       CHECK(answered > 0.95 * queries);
     } else {
