@@ -108,6 +108,7 @@ PointBuckets::PointBuckets(const std::vector<double>& x, const std::vector<doubl
   x0_ = x[0];
   y0_ = y[0];
   for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i])) return;  // no buckets: every query goes to the k-d tree
     x0_ = std::min(x0_, x[i]);
     x1 = std::max(x1, x[i]);
     y0_ = std::min(y0_, y[i]);
@@ -146,6 +147,8 @@ int PointBuckets::nearestWithin(double qx, double qy, int k, double max_dist2, i
   const double r = std::sqrt(max_dist2) * inv_cell_ + 1e-3;
   const double rf = (qx - x0_) * inv_cell_, cf = (qy - y0_) * inv_cell_;
   if (!(r < 1e6) || !std::isfinite(rf) || !std::isfinite(cf)) return -1;
+  // No bucket within the bound (and the floors below stay within int).
+  if (rf + r < 0.0 || cf + r < 0.0 || rf - r > rows_ || cf - r > cols_) return -1;
   const int r0 = std::max(0, static_cast<int>(std::floor(rf - r))),
             r1 = std::min(rows_ - 1, static_cast<int>(std::floor(rf + r)));
   const int c0 = std::max(0, static_cast<int>(std::floor(cf - r))),

@@ -49,7 +49,8 @@ class KdTree2 {
 class PointBuckets {
  public:
   PointBuckets() = default;
-  // Keeps a copy of the coordinates; about kPointsPerBucket points per bucket over the bounding box.
+  // Keeps a copy of the coordinates; about kPointsPerBucket points per bucket over the bounding box (no
+  // buckets at all, so every query declines, when a coordinate is not finite).
   PointBuckets(const std::vector<double>& x, const std::vector<double>& y);
 
   // The k nearest points of (qx, qy) as KdTree2::nearest gives them (k <= kMaxBucketNeighbours), given

@@ -134,6 +134,12 @@ TEST(KdTree, BucketsGiveTheTreesNeighboursOrDecline) {
       CHECK(answered < 0.5 * queries);
     }
   }
+  // A point that is not finite: no buckets, every query declines (the tree decides, as before).
+  x[7] = std::nan("");
+  const PointBuckets broken(x, y);
+  int32_t idx[4];
+  double d2[4];
+  CHECK_EQUAL(-1, broken.nearestWithin(5.0, 5.0, 4, 100.0, idx, d2));
 }
 
 TEST_GROUP(Variogram){};
