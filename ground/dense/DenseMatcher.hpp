@@ -28,10 +28,11 @@ inline constexpr double kMatchSigmaPx = 0.15;
 
 // Correlation length (px) of the fine matcher's disparity errors in the image: rho(lag) = exp(-lag / L)
 // between two pixels' errors (census window + semi-global aggregation share the evidence of nearby
-// pixels). Measured on a synthetic pair with a known sub-pixel disparity field
+// pixels). Measured on a synthetic pair with a known sub-pixel disparity field, a plane with relief
 // (tests/ground/dense/MatchErrorCorrelationTest.cpp: the integral scale of the autocorrelation of the errors,
-// mean of rows and columns). The DEM's sigma (ground/dem/Kriging.hpp) averages the errors with it.
-inline constexpr double kMatchErrorCorrelationPx = 3.8;
+// 1.67 px along rows and 2.44 px along columns). The DEM's sigma (ground/dem/Kriging.hpp) averages the
+// errors with it.
+inline constexpr double kMatchErrorCorrelationPx = 2.0;
 
 struct DenseOptions {
   int min_disparity_px = 0;

@@ -1,13 +1,15 @@
 // The source of dense::kMatchErrorCorrelationPx (DenseMatcher.hpp): how far the fine matcher's disparity
 // errors stay correlated in the image. A synthetic pair with a KNOWN sub-pixel disparity field (a slanted
-// plane, d = 12.3 + 0.021 x + 0.017 y, so every pixel has another fractional part) is rendered from one
-// continuous texture (a blurred random field, bicubic); the matcher's errors d - d_true on the valid
-// pixels (bias removed, gross errors > 1 px left out) are autocorrelated along rows and along columns.
+// plane, d = 12.3 + 0.021 x + 0.017 y, with relief of 1.1 px on it, so that the fractional part changes within
+// a few pixels as on rough ground) is rendered from one continuous texture (a blurred random field, bicubic);
+// the matcher's errors d - d_true on the valid pixels (bias removed, gross errors > 1 px left out) are
+// autocorrelated along rows and along columns.
 // The correlation length is the INTEGRAL scale, L = 1/2 + sum_{k>=1} r(k) (= L for r(k) = exp(-k / L);
 // summed up to the first lag where r <= 0): what sets how the errors average down over a neighbourhood,
 // which is how the DEM's sigma model (ground/dem/Kriging.hpp) uses it. The 1/e lag is printed too: the
-// autocorrelation is not exponential (a sharp drop within the first pixels, then a long tail: the
-// sub-pixel error depends on the disparity's fractional part, which changes slowly across the image).
+// autocorrelation is not exponential (a sharp drop within the first pixels, then a negative lobe where the
+// semi-global aggregation smooths the relief). On the plane alone the integral scale was 3.8 px (session 4's
+// value of the constant): a long tail from the fractional part's slow change, which the relief removes.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -23,13 +25,19 @@ using namespace areomap::dense;
 
 namespace {
 
-constexpr double kA = 12.3, kB = 0.021, kC = 0.017;  // d(x, y) = kA + kB x + kC y (left pixel)
+constexpr double kA = 12.3, kB = 0.021, kC = 0.017;  // the plane: kA + kB x + kC y (left pixel)
 
-double trueDisparity(int x, int y) {
-  return kA + kB * x + kC * y;
+// Relief on the plane: sum of sinusoids of 14-50 px wavelength and 1.1 px amplitude in all, so that the
+// disparity's fractional part changes within a few pixels, as on rough ground. On the plane alone it changes
+// over ~50 px and the sub-pixel error (which depends on it) repeats with it: a long correlated tail that
+// relief does not have (r(3) = 0.44 along rows there; integral scale 3.8 px instead of the value below).
+double trueDisparity(double x, double y) {
+  constexpr double kTwoPi = 6.283185307179586;
+  return kA + kB * x + kC * y + 0.45 * std::sin(kTwoPi * (x / 23.0 + y / 41.0) + 0.3) +
+         0.35 * std::sin(kTwoPi * (x / 50.0 - y / 17.0) + 1.9) + 0.3 * std::sin(kTwoPi * (x / 14.0 + y / 29.0) + 4.1);
 }
 
-// Left(x, y) = T(x, y); right(xr, y) = T(x, y) where x - d(x, y) = xr, i.e. x = (xr + kA + kC y) / (1 - kB).
+// Left(x, y) = T(x, y); right(xr, y) = T(x, y) where x - d(x, y) = xr (solved by fixed point: |dd/dx| < 0.2).
 void slantedPair(cv::Mat& left, cv::Mat& right) {
   const int w = 400, h = 300, pad = 40;
   cv::RNG rng(11);
@@ -37,7 +45,13 @@ void slantedPair(cv::Mat& left, cv::Mat& right) {
   rng.fill(tex, cv::RNG::UNIFORM, 0.0, 255.0);
   cv::GaussianBlur(tex, tex, cv::Size(0, 0), 1.0);
   cv::Mat l, r;
-  areomap::test::remapPair(tex, pad, w, h, [](int x, int y) { return (x + kA + kC * y) / (1.0 - kB); }, l, r);
+  areomap::test::remapPair(tex, pad, w, h,
+                           [](int xr, int y) {
+                             double x = xr + kA;
+                             for (int k = 0; k < 30; ++k) x = xr + trueDisparity(x, y);
+                             return x;
+                           },
+                           l, r);
   l.convertTo(left, CV_8UC1);
   r.convertTo(right, CV_8UC1);
 }
