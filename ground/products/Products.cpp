@@ -42,6 +42,26 @@ constexpr double kMatchSigmaPx = dense::kMatchSigmaPx;
 // metres at 60 m): a selection bias that lifted the DEM's outer metres by decimetres.
 constexpr double kSupportDisparityPx = 1.0;
 
+// The two corners (south-west, north-east) of the points that `keep` accepts, as points: dem::gridAround of
+// them is the grid around those points. Empty when it accepts none.
+template <class Keep>
+std::vector<dem::DemPoint> boundingCorners(const std::vector<dem::DemPoint>& points, const Keep& keep) {
+  std::vector<dem::DemPoint> corners(2);
+  corners[0].north_m = corners[0].east_m = 1e300;
+  corners[1].north_m = corners[1].east_m = -1e300;
+  bool any = false;
+  for (const dem::DemPoint& p : points) {
+    if (!keep(p)) continue;
+    any = true;
+    corners[0].north_m = std::min(corners[0].north_m, p.north_m);
+    corners[0].east_m = std::min(corners[0].east_m, p.east_m);
+    corners[1].north_m = std::max(corners[1].north_m, p.north_m);
+    corners[1].east_m = std::max(corners[1].east_m, p.east_m);
+  }
+  if (!any) corners.clear();
+  return corners;
+}
+
 // The support range of a pair (horizontal focal length f px, baseline b m) for a DEM out to max_range_m.
 double supportRangeM(const dense::RectifiedPair& rect, double max_range_m) {
   const double fb = rect.left.h.cross(rect.left.a).norm() * rect.baseline_m;
@@ -559,19 +579,13 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     const auto in_range = [&](double north_m, double east_m) {
       return std::hypot(north_m - in.gimbal_site_m.x(), east_m - in.gimbal_site_m.y()) <= options.max_range_m;
     };
+    const auto in_range_point = [&](const dem::DemPoint& p) { return in_range(p.north_m, p.east_m); };
+    std::vector<dem::DemPoint> box = boundingCorners(pts, in_range_point);
+    if (box.empty()) box = boundingCorners(pts, [](const dem::DemPoint&) { return true; });  // all beyond it
     double extent = 0;
-    std::vector<dem::DemPoint> box(2);  // the bounding box of those points: the grid gridAround(them) makes
-    box[0].north_m = box[0].east_m = 1e300;
-    box[1].north_m = box[1].east_m = -1e300;
-    for (const dem::DemPoint& p : pts) {
-      if (!in_range(p.north_m, p.east_m)) continue;
-      extent = std::max({extent, std::fabs(p.north_m - in.gimbal_site_m.x()), std::fabs(p.east_m - in.gimbal_site_m.y())});
-      box[0].north_m = std::min(box[0].north_m, p.north_m);
-      box[0].east_m = std::min(box[0].east_m, p.east_m);
-      box[1].north_m = std::max(box[1].north_m, p.north_m);
-      box[1].east_m = std::max(box[1].east_m, p.east_m);
+    for (const dem::DemPoint& c : box) {
+      extent = std::max({extent, std::fabs(c.north_m - in.gimbal_site_m.x()), std::fabs(c.east_m - in.gimbal_site_m.y())});
     }
-    if (box[0].north_m > box[1].north_m) box = pts;  // every point beyond max_range_m: grid around them all
     const double cell = options.cell_m > 0 ? options.cell_m : autoCell(2 * extent);
     DemGrid grid = dem::gridAround(box, cell);
     const auto all = [](const dem::DemPoint&) { return true; };
@@ -597,18 +611,8 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       const auto is_near = [&](const dem::DemPoint& p) {
         return std::fabs(p.north_m - in.gimbal_site_m.x()) <= reach && std::fabs(p.east_m - in.gimbal_site_m.y()) <= reach;
       };
-      std::vector<dem::DemPoint> corners(2);  // the near points' bounding box: the grid gridAround(near) makes
-      corners[0].north_m = corners[0].east_m = 1e300;
-      corners[1].north_m = corners[1].east_m = -1e300;
-      std::size_t count = 0;
-      for (const dem::DemPoint& p : pts) {
-        if (!is_near(p)) continue;
-        ++count;
-        corners[0].north_m = std::min(corners[0].north_m, p.north_m);
-        corners[0].east_m = std::min(corners[0].east_m, p.east_m);
-        corners[1].north_m = std::max(corners[1].north_m, p.north_m);
-        corners[1].east_m = std::max(corners[1].east_m, p.east_m);
-      }
+      const std::vector<dem::DemPoint> corners = boundingCorners(pts, is_near);
+      const auto count = std::count_if(pts.begin(), pts.end(), is_near);
       if (count >= 16) {
         try {
           near_grid = dem::gridAround(corners, options.near_cell_m);

@@ -33,7 +33,7 @@ constexpr int kMaxFootprintTaps = 32;
 // this, grazing ground aliases its texture along the range and each view of a stereo pair aliases it
 // differently, which biased far disparities (BENCHMARKS.md, "Far range on a rendered scene").
 double footprintRadiance(const Terrain& terrain, const Eigen::Vector3d& hit, const Eigen::Vector3d& dir,
-                         const Eigen::Vector3d& normal, double t, double ray_rad, double pixel_rad,
+                         const Eigen::Vector3d& normal, bool on_grid, double t, double ray_rad, double pixel_rad,
                          const Eigen::Vector3d& sun, double shadow) {
   auto radiance = [&](double x, double y, const Eigen::Vector3d& n) {
     const double direct = std::max(0.0, n.dot(sun)) * shadow;
@@ -47,11 +47,10 @@ double footprintRadiance(const Terrain& terrain, const Eigen::Vector3d& hit, con
   Eigen::Vector3d along = dir - dir.dot(normal) * normal;
   if (along.squaredNorm() < 1e-18) return radiance(hit.x(), hit.y(), normal);
   along *= length_m / along.norm();
-  const bool flat = normal.z() == -1.0 && normal.x() == 0.0 && normal.y() == 0.0;  // the far plane
   double sum = 0.0;
   for (int k = 0; k < taps; ++k) {
     const Eigen::Vector3d p = hit + ((k + 0.5) / taps - 0.5) * along;
-    sum += radiance(p.x(), p.y(), flat ? normal : terrain.normal(p.x(), p.y()));
+    sum += radiance(p.x(), p.y(), on_grid ? terrain.normal(p.x(), p.y()) : normal);  // else the far plane
   }
   return sum / taps;
 }
@@ -106,7 +105,7 @@ RenderedImage renderImage(const Terrain& terrain, const SimConfig& config, const
             double ts = 0.0;
             if (terrain.castRay(hit + 1e-3 * normal, sun, ts)) shadow = 0.0;
           }
-          sum += kExposureDn * footprintRadiance(terrain, hit, dir, normal, t, pixel_rad / s, pixel_rad, sun, shadow);
+          sum += kExposureDn * footprintRadiance(terrain, hit, dir, normal, on_grid, t, pixel_rad / s, pixel_rad, sun, shadow);
         }
       }
       double dn = sum / (s * s);
