@@ -43,22 +43,24 @@ constexpr double kMatchSigmaPx = dense::kMatchSigmaPx;
 constexpr double kSupportDisparityPx = 1.0;
 
 // The two corners (south-west, north-east) of the points that `keep` accepts, as points: dem::gridAround of
-// them is the grid around those points. Empty when it accepts none.
+// them is the grid around those points. Empty when it accepts none; `count` (optional) gets how many it does.
 template <class Keep>
-std::vector<dem::DemPoint> boundingCorners(const std::vector<dem::DemPoint>& points, const Keep& keep) {
+std::vector<dem::DemPoint> boundingCorners(const std::vector<dem::DemPoint>& points, const Keep& keep,
+                                           std::size_t* count = nullptr) {
   std::vector<dem::DemPoint> corners(2);
   corners[0].north_m = corners[0].east_m = 1e300;
   corners[1].north_m = corners[1].east_m = -1e300;
-  bool any = false;
+  std::size_t kept = 0;
   for (const dem::DemPoint& p : points) {
     if (!keep(p)) continue;
-    any = true;
+    ++kept;
     corners[0].north_m = std::min(corners[0].north_m, p.north_m);
     corners[0].east_m = std::min(corners[0].east_m, p.east_m);
     corners[1].north_m = std::max(corners[1].north_m, p.north_m);
     corners[1].east_m = std::max(corners[1].east_m, p.east_m);
   }
-  if (!any) corners.clear();
+  if (kept == 0) corners.clear();
+  if (count != nullptr) *count = kept;
   return corners;
 }
 
@@ -611,8 +613,8 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       const auto is_near = [&](const dem::DemPoint& p) {
         return std::fabs(p.north_m - in.gimbal_site_m.x()) <= reach && std::fabs(p.east_m - in.gimbal_site_m.y()) <= reach;
       };
-      const std::vector<dem::DemPoint> corners = boundingCorners(pts, is_near);
-      const auto count = std::count_if(pts.begin(), pts.end(), is_near);
+      std::size_t count = 0;
+      const std::vector<dem::DemPoint> corners = boundingCorners(pts, is_near, &count);
       if (count >= 16) {
         try {
           near_grid = dem::gridAround(corners, options.near_cell_m);

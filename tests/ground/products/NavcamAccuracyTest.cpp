@@ -11,7 +11,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <vector>
 
 #include "ground/dataset/DemRaster.hpp"
@@ -31,8 +30,7 @@ namespace {
 void reduce(sim::SimConfig& c) {
   c.half_extent_m = 14.0;
   c.max_range_m = 12.0;
-  // Diagnostic knob: AREOMAP_NAVCAM_SEED=N renders the terrain of seed N instead of the preset's.
-  if (const char* seed = std::getenv("AREOMAP_NAVCAM_SEED")) c.seed = static_cast<uint64_t>(std::atoll(seed));
+  test::seedFromEnvironment(c, "AREOMAP_NAVCAM_SEED");  // diagnostic knob
 }
 
 struct NavcamRun {

@@ -2,6 +2,7 @@
 // inputs. Shared by the products and ortho tests.
 #pragma once
 
+#include <cstdlib>
 #include <map>
 #include <set>
 #include <string>
@@ -18,6 +19,12 @@ struct SimScene {
   sim::SimGeometry geometry;
   products::ProductInputs inputs;  // true models, true ties (the geometry's check points)
 };
+
+// Diagnostic knob of the scene tests: when the environment variable `name` is set (e.g. AREOMAP_FAR_SEED=2),
+// the terrain of that seed instead of the preset's.
+inline void seedFromEnvironment(sim::SimConfig& config, const char* name) {
+  if (const char* seed = std::getenv(name)) config.seed = static_cast<uint64_t>(std::atoll(seed));
+}
 
 // `preset` with `pairs` pairs (0 = the preset's count); `edit` may change the configuration first.
 inline SimScene makeSimScene(const std::string& preset, int pairs, void (*edit)(sim::SimConfig&) = nullptr) {
