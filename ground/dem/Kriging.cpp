@@ -35,6 +35,7 @@ struct CorrelatedNoise {
   const std::vector<float>* gsd = nullptr;
   double bin_m = 0.0;
   VariogramModel signal;
+  const std::vector<float>* extra = nullptr;  // KrigingOptions::point_extra_var_m2 (or none)
 
   bool on() const { return l_px > 0.0 && gsd != nullptr; }
 
@@ -69,7 +70,9 @@ struct CorrelatedNoise {
     double v = 0.0;
     for (int i = 0; i < f; ++i) {
       const DemPoint& a = points[static_cast<std::size_t>(idx[i])];
-      v += 2.0 * w[i] * filtered(std::sqrt(d2[i])) + w[i] * w[i] * (a.sigma_m * a.sigma_m + signal.nugget_m2);
+      const double own = extra != nullptr ? (*extra)[static_cast<std::size_t>(idx[i])] : 0.0;
+      v += 2.0 * w[i] * filtered(std::sqrt(d2[i])) +
+           w[i] * w[i] * (a.sigma_m * a.sigma_m + signal.nugget_m2 + own);
       for (int j = 0; j < i; ++j) {
         const int pi = position[i], pj = position[j];
         v += 2.0 * w[i] * w[j] * (pi > pj ? terms.row(pi)[pj] : terms.row(pj)[pi]);
@@ -214,10 +217,12 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
     res.model = fitVariogram(res.experimental);
   }
   res.max_gap_m = gap;
-  CorrelatedNoise correlated{o.noise_correlation_px,
-                             o.point_gsd_m != nullptr && o.point_gsd_m->size() == points.size() ? o.point_gsd_m
-                                                                                              : nullptr,
-                             o.bin_cell_m, VariogramModel{}};
+  CorrelatedNoise correlated{
+      o.noise_correlation_px,
+      o.point_gsd_m != nullptr && o.point_gsd_m->size() == points.size() ? o.point_gsd_m : nullptr,
+      o.bin_cell_m, VariogramModel{},
+      o.point_extra_var_m2 != nullptr && o.point_extra_var_m2->size() == points.size() ? o.point_extra_var_m2
+                                                                                       : nullptr};
   if (correlated.on()) {
     res.signal_experimental =
         experimentalVariogram(xs, ys, zs, max_lag, 20, 2000000, 1,

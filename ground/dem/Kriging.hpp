@@ -46,6 +46,11 @@ struct KrigingOptions {
   double noise_correlation_px = 0.0;
   const std::vector<float>* point_gsd_m = nullptr;
   double bin_cell_m = 0.0;
+  // An error of each point that its neighbours do not share and that the kriging weights leave as it is
+  // (variance m^2 per point, with point_gsd_m): the sigma adds sum_i w_i^2 v_i. The binned points' own
+  // representation error: a bin's mean height stands for the surface at its centroid, and the surface's
+  // relief inside the bin, beyond a plane, is what the mean does not carry (Products.cpp binPoints).
+  const std::vector<float>* point_extra_var_m2 = nullptr;
   int threads = 0;  // threads for the cells (0: one per core); the result is the same for any number
 };
 

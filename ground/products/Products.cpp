@@ -152,15 +152,83 @@ double autoCell(double extent_m) {
 // (s_p^2 the points' mean sigma^2); pairs are independent: Var(mean) = sum_p (n_p / n)^2 Var(pair's mean).
 // The cell's ground sample distance (gsd_m, what the kriging's error correlation needs): cell / sqrt(n_p)
 // of the pair with the most points there (the ground size of one of its pixels).
+// The cell's representation variance (rep_var_m2, KrigingOptions::point_extra_var_m2): the mean height
+// stands for the surface at the bin's centroid, and what the surface does inside the bin beyond a plane
+// is not in it. Measured from the bin's own points: the variance of their heights about their
+// least-squares plane, less what the points' noise puts there (s^2 (1 - patchVarianceFactor) per pair, the
+// part of correlated errors that does not move the bin's mean); 0 for bins of fewer than
+// kMinRepresentationPoints points.
 struct BinnedCloud {
   std::vector<dem::DemPoint> points;
-  std::vector<float> gsd_m;  // per point
+  std::vector<float> gsd_m;            // per point
+  std::vector<float> rep_var_m2;       // per point
+  double shared_noise_fraction = 0.0;  // phi of sharedNoiseFraction
+  long long overlap_bins = 0;          // the bins it was measured on
 };
+
+constexpr double kMinRepresentationPoints = 6;  // a plane (3 unknowns) and 3 degrees of freedom
+
+// The part of the points' noise variance that their number does not average down (phi), measured where
+// two pairs see one bin: their means differ by d, and E[d^2] = sum over the two of s_p^2 (patch factor +
+// phi) (the pairs' errors independent, s_p^2 their points' mean noise variance). phi is the least-squares
+// solution over all such bins, after one pass that leaves out the bins with d^2 above 25 times the
+// variance the first solution predicts (mismatches, occlusion edges); 0 with fewer than
+// kMinOverlapBins bins or a negative solution (the correlated-noise model alone explains the data).
+constexpr double kMinOverlapPoints = 4;  // points of each of the two pairs in the bin
+constexpr long long kMinOverlapBins = 200;
+
+template <class Acc>
+double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots,
+                           double l_px, long long& overlap_bins) {
+  struct Overlap {
+    double d2, pred, base;
+  };
+  std::vector<Overlap> overlaps;
+  for (std::size_t i = 0; i < by_cell.size();) {
+    const long long cell = by_cell[i].first / pair_slots;
+    const Acc* best[2] = {nullptr, nullptr};
+    for (; i < by_cell.size() && by_cell[i].first / pair_slots == cell; ++i) {
+      const Acc& a = by_cell[i].second;
+      if (a.n < kMinOverlapPoints) continue;
+      if (best[0] == nullptr || a.n > best[0]->n) {
+        best[1] = best[0];
+        best[0] = &a;
+      } else if (best[1] == nullptr || a.n > best[1]->n) {
+        best[1] = &a;
+      }
+    }
+    if (best[1] == nullptr) continue;
+    const double d = best[0]->z / best[0]->n - best[1]->z / best[1]->n;
+    Overlap o{d * d, 0.0, 0.0};
+    for (const Acc* a : best) {
+      o.pred += (a->s2 / a->n) * dem::patchVarianceFactor(std::sqrt(a->n), l_px);
+      o.base += a->s2 / a->n;
+    }
+    overlaps.push_back(o);
+  }
+  overlap_bins = static_cast<long long>(overlaps.size());
+  if (overlap_bins < kMinOverlapBins) return 0.0;
+  double phi = 0.0;
+  for (int pass = 0; pass < 2; ++pass) {
+    double d2 = 0.0, pred = 0.0, base = 0.0;
+    for (const Overlap& o : overlaps) {
+      if (pass == 1 && o.d2 > 25.0 * (o.pred + phi * o.base)) continue;
+      d2 += o.d2;
+      pred += o.pred;
+      base += o.base;
+    }
+    if (!(base > 0.0)) return 0.0;
+    phi = std::max(0.0, (d2 - pred) / base);
+  }
+  return phi;
+}
 
 template <class Keep>
 BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid, const Keep& keep) {
   struct Acc {
     double n = 0, x = 0, y = 0, z = 0, s2 = 0;
+    // Moments about the cell's centre (u north, v east) for the bin's plane.
+    double u = 0, v = 0, uu = 0, uv = 0, vv = 0, uz = 0, vz = 0, zz = 0;
   };
   constexpr long long kPairSlots = 4096;  // pairs per cell key (pair ids beyond share a slot: one pair)
   std::unordered_map<long long, Acc> bins;  // key: cell * kPairSlots + pair slot
@@ -175,17 +243,48 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
     a.y += p.east_m;
     a.z += p.elevation_m;
     a.s2 += p.sigma_m * p.sigma_m;
+    const double u = p.north_m - grid.northOfRow(static_cast<int>(r)),
+                 v = p.east_m - grid.eastOfCol(static_cast<int>(c));
+    a.u += u;
+    a.v += v;
+    a.uu += u * u;
+    a.uv += u * v;
+    a.vv += v * v;
+    a.uz += u * p.elevation_m;
+    a.vz += v * p.elevation_m;
+    a.zz += p.elevation_m * p.elevation_m;
   }
   std::vector<std::pair<long long, Acc>> by_cell(bins.begin(), bins.end());
   std::unordered_map<long long, Acc>().swap(bins);
   std::sort(by_cell.begin(), by_cell.end(),
             [](const std::pair<long long, Acc>& a, const std::pair<long long, Acc>& b) { return a.first < b.first; });
   const double l_px = dense::kMatchErrorCorrelationPx;
-  std::vector<std::pair<dem::DemPoint, float>> out;
+  // The bin's relief beyond its plane (BinnedCloud): the residual variance of the heights about their
+  // least-squares plane, less what the points' noise puts there.
+  const auto representationVariance = [](const Acc& a, double noise_spread) {
+    if (a.n < kMinRepresentationPoints) return 0.0;
+    const double suu = a.uu - a.u * a.u / a.n, suv = a.uv - a.u * a.v / a.n, svv = a.vv - a.v * a.v / a.n;
+    const double suz = a.uz - a.u * a.z / a.n, svz = a.vz - a.v * a.z / a.n, szz = a.zz - a.z * a.z / a.n;
+    const double det = suu * svv - suv * suv;
+    double rss = szz;
+    if (det > 1e-12 * (suu * svv) && det > 0.0) {
+      const double b = (svv * suz - suv * svz) / det, c = (suu * svz - suv * suz) / det;
+      rss = szz - b * suz - c * svz;
+    }
+    return std::max(0.0, (rss - noise_spread) / (a.n - 3.0));
+  };
+  long long overlap_bins = 0;
+  const double shared = sharedNoiseFraction(by_cell, kPairSlots, l_px, overlap_bins);
+  struct Binned {
+    dem::DemPoint point;
+    float gsd_m, rep_var_m2;
+  };
+  std::vector<Binned> out;
   for (std::size_t i = 0; i < by_cell.size();) {
     const long long cell = by_cell[i].first / kPairSlots;
     Acc all;
     double var_n2 = 0.0, n_max = 0.0;  // sum_p n_p^2 Var(pair's mean); the most points of one pair
+    double noise_spread = 0.0;         // sum_p s_p^2 n_p (1 - patch factor): the noise about the mean
     long long pair_max = 0;
     for (; i < by_cell.size() && by_cell[i].first / kPairSlots == cell; ++i) {
       const Acc& a = by_cell[i].second;
@@ -193,7 +292,17 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
       all.x += a.x;
       all.y += a.y;
       all.z += a.z;
-      var_n2 += a.n * a.n * (a.s2 / a.n) * dem::patchVarianceFactor(std::sqrt(a.n), l_px);
+      all.u += a.u;
+      all.v += a.v;
+      all.uu += a.uu;
+      all.uv += a.uv;
+      all.vv += a.vv;
+      all.uz += a.uz;
+      all.vz += a.vz;
+      all.zz += a.zz;
+      const double factor = dem::patchVarianceFactor(std::sqrt(a.n), l_px);
+      var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
+      noise_spread += a.s2 * (1.0 - factor);
       if (a.n > n_max) {
         n_max = a.n;
         pair_max = by_cell[i].first % kPairSlots;
@@ -205,18 +314,23 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
     p.elevation_m = all.z / all.n;
     p.sigma_m = std::sqrt(var_n2) / all.n;
     p.line = pair_max > 0 ? dense::lineId(pair_max - 1, 0) : -1;  // the pair of most of its points (row 0)
-    out.emplace_back(p, static_cast<float>(grid.cell_m / std::sqrt(n_max)));
+    out.push_back({p, static_cast<float>(grid.cell_m / std::sqrt(n_max)),
+                   static_cast<float>(representationVariance(all, noise_spread))});
   }
-  using Binned = std::pair<dem::DemPoint, float>;
   std::sort(out.begin(), out.end(), [](const Binned& a, const Binned& b) {
-    return a.first.north_m != b.first.north_m ? a.first.north_m < b.first.north_m : a.first.east_m < b.first.east_m;
+    return a.point.north_m != b.point.north_m ? a.point.north_m < b.point.north_m
+                                              : a.point.east_m < b.point.east_m;
   });
   BinnedCloud binned;
   binned.points.reserve(out.size());
   binned.gsd_m.reserve(out.size());
-  for (const auto& pg : out) {
-    binned.points.push_back(pg.first);
-    binned.gsd_m.push_back(pg.second);
+  binned.rep_var_m2.reserve(out.size());
+  binned.shared_noise_fraction = shared;
+  binned.overlap_bins = overlap_bins;
+  for (const Binned& b : out) {
+    binned.points.push_back(b.point);
+    binned.gsd_m.push_back(b.gsd_m);
+    binned.rep_var_m2.push_back(b.rep_var_m2);
   }
   return binned;
 }
@@ -227,6 +341,7 @@ dem::KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGri
   o.noise_correlation_px = dense::kMatchErrorCorrelationPx;
   o.point_gsd_m = &binned.gsd_m;
   o.bin_cell_m = grid.cell_m;
+  o.point_extra_var_m2 = &binned.rep_var_m2;
   return o;
 }
 
@@ -592,6 +707,14 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     DemGrid grid = dem::gridAround(box, cell);
     const auto all = [](const dem::DemPoint&) { return true; };
     const BinnedCloud binned = binPoints(pts, grid, all);
+    {
+      char b[160];
+      std::snprintf(
+          b, sizeof b,
+          "DEM noise: %.3f of the points' variance does not average down (from %lld bins seen by two pairs)",
+          binned.shared_noise_fraction, binned.overlap_bins);
+      cli::info(b);
+    }
     dem::EquiParallaxOptions eo;
     eo.centre_north_m = in.gimbal_site_m.x();
     eo.centre_east_m = in.gimbal_site_m.y();
