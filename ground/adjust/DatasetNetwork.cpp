@@ -23,7 +23,7 @@ std::string vecText(const Vec3& v) {
 
 void addCamera(const Dataset& dataset, const ImageRef& ref, const std::string& field, NetworkSource& source) {
   const std::string path = ref.model_path.empty() ? ref.image_path : ref.model_path;
-  const CameraModel model = io::readCameraModelFile(path, dataset.width, dataset.height);
+  const CameraModel model = io::readCameraModelForImage(path, ref.image_path, dataset.width, dataset.height);
   PhotogrammetricCamera cam;
   ConversionResidual residual;
   const Status s = cahvorToPhotogrammetric(model, cam, residual);

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -13,6 +15,7 @@
 #include "ground/cli/Cli.hpp"
 #include "ground/io/ImageFile.hpp"
 #include "ground/io/Pds3Label.hpp"
+#include "ground/io/PixelFrame.hpp"
 
 namespace areomap::io {
 namespace {
@@ -143,7 +146,7 @@ CameraFile fromPds3(const Pds3Label& label, int width, int height) {
   return out;
 }
 
-// "(1288,968)" or [1288, 968] -> two integers.
+// The first two numbers of "(1288,968)", [1288, 968] or [1, 1, 1288, 968].
 bool pairOf(const nlohmann::json& j, double& a, double& b) {
   if (j.is_array() && j.size() >= 2 && j[0].is_number() && j[1].is_number()) {
     a = j[0].get<double>();
@@ -152,7 +155,7 @@ bool pairOf(const nlohmann::json& j, double& a, double& b) {
   }
   if (j.is_string()) {
     const std::vector<std::string> items = Pds3Label::tuple(j.get<std::string>());
-    if (items.size() == 2) {
+    if (items.size() >= 2) {
       char* e1 = nullptr;
       char* e2 = nullptr;
       a = std::strtod(items[0].c_str(), &e1);
@@ -163,18 +166,18 @@ bool pairOf(const nlohmann::json& j, double& a, double& b) {
   return false;
 }
 
-CameraFile fromM2020Json(const std::string& text, const std::string& path, int width, int height) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    throw cli::InputError(path, "json", e.what());
-  }
+// The delivered image's size when an image tells it (the image beside the file, or the caller's), and
+// which image that was, for warnings and errors.
+struct DeliveredImage {
+  ImageSize size;
+  std::string source;
+};
+
+// The CAHV[OR[E]] model of camera_model_component_list (and camera_model_type), checked.
+void parseM2020Model(const nlohmann::json& j, const std::string& path, CameraModel& m) {
   const char* const kList = "camera_model_component_list";
-  if (!j.contains(kList) || !j[kList].is_string()) throw cli::InputError(path, kList, "missing or not a string");
-  CameraFile out;
-  out.format = CameraFileFormat::kM2020Json;
-  CameraModel& m = out.file_model;
+  if (!j.contains(kList) || !j[kList].is_string())
+    throw cli::InputError(path, kList, "missing or not a string");
   std::vector<std::string> parts;
   {
     std::istringstream in(j[kList].get<std::string>());
@@ -205,52 +208,108 @@ CameraFile fromM2020Json(const std::string& text, const std::string& path, int w
             parseNumber(Pds3Label::unquote(parts[8]), path, fieldOf("parameter")), path, fieldOf("type"));
   }
   validateOrThrow(m, path, fieldOf);
+}
 
-  // The delivered image's size, and the frame of the model: a model whose principal point lies far outside
-  // the delivered image is in full-resolution detector pixels (the NLF frame: hc ~2595 px for a 1288 px wide
-  // image); it is scaled by the integer factor that brings the principal point nearest the image centre
-  // and shifted by the subframe origin (subframe_rect, 1-based, detector pixels): a delivered pixel's
-  // centre lies at detector (first - 1) + scale * pixel + (scale - 1) / 2.
+// scale_factor and the origin of subframe_rect ([first sample, first line, samples, lines], 1-based
+// detector pixels). A scale_factor that is no integer in 1..kMaxDownsampling is ignored with a warning (the
+// browse products' metadata is not always right, and the frame is decided without it when it must be).
+void readM2020Metadata(const nlohmann::json& j, const std::string& path, FrameEvidence& e, CameraFile& out) {
+  if (j.contains("scale_factor") && !j["scale_factor"].is_null()) {
+    const nlohmann::json& s = j["scale_factor"];
+    const double v = s.is_number() ? s.get<double>() : 0.0;
+    if (v >= 1.0 && v <= kMaxDownsampling && v == std::floor(v)) {
+      e.meta_scale = static_cast<int>(v);
+    } else {
+      out.warnings.push_back(path + ": scale_factor " + s.dump() + " is no integer in 1.." +
+                             std::to_string(kMaxDownsampling) + ": ignored");
+    }
+  }
+  if (j.contains("subframe_rect") && !j["subframe_rect"].is_null()) {
+    double x = 0.0, y = 0.0;
+    if (!pairOf(j["subframe_rect"], x, y)) {
+      throw cli::InputError(path, "subframe_rect", "expected [first sample, first line, samples, lines]");
+    }
+    if (!(x >= 1.0 && x <= kMaxImageSidePx && y >= 1.0 && y <= kMaxImageSidePx)) {
+      throw cli::InputError(
+          path, "subframe_rect",
+          "origin outside 1.." + std::to_string(kMaxImageSidePx) + " (1-based detector pixels)");
+    }
+    e.meta_origin_px = Vec2(x, y);
+  }
+}
+
+CameraFile fromM2020Json(const std::string& text, const std::string& path, int width, int height,
+                         const DeliveredImage* image) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw cli::InputError(path, "json", e.what());
+  }
+  CameraFile out;
+  out.format = CameraFileFormat::kM2020Json;
+  CameraModel& m = out.file_model;
+  parseM2020Model(j, path, m);
+
+  // The delivered image's size: the image's own, else "dimension", else the caller's.
   double w = width, h = height;
-  if (j.contains("dimension") && pairOf(j["dimension"], w, h)) {
+  std::string source = "given by the caller";
+  double dim_w = 0.0, dim_h = 0.0;
+  const bool has_dimension = j.contains("dimension") && pairOf(j["dimension"], dim_w, dim_h);
+  if (has_dimension) {
     // Checked before it is narrowed to int32 (and multiplied by the scale below).
-    if (!(w >= 1.0 && w <= kMaxImageSidePx && h >= 1.0 && h <= kMaxImageSidePx)) {
+    if (!(dim_w >= 1.0 && dim_w <= kMaxImageSidePx && dim_h >= 1.0 && dim_h <= kMaxImageSidePx)) {
       throw cli::InputError(path, "dimension", "image size outside 1.." + std::to_string(kMaxImageSidePx) + " px");
     }
+  }
+  if (image != nullptr) {
+    w = image->size.width;
+    h = image->size.height;
+    source = "from " + image->source;
+    if (has_dimension && (dim_w != w || dim_h != h)) {
+      out.warnings.push_back(path + ": dimension says " + std::to_string(std::lround(dim_w)) + "x" +
+                             std::to_string(std::lround(dim_h)) + " but " + image->source + " is " +
+                             std::to_string(image->size.width) + "x" + std::to_string(image->size.height) +
+                             ": the image's size is used");
+    }
+    out.size_from_file = true;
+  } else if (has_dimension) {
+    w = dim_w;
+    h = dim_h;
+    source = "from its dimension";
     out.size_from_file = true;
   }
   m.width = static_cast<int32_t>(w);
   m.height = static_cast<int32_t>(h);
   out.model = m;
-  if (w > 0 && h > 0) {
-    const double hc = m.a.dot(m.h), vc = m.a.dot(m.v);
-    const double sx = hc / (0.5 * w), sy = vc / (0.5 * h);
-    if (sx > 1.5 || sy > 1.5) {
-      const double s = std::round(0.5 * (sx + sy));
-      if (s < 2.0 || s > 64.0 || std::fabs(sx - s) > 0.25 * s || std::fabs(sy - s) > 0.25 * s) {
-        throw cli::InputError(path, fieldOf("H"),
-                              "the principal point (" + std::to_string(hc) + ", " + std::to_string(vc) +
-                                  ") fits no integer downsampling of the " + std::to_string(m.width) + "x" +
-                                  std::to_string(m.height) + " image");
-      }
-      double first_x = 1.0, first_y = 1.0;
-      const nlohmann::json* rect = j.contains("subframe_rect") ? &j["subframe_rect"] : nullptr;
-      if (rect != nullptr && rect->is_array() && rect->size() == 4 && (*rect)[0].is_number() &&
-          (*rect)[1].is_number()) {
-        first_x = (*rect)[0].get<double>();
-        first_y = (*rect)[1].get<double>();
-        if (!(std::fabs(first_x) <= kMaxImageSidePx * s && std::fabs(first_y) <= kMaxImageSidePx * s)) {
-          throw cli::InputError(path, "subframe_rect", "origin outside the detector");
-        }
-      }
-      out.scale = s;
-      out.offset_px = Vec2(first_x - 1.0 + 0.5 * (s - 1.0), first_y - 1.0 + 0.5 * (s - 1.0));
-      out.model = rescaledModel(m, out.scale, out.offset_px, m.width, m.height);
-      validateOrThrow(out.model, path, [&](const std::string& f) { return "subframe_rect, " + fieldOf(f); });
-      out.file_model.width = static_cast<int32_t>(std::lround(w * s));
-      out.file_model.height = static_cast<int32_t>(std::lround(h * s));
-    }
+  if (!(w > 0 && h > 0)) return out;
+
+  // The model's pixel frame (PixelFrame.hpp): a delivered pixel's centre lies at model pixel
+  // offset + scale * pixel.
+  FrameEvidence e;
+  e.principal_px = Vec2(m.a.dot(m.h), m.a.dot(m.v));
+  e.width = m.width;
+  e.height = m.height;
+  readM2020Metadata(j, path, e, out);
+  PixelFrame frame;
+  std::string tried;
+  if (!choosePixelFrame(e, frame, tried)) {
+    char pp[64];
+    std::snprintf(pp, sizeof pp, "(%.1f, %.1f)", e.principal_px.x(), e.principal_px.y());
+    throw cli::InputError(path, "camera_model_component_list (H, V)",
+                          std::string("the principal point ") + pp + " fits no pixel frame of the " +
+                              std::to_string(m.width) + "x" + std::to_string(m.height) + " image (size " +
+                              source + "); tried " + tried);
   }
+  out.frame = frame.name;
+  out.scale = frame.scale;
+  out.offset_px = frame.offset_px;
+  out.model = rescaledModel(m, frame.scale, frame.offset_px, m.width, m.height);
+  validateOrThrow(out.model, path, [](const std::string& f) {
+    return "subframe_rect, camera_model_component_list (" + f + ")";
+  });
+  out.file_model.width = static_cast<int32_t>(std::lround(w * frame.scale));
+  out.file_model.height = static_cast<int32_t>(std::lround(h * frame.scale));
   return out;
 }
 
@@ -299,10 +358,18 @@ CameraModel rescaledModel(const CameraModel& model, double scale, const Vec2& of
   return m;
 }
 
-CameraFile parseCameraText(const std::string& text, const std::string& path, int width, int height) {
+namespace {
+
+bool looksLikeJson(const std::string& text) {
+  const std::size_t first = text.find_first_not_of(" \t\r\n");
+  return first != std::string::npos && text[first] == '{';
+}
+
+CameraFile parseText(const std::string& text, const std::string& path, int width, int height,
+                     const DeliveredImage* image) {
   std::size_t first = text.find_first_not_of(" \t\r\n");
   if (first == std::string::npos) throw cli::InputError(path, "file", "empty");
-  if (text[first] == '{') return fromM2020Json(text, path, width, height);
+  if (text[first] == '{') return fromM2020Json(text, path, width, height, image);
   const std::string head = text.substr(0, std::min(text.size(), Pds3Label::kMaxBytes));
   if (head.find("PDS_VERSION_ID") != std::string::npos || head.find("GEOMETRIC_CAMERA_MODEL") != std::string::npos) {
     return fromPds3(Pds3Label::parse(head, path), width, height);
@@ -310,18 +377,79 @@ CameraFile parseCameraText(const std::string& text, const std::string& path, int
   return fromJplText(text, path, width, height);
 }
 
-CameraFile readPds3Camera(const Pds3Label& label, int width, int height) { return fromPds3(label, width, height); }
-
-CameraFile readCameraFile(const std::string& path, int width, int height) {
+std::string readText(const std::string& path) {
   std::string text = readWhole(path);
   // An attached PDS3 label is followed by binary image data: keep the text part.
   const std::size_t nul = text.find('\0');
   if (nul != std::string::npos) text.resize(nul);
-  return parseCameraText(text, path, width, height);
+  return text;
+}
+
+void warnAll(const CameraFile& file) {
+  for (const std::string& w : file.warnings) cli::warn(w);
+}
+
+}  // namespace
+
+std::string imageBeside(const std::string& path) {
+  const std::filesystem::path p(path);
+  std::string stem = p.filename().string();
+  for (const char* suffix : {"-metadata.json", ".json"}) {
+    const std::size_t n = std::strlen(suffix);
+    if (stem.size() > n && stem.compare(stem.size() - n, n, suffix) == 0) {
+      stem.resize(stem.size() - n);
+      for (const char* ext : {".png", ".PNG", ".jpg", ".JPG", ".jpeg", ".JPEG", ".pgm", ".PGM", ".ppm",
+                              ".tif", ".tiff", ".TIF", ".IMG", ".img"}) {
+        const std::filesystem::path candidate = p.parent_path() / (stem + ext);
+        std::error_code ec;
+        if (std::filesystem::is_regular_file(candidate, ec)) return candidate.string();
+      }
+      return "";
+    }
+  }
+  return "";
+}
+
+CameraFile parseCameraText(const std::string& text, const std::string& path, int width, int height) {
+  return parseText(text, path, width, height, nullptr);
+}
+
+CameraFile readPds3Camera(const Pds3Label& label, int width, int height) {
+  return fromPds3(label, width, height);
+}
+
+CameraFile readCameraFile(const std::string& path, int width, int height) {
+  const std::string text = readText(path);
+  if (looksLikeJson(text)) {
+    const std::string image = imageBeside(path);
+    if (!image.empty()) {
+      const DeliveredImage delivered{readImageSize(image), image};
+      return parseText(text, path, width, height, &delivered);
+    }
+  }
+  return parseText(text, path, width, height, nullptr);
+}
+
+CameraFile readCameraFileForImage(const std::string& path, const std::string& image_path, int width,
+                                  int height) {
+  const std::string text = readText(path);
+  if (!looksLikeJson(text)) return parseText(text, path, width, height, nullptr);
+  const DeliveredImage delivered{
+      width > 0 && height > 0 ? ImageSize{width, height} : readImageSize(image_path), image_path};
+  return parseText(text, path, width, height, &delivered);
 }
 
 CameraModel readCameraModelFile(const std::string& path, int width, int height) {
-  return readCameraFile(path, width, height).model;
+  const CameraFile file = readCameraFile(path, width, height);
+  warnAll(file);
+  return file.model;
+}
+
+CameraModel readCameraModelForImage(const std::string& path, const std::string& image_path, int width,
+                                    int height) {
+  const CameraFile file = readCameraFileForImage(path, image_path, width, height);
+  warnAll(file);
+  return file.model;
 }
 
 void writeCameraModelFile(const std::string& path, const CameraModel& model) {

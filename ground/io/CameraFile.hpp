@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "firmware_core/camera/CameraModel.hpp"
 
@@ -23,14 +24,31 @@ struct CameraFile {
   CameraModel model;
   double scale = 1.0;
   Vec2 offset_px = Vec2::Zero();
-  bool size_from_file = false;  // false: width/height came from the caller (or are 0)
+  // false: width/height came from the caller's fallback (or are 0); true: from the file or its image.
+  bool size_from_file = false;
   std::string reference_frame;  // PDS3 REFERENCE_COORD_SYSTEM_NAME ("ROVER_FRAME", …); "" if not given
+  std::string frame;            // the M2020 model's pixel frame (PixelFrame::name); "" for the other formats
+  std::vector<std::string> warnings;  // e.g. the image's size differs from the JSON's "dimension"
 };
 
 // Reads a camera file. `width`/`height` are used when the file gives no image size (0 = leave unknown).
+// An M2020 JSON X-metadata.json or X.json with an image X.png (.jpg, .pgm, .tif, .IMG, …) beside it takes
+// the delivered size from that image's header (it wins over the JSON's "dimension", with a warning); the
+// model's pixel frame is then decided by choosePixelFrame (PixelFrame.hpp), and a model that fits no frame
+// of the image is an error naming the file, the field and every frame tried.
 CameraFile readCameraFile(const std::string& path, int width = 0, int height = 0);
-// The model of readCameraFile(path, width, height), in the delivered image's pixel frame.
+// The model of readCameraFile(path, width, height), in the delivered image's pixel frame; warnings go to
+// stderr (cli::warn).
 CameraModel readCameraModelFile(const std::string& path, int width = 0, int height = 0);
+// The camera file of a known image (a dataset's pair side): for an M2020 JSON, `image_path` is the
+// delivered image, `width` x `height` its size (0 x 0: read from its header), whatever the JSON's
+// "dimension" says or lies beside it; the other formats read as readCameraFile(path, width, height).
+CameraFile readCameraFileForImage(const std::string& path, const std::string& image_path, int width = 0,
+                                  int height = 0);
+CameraModel readCameraModelForImage(const std::string& path, const std::string& image_path, int width = 0,
+                                    int height = 0);
+// The image beside an M2020 metadata file (X-metadata.json or X.json -> X.png, X.jpg, …), or "".
+std::string imageBeside(const std::string& path);
 // Parses text already in memory (`path` names it in errors).
 CameraFile parseCameraText(const std::string& text, const std::string& path, int width = 0, int height = 0);
 // The GEOMETRIC_CAMERA_MODEL group of a PDS3 label already parsed (label.file() names it in errors).

@@ -1,5 +1,7 @@
 #include "ground/io/ImageFile.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -38,7 +40,98 @@ bool parseBitMask(const std::string& text, uint32_t& mask) {
   return true;
 }
 
+uint32_t bigEndian(const unsigned char* p, int bytes) {
+  uint32_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
+  return v;
+}
+
+// PNG: the signature, then the IHDR chunk (length, "IHDR", width, height as 32-bit big-endian).
+bool pngSize(const std::string& head, ImageSize& size) {
+  const unsigned char* p = reinterpret_cast<const unsigned char*>(head.data());
+  if (head.size() < 24 || head.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0 || head.compare(12, 4, "IHDR") != 0) {
+    return false;
+  }
+  size.width = static_cast<int>(std::min<uint32_t>(bigEndian(p + 16, 4), 0x7fffffffu));
+  size.height = static_cast<int>(std::min<uint32_t>(bigEndian(p + 20, 4), 0x7fffffffu));
+  return true;
+}
+
+// JPEG: the segments after SOI up to a start-of-frame marker (C0-CF except C4 DHT, C8 JPG, CC DAC), whose
+// payload is precision (1 byte), lines (2), samples (2).
+bool jpegSize(std::ifstream& f, ImageSize& size) {
+  unsigned char b[9];
+  f.seekg(0);
+  if (!f.read(reinterpret_cast<char*>(b), 2) || b[0] != 0xFF || b[1] != 0xD8) return false;
+  // Bounded: a JPEG header has a few dozen segments; 10000 covers any file a camera writes.
+  for (int segment = 0; segment < 10000; ++segment) {
+    if (!f.read(reinterpret_cast<char*>(b), 4) || b[0] != 0xFF) return false;
+    const unsigned marker = b[1];
+    const uint32_t length = bigEndian(b + 2, 2);
+    if (length < 2) return false;
+    const bool sof = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+    if (sof) {
+      if (!f.read(reinterpret_cast<char*>(b), 5)) return false;
+      size.height = static_cast<int>(bigEndian(b + 1, 2));
+      size.width = static_cast<int>(bigEndian(b + 3, 2));
+      return true;
+    }
+    f.seekg(static_cast<std::streamoff>(length - 2), std::ios::cur);
+  }
+  return false;
+}
+
+// PGM/PPM/PBM (P1-P6): magic, then width and height as decimal text, '#' comments between tokens.
+bool netpbmSize(const std::string& head, ImageSize& size) {
+  if (head.size() < 3 || head[0] != 'P' || head[1] < '1' || head[1] > '6') return false;
+  long values[2] = {0, 0};
+  std::size_t i = 2;
+  for (long& v : values) {
+    while (i < head.size() && (std::isspace(static_cast<unsigned char>(head[i])) || head[i] == '#')) {
+      if (head[i] == '#') i = head.find('\n', i);
+      if (i == std::string::npos) return false;
+      ++i;
+    }
+    const std::size_t start = i;
+    while (i < head.size() && std::isdigit(static_cast<unsigned char>(head[i])) && i - start < 9) {
+      v = 10 * v + (head[i++] - '0');
+    }
+    if (i == start) return false;
+  }
+  size.width = static_cast<int>(values[0]);
+  size.height = static_cast<int>(values[1]);
+  return true;
+}
+
 }  // namespace
+
+ImageSize readImageSize(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw cli::InputError(path, "image", "cannot open");
+  std::string head(512, '\0');
+  f.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(f.gcount()));
+  f.clear();
+  ImageSize size;
+  bool known = pngSize(head, size) || netpbmSize(head, size) || jpegSize(f, size);
+  if (!known && head.find("PDS_VERSION_ID") != std::string::npos) {
+    const Pds3ImageInfo info = readPds3ImageInfo(path);
+    size = ImageSize{info.samples, info.lines};
+    known = true;
+  }
+  if (!known) {
+    const cv::Mat img = cv::imread(path, cv::IMREAD_UNCHANGED);
+    if (img.empty()) throw cli::InputError(path, "image", "cannot read as PNG/JPEG/PGM or PDS3");
+    size = ImageSize{img.cols, img.rows};
+  }
+  if (size.width < 1 || size.height < 1 || size.width > kMaxImageSidePx || size.height > kMaxImageSidePx) {
+    throw cli::InputError(path, "image",
+                          "header gives a size " + std::to_string(size.width) + "x" +
+                              std::to_string(size.height) + " outside 1.." + std::to_string(kMaxImageSidePx) +
+                              " px");
+  }
+  return size;
+}
 
 bool isPds3File(const std::string& path) {
   std::ifstream f(path, std::ios::binary);

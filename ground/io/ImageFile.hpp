@@ -49,6 +49,14 @@ cv::Mat readPds3Image8(const Pds3ImageInfo& info);
 // True for a file that starts with a PDS3 label (PDS_VERSION_ID).
 bool isPds3File(const std::string& path);
 
+// The pixel size of an image from its header alone (PNG IHDR, JPEG SOF, PGM/PPM, PDS3 label); another format
+// is decoded whole by OpenCV. Throws cli::InputError(path, "image", …) on a file it cannot tell.
+struct ImageSize {
+  int width = 0;
+  int height = 0;
+};
+ImageSize readImageSize(const std::string& path);
+
 // Any supported image as 8-bit grey (colour is converted to grey; 16-bit PDS3 by the rule above,
 // 16-bit PNG by >> 8). Throws cli::InputError(path, "image", …).
 cv::Mat loadImage8(const std::string& path);

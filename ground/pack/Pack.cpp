@@ -63,7 +63,7 @@ SideData loadSide(const ImageRef& ref) {
   SideData d;
   d.pixels = io::loadImage8(ref.image_path);
   const std::string model_path = ref.model_path.empty() ? ref.image_path : ref.model_path;
-  d.model = io::readCameraModelFile(model_path, d.pixels.cols, d.pixels.rows);
+  d.model = io::readCameraModelForImage(model_path, ref.image_path, d.pixels.cols, d.pixels.rows);
   return d;
 }
 

@@ -29,7 +29,7 @@ LoadedImage loadImage(const ImageRef& ref) {
                                                        std::to_string(kMaxImageHeight) + " capacity");
   }
   const std::string model_path = ref.model_path.empty() ? ref.image_path : ref.model_path;
-  out.model = io::readCameraModelFile(model_path, out.pixels.cols, out.pixels.rows);
+  out.model = io::readCameraModelForImage(model_path, ref.image_path, out.pixels.cols, out.pixels.rows);
   return out;
 }
 

@@ -20,20 +20,31 @@ constexpr const char* kUsage =
     "file and in the pixel frame of the delivered image (a model given in full-resolution detector pixels\n"
     "is scaled and shifted to it), its photogrammetric form and the residual of the conversion.\n"
     "\n"
+    "M2020 JSON: the delivered image is X.png (.jpg, .pgm, .tif, .IMG, ...) beside X-metadata.json or\n"
+    "X.json when there is one (its size wins over the JSON's \"dimension\", with a warning). The model's\n"
+    "frame is the one whose principal point fits the image: as given, the metadata's scale_factor from\n"
+    "subframe_rect, or 1/1..1/64 of the detector from the subframe origin (full frames first, then\n"
+    "subframes at the metadata's scale); a model that fits none is an error listing each frame tried.\n"
+    "\n"
     "  --json      print one JSON object: model {type, C, A, H, V, O, R, E as present, width, height},\n"
-    "              model_in_file (same keys, the file's own pixel frame), photogrammetric {f_px, x0_px,\n"
-    "              y0_px, omega_deg, phi_deg, kappa_deg, center_m, R_site_to_camera, distortion},\n"
+    "              model_in_file (same keys, the file's own pixel frame), scale_to_image {scale,\n"
+    "              offset_px, frame}, photogrammetric {f_px, x0_px, y0_px, omega_deg, phi_deg,\n"
+    "              kappa_deg, center_m, R_site_to_camera, distortion},\n"
     "              conversion_residual_px {rms, max}\n"
     "  --size W H  image size for a file that gives none (default 1024 1024, with a warning)\n"
     "\n"
     "Conventions: x0_px, y0_px are the principal point in pixel coordinates of the delivered image\n"
     "(sample, line; (0,0) the centre of the first pixel); the oracle convention in mm is\n"
     "x0_mm = (x0_px - width/2) * pixel, y0_mm = -(y0_px - height/2) * pixel. f_px = vs (the line scale; the\n"
-    "difference from hs is in the distortion's affinity b1, b2). R_site_to_camera = M = R_kappa R_phi R_omega,\n"
+    "difference from hs is in the distortion's affinity b1, b2). R_site_to_camera = M = R_kappa R_phi "
+    "R_omega,\n"
     "rows = camera x (image right), y (image up), z (backwards, -A) in the model's frame;\n"
-    "omega = atan2(-m32, m33), phi = asin(m31), kappa = atan2(-m21, m11). The distortion maps a measured pixel\n"
-    "to the ideal one (firmware_core/camera/Photogrammetric.hpp, LensDistortion). The residual is the distance\n"
-    "between the direct projection of each pixel's ray and its photogrammetric projection over a 32x32 grid.\n"
+    "omega = atan2(-m32, m33), phi = asin(m31), kappa = atan2(-m21, m11). The distortion maps a measured "
+    "pixel\n"
+    "to the ideal one (firmware_core/camera/Photogrammetric.hpp, LensDistortion). The residual is the "
+    "distance\n"
+    "between the direct projection of each pixel's ray and its photogrammetric projection over a 32x32 "
+    "grid.\n"
     "\n"
     "Exit: 0 ok, 2 usage error, 1 bad file (the message names the file and the field).\n";
 
@@ -102,6 +113,10 @@ int run(areomap::cli::Args& args) {
   }
   areomap::io::CameraFile file = areomap::io::readCameraFile(path, width, height);
   json warnings = json::array();
+  for (const std::string& w : file.warnings) {
+    areomap::cli::warn(w);
+    warnings.push_back(w);
+  }
   if (!file.size_from_file && !size) {
     const std::string w = path + " gives no image size: assuming 1024 x 1024 (use --size W H)";
     areomap::cli::warn(w);
@@ -127,7 +142,9 @@ int run(areomap::cli::Args& args) {
     j["reference_frame"] = file.reference_frame;
     j["model"] = modelJson(file.model);
     j["model_in_file"] = modelJson(file.file_model);
-    j["scale_to_image"] = json{{"scale", file.scale}, {"offset_px", json::array({file.offset_px.x(), file.offset_px.y()})}};
+    j["scale_to_image"] = json{{"scale", file.scale},
+                               {"offset_px", json::array({file.offset_px.x(), file.offset_px.y()})},
+                               {"frame", file.frame}};
     json rows = json::array();
     for (int r = 0; r < 3; ++r) rows.push_back(json::array({cam.m(r, 0), cam.m(r, 1), cam.m(r, 2)}));
     j["photogrammetric"] = json{{"f_px", cam.io.f_px},
@@ -150,8 +167,10 @@ int run(areomap::cli::Args& args) {
               file.reference_frame.empty() ? "" : ", frame ", file.reference_frame.c_str());
   printModel("model in the file's frame", file.file_model);
   if (file.scale != 1.0 || file.offset_px != areomap::Vec2::Zero()) {
-    std::printf("scaled to the delivered image: pixel = (detector - (%g, %g)) / %g\n", file.offset_px.x(),
-                file.offset_px.y(), file.scale);
+    std::printf("scaled to the delivered image (%s): pixel = (detector - (%g, %g)) / %g\n",
+                file.frame.c_str(), file.offset_px.x(), file.offset_px.y(), file.scale);
+  } else if (!file.frame.empty()) {
+    std::printf("the model is in the delivered image's pixels (%s)\n", file.frame.c_str());
   }
   printModel("model in the delivered image", file.model);
   std::printf("photogrammetric:\n  f = %.6f px, x0 = %.6f px, y0 = %.6f px (sample, line)\n", cam.io.f_px,

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "ground/cli/Cli.hpp"
 #include "ground/io/ImageFile.hpp"
@@ -184,4 +185,46 @@ TEST(ImageFile, LoadsPngThroughOpenCv) {
   CHECK_EQUAL(CV_8UC1, img.type());
   CHECK_EQUAL(1288, img.cols);
   CHECK_EQUAL(968, img.rows);
+}
+
+// readImageSize from headers only, against the size OpenCV decodes (PNG, baseline and progressive JPEG,
+// binary and text PGM with a comment, colour PPM, TIFF through OpenCV, PDS3), over several sizes; a file
+// that is no image names the field.
+TEST(ImageFile, ImageSizeFromTheHeaderAgreesWithTheDecodedImage) {
+  const std::string dir = test::scratchDir("image_size");
+  const int sizes[][2] = {{1, 1}, {37, 5}, {640, 480}, {1288, 968}, {3, 2000}};
+  for (const auto& s : sizes) {
+    const cv::Mat img(s[1], s[0], CV_8UC3, cv::Scalar(10, 200, 30));
+    const std::string stem = dir + "/i" + std::to_string(s[0]) + "x" + std::to_string(s[1]);
+    std::vector<std::string> paths;
+    for (const char* ext : {".png", ".jpg", ".pgm", ".ppm", ".tif"}) {
+      const std::string p = stem + ext;
+      const bool grey = std::string(ext) == ".pgm";
+      CHECK(cv::imwrite(p, grey ? cv::Mat(s[1], s[0], CV_8UC1, cv::Scalar(3)) : img));
+      paths.push_back(p);
+    }
+    const std::string progressive = stem + "-progressive.jpg";
+    CHECK(cv::imwrite(progressive, img, {cv::IMWRITE_JPEG_PROGRESSIVE, 1}));
+    paths.push_back(progressive);
+    const std::string text_pgm = stem + "-text.pgm";
+    std::ofstream(text_pgm) << "P2\n# a comment\n" << s[0] << " " << s[1] << "\n255\n0\n";
+    paths.push_back(writePds3(stem + ".img", s[1], s[0], 8, "UNSIGNED_INTEGER",
+                              std::vector<uint16_t>(static_cast<std::size_t>(s[0] * s[1]), 9)));
+    for (const std::string& p : paths) {
+      const io::ImageSize got = io::readImageSize(p);
+      CHECK_TEXT(got.width == s[0] && got.height == s[1], p.c_str());
+      if (p != text_pgm && p.find(".img") == std::string::npos) {
+        const cv::Mat decoded = cv::imread(p, cv::IMREAD_UNCHANGED);
+        CHECK_TEXT(decoded.cols == got.width && decoded.rows == got.height, p.c_str());
+      }
+    }
+  }
+  const std::string junk = dir + "/junk.png";
+  std::ofstream(junk) << "not an image";
+  try {
+    (void)io::readImageSize(junk);
+    FAIL("junk read");
+  } catch (const cli::InputError& e) {
+    STRCMP_EQUAL("image", e.field().c_str());
+  }
 }

@@ -2,9 +2,12 @@
 // conversion oracle, the Spirit stereo baseline, M2020 scaling. Skips when the data is absent.
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "firmware_core/camera/CameraConversion.hpp"
@@ -195,6 +198,51 @@ TEST(RealCameras, M2020ModelIsScaledToTheBrowseImage) {
   CHECK(project(f.file_model, point, detector) == Status::kOk);
   CHECK(project(f.model, point, pixel) == Status::kOk);
   CHECK((detector - (f.offset_px + f.scale * pixel)).norm() < 1e-9);
+}
+
+// The NLF browse PNG beside its JSON is the delivered image, and the model is read as 1/4 of the detector;
+// the same real model, rescaled by the test into the pixels of a subframe at scale 2 from detector column
+// 2545 (as the raw-image service delivers the NRF frame), is read as given.
+TEST(RealCameras, M2020FramesOfTheRealModel) {
+  if (!haveAll()) return;
+  const io::CameraFile f = io::readCameraFile(data(kM2020));
+  STRCMP_EQUAL("1/4 of the detector from (1, 1)", f.frame.c_str());
+  CHECK(f.size_from_file);
+  CHECK(f.warnings.empty());  // the PNG is 1288 x 968, as "dimension" says
+  STRCMP_EQUAL(data(kM2020Png).c_str(), io::imageBeside(data(kM2020)).c_str());
+
+  const std::string dir = test::scratchDir("real_m2020_frames");
+  const int w = 1288, h = 968;
+  const Vec2 offset(2544.0 + 0.5, 0.5);  // subframe origin (2545, 1), 1-based; scale 2
+  const CameraModel sub = io::rescaledModel(f.file_model, 2.0, offset, w, h);
+  std::ifstream in(data(kM2020));
+  std::stringstream text;
+  text << in.rdbuf();
+  nlohmann::json j = nlohmann::json::parse(text.str());
+  char list[640];
+  auto t = [](const Vec3& v) {
+    char b[96];
+    std::snprintf(b, sizeof b, "(%.17g,%.17g,%.17g)", v.x(), v.y(), v.z());
+    return std::string(b);
+  };
+  std::snprintf(list, sizeof list, "%s;%s;%s;%s;%s;%s;%s;2;0.0", t(sub.c).c_str(), t(sub.a).c_str(),
+                t(sub.h).c_str(), t(sub.v).c_str(), t(sub.o).c_str(), t(sub.r).c_str(), t(sub.e).c_str());
+  j["camera_model_component_list"] = list;
+  j["scale_factor"] = 2;
+  j["subframe_rect"] = nlohmann::json::array({2545.0, 1.0, 2576.0, 1936.0});
+  const std::string path = dir + "/NRF-like-metadata.json";
+  std::ofstream(path) << j.dump(2);
+  const io::CameraFile g = io::readCameraFile(path);
+  const double hc = g.model.a.dot(g.model.h), vc = g.model.a.dot(g.model.v);
+  std::printf("\nNRF-like subframe of the real model: %s, principal point (%.2f, %.2f) in %d x %d\n",
+              g.frame.c_str(), hc, vc, w, h);
+  STRCMP_EQUAL("as given", g.frame.c_str());
+  CHECK(hc < 0.05 * w);  // near the left edge: the subframe starts just left of the optical axis
+  const Vec3 point = f.model.c + 10.0 * f.model.a + Vec3(0.7, -1.1, 0.4);
+  Vec2 detector, pixel;
+  CHECK(project(f.file_model, point, detector) == Status::kOk);
+  CHECK(project(g.model, point, pixel) == Status::kOk);
+  CHECK((detector - (offset + 2.0 * pixel)).norm() < 1e-6);
 }
 
 TEST(RealCameras, ConversionMakesNoHeapAllocations) {
