@@ -8,6 +8,7 @@
 
 #include "ground/dem/KdTree.hpp"
 #include "ground/dem/KrigingSystem.hpp"
+#include "ground/dem/PointClusters.hpp"
 #include "ground/dense/LineId.hpp"
 
 namespace areomap::dem {
@@ -217,6 +218,17 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
     res.model = fitVariogram(res.experimental);
   }
   res.max_gap_m = gap;
+  res.min_cluster_points = static_cast<int>(std::min<std::size_t>(
+      points.size(), static_cast<std::size_t>(std::clamp(o.min_cluster_points > 0 ? o.min_cluster_points : k,
+                                                         1, kMaxNeighbours))));
+  std::vector<uint8_t> supported(points.size(), 1);
+  if (res.min_cluster_points > 1) {
+    const std::vector<int32_t> size = clusterSizes(xs, ys, gap);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      supported[i] = size[i] >= res.min_cluster_points;
+      res.isolated_points += !supported[i];
+    }
+  }
   CorrelatedNoise correlated{
       o.noise_correlation_px,
       o.point_gsd_m != nullptr && o.point_gsd_m->size() == points.size() ? o.point_gsd_m : nullptr,
@@ -273,7 +285,8 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   // the cells solved before it (KrigingSystem's canonical order), so the DEM is the same for any T.
   const int threads = std::clamp(o.threads > 0 ? o.threads : static_cast<int>(std::thread::hardware_concurrency()), 1,
                                  std::max(1, std::min(grid.rows, kMaxKrigingThreads)));
-  std::vector<long long> kriged(static_cast<std::size_t>(threads), 0), reused(kriged), factorised(kriged);
+  std::vector<long long> kriged(static_cast<std::size_t>(threads), 0), reused(kriged), factorised(kriged),
+      unsupported(kriged);
   const auto krigeRows = [&](int t) {
     Solver s{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated, PairTable()};
     int32_t cell_idx[kMaxNeighbours + 1];
@@ -298,6 +311,14 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
         }
         if (f != k) f = tree.nearest(qn, qe, k, cell_idx, cell_d2, bound);
         if (f == 0 || cell_d2[0] > gap * gap) continue;
+        bool support = false;  // a neighbour within the gap in a large cluster (neighbours nearest first)
+        for (int i = 0; i < f && !support && cell_d2[i] <= gap * gap; ++i) {
+          support = supported[static_cast<std::size_t>(cell_idx[i])] != 0;
+        }
+        if (!support) {
+          ++unsupported[static_cast<std::size_t>(t)];
+          continue;
+        }
         double z = 0.0, var = 0.0;
         if (!s.solve(f, cell_idx, cell_d2, z, var)) continue;
         res.elevation.at(col, row) = static_cast<float>(z);
@@ -314,6 +335,7 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   for (std::thread& th : pool) th.join();
   for (int t = 0; t < threads; ++t) {
     res.cells_kriged += kriged[static_cast<std::size_t>(t)];
+    res.cells_unsupported += unsupported[static_cast<std::size_t>(t)];
     res.factorisations += factorised[static_cast<std::size_t>(t)];
     res.factorisation_reuses += reused[static_cast<std::size_t>(t)];
   }

@@ -1,6 +1,7 @@
 // Ordinary kriging of a point cloud onto a DEM grid (paper §4.1): the fitted variogram (Variogram.hpp),
 // the k nearest points of each cell from a k-d tree, one (k+1)x(k+1) solve per cell, and the kriging
-// standard deviation as a second raster (dem_sigma.tif).
+// standard deviation as a second raster (dem_sigma.tif). A cell is kriged when a point lies within the gap
+// limit and one such point belongs to a cluster of at least k points (KrigingOptions::min_cluster_points).
 //
 // The kriging is "filtered": the nugget and each point's own sigma are treated as measurement noise, so
 // the estimate is that of the noise-free surface. Its sigma, with independent point errors: the kriging
@@ -32,6 +33,14 @@ struct DemPoint {
 struct KrigingOptions {
   int neighbours = 16;           // k (at most kMaxNeighbours)
   double max_gap_m = -1.0;       // cells farther than this from every point stay nodata (-1: automatic)
+  // Support: points at most max_gap apart are linked, and linked points form one cluster (single linkage,
+  // PointClusters.hpp); a cell is kriged only when one of its k neighbours within max_gap belongs to a
+  // cluster of at least min_cluster_points.
+  // -1: the neighbourhood size k (a smaller cluster cannot fill a cell's neighbourhood by itself: every
+  // estimate there draws on points beyond the gap, where there is no data, so a lone far point or a small
+  // clump would be spread into a disc of radius max_gap); 1: every point supports (no rule). Clamped to
+  // the cloud's size. The points of small clusters still count as data for the cells of others.
+  int min_cluster_points = -1;
   double max_lag_m = -1.0;       // variogram extent (-1: 6 neighbourhood radii, at most 1/3 of the cloud)
   bool use_point_sigma = true;   // point sigmas enter the diagonal (at least the nugget)
   const VariogramModel* model = nullptr;  // given model instead of the fitted one
@@ -68,6 +77,9 @@ struct KrigingResult {
   VariogramModel signal_model;
   ExperimentalVariogram signal_experimental;
   double max_gap_m = 0.0;  // the gap limit used
+  int min_cluster_points = 1;       // the support rule used (KrigingOptions::min_cluster_points)
+  long long isolated_points = 0;    // points in clusters smaller than that
+  long long cells_unsupported = 0;  // cells within max_gap of a point, left nodata by the support rule
   double sigma_scale = 1.0;  // leave-one-out calibration factor applied to the kriging sigma
   long long cells_kriged = 0;
   double variogram_seconds = 0.0;

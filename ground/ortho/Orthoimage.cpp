@@ -27,6 +27,23 @@ bool inside(const cv::Mat& g, const Vec2& p, double border) {
   return p.x() >= border && p.y() >= border && p.x() <= g.cols - 1 - border && p.y() <= g.rows - 1 - border;
 }
 
+// Whether the pixel `px` that `point` projects to really images it: the pixel's own ray (unproject) passes
+// within half a pixel of the point. The radial distortion of CAHVOR/CAHVORE is a polynomial in the
+// off-axis angle that turns back beyond the field it was fitted for (with the navcam's R = 0 .006 -.004
+// the image radius peaks at ~70 degrees off the axis and falls to the centre at ~76): `project` maps such
+// points, which the camera cannot see, into the image, often near its centre, where the nearest-centre
+// rule would take them (thin radial strips of foreign texture along the seams). Half a pixel: the point
+// lies in the pixel's footprint; a true projection round-trips to the inverse's precision (1e-9 rad), a
+// folded one misses by tens of degrees.
+bool pixelSeesPoint(const CameraModel& m, const Vec3& point, const Vec2& px, double px_per_rad) {
+  Vec3 origin, ray;
+  if (unproject(m, px, origin, ray) != Status::kOk) return false;
+  const Vec3 to = point - origin;
+  const double dist = to.norm();
+  if (!(to.dot(ray) > 0.0) || !(dist > 0.0)) return false;
+  return to.cross(ray).norm() / dist * px_per_rad < 0.5;
+}
+
 // Zero-mean NCC of the patch of `a` around (ax, ay) and of `b` around (bx, by), bilinear.
 double ncc(const cv::Mat& a, double ax, double ay, const cv::Mat& b, double bx, double by, int half) {
   double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
@@ -87,8 +104,11 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
   cv::Mat second_px(rows, cols, CV_32FC2, cv::Scalar(0, 0));
 
   std::vector<Vec2> centre(sources.size());
+  std::vector<double> px_per_rad(sources.size());  // the larger focal length, pixels (|A x H|, |A x V|)
   for (std::size_t i = 0; i < sources.size(); ++i) {
+    const CameraModel& m = sources[i].model;
     centre[i] = Vec2(0.5 * (sources[i].grey.cols - 1), 0.5 * (sources[i].grey.rows - 1));
+    px_per_rad[i] = std::max(m.a.cross(m.h).norm(), m.a.cross(m.v).norm());
   }
 
   cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
@@ -115,10 +135,11 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
         if (project(sources[i].model, ground, px) != Status::kOk) continue;
         if (!inside(g, px, options.border_px)) continue;
         const double d = (px - centre[i]).squaredNorm();
+        if (d >= next_d || !pixelSeesPoint(sources[i].model, ground, px, px_per_rad[i])) continue;
         if (d < best_d) {
           next = best; next_d = best_d; np = bp;
           best = static_cast<int>(i); best_d = d; bp = px;
-        } else if (d < next_d) {
+        } else {
           next = static_cast<int>(i); next_d = d; np = px;
         }
       }

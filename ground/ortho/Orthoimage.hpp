@@ -51,7 +51,8 @@ struct OrthoResult {
 };
 
 // Makes the orthoimage of `dem` (nodata cells stay empty). Cells whose ground point projects behind a
-// camera or outside its image take no value from it.
+// camera or outside its image take no value from it, nor from an image whose pixel there does not see the
+// point (its ray misses it: CAHVOR/CAHVORE distortion folds points far beyond the field into the image).
 OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& sources, const OrthoOptions& options);
 
 // The DEM elevation at a site point (bilinear over the four nearest cells; nodata if any is nodata).

@@ -335,6 +335,17 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
   return binned;
 }
 
+// The kriging's support rule (dem::KrigingOptions::min_cluster_points) as a progress line.
+void supportInfo(const std::string& product, const dem::KrigingResult& kr) {
+  char b[240];
+  std::snprintf(
+      b, sizeof b,
+      "%s: %lld binned points in clusters of fewer than %d (farther than %.3f m from the rest): their %lld "
+      "cells left empty",
+      product.c_str(), kr.isolated_points, kr.min_cluster_points, kr.max_gap_m, kr.cells_unsupported);
+  cli::info(b);
+}
+
 // Kriging of a binned cloud with the matcher's error correlation (the DEM sigma of Kriging.hpp).
 dem::KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGrid& grid) {
   dem::KrigingOptions o;
@@ -750,6 +761,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     std::vector<dem::DemPoint>().swap(pts);
     try {
       dem::KrigingResult kr = dem::krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid));
+      supportInfo("dem.tif", kr);
       if (!far.empty()) {
         DemGrid far_sigma;
         const DemGrid far_dem = dem::equiParallaxDem(far, grid, eo, &far_sigma);
@@ -797,6 +809,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       try {
         const dem::KrigingResult nk = dem::krigeDem(near_binned.points, *near_grid,
                                                       binnedKrigingOptions(near_binned, *near_grid));
+        supportInfo("dem_near.tif", nk);
         ctx.result.dem_near = nk.elevation;
         try {
           dem::writeDemProducts(out_dir, nk, meta, "dem_near");

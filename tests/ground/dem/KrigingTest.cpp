@@ -38,6 +38,23 @@ struct RandomField {
   double amp = 0.0;
 };
 
+// Points on an n x n lattice of 1 m at (north i, east j), elevation a i + b j, no sigma.
+std::vector<DemPoint> latticePlane(int n, double a, double b) {
+  std::vector<DemPoint> pts;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) pts.push_back(DemPoint{i * 1.0, j * 1.0, a * i + b * j, 0.0, -1});
+  }
+  return pts;
+}
+
+VariogramModel gaussianModel(double partial_sill_m2, double range_m) {
+  VariogramModel m;
+  m.kind = VariogramKind::kGaussian;
+  m.partial_sill_m2 = partial_sill_m2;
+  m.range_m = range_m;
+  return m;
+}
+
 }  // namespace
 
 TEST_GROUP(KdTree){};
@@ -215,14 +232,8 @@ TEST(Kriging, RandomFieldSampledSparselyHonestSigma) {
 }
 
 TEST(Kriging, ExactAtDataWithoutNoiseAndGapsStayEmpty) {
-  std::vector<DemPoint> pts;
-  for (int i = 0; i < 10; ++i) {
-    for (int j = 0; j < 10; ++j) pts.push_back(DemPoint{i * 1.0, j * 1.0, 0.3 * i - 0.1 * j, 0.0, -1});
-  }
-  VariogramModel lin;
-  lin.kind = VariogramKind::kGaussian;
-  lin.partial_sill_m2 = 1.0;
-  lin.range_m = 20.0;
+  const std::vector<DemPoint> pts = latticePlane(10, 0.3, -0.1);
+  const VariogramModel lin = gaussianModel(1.0, 20.0);
   KrigingOptions o;
   o.model = &lin;
   o.max_gap_m = 1.5;
@@ -242,4 +253,22 @@ TEST(Kriging, ExactAtDataWithoutNoiseAndGapsStayEmpty) {
     }
   }
   for (int col = 0; col < g.cols; ++col) CHECK_EQUAL(g.nodata, r.elevation.at(col, 0));
+}
+
+// A cloud smaller than one kriging neighbourhood is still kriged: the support rule
+// (KrigingOptions::min_cluster_points, default k = 16) is clamped to the cloud's size.
+TEST(Kriging, CloudSmallerThanANeighbourhoodIsKriged) {
+  const std::vector<DemPoint> pts = latticePlane(3, 0.1, 0.0);
+  const VariogramModel model = gaussianModel(1.0, 20.0);
+  KrigingOptions o;
+  o.model = &model;
+  areomap::DemGrid g;
+  g.cell_m = 1.0;
+  g.cols = g.rows = 3;
+  g.east0_m = -0.5;
+  g.north0_m = 2.5;
+  const KrigingResult r = krigeDem(pts, g, o);
+  CHECK_EQUAL(9, r.min_cluster_points);
+  CHECK_EQUAL(9, r.cells_kriged);
+  CHECK_EQUAL(0, r.isolated_points);
 }
