@@ -105,6 +105,65 @@ int32_t currentPairConstraintRows(const Network& net, int32_t pair, ConstraintRo
   return pairConstraintRows(net, pair, l.center_m, l.m, r.center_m, r.m, rows, jacobian, misfit);
 }
 
+ConstraintMisfit networkMisfit(const Network& net) {
+  ConstraintMisfit worst;
+  for (int32_t p = 0; p < net.pairCount(); ++p) {
+    ConstraintRows rows;
+    ConstraintJacobian jac;
+    ConstraintMisfit misfit;
+    (void)currentPairConstraintRows(net, p, rows, jac, &misfit);
+    worst.gimbal_m = std::fmax(worst.gimbal_m, misfit.gimbal_m);
+    worst.base_m = std::fmax(worst.base_m, misfit.base_m);
+    worst.distance_m = std::fmax(worst.distance_m, misfit.distance_m);
+  }
+  return worst;
+}
+
+double rigInconsistency(const RigConstraints& rig) {
+  if (!rig.use_gimbal || !rig.use_base) return 0.0;
+  return std::fabs(rig.right_offset_m.norm() - (rig.left_offset_m + rig.base_m).norm());
+}
+
+ConstraintMisfit misfitFloor(const RigConstraints& rig) {
+  ConstraintMisfit floor;
+  const double d = rigInconsistency(rig);
+  const double g2 = rig.sigma_gimbal_m * rig.sigma_gimbal_m;
+  const double b2 = rig.sigma_base_m * rig.sigma_base_m;
+  if (!(d > 0.0) || !(rig.sigma_gimbal_m > 0.0) || !(rig.sigma_base_m > 0.0)) return floor;
+  floor.gimbal_m = g2 * d / (2.0 * g2 + b2);
+  floor.base_m = b2 * d / (2.0 * g2 + b2);
+  return floor;
+}
+
+namespace {
+
+// One held sigma: scaled so that the part of the misfit above the rig's own floor, taken as linear in sigma
+// (the noise bound of Network.hpp), lands at a quarter of the bound; false when that part is within half
+// the bound or the sigma is at its floor already.
+bool tightenSigma(bool held, double misfit_m, double floor_m, double& sigma_m) {
+  const double reducible_m = misfit_m - floor_m;
+  if (!held || !(reducible_m > 0.5 * kRigMisfitBound_m) || !(sigma_m > kMinHeldRigSigma_m)) return false;
+  sigma_m = std::fmax(kMinHeldRigSigma_m, sigma_m * (0.25 * kRigMisfitBound_m) / reducible_m);
+  return true;
+}
+
+}  // namespace
+
+bool tightenHeldSigmas(RigConstraints& rig, const ConstraintMisfit& misfit) {
+  const ConstraintMisfit floor = misfitFloor(rig);
+  const bool gimbal =
+      tightenSigma(rig.use_gimbal && rig.hold_gimbal, misfit.gimbal_m, floor.gimbal_m, rig.sigma_gimbal_m);
+  const bool base =
+      tightenSigma(rig.use_base && rig.hold_base, misfit.base_m, floor.base_m, rig.sigma_base_m);
+  return gimbal || base;
+}
+
+bool heldConstraintsMet(const RigConstraints& rig, const ConstraintMisfit& misfit) {
+  const bool gimbal = !(rig.use_gimbal && rig.hold_gimbal) || misfit.gimbal_m <= kRigMisfitBound_m;
+  const bool base = !(rig.use_base && rig.hold_base) || misfit.base_m <= kRigMisfitBound_m;
+  return gimbal && base;
+}
+
 Status observationRow(const NetObservation& obs, const NetImage& image, const Vec3& center, const Mat3& m,
                       const Vec3& point, Vec2& residual, Mat2x6* d_image, Mat2x3* d_point) {
   // d(pixel)/dC = -d(pixel)/dX: the centre block is the negated point block, not computed twice.

@@ -35,6 +35,29 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
 int32_t currentPairConstraintRows(const Network& net, int32_t pair, ConstraintRows& rows,
                                   ConstraintJacobian& jacobian, ConstraintMisfit* misfit = nullptr);
 
+// The largest misfits over all pairs at the network's current cameras (constraints in use only): the
+// issue's measure, max over images of |Eq. 3| and over pairs of |Eq. 4|.
+ConstraintMisfit networkMisfit(const Network& net);
+
+// How far the rig values disagree among themselves. With free rotations, Eq. 3 for both cameras and Eq. 4
+// can all hold only if |c_R| = |c_L + e| (c_R is carried onto c_L + e by the relative rotation); otherwise
+// their residuals close a loop g_L - g_R + g_B = d with |d| >= ||c_R| - |c_L + e||, which is returned (0 when
+// either constraint is off). No sigma and no image can bring the misfits below the floor it implies.
+double rigInconsistency(const RigConstraints& rig);
+
+// That floor at the current sigmas: the least weighted split of the loop, |g_L| = |g_R| = sg^2 d / S and
+// |g_B| = sb^2 d / S with S = 2 sg^2 + sb^2 (d / 3 each for equal sigmas).
+ConstraintMisfit misfitFloor(const RigConstraints& rig);
+
+// The held-sigma rule of Network.hpp: each held sigma whose misfit exceeds its floor (misfitFloor) by more
+// than half of kRigMisfitBound_m is scaled by (kRigMisfitBound_m / 4) / (misfit - floor), floored at
+// kMinHeldRigSigma_m; a misfit that is the rig's own floor is left alone (tightening cannot lower it and
+// only stiffens the problem). True when a sigma changed, i.e. the network is to be solved again.
+bool tightenHeldSigmas(RigConstraints& rig, const ConstraintMisfit& misfit);
+
+// Every held constraint in use holds to kRigMisfitBound_m (given sigmas are not checked).
+bool heldConstraintsMet(const RigConstraints& rig, const ConstraintMisfit& misfit);
+
 // The whitened residual (observed - predicted) / sigma of one observation and its Jacobians with respect
 // to the image's [dC, delta] (2x6) and the point (2x3), both for the predicted value divided by sigma.
 [[nodiscard]] Status observationRow(const NetObservation& obs, const NetImage& image, const Vec3& center,

@@ -961,9 +961,10 @@ Status FastAdjuster::adjust(Network& net, const FastAdjustOptions& options, Fast
     result.status = Status::kMissingField;
     return result.status;
   }
+  const bool alternation = options.method == FastMethod::kAlternation;
   for (int32_t round = 0; round <= kMaxRejectionRounds; ++round) {
     Status s = checkNetwork(net, result.degenerate_image);
-    if (ok(s)) s = options.method == FastMethod::kAlternation ? solve(net, options, result) : solveLm(net, options, result);
+    if (ok(s)) s = alternation ? solve(net, options, result) : solveLm(net, options, result);
     if (!ok(s)) {
       result.status = s;
       return s;
@@ -973,6 +974,16 @@ Status FastAdjuster::adjust(Network& net, const FastAdjustOptions& options, Fast
     if (rejected == 0) break;
     result.rejected_observations += rejected;
     ++result.rejection_rounds;
+  }
+  // Held rig sigmas (Network.hpp): solved again, warm, with a tighter sigma while a held constraint's misfit
+  // exceeds half its bound.
+  for (int32_t t = 0; t < kMaxRigTightenings && tightenHeldSigmas(net.rig, networkMisfit(net)); ++t) {
+    ++result.rig_tightenings;
+    const Status s = alternation ? solve(net, options, result) : solveLm(net, options, result);
+    if (!ok(s)) {
+      result.status = s;
+      return s;
+    }
   }
   // Precision: sigma naught from the redundancy, EO sigmas from the pair normal matrices (points fixed).
   const Status s = pairStep(net, true);
@@ -986,13 +997,11 @@ Status FastAdjuster::adjust(Network& net, const FastAdjustOptions& options, Fast
     const NetPair& pr = net.pair(p);
     ConstraintRows rows;
     ConstraintJacobian jac;
-    ConstraintMisfit misfit;
-    constraint_rows += currentPairConstraintRows(net, p, rows, jac, &misfit);
+    constraint_rows += currentPairConstraintRows(net, p, rows, jac);
     if (net.rig.use_datum_prior) constraint_rows -= 3 * (pr.right >= 0 ? 2 : 1);
-    result.max_misfit.gimbal_m = std::max(result.max_misfit.gimbal_m, misfit.gimbal_m);
-    result.max_misfit.base_m = std::max(result.max_misfit.base_m, misfit.base_m);
-    result.max_misfit.distance_m = std::max(result.max_misfit.distance_m, misfit.distance_m);
   }
+  result.max_misfit = networkMisfit(net);
+  result.held_rig_met = heldConstraintsMet(net.rig, result.max_misfit);
   int32_t points = 0;
   for (int32_t p = 0; p < net.pointCount(); ++p) {
     if (net.point(p).solvable) {

@@ -19,6 +19,10 @@
 // its convergence is quadratic) AND the largest EO update of the last sweep is below `eo_step_tolerance_px`
 // (pixel equivalent, see eoPixelEquivalent). Otherwise the sweep bound fires.
 //
+// Held rig sigmas (RigConstraints::hold_*, Network.hpp): after the rejection rounds, while a held
+// constraint's largest misfit exceeds half of kRigMisfitBound_m its sigma is tightened and the network
+// solved again from where it is (at most kMaxRigTightenings times; counted in the result).
+//
 // Robust rejection: after a converged solve the whitened residual norms are compared with
 // max(reject_k x 1.4826 MAD, reject_floor_sigma); per point only the worst observation above it is
 // rejected per round (a point left with < 2 rays becomes unsolvable), and the solve is repeated, at most
@@ -111,6 +115,8 @@ struct FastAdjustResult {
   double rms_px = 0.0;                // RMS of the image residuals (per coordinate), pixels
   double last_step_px = 0.0;          // largest EO update of the last sweep, pixel equivalent
   ConstraintMisfit max_misfit;        // largest constraint misfits after the adjustment
+  int32_t rig_tightenings = 0;        // re-solves with tighter held rig sigmas (Network.hpp)
+  bool held_rig_met = true;           // every held constraint holds to kRigMisfitBound_m
 };
 
 // "Pixel equivalent" of an EO difference (one definition for the whole project): f x (rotation angle +

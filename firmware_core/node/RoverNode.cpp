@@ -352,8 +352,12 @@ void RoverNode::processPair(int64_t sequence) {
     rigc.base_m = vec(in_.base_m);
     rigc.use_base = true;
   }
+  // Sigmas the dataset did not give are held (Network.hpp): the adjuster tightens them from the packer's
+  // starting value until the constraints hold to kRigMisfitBound_m. The stream has one flag for both.
   rigc.sigma_gimbal_m = in_.sigma_gimbal_m;
   rigc.sigma_base_m = in_.sigma_base_m;
+  rigc.hold_gimbal = !in_.sigmas_given;
+  rigc.hold_base = !in_.sigmas_given;
   counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
   counters_.pairs_accepted += 1;
   // Incremental adjustment, warm-started from the previous solution.

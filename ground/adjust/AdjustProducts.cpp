@@ -7,6 +7,7 @@
 #include "firmware_core/camera/CameraConversion.hpp"
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
+#include "ground/dataset/RigSigmas.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/CameraFile.hpp"
 
@@ -38,6 +39,15 @@ void writeTextProduct(const std::string& path, const std::string& text) {
 
 }  // namespace
 
+void setRigFigures(AdjustReport& report, const Network& net) {
+  const ConstraintMisfit misfit = networkMisfit(net);
+  report.max_gimbal_misfit_m = misfit.gimbal_m;
+  report.max_base_misfit_m = misfit.base_m;
+  report.sigma_gimbal_m = net.rig.sigma_gimbal_m;
+  report.sigma_base_m = net.rig.sigma_base_m;
+  heldSigmaOutcome(net.rig, misfit, report.estimated, report.warnings);
+}
+
 void writeReportJson(const std::string& path, const AdjustReport& r) {
   nlohmann::json j;
   j["method1_px"] = {{"before", imageJson(r.method1_before)}, {"after", imageJson(r.method1_after)}};
@@ -66,7 +76,9 @@ void writeReportJson(const std::string& path, const AdjustReport& r) {
                      {"constraints", r.constraints},
                      {"estimated", r.estimated},
                      {"max_gimbal_misfit_m", r.max_gimbal_misfit_m},
-                     {"max_base_misfit_m", r.max_base_misfit_m}};
+                     {"max_base_misfit_m", r.max_base_misfit_m},
+                     {"sigma_gimbal_m", r.sigma_gimbal_m},
+                     {"sigma_base_m", r.sigma_base_m}};
   writeTextProduct(path, j.dump(2) + "\n");
 }
 

@@ -45,7 +45,14 @@ struct AdjustReport {
   std::vector<std::string> estimated;
   double max_gimbal_misfit_m = 0.0;
   double max_base_misfit_m = 0.0;
+  double sigma_gimbal_m = 0.0;  // the constraint sigmas of the solution (after the held-sigma rule)
+  double sigma_base_m = 0.0;
 };
+
+// The rig figures of the network's current solution: the largest Eq. 3 / Eq. 4 misfits, the sigmas used and
+// what the held-sigma rule did (ground/dataset/RigSigmas.hpp: notes into `estimated`, a missed bound into
+// `warnings`).
+void setRigFigures(AdjustReport& report, const Network& net);
 
 // Each throws cli::InputError naming the file when it cannot be written.
 void writeReportJson(const std::string& path, const AdjustReport& report);

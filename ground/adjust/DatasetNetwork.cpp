@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "ground/cli/Cli.hpp"
+#include "ground/dataset/RigSigmas.hpp"
 #include "ground/io/CameraFile.hpp"
 
 namespace areomap::ground {
@@ -122,10 +123,7 @@ void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& o
 void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bool fido) {
   RigConstraints& rig = net.rig;
   const Rig& given = dataset.rig;
-  rig.sigma_gimbal_m = given.sigma_gimbal_m.value_or(kDefaultSigmaGimbal_m);
-  rig.sigma_base_m = given.sigma_base_m.value_or(kDefaultSigmaBase_m);
-  if (!given.sigma_gimbal_m) source.estimated.push_back("rig.sigma_gimbal_m: absent, default 0.001 m used.");
-  if (!given.sigma_base_m) source.estimated.push_back("rig.sigma_base_m: absent, default 0.0005 m used.");
+  applyRigSigmas(given, rig, &source.estimated);
   const int n_sols = static_cast<int>(source.sol_of_index.size());
   const int n_img = net.imageCount();
 

@@ -201,9 +201,7 @@ class PairConstraintCost final : public ceres::CostFunction {
   int pair_;
 };
 
-}  // namespace
-
-IntegratedResult adjustSvd(Network& net, const IntegratedOptions& options) {
+IntegratedResult svdOnce(Network& net, const IntegratedOptions& options) {
   const auto t0 = Clock::now();
   IntegratedResult result;
   result.method = "svd";
@@ -272,7 +270,7 @@ IntegratedResult adjustSvd(Network& net, const IntegratedOptions& options) {
   return result;
 }
 
-IntegratedResult adjustCeres(Network& net, const IntegratedOptions& options) {
+IntegratedResult ceresOnce(Network& net, const IntegratedOptions& options) {
   const auto t0 = Clock::now();
   IntegratedResult result;
   result.method = "ceres";
@@ -341,6 +339,31 @@ IntegratedResult adjustCeres(Network& net, const IntegratedOptions& options) {
   result.cost = networkCost(net, &result.rms_px);
   result.seconds = secondsSince(t0);
   return result;
+}
+
+// Held rig sigmas (Network.hpp), as the fast adjuster applies them: solved again from where the solver
+// stopped while a held constraint's misfit exceeds half its bound; iterations and seconds add up.
+template <typename SolveOnce>
+IntegratedResult withHeldRig(Network& net, SolveOnce solve_once) {
+  IntegratedResult result = solve_once();
+  for (int t = 0; t < kMaxRigTightenings && tightenHeldSigmas(net.rig, networkMisfit(net)); ++t) {
+    IntegratedResult again = solve_once();
+    again.iterations += result.iterations;
+    again.seconds += result.seconds;
+    again.rig_tightenings = result.rig_tightenings + 1;
+    result = again;
+  }
+  return result;
+}
+
+}  // namespace
+
+IntegratedResult adjustSvd(Network& net, const IntegratedOptions& options) {
+  return withHeldRig(net, [&] { return svdOnce(net, options); });
+}
+
+IntegratedResult adjustCeres(Network& net, const IntegratedOptions& options) {
+  return withHeldRig(net, [&] { return ceresOnce(net, options); });
 }
 
 }  // namespace areomap::ground

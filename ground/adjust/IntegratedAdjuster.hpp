@@ -7,6 +7,7 @@
 //     network). For networks up to the paper's size (a few thousand unknowns).
 //   - adjustCeres: sparse Schur-complement Levenberg-Marquardt (Ceres SPARSE_SCHUR, points eliminated),
 //     cameras on the rotation manifold (the same local update M' = exp([delta]x) M).
+// Both apply the held-sigma rule of Network.hpp (tighten and solve again) like the fast adjuster.
 // Neither changes rejection flags; run the fast adjuster's rejection first (or pass a clean network).
 #pragma once
 
@@ -32,7 +33,8 @@ struct IntegratedResult {
   double cost = 0.0;       // total weighted cost (same definition as FastAdjustResult::cost)
   double rms_px = 0.0;
   double seconds = 0.0;
-  std::string message;     // the solver's own summary line
+  std::string message;      // the solver's own summary line (of the last solve)
+  int rig_tightenings = 0;  // re-solves with tighter held rig sigmas (Network.hpp)
 };
 
 // Both throw std::runtime_error on a network they cannot solve (no unknowns, non-finite values).

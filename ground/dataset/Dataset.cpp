@@ -6,9 +6,10 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
-#include <sstream>
 
 #include <nlohmann/json.hpp>
+
+#include "ground/dataset/RigSigmas.hpp"
 
 namespace areomap {
 namespace {
@@ -309,16 +310,8 @@ Dataset readDataset(const std::string& dir) {
   if (!ds.rig.left_offset_m) ds.notes.push_back("rig.left_offset_m: absent, to be estimated from the a-priori models");
   if (!ds.rig.right_offset_m) ds.notes.push_back("rig.right_offset_m: absent, to be estimated from the a-priori models");
   if (!ds.rig.base_m) ds.notes.push_back("rig.base_m: absent, to be estimated from the a-priori models");
-  if (!ds.rig.sigma_gimbal_m) {
-    std::ostringstream s;
-    s << "rig.sigma_gimbal_m: absent, defaulted to " << kDefaultSigmaGimbal_m << " m";
-    ds.notes.push_back(s.str());
-  }
-  if (!ds.rig.sigma_base_m) {
-    std::ostringstream s;
-    s << "rig.sigma_base_m: absent, defaulted to " << kDefaultSigmaBase_m << " m";
-    ds.notes.push_back(s.str());
-  }
+  if (!ds.rig.sigma_gimbal_m) ds.notes.push_back(heldSigmaNote("rig.sigma_gimbal_m"));
+  if (!ds.rig.sigma_base_m) ds.notes.push_back(heldSigmaNote("rig.sigma_base_m"));
   return ds;
 }
 

@@ -40,13 +40,9 @@ struct Rig {
   std::optional<Eigen::Vector3d> left_offset_m;  // C_L - X_G in the left camera frame
   std::optional<Eigen::Vector3d> right_offset_m; // C_R - X_G in the right camera frame
   std::optional<Eigen::Vector3d> base_m;         // C_R - C_L in the left camera frame
-  std::optional<double> sigma_gimbal_m;
+  std::optional<double> sigma_gimbal_m;  // absent: the constraint is held (ground/dataset/RigSigmas.hpp)
   std::optional<double> sigma_base_m;
 };
-
-// Defaults for the constraint sigmas when panorama.json gives none (the values of DESIGN.md's example).
-constexpr double kDefaultSigmaGimbal_m = 0.001;
-constexpr double kDefaultSigmaBase_m = 0.0005;
 
 struct Dataset {
   std::string root;  // the dataset folder as given to readDataset (or the folder written to)

@@ -262,8 +262,7 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
   report.method3_after = precisionMethod3(net);
   report.tie_points = countTiePoints(net);
   report.constraints = {{"gimbal", true}, {"base", true}, {"fido", false}, {"datum_prior", true}};
-  report.max_gimbal_misfit_m = fast.result.max_misfit.gimbal_m;
-  report.max_base_misfit_m = fast.result.max_misfit.base_m;
+  setRigFigures(report, net);  // of the integrated solution, whose models are written
   result.method1_before_px = report.method1_before.dist;
   result.method1_after_px = report.method1_after.dist;
   result.integrated_iterations = integrated.iterations;

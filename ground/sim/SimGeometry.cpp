@@ -157,9 +157,8 @@ Dataset SimGeometry::dataset(const std::string& root) const {
   ds.rig.base_m = base_m;
   // The simulated rig is exactly rigid: every true model satisfies Eq. 3 and Eq. 4 to rounding, so the
   // constraints are written as the paper's pseudo-observations with very small variances (§3.2): 10 um,
-  // 100x below the camera-centre precision the images alone give, which holds the constraint residuals
-  // under 0.1 mm (tests/ground/adjust SimSceneAdjustment); the adjusters stay well conditioned with it.
-  // Real datasets without sigmas keep Dataset.hpp's defaults (1 mm / 0.5 mm: a calibration's accuracy).
+  // the starting sigma of a held constraint (firmware_core/adjust/Network.hpp), but given, so not tightened.
+  // A dataset without sigmas gets the held rule instead (ground/dataset/RigSigmas.hpp).
   constexpr double kSimSigmaRig_m = 1e-5;
   ds.rig.sigma_gimbal_m = kSimSigmaRig_m;
   ds.rig.sigma_base_m = kSimSigmaRig_m;

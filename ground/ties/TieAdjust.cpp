@@ -5,13 +5,13 @@
 
 #include <Eigen/Dense>
 
+#include "ground/dataset/RigSigmas.hpp"
+
 namespace areomap {
 
 void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
                        std::vector<std::string>& notes) {
   RigConstraints& rig = net.rig;
-  rig.sigma_gimbal_m = dataset.rig.sigma_gimbal_m.value_or(kDefaultSigmaGimbal_m);
-  rig.sigma_base_m = dataset.rig.sigma_base_m.value_or(kDefaultSigmaBase_m);
   // Least squares for (G per sol, c_L, c_R): C_i = G_sol + M_i^T c_side, minimum norm (a rotation about a
   // single axis leaves the offset along it free).
   const int nsol = static_cast<int>(sol_of_index.size());
@@ -60,6 +60,7 @@ void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_in
       notes.push_back("stereo base estimated from the a-priori models");
     }
   }
+  applyRigSigmas(dataset.rig, rig, &notes);
 }
 
 AdjustOutcome adjustNetwork(Network& net, const FastAdjustOptions& options) {

@@ -186,8 +186,7 @@ int main(int argc, char** argv) {
     report.method2_after = precisionMethod2(g_net);
     report.method3_after = precisionMethod3(g_net);
     report.tie_points = countTiePoints(g_net);
-    report.max_gimbal_misfit_m = fr.max_misfit.gimbal_m;
-    report.max_base_misfit_m = fr.max_misfit.base_m;
+    ground::setRigFigures(report, g_net);  // of the solution written (the integrated one for svd / ceres)
     if (have_truth) {
       const Vec3* tp = true_points.empty() ? nullptr : true_points.data();
       const TruthErrors aligned =

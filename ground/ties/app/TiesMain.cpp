@@ -4,6 +4,7 @@
 
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/RigSigmas.hpp"
 #include "ground/ties/TieCheck.hpp"
 #include "ground/ties/TieRunner.hpp"
 #include "ground/dataset/TruthFiles.hpp"
@@ -73,6 +74,7 @@ void writeAdjustment(const std::string& out, const areomap::Dataset& dataset, co
   report["tie_points"] = {{"intra", run.intra_observations}, {"inter", run.inter_observations},
                           {"rejected", o.result.rejected_observations}};
   report["seconds"] = {{"ties", run.seconds}, {"adjust", seconds}};
+  areomap::heldSigmaOutcome(network.net->rig, o.result.max_misfit, notes, notes);
   report["warnings"] = notes;
   std::ofstream(out + "/report.json") << report.dump(2) << "\n";
   std::printf("adjustment: method 1 mean distance %.3f px before, %.3f px after (rms per coordinate %.3f px, sigma0 %.3f, %d sweeps); "

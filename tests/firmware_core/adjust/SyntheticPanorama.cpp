@@ -177,4 +177,22 @@ TruthError truthError(const Network& net, const PanoramaTruth& truth, bool align
   return TruthError{e.eo_px, e.ground_m};
 }
 
+double largestEoDifferencePx(const Network& a, const Network& b, double range_m) {
+  double d = 0.0;
+  for (int32_t i = 0; i < a.imageCount(); ++i) {
+    d = std::fmax(d, eoPixelEquivalent(a.image(i).io.f_px, a.image(i).center_m - b.image(i).center_m,
+                                       rotationAngle(a.image(i).m, b.image(i).m), range_m));
+  }
+  return d;
+}
+
+void restartFromApriori(const Network& from, Network& to) {
+  to = from;
+  to.resetToApriori();
+  for (int32_t k = 0; k < from.observationCount(); ++k)
+    to.observation(k).rejected = from.observation(k).rejected;
+  int32_t failed = 0;
+  (void)to.triangulateAll(failed);
+}
+
 }  // namespace areomap::test

@@ -57,4 +57,11 @@ struct TruthError {
 };
 TruthError truthError(const Network& net, const PanoramaTruth& truth, bool aligned, double range_m = 5.0);
 
+// The largest EO difference between two networks of the same images, pixel equivalent at `range_m`.
+double largestEoDifferencePx(const Network& a, const Network& b, double range_m = 5.0);
+
+// `to` = `from` restarted from the a-priori EO with the same rejection flags, points re-triangulated (the
+// start of the integrated adjusters after the fast adjuster's rejection).
+void restartFromApriori(const Network& from, Network& to);
+
 }  // namespace areomap::test

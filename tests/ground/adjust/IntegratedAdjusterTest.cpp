@@ -52,13 +52,7 @@ void makeScene(const test::PanoramaConfig& cfg, test::PanoramaTruth& truth) {
 
 // The integrated adjusters start again from the a-priori EO, with the fast adjuster's rejection flags.
 void restartFromApriori() {
-  g_reference = g_net;
-  g_reference.resetToApriori();
-  for (int k = 0; k < g_net.observationCount(); ++k) {
-    g_reference.observation(k).rejected = g_net.observation(k).rejected;
-  }
-  int32_t failed = 0;
-  (void)g_reference.triangulateAll(failed);
+  test::restartFromApriori(g_net, g_reference);
 }
 
 FastAdjustOptions tightFast() {

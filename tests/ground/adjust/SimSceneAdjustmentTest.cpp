@@ -20,6 +20,7 @@
 #include "ground/adjust/IntegratedAdjuster.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "platform/heap/HeapCounter.hpp"
+#include "tests/firmware_core/adjust/SyntheticPanorama.hpp"
 #include "tests/support/TestData.hpp"
 
 #include <CppUTest/TestHarness.h>
@@ -81,12 +82,7 @@ void printResult(const char* name, const FastAdjustResult& r, const TruthErrors&
 
 // The integrated adjusters start from the a-priori EO with the fast adjuster's rejection flags.
 void restartFromApriori() {
-  g_reference = g_net;
-  g_reference.resetToApriori();
-  for (int k = 0; k < g_net.observationCount(); ++k)
-    g_reference.observation(k).rejected = g_net.observation(k).rejected;
-  int32_t failed = 0;
-  (void)g_reference.triangulateAll(failed);
+  test::restartFromApriori(g_net, g_reference);
 }
 
 struct Difference {
