@@ -17,8 +17,9 @@ std::string millimetres(double metres) {
   return s.str();
 }
 
-void outcome(const char* field, bool held, double sigma_m, double misfit_m, double inconsistency_m,
-             std::vector<std::string>& notes, std::vector<std::string>& warnings) {
+// `floor_m`: the least misfit the rig values allow (misfitFloor), `inconsistency_m` their disagreement.
+void outcome(const char* field, bool held, double sigma_m, double misfit_m, double floor_m,
+             double inconsistency_m, std::vector<std::string>& notes, std::vector<std::string>& warnings) {
   if (!held) return;
   const std::string eq = equationOf(field);
   if (sigma_m < kHeldRigSigma_m) {
@@ -29,7 +30,7 @@ void outcome(const char* field, bool held, double sigma_m, double misfit_m, doub
   }
   if (misfit_m > kRigMisfitBound_m) {
     const std::string why =
-        inconsistency_m > kRigMisfitBound_m
+        floor_m > 0.5 * kRigMisfitBound_m
             ? "the rig values disagree among themselves: | |right_offset_m| - |left_offset_m + base_m| | = " +
                   millimetres(inconsistency_m) + ", so Eq. 3 and Eq. 4 cannot both hold"
             : "the rig values disagree with the images";
@@ -63,10 +64,11 @@ void applyRigSigmas(const Rig& given, RigConstraints& rig, std::vector<std::stri
 void heldSigmaOutcome(const RigConstraints& rig, const ConstraintMisfit& misfit,
                       std::vector<std::string>& notes, std::vector<std::string>& warnings) {
   const double d = rigInconsistency(rig);
-  outcome("rig.sigma_gimbal_m", rig.use_gimbal && rig.hold_gimbal, rig.sigma_gimbal_m, misfit.gimbal_m, d,
+  const ConstraintMisfit floor = misfitFloor(rig);
+  outcome("rig.sigma_gimbal_m", rig.use_gimbal && rig.hold_gimbal, rig.sigma_gimbal_m, misfit.gimbal_m,
+          floor.gimbal_m, d, notes, warnings);
+  outcome("rig.sigma_base_m", rig.use_base && rig.hold_base, rig.sigma_base_m, misfit.base_m, floor.base_m, d,
           notes, warnings);
-  outcome("rig.sigma_base_m", rig.use_base && rig.hold_base, rig.sigma_base_m, misfit.base_m, d, notes,
-          warnings);
 }
 
 }  // namespace areomap

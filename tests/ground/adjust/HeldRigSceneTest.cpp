@@ -173,7 +173,8 @@ TEST(HeldRigScenes, ExplicitLooseSigmaIsHonoured) {
 
 // Rig values that disagree among themselves by less than the bound allows (the right offset 1 mm off
 // along y: a floor of ~0.06 mm): at the starting 10 um the misfit exceeds the bound, so the rule tightens
-// the held sigmas and both the fast and the Ceres solution meet the bound; areomap-adjust reports it.
+// the held sigmas and both the fast and the Ceres solution meet the bound; areomap-adjust reports it. With
+// a base error that leaves a floor above the bound, areomap-adjust warns that the rig disagrees with itself.
 TEST(HeldRigScenes, RigThatDisagreesIsTightenedUntilItHolds) {
   Scene s = makeScene("held-disagree", kScenes[2].args);
   s.dataset.rig.right_offset_m->y() += 1e-3;
@@ -209,6 +210,21 @@ TEST(HeldRigScenes, RigThatDisagreesIsTightenedUntilItHolds) {
   CHECK(a["max_base_misfit_m"].get<double>() <= kRigMisfitBound_m);
   CHECK(a["sigma_gimbal_m"].get<double>() < kHeldRigSigma_m);
   CHECK(contains(a["estimated"].get<std::vector<std::string>>(), "rig.sigma_gimbal_m: tightened to"));
+
+  // The base 0.5 mm shorter on top: a floor above the bound, which no sigma lowers; the report says so.
+  s.dataset.rig.base_m->x() -= 5e-4;
+  writeDataset(s.dataset, s.dataset.root);
+  const std::string out2 = test::scratchDir("held-disagree-out2");
+  CHECK_EQUAL(0, test::runTool("areomap-adjust", s.dataset.root + " --out " + out2 + " --truth-ties"));
+  std::ifstream in2(out2 + "/report.json");
+  const nlohmann::json r2 = nlohmann::json::parse(in2);
+  const std::vector<std::string> warnings = r2["warnings"].get<std::vector<std::string>>();
+  std::printf("    base 0.5 mm off as well: misfit %.4f mm; %s\n",
+              r2["adjustment"]["max_gimbal_misfit_m"].get<double>() * 1e3,
+              contains(warnings, "disagree among themselves") ? "warned" : "NOT warned");
+  CHECK(r2["adjustment"]["max_gimbal_misfit_m"].get<double>() > kRigMisfitBound_m);
+  CHECK(contains(warnings, "Eq. 3 misses its bound after the held-sigma rule"));
+  CHECK(contains(warnings, "the rig values disagree among themselves"));
 }
 
 // The paper's integrated SVD on a small rig (0.42 m base, 50 deg 320x240 camera, two tiers): the held
