@@ -73,7 +73,9 @@ inline SimScene makeSimScene(const std::string& preset, int pairs, void (*edit)(
   return s;
 }
 
-// The "seen in truth": some true camera of `in` projects the ground point inside its image and
+// The "seen in truth": some true camera of `in` projects the ground point inside its image, the
+// pixel's own ray passes through the point (1e-6 rad; the inverse converges to 1e-9: CAHVOR distortion
+// folds points ~76 degrees off the axis into the image, which the camera does not see), and
 // `clear(camera centre, unit direction, distance)` finds no terrain between the camera and the point (each
 // test says how it casts the ray).
 template <class Clear>
@@ -82,6 +84,9 @@ bool seenInTruth(const products::ProductInputs& in, const Vec3& point, const Cle
     Vec2 px;
     if (project(im.model, point, px) != Status::kOk) continue;
     if (px.x() < 0 || px.y() < 0 || px.x() > im.grey.cols - 1 || px.y() > im.grey.rows - 1) continue;
+    Vec3 o, u;
+    if (unproject(im.model, px, o, u) != Status::kOk || (point - o).normalized().cross(u).norm() > 1e-6)
+      continue;
     const Vec3 d = point - im.model.c;
     const double dist = d.norm();
     if (clear(im.model.c, Vec3(d / dist), dist)) return true;
