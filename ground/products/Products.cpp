@@ -229,6 +229,13 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
     double n = 0, x = 0, y = 0, z = 0, s2 = 0;
     // Moments about the cell's centre (u north, v east) for the bin's plane.
     double u = 0, v = 0, uu = 0, uv = 0, vv = 0, uz = 0, vz = 0, zz = 0;
+    // The cell's sums over its pairs (s2 apart: the noise is kept per pair).
+    void addCell(const Acc& o) {
+      for (auto m : {&Acc::n, &Acc::x, &Acc::y, &Acc::z, &Acc::u, &Acc::v, &Acc::uu, &Acc::uv, &Acc::vv, &Acc::uz,
+                     &Acc::vz, &Acc::zz}) {
+        this->*m += o.*m;
+      }
+    }
   };
   constexpr long long kPairSlots = 4096;  // pairs per cell key (pair ids beyond share a slot: one pair)
   std::unordered_map<long long, Acc> bins;  // key: cell * kPairSlots + pair slot
@@ -288,18 +295,7 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
     long long pair_max = 0;
     for (; i < by_cell.size() && by_cell[i].first / kPairSlots == cell; ++i) {
       const Acc& a = by_cell[i].second;
-      all.n += a.n;
-      all.x += a.x;
-      all.y += a.y;
-      all.z += a.z;
-      all.u += a.u;
-      all.v += a.v;
-      all.uu += a.uu;
-      all.uv += a.uv;
-      all.vv += a.vv;
-      all.uz += a.uz;
-      all.vz += a.vz;
-      all.zz += a.zz;
+      all.addCell(a);
       const double factor = dem::patchVarianceFactor(std::sqrt(a.n), l_px);
       var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
       noise_spread += a.s2 * (1.0 - factor);
