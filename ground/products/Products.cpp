@@ -231,8 +231,8 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
     double u = 0, v = 0, uu = 0, uv = 0, vv = 0, uz = 0, vz = 0, zz = 0;
     // The cell's sums over its pairs (s2 apart: the noise is kept per pair).
     void addCell(const Acc& o) {
-      for (auto m : {&Acc::n, &Acc::x, &Acc::y, &Acc::z, &Acc::u, &Acc::v, &Acc::uu, &Acc::uv, &Acc::vv, &Acc::uz,
-                     &Acc::vz, &Acc::zz}) {
+      for (auto m : {&Acc::n, &Acc::x, &Acc::y, &Acc::z, &Acc::u, &Acc::v, &Acc::uu, &Acc::uv, &Acc::vv,
+                     &Acc::uz, &Acc::vz, &Acc::zz}) {
         this->*m += o.*m;
       }
     }
