@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "firmware_core/adjust/Datum.hpp"
-#include "firmware_core/camera/CameraModel.hpp"
+#include "firmware_core/camera/CameraConversion.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/dataset/ModelFile.hpp"
@@ -26,15 +26,12 @@ using namespace areomap;
 
 namespace {
 
-// The site -> camera rotation of a CAHV-family model: rows H', -V', -A (camera x right, y up, z back).
-Mat3 rotationOf(const CameraModel& m) {
-  const Vec3 h = (m.h - m.a.dot(m.h) * m.a).normalized();
-  const Vec3 v = (m.v - m.a.dot(m.v) * m.a).normalized();
-  Mat3 r;
-  r.row(0) = h.transpose();
-  r.row(1) = -v.transpose();
-  r.row(2) = -m.a.transpose();
-  return r;
+// The site -> camera rotation of the project's conversion (identity if the model does not convert).
+Mat3 rotationOf(CameraModel m, int width, int height) {
+  if (m.width <= 0) m.width = width, m.height = height;
+  PhotogrammetricCamera p;
+  ConversionResidual residual;
+  return cahvorToPhotogrammetric(m, p, residual) == Status::kOk ? p.m : Mat3::Identity();
 }
 
 // The ray from `c` to `p` stays above the truth surface until 3 cm before p.
@@ -91,8 +88,8 @@ int main(int argc, char** argv) {
       centre += t.c;
       const std::string adj = out + "/models/" + ref->stem + ".cahvor";
       if (std::filesystem::exists(adj)) {
-        m_est.push_back(rotationOf(readModelFile(adj)));
-        m_true.push_back(rotationOf(t));
+        m_est.push_back(rotationOf(readModelFile(adj), ds.width, ds.height));
+        m_true.push_back(rotationOf(t, ds.width, ds.height));
       }
     }
   }
