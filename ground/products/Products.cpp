@@ -168,14 +168,36 @@ struct BinnedCloud {
 
 constexpr double kMinRepresentationPoints = 6;  // a plane (3 unknowns) and 3 degrees of freedom
 
+// A bin's least-squares plane z = z0 + b u + c v from its moments (binPoints' Acc: sums of u, v, z and their
+// products about the cell's centre); rss: the squared residuals about it. False (b = c = 0, rss the spread
+// about the mean) when the points do not span a plane: fewer than kMinRepresentationPoints, or on a line.
+template <class Acc>
+bool binPlane(const Acc& a, double& b, double& c, double& rss) {
+  const double suu = a.uu - a.u * a.u / a.n, suv = a.uv - a.u * a.v / a.n, svv = a.vv - a.v * a.v / a.n;
+  const double suz = a.uz - a.u * a.z / a.n, svz = a.vz - a.v * a.z / a.n, szz = a.zz - a.z * a.z / a.n;
+  const double det = suu * svv - suv * suv;
+  b = c = 0.0;
+  rss = szz;
+  if (a.n < kMinRepresentationPoints || !(det > 1e-12 * (suu * svv) && det > 0.0)) return false;
+  b = (svv * suz - suv * svz) / det;
+  c = (suu * svz - suv * suz) / det;
+  rss = szz - b * suz - c * svz;
+  return true;
+}
+
 // The part of the points' noise variance that their number does not average down (phi), measured where
-// two pairs see one bin: their means differ by d, and E[d^2] = sum over the two of s_p^2 (patch factor +
-// phi) (the pairs' errors independent, s_p^2 their points' mean noise variance). phi is the least-squares
-// solution over all such bins, after one pass that leaves out the bins with d^2 above 25 times the
-// variance the first solution predicts (mismatches, occlusion edges); 0 with fewer than
-// kMinOverlapBins bins or a negative solution (the correlated-noise model alone explains the data).
+// two pairs see one bin. Their mean heights, moved along the bin's plane to one position (the two pairs'
+// points sample different parts of a sloping bin), differ by d; when the noise model holds (the pairs'
+// errors independent, s_p^2 their points' mean noise variance), d^2 / sum over the two of s_p^2 (patch
+// factor + phi) is chi-square with one degree of freedom. phi is the value for which the MEDIAN of that
+// ratio over all such bins is chi-square's median: bins where the two pairs see different surfaces (a
+// rock's two sides, occlusion edges, mismatches) are the heavy tail of d, and the median is not moved by
+// them whatever their size, as the DEM's "within 1 sigma" is not. 0 with fewer than kMinOverlapBins bins,
+// or when phi = 0 already leaves the median ratio at or below chi-square's (the correlated-noise model
+// alone explains the data).
 constexpr double kMinOverlapPoints = 4;  // points of each of the two pairs in the bin
 constexpr long long kMinOverlapBins = 200;
+constexpr double kChiSquare1Median = 0.454936;  // median of chi-square with one degree of freedom
 
 template <class Acc>
 double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots,
@@ -187,8 +209,10 @@ double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell
   for (std::size_t i = 0; i < by_cell.size();) {
     const long long cell = by_cell[i].first / pair_slots;
     const Acc* best[2] = {nullptr, nullptr};
+    Acc all;
     for (; i < by_cell.size() && by_cell[i].first / pair_slots == cell; ++i) {
       const Acc& a = by_cell[i].second;
+      all.addCell(a);
       if (a.n < kMinOverlapPoints) continue;
       if (best[0] == nullptr || a.n > best[0]->n) {
         best[1] = best[0];
@@ -198,29 +222,37 @@ double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell
       }
     }
     if (best[1] == nullptr) continue;
-    const double d = best[0]->z / best[0]->n - best[1]->z / best[1]->n;
+    double b = 0.0, c = 0.0, rss = 0.0;
+    binPlane(all, b, c, rss);
+    const Acc &p = *best[0], &q = *best[1];
+    const double d = (p.z / p.n - q.z / q.n) - b * (p.u / p.n - q.u / q.n) - c * (p.v / p.n - q.v / q.n);
     Overlap o{d * d, 0.0, 0.0};
     for (const Acc* a : best) {
       o.pred += (a->s2 / a->n) * dem::patchVarianceFactor(std::sqrt(a->n), l_px);
       o.base += a->s2 / a->n;
     }
-    overlaps.push_back(o);
+    if (o.base > 0.0) overlaps.push_back(o);
   }
   overlap_bins = static_cast<long long>(overlaps.size());
   if (overlap_bins < kMinOverlapBins) return 0.0;
-  double phi = 0.0;
-  for (int pass = 0; pass < 2; ++pass) {
-    double d2 = 0.0, pred = 0.0, base = 0.0;
-    for (const Overlap& o : overlaps) {
-      if (pass == 1 && o.d2 > 25.0 * (o.pred + phi * o.base)) continue;
-      d2 += o.d2;
-      pred += o.pred;
-      base += o.base;
+  std::vector<double> ratio(overlaps.size());
+  const auto medianRatio = [&](double phi) {
+    for (std::size_t k = 0; k < overlaps.size(); ++k) {
+      ratio[k] = overlaps[k].d2 / (overlaps[k].pred + phi * overlaps[k].base);
     }
-    if (!(base > 0.0)) return 0.0;
-    phi = std::max(0.0, (d2 - pred) / base);
+    const auto mid = ratio.begin() + static_cast<std::ptrdiff_t>(ratio.size() / 2);
+    std::nth_element(ratio.begin(), mid, ratio.end());
+    return *mid;
+  };
+  if (medianRatio(0.0) <= kChiSquare1Median) return 0.0;
+  // The median ratio falls as phi grows: bracket it, then bisect to 1e-4 relative.
+  double lo = 0.0, hi = 1.0;
+  for (int k = 0; k < 60 && medianRatio(hi) > kChiSquare1Median; ++k) hi *= 4.0;
+  for (int k = 0; k < 40 && hi - lo > 1e-4 * hi; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (medianRatio(mid) > kChiSquare1Median ? lo : hi) = mid;
   }
-  return phi;
+  return 0.5 * (lo + hi);
 }
 
 template <class Keep>
@@ -270,14 +302,8 @@ BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid
   // least-squares plane, less what the points' noise puts there.
   const auto representationVariance = [](const Acc& a, double noise_spread) {
     if (a.n < kMinRepresentationPoints) return 0.0;
-    const double suu = a.uu - a.u * a.u / a.n, suv = a.uv - a.u * a.v / a.n, svv = a.vv - a.v * a.v / a.n;
-    const double suz = a.uz - a.u * a.z / a.n, svz = a.vz - a.v * a.z / a.n, szz = a.zz - a.z * a.z / a.n;
-    const double det = suu * svv - suv * suv;
-    double rss = szz;
-    if (det > 1e-12 * (suu * svv) && det > 0.0) {
-      const double b = (svv * suz - suv * svz) / det, c = (suu * svz - suv * suz) / det;
-      rss = szz - b * suz - c * svz;
-    }
+    double b = 0.0, c = 0.0, rss = 0.0;
+    binPlane(a, b, c, rss);
     return std::max(0.0, (rss - noise_spread) / (a.n - 3.0));
   };
   long long overlap_bins = 0;

@@ -77,6 +77,8 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
   std::set<int64_t> failed;
   std::map<int64_t, std::set<int>> pairs_of_point;
   double sum_sq = 0.0;
+  Vec2 intra_sum = Vec2::Zero();
+  int intra_n = 0;
   for (const ImageObservation& o : run.observations) {
     pairs_of_point[o.point].insert(pair_of.at(o.image));
     const CameraModel& m = truth.at(o.image);
@@ -96,6 +98,10 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
     double e = 1e9;
     if (ok(project(m, it->second, px))) e = (px - Vec2(o.sample_px, o.line_px)).norm();
     ++check.checked;
+    if (o.kind != "inter" && e <= 1.0) {
+      intra_sum += Vec2(o.sample_px, o.line_px) - px;
+      ++intra_n;
+    }
     check.within_1px += e <= 1.0 ? 1 : 0;
     if (o.kind == "inter") {
       ++check.inter_checked;
@@ -104,6 +110,10 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
     sum_sq += std::min(e, 100.0) * std::min(e, 100.0);
   }
   check.rms_px = check.checked > 0 ? std::sqrt(sum_sq / check.checked) : 0.0;
+  if (intra_n > 0) {
+    check.intra_mean_dx_px = intra_sum.x() / intra_n;
+    check.intra_mean_dy_px = intra_sum.y() / intra_n;
+  }
   // Adjacency from the truth check points.
   std::map<int64_t, std::set<int>> truth_pairs;
   for (const ImageObservation& o : readObservationsCsv(dataset.root + "/" + kTruthObservationsFile)) {

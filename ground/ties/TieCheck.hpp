@@ -22,6 +22,10 @@ struct TieCheck {
   int inter_within_1px = 0;
   int no_surface = 0;     // points whose first ray does not meet the truth DEM (not counted)
   double rms_px = 0.0;
+  // Mean signed error (measured - truth projection, px) of the intra-stereo observations within 1 px: a
+  // matcher's systematic offset (a disparity bias moves every pair's relative orientation alike).
+  double intra_mean_dx_px = 0.0;
+  double intra_mean_dy_px = 0.0;
   std::map<std::pair<int, int>, int> links;  // adjacent pair indices -> tie points shared
   int adjacent_pairs = 0;
   int min_link = 0;

@@ -103,6 +103,10 @@ int main(int argc, char** argv) {
                   100.0 * c.within_1px / std::max(1, c.checked), c.checked,
                   100.0 * c.inter_within_1px / std::max(1, c.inter_checked), c.inter_checked, c.rms_px,
                   c.adjacent_pairs, c.worst_link.c_str());
+      std::printf(
+          "truth: intra-stereo observations within 1 px are off by %+.4f px in x and %+.4f px in y on "
+          "average (measured - truth)\n",
+          c.intra_mean_dx_px, c.intra_mean_dy_px);
     }
     if (adjust) writeAdjustment(out, dataset, run, network);
     std::printf("tie points: %zu points, %d intra and %d inter observations, %.1f s; %s/tiepoints.csv\n",

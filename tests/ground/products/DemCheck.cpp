@@ -52,15 +52,23 @@ bool clearRay(const DemGrid& truth, const Vec3& c, const Vec3& p) {
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: dem_check DATASET PRODUCTS [--bands 2,5,10,20] [--stem dem|dem_near]\n");
+    std::fprintf(stderr,
+                 "usage: dem_check DATASET PRODUCTS [--bands 2,5,10,20] [--stem dem|dem_near] [--sectors]\n");
     return 2;
   }
   const std::string root = argv[1], out = argv[2];
   std::vector<double> edges = {2, 5, 10, 20};
   std::string stem = "dem";
-  for (int i = 3; i + 1 < argc; i += 2) {
+  bool sectors = false;
+  for (int i = 3; i < argc; i += 2) {
     const std::string flag = argv[i];
-    if (flag == "--bands") {
+    if (flag == "--sectors") {
+      sectors = true;
+      --i;
+    } else if (i + 1 >= argc) {
+      std::fprintf(stderr, "dem_check: option '%s' needs a value\n", flag.c_str());
+      return 2;
+    } else if (flag == "--bands") {
       edges.clear();
       std::stringstream in(argv[i + 1]);
       std::string item;
@@ -103,10 +111,15 @@ int main(int argc, char** argv) {
               m_est.size());
   struct Band {
     long long seen = 0, filled = 0, w1 = 0, w2 = 0;
-    double s2 = 0, sig2 = 0;
+    double s2 = 0, sig2 = 0, sum = 0;
     std::vector<double> abs_err, sig;
   };
   std::vector<Band> bands(edges.size() - 1);
+  // Per 20-degree azimuth sector about the gimbal centre: the mean signed error over range (mrad), cells
+  // from the first to the last band edge (a pair's EO error moves its sector as a whole; a datum tilt is
+  // a sinusoid over the sectors).
+  constexpr int kSectors = 18;
+  double sector_sum[kSectors] = {}, sector_n[kSectors] = {};
   for (int row = 0; row < dem.rows; ++row) {
     for (int col = 0; col < dem.cols; ++col) {
       const double n = dem.northOfRow(row), e = dem.eastOfCol(col);
@@ -140,16 +153,21 @@ int main(int argc, char** argv) {
       const double err = -aligned.z() - ta;
       const double s = sigma.at(col, row);
       bd.s2 += err * err;
+      bd.sum += err;
       bd.sig2 += s * s;
       bd.w1 += std::fabs(err) <= s;
       bd.w2 += std::fabs(err) <= 2 * s;
       bd.abs_err.push_back(std::fabs(err));
+      const double az = std::atan2(e - g.y(), n - g.x());
+      const int sector = std::clamp(static_cast<int>((az + M_PI) / (2 * M_PI) * kSectors), 0, kSectors - 1);
+      sector_sum[sector] += err / range;
+      sector_n[sector] += 1;
       bd.sig.push_back(s);
     }
   }
   std::printf(
       "| band | seen cells | filled | RMSE | sigma RMS | within 1 sigma | within 2 sigma | median abs error "
-      "| median sigma |\n|---|---|---|---|---|---|---|---|---|\n");
+      "| median sigma | mean error |\n|---|---|---|---|---|---|---|---|---|---|\n");
   const auto median = [](std::vector<double> v) {
     if (v.empty()) return 0.0;
     std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
@@ -158,9 +176,17 @@ int main(int argc, char** argv) {
   for (std::size_t k = 0; k < bands.size(); ++k) {
     const Band& b = bands[k];
     const double f = std::max(1LL, b.filled);
-    std::printf("| %g-%g m | %lld | %.1f %% | %.4f m | %.4f m | %.1f %% | %.1f %% | %.4f m | %.4f m |\n",
-                edges[k], edges[k + 1], b.seen, 100.0 * b.filled / std::max(1LL, b.seen), std::sqrt(b.s2 / f),
-                std::sqrt(b.sig2 / f), 100.0 * b.w1 / f, 100.0 * b.w2 / f, median(b.abs_err), median(b.sig));
+    std::printf(
+        "| %g-%g m | %lld | %.1f %% | %.4f m | %.4f m | %.1f %% | %.1f %% | %.4f m | %.4f m | %+.4f m |\n",
+        edges[k], edges[k + 1], b.seen, 100.0 * b.filled / std::max(1LL, b.seen), std::sqrt(b.s2 / f),
+        std::sqrt(b.sig2 / f), 100.0 * b.w1 / f, 100.0 * b.w2 / f, median(b.abs_err), median(b.sig),
+        b.sum / f);
+  }
+  if (sectors) {
+    std::printf("mean error / range per 20-degree sector from -180 deg (mrad):");
+    for (int k = 0; k < kSectors; ++k)
+      std::printf(" %.3f", sector_n[k] > 0 ? 1e3 * sector_sum[k] / sector_n[k] : 0.0);
+    std::printf("\n");
   }
   return 0;
 }
