@@ -4,8 +4,6 @@
 
 namespace areomap {
 
-namespace {
-
 // Eq. 3, the gimbal constraint of one image: g = C - XG - M^T c (c = camera centre minus gimbal centre in
 // the camera frame); dg/dC = I, dg/ddelta = d(-M'^T c) with M'^T = M^T exp(-[delta]x): -M^T [c]x.
 void gimbalRows(const Vec3& c, const Mat3& m, const Vec3& xg, const Vec3& offset, Vec3& g, Mat3x6& j) {
@@ -29,8 +27,6 @@ void baseRows(const Vec3& c_left, const Mat3& m_left, const Vec3& c_right, const
   j.block<3, 3>(0, 3).noalias() = -(m_left.transpose() * skew(base));
   j.block<3, 3>(0, 6).setIdentity();
 }
-
-}  // namespace
 
 int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left, const Mat3& m_left,
                            const Vec3& c_right, const Mat3& m_right, ConstraintRows& rows,
