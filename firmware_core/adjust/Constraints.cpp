@@ -4,9 +4,8 @@
 
 namespace areomap {
 
-namespace {
-
-// g = C - XG - M^T c; dg/dC = I, dg/ddelta = d(-M'^T c) with M'^T = M^T exp(-[delta]x): -M^T [c]x.
+// Eq. 3, the gimbal constraint of one image: g = C - XG - M^T c (c = camera centre minus gimbal centre in
+// the camera frame); dg/dC = I, dg/ddelta = d(-M'^T c) with M'^T = M^T exp(-[delta]x): -M^T [c]x.
 void gimbalRows(const Vec3& c, const Mat3& m, const Vec3& xg, const Vec3& offset, Vec3& g, Mat3x6& j) {
   Vec3 rc;
   rc.noalias() = m.transpose() * offset;
@@ -15,7 +14,19 @@ void gimbalRows(const Vec3& c, const Mat3& m, const Vec3& xg, const Vec3& offset
   j.block<3, 3>(0, 3).noalias() = -(m.transpose() * skew(offset));
 }
 
-}  // namespace
+// Eq. 4, the stereo-base constraint of one pair: g = C_R - C_L - M_L^T e (e = C_R - C_L in the left camera
+// frame); over the pair's unknowns [left dC, left delta, right dC, right delta]: dg/dC_L = -I,
+// dg/ddelta_L = -M_L^T [e]x (as in Eq. 3), dg/dC_R = I, dg/ddelta_R = 0.
+void baseRows(const Vec3& c_left, const Mat3& m_left, const Vec3& c_right, const Vec3& base, Vec3& g,
+              Mat3x12& j) {
+  Vec3 re;
+  re.noalias() = m_left.transpose() * base;
+  g = c_right - c_left - re;
+  j.setZero();
+  j.block<3, 3>(0, 0) = -Mat3::Identity();
+  j.block<3, 3>(0, 3).noalias() = -(m_left.transpose() * skew(base));
+  j.block<3, 3>(0, 6).setIdentity();
+}
 
 int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left, const Mat3& m_left,
                            const Vec3& c_right, const Mat3& m_right, ConstraintRows& rows,
@@ -48,13 +59,11 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
   }
   if (has_right && rig.use_base && rig.sigma_base_m > 0.0) {
     const double w = 1.0 / rig.sigma_base_m;
-    Vec3 re;
-    re.noalias() = m_left.transpose() * rig.base_m;
-    const Vec3 g = c_right - c_left - re;
+    Vec3 g;
+    Mat3x12 j;
+    baseRows(c_left, m_left, c_right, rig.base_m, g, j);
     rows.segment<3>(n) = g * w;
-    jacobian.block<3, 3>(n, 0) = -Mat3::Identity() * w;
-    jacobian.block<3, 3>(n, 3).noalias() = -(m_left.transpose() * skew(rig.base_m)) * w;
-    jacobian.block<3, 3>(n, 6) = Mat3::Identity() * w;
+    jacobian.block<3, 12>(n, 0) = j * w;
     n += 3;
     if (misfit != nullptr) misfit->base_m = g.norm();
   }

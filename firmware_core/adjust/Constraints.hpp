@@ -25,6 +25,13 @@ struct ConstraintMisfit {
   double distance_m = 0.0;  // largest FIDO distance misfit
 };
 
+// The two rig constraints of the paper (§3.2), unwhitened, each with its Jacobian over the local updates:
+// Eq. 3 (gimbal, per image): g = C - XG - M^T c, over [dC, delta] of the image;
+// Eq. 4 (stereo base, per pair): g = C_R - C_L - M_L^T e, over [left dC, delta, right dC, delta].
+void gimbalRows(const Vec3& c, const Mat3& m, const Vec3& xg, const Vec3& offset, Vec3& g, Mat3x6& j);
+void baseRows(const Vec3& c_left, const Mat3& m_left, const Vec3& c_right, const Vec3& base, Vec3& g,
+              Mat3x12& j);
+
 // Fills rows (whitened) and their Jacobian for pair `pair` evaluated at the given cameras (right ignored
 // for a single image). Returns the number of rows used; unused rows are zero.
 int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left, const Mat3& m_left,
