@@ -101,37 +101,6 @@ Vec3 rayOfIdealPixel(const InteriorOrientation& io, const Mat3& m, const Vec2& i
   return ray.normalized();
 }
 
-Status intersectRays(const Vec3* origins, const Vec3* directions, int32_t count, Vec3& point) {
-  if (count < 2) {
-    return Status::kDegenerate;
-  }
-  Mat3 a = Mat3::Zero();
-  Vec3 b = Vec3::Zero();
-  for (int32_t i = 0; i < count; ++i) {
-    Mat3 proj;
-    proj.noalias() = Mat3::Identity() - directions[i] * directions[i].transpose();
-    a += proj;
-    b.noalias() += proj * origins[i];
-  }
-  Eigen::SelfAdjointEigenSolver<Mat3> eig(a);
-  const Vec3 ev = eig.eigenvalues();
-  // Two parallel rays give an eigenvalue ~0 along the ray; 1e-8 ~ rays 0.1 mrad apart.
-  constexpr double kMinEigen = 1e-8;
-  if (!(ev(0) > kMinEigen * ev(2))) {
-    return Status::kDegenerate;
-  }
-  point.noalias() = eig.eigenvectors() * (eig.eigenvectors().transpose() * b).cwiseQuotient(ev);
-  if (!point.allFinite()) {
-    return Status::kNotFinite;
-  }
-  for (int32_t i = 0; i < count; ++i) {
-    if ((point - origins[i]).dot(directions[i]) <= 0.0) {
-      return Status::kBehindCamera;
-    }
-  }
-  return Status::kOk;
-}
-
 Status Network::triangulate(int32_t point) {
   if (point < 0 || point >= point_count_) {
     return Status::kInvalidArgument;

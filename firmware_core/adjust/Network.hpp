@@ -16,6 +16,7 @@
 #include "firmware_core/base/EigenTypes.hpp"
 #include "firmware_core/base/Status.hpp"
 #include "firmware_core/camera/Photogrammetric.hpp"
+#include "firmware_core/camera/RayIntersection.hpp"  // intersectRays, for the points of the network
 
 namespace areomap {
 
@@ -163,10 +164,6 @@ class Network {
   int32_t point_count_ = 0;
   int32_t observation_count_ = 0;
 };
-
-// Multi-ray intersection of `count` rays (centre, unit direction): the point minimising the sum of squared
-// perpendicular distances. kDegenerate when the rays are (nearly) parallel.
-[[nodiscard]] Status intersectRays(const Vec3* origins, const Vec3* directions, int32_t count, Vec3& point);
 
 // The unit ray (site frame) of an ideal pixel of a camera.
 Vec3 rayOfIdealPixel(const InteriorOrientation& io, const Mat3& m, const Vec2& ideal_px);

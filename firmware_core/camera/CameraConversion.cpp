@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "firmware_core/camera/CahvInternal.hpp"
+
 namespace areomap {
 namespace {
 
@@ -117,10 +119,11 @@ Status cahvorToPhotogrammetric(const CameraModel& model, PhotogrammetricCamera& 
     return Status::kInvalidArgument;
   }
   const Vec3& a = model.a;
-  const double hc = a.dot(model.h), vc = a.dot(model.v);
-  const double hs = a.cross(model.h).norm(), vs = a.cross(model.v).norm();
-  const Vec3 h_prime = (model.h - hc * a) / hs;
-  const Vec3 v_prime = (model.v - vc * a) / vs;
+  const CahvInternal internal = cahvInternal(model);
+  const double hc = internal.hc_px, vc = internal.vc_px;
+  const double hs = internal.hs_px, vs = internal.vs_px;
+  const Vec3& h_prime = internal.h_prime;
+  const Vec3& v_prime = internal.v_prime;
   const Vec3 m2 = -a.normalized();
   const Vec3 m1 = -(v_prime - v_prime.dot(m2) * m2).normalized();
   const Vec3 m0 = m1.cross(m2);

@@ -4,30 +4,6 @@
 
 namespace areomap {
 
-Status triangulateMidpoint(const CameraModel& left, const CameraModel& right, const Vec2& left_px,
-                           const Vec2& right_px, Vec3& point, double& miss_m) {
-  Vec3 o1, d1, o2, d2;
-  Status s = unproject(left, left_px, o1, d1);
-  if (!ok(s)) return s;
-  s = unproject(right, right_px, o2, d2);
-  if (!ok(s)) return s;
-  // Closest points o1 + t1 d1, o2 + t2 d2 (unit directions).
-  const Vec3 w = o1 - o2;
-  const double b = d1.dot(d2);
-  const double d = d1.dot(w);
-  const double e = d2.dot(w);
-  const double denom = 1.0 - b * b;
-  if (denom < 1e-12) return Status::kDegenerate;
-  const double t1 = (b * e - d) / denom;
-  const double t2 = (e - b * d) / denom;
-  if (t1 <= 0.0 || t2 <= 0.0) return Status::kBehindCamera;
-  const Vec3 p1 = o1 + t1 * d1;
-  const Vec3 p2 = o2 + t2 * d2;
-  point = 0.5 * (p1 + p2);
-  miss_m = (p1 - p2).norm();
-  return Status::kOk;
-}
-
 void CoarseDem::reset(const Vec3& centre_m) {
   const double half = 0.5 * kCoarseDemCells * kCoarseDemCellM;
   origin_m_ = Vec3(centre_m.x() - half, centre_m.y() - half, 0.0);

@@ -11,14 +11,8 @@
 #include "firmware_core/base/Capacities.hpp"
 #include "firmware_core/base/EigenTypes.hpp"
 #include "firmware_core/base/Status.hpp"
-#include "firmware_core/camera/CameraModel.hpp"
 
 namespace areomap {
-
-// Midpoint of the shortest segment between the rays of a left and a right pixel. `miss_m` is that
-// segment's length. kDegenerate for parallel rays, kBehindCamera when the point is behind either camera.
-[[nodiscard]] Status triangulateMidpoint(const CameraModel& left, const CameraModel& right, const Vec2& left_px,
-                                         const Vec2& right_px, Vec3& point, double& miss_m);
 
 class CoarseDem {
  public:

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "firmware_core/camera/RayIntersection.hpp"
 #include "firmware_core/match/EpipolarSearch.hpp"
 #include "firmware_core/match/Ncc.hpp"
 #include "firmware_core/match/ParallaxVerifier.hpp"
@@ -43,8 +44,18 @@ bool PanoramaMatcher::addObservation(int32_t point, int32_t image, double sample
   return true;
 }
 
+TieList PanoramaMatcher::ties() const {
+  TieList list;
+  list.points = points_.data();
+  list.point_count = points_.size();
+  list.observations = observations_.data();
+  list.observation_count = observations_.size();
+  list.pair_count = pair_count_;
+  return list;
+}
+
 Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, const CameraModel& left_model,
-                                const CameraModel* right_model, PairTieReport& report) {
+                                const CameraModel* right_model, CoarseDem& dem, PairTieReport& report) {
   report = PairTieReport();
   if (!left.valid()) return Status::kInvalidArgument;
   if (left.width > kMaxImageWidth || left.height > kMaxImageHeight) return Status::kCapacityExceeded;
@@ -71,18 +82,18 @@ Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, c
   }
 
   // 2. Coarse DEM of the pair from its ties (the ground points are kept in the stereo scratch).
-  dem_.reset(left_model.c);
+  dem.reset(left_model.c);
   bool triangulated[kMaxTiesPerPair];
   Vec3 ground[kMaxTiesPerPair];
   for (int32_t i = 0; i < stereo_result_.tie_count; ++i) {
     double miss_m = 0.0;
     const StereoMatch& m = stereo_result_.ties[i];
     triangulated[i] = ok(triangulateMidpoint(left_model, *right_model, m.left_px, m.right_px, ground[i], miss_m));
-    if (triangulated[i]) (void)dem_.addPoint(ground[i]);
+    if (triangulated[i]) (void)dem.addPoint(ground[i]);
   }
-  dem_.finish();
-  report.dem_points = dem_.pointCount();
-  report.dem_cells = dem_.measuredCells();
+  dem.finish();
+  report.dem_points = dem.pointCount();
+  report.dem_cells = dem.measuredCells();
 
   // 3. Inter-stereo ties from every earlier pair into this one (points created up to the pair's cumulative
   // share, its own selected ties kept free).
@@ -96,7 +107,7 @@ Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, c
     if (!triangulated[i]) continue;
     const StereoMatch& m = stereo_result_.ties[i];
     StoredTie& st = stored.ties[stored.tie_count];
-    if (!fillStoredTie(left, left_model, m, ground[i], st)) continue;
+    if (!fillStoredTie(left, left_model, dem, m, ground[i], st)) continue;
     TiePoint p;
     p.ground_m = ground[i];
     p.pair = j;
@@ -118,7 +129,7 @@ Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, c
     ++stored.tie_count;
   }
   if (has_right) {
-    storeInterCandidates(left, left_model, *right_model, stored, report);
+    storeInterCandidates(left, left_model, *right_model, dem, stored, report);
   } else {
     storeSingleImagePoints(left, left_model, stored);
   }
@@ -128,15 +139,16 @@ Status PanoramaMatcher::addPair(const ImageView& left, const ImageView* right, c
   return any ? Status::kOk : Status::kNoTexture;
 }
 
-bool PanoramaMatcher::fillStoredTie(const ImageView& left, const CameraModel& left_model, const StereoMatch& m,
-                                    const Vec3& ground, StoredTie& st) const {
+bool PanoramaMatcher::fillStoredTie(const ImageView& left, const CameraModel& left_model,
+                                    const CoarseDem& dem, const StereoMatch& m, const Vec3& ground,
+                                    StoredTie& st) const {
   NccTemplate t;
   if (!extractTemplate(left, static_cast<int32_t>(m.left_px.x()), static_cast<int32_t>(m.left_px.y()), t)) return false;
   for (int32_t k = 0; k < kNccPixels; ++k) st.patch[k] = t.pixels[k];
   Vec3 origin, direction, on_dem;
   Vec3 predicted = ground;
   const bool have_ray = ok(unproject(left_model, m.left_px, origin, direction));
-  if (have_ray && ok(dem_.intersectRay(origin, direction, on_dem))) predicted = on_dem;
+  if (have_ray && ok(dem.intersectRay(origin, direction, on_dem))) predicted = on_dem;
   st.predicted_m = predicted.cast<float>();
   // The patch's shape on the surface: where its neighbouring pixels meet the DEM (or, without a DEM there,
   // the plane through the point facing the camera).
@@ -146,7 +158,7 @@ bool PanoramaMatcher::fillStoredTie(const ImageView& left, const CameraModel& le
     Vec3 o2, d2, p2;
     st.has_shape = ok(unproject(left_model, offset_px, o2, d2));
     if (!st.has_shape) break;
-    if (!ok(dem_.intersectRay(o2, d2, p2))) {
+    if (!ok(dem.intersectRay(o2, d2, p2))) {
       const double range = (predicted - o2).dot(direction) / d2.dot(direction);
       p2 = o2 + range * d2;
     }
@@ -163,7 +175,8 @@ bool PanoramaMatcher::fillStoredTie(const ImageView& left, const CameraModel& le
 }
 
 void PanoramaMatcher::storeInterCandidates(const ImageView& left, const CameraModel& left_model,
-                                           const CameraModel& right_model, StoredPair& stored, PairTieReport& report) {
+                                           const CameraModel& right_model, const CoarseDem& dem,
+                                           StoredPair& stored, PairTieReport& report) {
   if (stored.tie_count >= kMaxStoredTiesPerPair) return;
   const StereoWorkspace& ws = stereo_workspace_;
   const int32_t grid = selectionGridPx(stereo, left.width, left.height);
@@ -224,7 +237,7 @@ void PanoramaMatcher::storeInterCandidates(const ImageView& left, const CameraMo
     Vec3 ground;
     double miss_m = 0.0;
     if (!ok(triangulateMidpoint(left_model, right_model, m.left_px, m.right_px, ground, miss_m))) continue;
-    if (!fillStoredTie(left, left_model, m, ground, stored.ties[stored.tie_count])) continue;
+    if (!fillStoredTie(left, left_model, dem, m, ground, stored.ties[stored.tie_count])) continue;
     ++stored.tie_count;
     ++report.inter_candidates_stored;
   }

@@ -15,9 +15,12 @@
 //      first and densest (a diagonal neighbour overlaps only a corner). Such a
 //      candidate becomes a tie point, with its two intra-stereo observations, only when a later pair
 //      matches it, so narrow overlaps get enough inter-stereo ties without spending the point budget.
-// Output: a neutral list of observations (point, image, sample, line, kind, score) and points (a-priori
-// ground position) that an adapter puts into the adjustment Network. Image index = 2 * pair + side.
-// Zero heap: one PanoramaMatcher (~20 MiB) is allocated statically at start-up.
+// Output: the neutral tie list of TieList.hpp (observations: point, image, sample, line, kind, score; points:
+// a-priori ground position) that firmware_core/adjust's NetworkBuilder puts into the adjustment Network.
+// Image index = 2 * pair + side.
+// The coarse DEM is the caller's (the rover publishes it): addPair makes it afresh from the new pair's ties
+// and predicts that pair's stored ties through it, so the one thing the matcher needs of firmware_core/dem
+// is named in its signature. Zero heap: one PanoramaMatcher (~19 MiB) is allocated statically at start-up.
 #pragma once
 
 #include <cstdint>
@@ -30,29 +33,13 @@
 #include "firmware_core/camera/CameraModel.hpp"
 #include "firmware_core/dem/CoarseDem.hpp"
 #include "firmware_core/match/StereoMatcher.hpp"
+#include "firmware_core/match/TieList.hpp"
 
 namespace areomap {
-
-enum class TieKind : uint8_t { kIntra = 0, kInter = 1 };
 
 // Stored ties per pair for later pairs (step 4): the selected ties (<= kMaxTiesPerPair) and further
 // inter-stereo candidates.
 constexpr int32_t kMaxStoredTiesPerPair = 352;
-
-struct TieObservation {
-  int32_t point = -1;
-  int32_t image = -1;  // 2 * pair + (0 left, 1 right)
-  double sample_px = 0.0;
-  double line_px = 0.0;
-  TieKind kind = TieKind::kIntra;
-  float score = 0.0f;  // NCC
-};
-
-struct TiePoint {
-  Vec3 ground_m = Vec3::Zero();  // a-priori position (intra triangulation with the a-priori models)
-  int32_t pair = -1;             // the pair that found it
-  int32_t observation_count = 0;
-};
 
 struct InterParams {
   // A single image has no DEM: its interest points are predicted on the plane Z = ground_z_m (site frame,
@@ -93,15 +80,17 @@ class PanoramaMatcher {
   void planForPairs(int32_t pairs);
 
   // Adds the next pair (its index is pairCount() before the call). `right` and `right_model` may be null for
-  // a single left image. Returns kOk when the pair got any tie, kNoTexture when it got none, kInvalidArgument
-  // or kCapacityExceeded for bad input (the pair is then not added).
+  // a single left image. `dem` receives the pair's coarse DEM (steps 2 and 4; empty for a single image).
+  // Returns kOk when the pair got any tie, kNoTexture when it got none, kInvalidArgument or
+  // kCapacityExceeded for bad input (the pair is then not added).
   [[nodiscard]] Status addPair(const ImageView& left, const ImageView* right, const CameraModel& left_model,
-                               const CameraModel* right_model, PairTieReport& report);
+                               const CameraModel* right_model, CoarseDem& dem, PairTieReport& report);
 
   int32_t pairCount() const { return pair_count_; }
   const FixedVector<TieObservation, kMaxObservations>& observations() const { return observations_; }
   const FixedVector<TiePoint, kMaxTiePoints>& points() const { return points_; }
-  const CoarseDem& lastDem() const { return dem_; }
+  // The tie list so far (a view of the two lists above).
+  TieList ties() const;
 
   StereoParams stereo;
   InterParams inter;
@@ -156,16 +145,16 @@ class PanoramaMatcher {
   void storeSingleImagePoints(const ImageView& left, const CameraModel& model, StoredPair& stored);
   // Patch, predicted ground point and shape of an intra-stereo match (point -1); false when the patch
   // leaves the image.
-  bool fillStoredTie(const ImageView& left, const CameraModel& left_model, const StereoMatch& m, const Vec3& ground,
-                     StoredTie& st) const;
+  bool fillStoredTie(const ImageView& left, const CameraModel& left_model, const CoarseDem& dem,
+                     const StereoMatch& m, const Vec3& ground, StoredTie& st) const;
   // Step 4's inter-stereo candidates (the verified, unselected matches of stereo_workspace_).
-  void storeInterCandidates(const ImageView& left, const CameraModel& left_model, const CameraModel& right_model,
-                            StoredPair& stored, PairTieReport& report);
+  void storeInterCandidates(const ImageView& left, const CameraModel& left_model,
+                            const CameraModel& right_model, const CoarseDem& dem, StoredPair& stored,
+                            PairTieReport& report);
   bool addObservation(int32_t point, int32_t image, double sample_px, double line_px, TieKind kind, float score);
 
   StereoWorkspace stereo_workspace_;
   StereoResult stereo_result_;
-  CoarseDem dem_;
   StoredPair pairs_[kMaxPairs];
   int32_t pair_count_ = 0;
   int32_t planned_pairs_ = kMaxPairs;

@@ -69,7 +69,7 @@ double RoverNode::now() const { return static_cast<double>(clock_->monotonicUtim
 void RoverNode::resetPanorama() {
   matcher_.reset();
   matcher_.planForPairs(kMaxPairs);
-  adapter_.reset();
+  network_builder_.reset();
   net_.clear();
   sol_count_ = 0;
   workspace_full_ = false;
@@ -295,7 +295,8 @@ void RoverNode::processPair(int64_t sequence) {
   const int32_t first_observation = matcher_.observations().size();
   // The tie budget, planned once per panorama for the pair count the stream announces (as areomap-ties).
   if (matcher_.pairCount() == 0) matcher_.planForPairs(plannedPairs(in_.pairs_planned));
-  s = matcher_.addPair(left, in_.has_right ? &right : nullptr, models[0], in_.has_right ? &models[1] : nullptr, report);
+  s = matcher_.addPair(left, in_.has_right ? &right : nullptr, models[0],
+                       in_.has_right ? &models[1] : nullptr, coarse_dem_, report);
   const double match_s = now() - t;
   counters_.stage_seconds[stageIndex(RoverStage::kMatch)] += match_s;
   if (s == Status::kInvalidArgument || s == Status::kCapacityExceeded) {
@@ -330,15 +331,16 @@ void RoverNode::processPair(int64_t sequence) {
   // Network: cameras, new points and observations; rig from the message.
   t = now();
   int32_t failed = 0;
-  s = adapter_.syncPair(matcher_, sol_index, in_.tier < 0 ? 0 : (in_.tier >= kMaxTiers ? kMaxTiers - 1 : in_.tier),
-                        models[0], in_.has_right ? &models[1] : nullptr, net_, failed);
+  s = network_builder_.syncPair(matcher_.ties(), sol_index,
+                                in_.tier < 0 ? 0 : (in_.tier >= kMaxTiers ? kMaxTiers - 1 : in_.tier),
+                                models[0], in_.has_right ? &models[1] : nullptr, net_, failed);
   if (!ok(s)) {
     reject(s, sequence, pair_id, "cannot enter the adjustment network");
     publishStatus();
     return;
   }
   for (int32_t side = 0; side < 2; ++side) {
-    const int32_t image = adapter_.networkImage(2 * matcher_pair + side);
+    const int32_t image = network_builder_.networkImage(2 * matcher_pair + side);
     if (image < 0) continue;
     copyText(stem_of_matcher_image_[2 * matcher_pair + side], stem_of_image_[image], kMaxMessageStringChars + 1);
     pair_id_of_image_[image] = pair_id;
@@ -456,7 +458,7 @@ void RoverNode::publishTiePoints(int32_t pair_id, int32_t first_observation) {
 }
 
 void RoverNode::publishDem(int32_t pair_id) {
-  const CoarseDem& dem = matcher_.lastDem();
+  const CoarseDem& dem = coarse_dem_;
   dem_.utime = clock_->wallUtime();
   dem_.sequence = seq_dem_++;
   setString(dem_.panorama, panorama_);
@@ -502,7 +504,7 @@ void RoverNode::publishEo(int32_t pair_id, bool final_solution) {
       e.sigma_angles_rad[k] = im.sigma[3 + k];
     }
     opkFromRotation(im.m, e.omega_rad, e.phi_rad, e.kappa_rad);
-    toMessage(adjustedModel(adapter_.model(i), im.m_apriori, im.m, im.center_m), e.model);
+    toMessage(adjustedModel(network_builder_.model(i), im.m_apriori, im.m, im.center_m), e.model);
   }
   publishMessage(channels::kEoSolution, eo_);
 }

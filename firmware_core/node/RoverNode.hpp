@@ -26,9 +26,10 @@
 #include "areomap/tiepoints_t.hpp"
 #include "firmware_core/adjust/FastAdjuster.hpp"
 #include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/adjust/NetworkBuilder.hpp"
 #include "firmware_core/base/Capacities.hpp"
 #include "firmware_core/base/Status.hpp"
-#include "firmware_core/match/NetworkAdapter.hpp"
+#include "firmware_core/dem/CoarseDem.hpp"
 #include "firmware_core/match/PanoramaMatcher.hpp"
 #include "firmware_core/node/MessageAdapters.hpp"
 #include "platform/Clock.hpp"
@@ -103,7 +104,7 @@ class RoverNode {
 
   const RoverCounters& counters() const { return counters_; }
   const Network& network() const { return net_; }
-  const NetworkAdapter& adapter() const { return adapter_; }
+  const NetworkBuilder& networkBuilder() const { return network_builder_; }
   const char* stemOfImage(int32_t net_image) const { return stem_of_image_[net_image]; }
   const char* lastError() const { return last_error_; }
 
@@ -133,7 +134,8 @@ class RoverNode {
   uint8_t left_pixels_[kMaxImagePixels];
   uint8_t right_pixels_[kMaxImagePixels];
   PanoramaMatcher matcher_;
-  NetworkAdapter adapter_;
+  CoarseDem coarse_dem_;  // the last pair's, made by the matcher and published
+  NetworkBuilder network_builder_;
   Network net_;
   FastAdjuster adjuster_;
   uint8_t out_buffer_[kMaxOutgoingBytes];

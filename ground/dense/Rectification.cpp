@@ -6,22 +6,11 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "firmware_core/camera/CahvInternal.hpp"
+
 namespace areomap::dense {
 
 namespace {
-
-struct Internal {
-  double hs, hc, vs, vc;
-};
-
-Internal internalOf(const CameraModel& m) {
-  Internal in;
-  in.hc = m.a.dot(m.h);
-  in.vc = m.a.dot(m.v);
-  in.hs = (m.h - in.hc * m.a).norm();
-  in.vs = (m.v - in.vc * m.a).norm();
-  return in;
-}
 
 // The map of one camera: rectified pixel -> ray of the CAHV model -> original (distorted) pixel.
 cv::Mat buildMap(const CameraModel& original, const CameraModel& rectified) {
@@ -61,8 +50,8 @@ RectifiedPair rectifyPair(const CameraModel& left, const CameraModel& right) {
   const Vec3 base = right.c - left.c;
   const double b = base.norm();
   if (!(b > 1e-6)) throw std::invalid_argument("rectifyPair: zero baseline");
-  const Internal il = internalOf(left), ir = internalOf(right);
-  const Vec3 hl = (left.h - il.hc * left.a) / il.hs;  // H' unit of the left camera
+  const CahvInternal il = cahvInternal(left), ir = cahvInternal(right);
+  const Vec3& hl = il.h_prime;  // H' unit of the left camera
   Vec3 x = base / b;
   if (x.dot(hl) < 0) x = -x;  // the right camera should lie along +H'; if not, matching sees d < 0
   const Vec3 a_mean = (left.a + right.a).normalized();
@@ -74,8 +63,8 @@ RectifiedPair rectifyPair(const CameraModel& left, const CameraModel& right) {
 
   RectifiedPair out;
   out.baseline_m = b;
-  const double hs = 0.5 * (il.hs + ir.hs);
-  const double vs = 0.5 * (il.vs + ir.vs);
+  const double hs = 0.5 * (il.hs_px + ir.hs_px);
+  const double vs = 0.5 * (il.vs_px + ir.vs_px);
   // Principal point: the mean of where the two original optical axes land in the common orientation,
   // shifted so that the image centre stays at the centre on average.
   const double cx = 0.5 * (left.width - 1), cy = 0.5 * (left.height - 1);
@@ -105,8 +94,7 @@ RectifiedPair rectifyPair(const CameraModel& left, const CameraModel& right) {
   out.right.height = right.height;
   out.left_map = buildMap(left, out.left);
   out.right_map = buildMap(right, out.right);
-  const Vec3 hr = (right.h - ir.hc * right.a) / ir.hs;
-  out.max_rotation_rad = std::max(rotationAngle(left.a, a, hl, h), rotationAngle(right.a, a, hr, h));
+  out.max_rotation_rad = std::max(rotationAngle(left.a, a, hl, h), rotationAngle(right.a, a, ir.h_prime, h));
   return out;
 }
 

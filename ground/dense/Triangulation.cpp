@@ -13,87 +13,17 @@
 
 namespace areomap::dense {
 
-namespace {
-
-constexpr int kMaxGaussNewtonIterations = 10;
-constexpr double kStepToleranceM = 1e-9;
-constexpr double kMinRayAngleRad = 1e-5;   // rays closer to parallel than this do not intersect
-constexpr double kJacobianStepM = 1e-6;     // central-difference step (relative to the range)
-
-using ObsVec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxIntersectionViews, 1>;
-using ObsJac = Eigen::Matrix<double, Eigen::Dynamic, 3, 0, 2 * kMaxIntersectionViews, 3>;
-
-bool projectAll(const CameraModel* const* models, int n, const Vec3& p, ObsVec& uv) {
-  uv.resize(2 * n);
-  for (int i = 0; i < n; ++i) {
-    Vec2 a;
-    if (project(*models[i], p, a) != Status::kOk) return false;
-    uv(2 * i) = a.x();
-    uv(2 * i + 1) = a.y();
-  }
-  return true;
-}
-
-// Closest approach of the rays of two pixels (the start of the least squares); `origin` the first ray's.
-bool closestApproach(const CameraModel& left, const CameraModel& right, const Vec2& left_px, const Vec2& right_px,
-                     Vec3& p, Vec3& origin) {
-  Vec3 o1, d1, o2, d2;
-  if (unproject(left, left_px, o1, d1) != Status::kOk || unproject(right, right_px, o2, d2) != Status::kOk) {
-    return false;
-  }
-  const Vec3 w = o1 - o2;
-  const double b = d1.dot(d2), d = d1.dot(w), e = d2.dot(w);
-  const double denom = 1.0 - b * b;  // unit directions
-  if (denom < kMinRayAngleRad * kMinRayAngleRad) return false;
-  const double s = (b * e - d) / denom;
-  const double t = (e - b * d) / denom;
-  if (!(s > 0.0) || !(t > 0.0)) return false;
-  p = 0.5 * ((o1 + s * d1) + (o2 + t * d2));
-  origin = o1;
-  return true;
-}
-
-// Gauss-Newton on the reprojection error of `n` observations from `p`; `j` and `uv` at the solution.
-bool refineIntersection(const CameraModel* const* models, int n, const ObsVec& obs, const Vec3& origin, Vec3& p,
-                        ObsJac& j, ObsVec& uv) {
-  j.resize(2 * n, 3);
-  ObsVec up, um;
-  for (int it = 0; it < kMaxGaussNewtonIterations; ++it) {
-    if (!projectAll(models, n, p, uv)) return false;
-    const double h = kJacobianStepM * std::max(1.0, (p - origin).norm());
-    for (int k = 0; k < 3; ++k) {
-      Vec3 pp = p, pm = p;
-      pp(k) += h;
-      pm(k) -= h;
-      if (!projectAll(models, n, pp, up) || !projectAll(models, n, pm, um)) return false;
-      j.col(k) = (up - um) / (2.0 * h);
-    }
-    const Vec3 step = (j.transpose() * j).ldlt().solve(j.transpose() * (obs - uv));
-    if (!step.allFinite()) return false;
-    p += step;
-    if (step.norm() < kStepToleranceM) break;
-  }
-  return projectAll(models, n, p, uv);
-}
-
-}  // namespace
-
 bool triangulate(const CameraModel& left, const CameraModel& right, const Vec2& left_px, const Vec2& right_px,
                  double sigma_px, CloudPoint& out) {
-  Vec3 p, origin;
-  if (!closestApproach(left, right, left_px, right_px, p, origin)) return false;
   const CameraModel* models[2] = {&left, &right};
-  ObsVec obs(4);
-  obs << left_px.x(), left_px.y(), right_px.x(), right_px.y();
-  ObsJac j;
-  ObsVec uv;
-  if (!refineIntersection(models, 2, obs, origin, p, j, uv)) return false;
-  const Mat3 normal = j.transpose() * j;
-  const Eigen::FullPivLU<Mat3> lu(normal);
+  const Vec2 pixels[2] = {left_px, right_px};
+  PixelIntersection x;
+  if (!ok(intersectPixels(models, pixels, 2, x))) return false;
+  const Eigen::FullPivLU<Mat3> lu(x.normal);
   if (!lu.isInvertible()) return false;
-  out.site_m = p;
+  out.site_m = x.point_m;
   out.covariance_m2 = sigma_px * sigma_px * lu.inverse();
-  out.residual_px = std::sqrt((obs - uv).squaredNorm() / 4.0);
+  out.residual_px = x.rms_px;
   return true;
 }
 
@@ -101,15 +31,10 @@ bool intersectRays(const std::vector<const CameraModel*>& models, const std::vec
                    std::vector<double>& residuals_px) {
   const int n = static_cast<int>(std::min(models.size(), pixels.size()));
   if (n < 2 || n > kMaxIntersectionViews) return false;
-  Vec3 origin;
-  if (!closestApproach(*models[0], *models[1], pixels[0], pixels[1], point, origin)) return false;
-  ObsVec obs(2 * n);
-  for (int i = 0; i < n; ++i) obs.segment<2>(2 * i) = pixels[static_cast<std::size_t>(i)];
-  ObsJac j;
-  ObsVec uv;
-  if (!refineIntersection(models.data(), n, obs, origin, point, j, uv)) return false;
-  residuals_px.resize(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) residuals_px[static_cast<std::size_t>(i)] = (obs.segment<2>(2 * i) - uv.segment<2>(2 * i)).norm();
+  PixelIntersection x;
+  if (!ok(intersectPixels(models.data(), pixels.data(), n, x))) return false;
+  point = x.point_m;
+  residuals_px.assign(x.residual_px, x.residual_px + n);
   return true;
 }
 

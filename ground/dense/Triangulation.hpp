@@ -13,6 +13,7 @@
 
 #include "firmware_core/base/EigenTypes.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
+#include "firmware_core/camera/RayIntersection.hpp"
 
 namespace areomap::dense {
 
@@ -26,17 +27,16 @@ struct CloudPoint {
 };
 
 // Least-squares intersection of the rays of pixel `left_px` in `left` and `right_px` in `right`
-// (Gauss-Newton on the reprojection error from the rays' closest-approach midpoint), covariance
-// sigma_px^2 (J^T J)^-1. False when a ray does not exist, the rays are parallel, the point is behind a
-// camera, or the solution does not converge.
+// (intersectPixels, firmware_core/camera/RayIntersection.hpp), covariance sigma_px^2 (J^T J)^-1. False when
+// a ray does not exist, the rays are parallel, the point is behind a camera, or the solution does not
+// converge.
 bool triangulate(const CameraModel& left, const CameraModel& right, const Vec2& left_px, const Vec2& right_px,
                  double sigma_px, CloudPoint& out);
 
 // Most rays intersectRays takes (the rover's capacity of observations per point).
-inline constexpr int kMaxIntersectionViews = 8;
+using areomap::kMaxIntersectionViews;
 
-// Least-squares intersection of 2..kMaxIntersectionViews rays (the observations of one tie point in
-// several images): from the closest approach of the first two, Gauss-Newton on every reprojection error.
+// intersectPixels over 2..kMaxIntersectionViews rays (the observations of one tie point in several images).
 // `residuals_px[i]` = |pixels[i] - projection of `point`|, the back-projection residual of observation i
 // with these models. False when a ray does not exist, the first two are parallel, or a projection fails.
 bool intersectRays(const std::vector<const CameraModel*>& models, const std::vector<Vec2>& pixels, Vec3& point,

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "firmware_core/base/Capacities.hpp"
+#include "firmware_core/camera/CahvInternal.hpp"
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/io/ImageFile.hpp"
@@ -287,7 +288,8 @@ CameraFile fromM2020Json(const std::string& text, const std::string& path, int w
   // The model's pixel frame (PixelFrame.hpp): a delivered pixel's centre lies at model pixel
   // offset + scale * pixel.
   FrameEvidence e;
-  e.principal_px = Vec2(m.a.dot(m.h), m.a.dot(m.v));
+  const CahvInternal internal = cahvInternal(m);
+  e.principal_px = Vec2(internal.hc_px, internal.vc_px);
   e.width = m.width;
   e.height = m.height;
   readM2020Metadata(j, path, e, out);

@@ -6,6 +6,8 @@
 
 #include <opencv2/core/utility.hpp>
 
+#include "firmware_core/camera/CahvInternal.hpp"
+
 namespace areomap::ortho {
 
 namespace {
@@ -104,11 +106,11 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
   cv::Mat second_px(rows, cols, CV_32FC2, cv::Scalar(0, 0));
 
   std::vector<Vec2> centre(sources.size());
-  std::vector<double> px_per_rad(sources.size());  // the larger focal length, pixels (|A x H|, |A x V|)
+  std::vector<double> px_per_rad(sources.size());  // the larger focal length, pixels (hs, vs)
   for (std::size_t i = 0; i < sources.size(); ++i) {
-    const CameraModel& m = sources[i].model;
+    const CahvInternal internal = cahvInternal(sources[i].model);
     centre[i] = Vec2(0.5 * (sources[i].grey.cols - 1), 0.5 * (sources[i].grey.rows - 1));
-    px_per_rad[i] = std::max(m.a.cross(m.h).norm(), m.a.cross(m.v).norm());
+    px_per_rad[i] = std::max(internal.hs_px, internal.vs_px);
   }
 
   cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {

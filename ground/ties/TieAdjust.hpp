@@ -1,5 +1,5 @@
 // The fast constrained adjustment (firmware_core/adjust FastAdjuster) of the automatic tie points: the
-// network built pair by pair by NetworkAdapter, the rig constraints from panorama.json or, where missing,
+// network built pair by pair by NetworkBuilder, the rig constraints from panorama.json or, where missing,
 // estimated from the a-priori models (gimbal centre and camera offsets by least squares over the images
 // of a sol, Eq. 3; stereo base as the mean of C_R - C_L in the left frame, Eq. 4).
 #pragma once
@@ -11,7 +11,6 @@
 #include "firmware_core/adjust/FastAdjuster.hpp"
 #include "firmware_core/adjust/Network.hpp"
 #include "firmware_core/adjust/Precision.hpp"
-#include "firmware_core/match/NetworkAdapter.hpp"
 #include "ground/dataset/Dataset.hpp"
 
 namespace areomap {

@@ -47,11 +47,12 @@ TieRun runTiePoints(const Dataset& dataset, bool progress, TieNetwork* network) 
   }
   // ~20 MiB of fixed workspaces, as on the rover (heap here only because the ground owns its memory).
   auto matcher = std::make_unique<PanoramaMatcher>();
+  auto dem = std::make_unique<CoarseDem>();
   matcher->reset();
   matcher->planForPairs(static_cast<int32_t>(dataset.pairs.size()));
   if (network != nullptr) {
     network->net->clear();
-    network->adapter->reset();
+    network->builder->reset();
   }
   TieRun run;
   const double start = cli::nowSeconds();
@@ -65,8 +66,8 @@ TieRun runTiePoints(const Dataset& dataset, bool progress, TieNetwork* network) 
     const ImageView lv = viewOf(left.pixels);
     const ImageView rv = pair.right ? viewOf(right.pixels) : ImageView{};
     PairTieReport report;
-    const Status s = matcher->addPair(lv, pair.right ? &rv : nullptr, left.model, pair.right ? &right.model : nullptr,
-                                      report);
+    const Status s = matcher->addPair(lv, pair.right ? &rv : nullptr, left.model,
+                                      pair.right ? &right.model : nullptr, *dem, report);
     if (s == Status::kInvalidArgument || s == Status::kCapacityExceeded) {
       throw cli::InputError(pair.left.image_path, "image", std::string("rejected by the matcher: ") + statusName(s));
     }
@@ -84,8 +85,9 @@ TieRun runTiePoints(const Dataset& dataset, bool progress, TieNetwork* network) 
       const int sol_index = static_cast<int>(it - network->sol_of_index.begin());
       const int tier = std::max(0, std::min(kMaxTiers - 1, pair.tier));
       int32_t failed = 0;
-      const Status ns = network->adapter->syncPair(*matcher, sol_index, tier, left.model,
-                                                   pair.right ? &right.model : nullptr, *network->net, failed);
+      const Status ns =
+          network->builder->syncPair(matcher->ties(), sol_index, tier, left.model,
+                                     pair.right ? &right.model : nullptr, *network->net, failed);
       if (!ok(ns)) {
         throw cli::InputError(pair.left.image_path, "model", std::string("cannot enter the network: ") + statusName(ns));
       }

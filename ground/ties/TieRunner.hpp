@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "firmware_core/adjust/Network.hpp"
-#include "firmware_core/match/NetworkAdapter.hpp"
+#include "firmware_core/adjust/NetworkBuilder.hpp"
 #include "firmware_core/match/PanoramaMatcher.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/TruthFiles.hpp"
@@ -25,10 +25,10 @@ struct TieRun {
   double seconds = 0.0;
 };
 
-// The adjustment network built alongside (NetworkAdapter after every pair).
+// The adjustment network built alongside (NetworkBuilder after every pair).
 struct TieNetwork {
   std::unique_ptr<Network> net = std::make_unique<Network>();
-  std::unique_ptr<NetworkAdapter> adapter = std::make_unique<NetworkAdapter>();
+  std::unique_ptr<NetworkBuilder> builder = std::make_unique<NetworkBuilder>();
   std::vector<int> sol_of_index;               // network sol index -> panorama.json sol
   std::vector<std::string> stem_of_image;      // network image -> stem
   std::vector<CameraModel> apriori_of_image;   // network image -> a-priori model

@@ -1,6 +1,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "firmware_core/camera/RayIntersection.hpp"
 #include "firmware_core/dem/CoarseDem.hpp"
 #include "firmware_core/match/StereoMatcher.hpp"
 #include "platform/heap/HeapCounter.hpp"
@@ -17,21 +18,6 @@ CoarseDem g_dem;
 }  // namespace
 
 TEST_GROUP(CoarseDem){};
-
-TEST(CoarseDem, TriangulationRecoversAKnownPoint) {
-  const test::StereoScene scene = test::makeStereoScene(128);
-  const Vec3 truth(3.0, 0.4, 0.2);
-  Vec2 l, r;
-  CHECK(project(scene.left, truth, l) == Status::kOk);
-  CHECK(project(scene.right, truth, r) == Status::kOk);
-  Vec3 p;
-  double miss = 1.0;
-  CHECK(triangulateMidpoint(scene.left, scene.right, l, r, p, miss) == Status::kOk);
-  CHECK((p - truth).norm() < 1e-9);
-  CHECK(miss < 1e-9);
-  // Parallel rays (the same pixel in the same camera) are degenerate.
-  CHECK(triangulateMidpoint(scene.left, scene.left, l, l, p, miss) == Status::kDegenerate);
-}
 
 TEST(CoarseDem, GroundPlaneFromIntraTiesPredictsTheSurface) {
   const test::StereoScene scene = test::makeStereoScene(384);

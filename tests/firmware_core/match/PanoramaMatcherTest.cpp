@@ -15,6 +15,7 @@ using namespace areomap;
 namespace {
 
 PanoramaMatcher g_matcher;  // ~20 MiB, static as on the rover
+CoarseDem g_dem;
 
 }  // namespace
 
@@ -44,7 +45,7 @@ TEST(PanoramaMatcher, IntraAndInterTiesAgreeWithTheTruthAndLinkAdjacentPairs) {
     const ImageView l = scenes[j].leftView(), r = scenes[j].rightView();
     PairTieReport report;
     HeapAllocationScope scope;
-    const Status s = g_matcher.addPair(l, &r, apriori_left[j], &apriori_right[j], report);
+    const Status s = g_matcher.addPair(l, &r, apriori_left[j], &apriori_right[j], g_dem, report);
     allocations += scope.allocations();
     std::printf("pair %zu: %s, intra %d selected (%s), dem %d points %d cells, inter: %d candidates, %d matched, "
                 "%d rejected, %d observations, %d neighbours\n",

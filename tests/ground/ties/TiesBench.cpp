@@ -12,7 +12,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "firmware_core/match/NetworkAdapter.hpp"
+#include "firmware_core/adjust/NetworkBuilder.hpp"
 #include "firmware_core/match/PanoramaMatcher.hpp"
 #include "firmware_core/match/StereoMatcher.hpp"
 #include "platform/heap/HeapCounter.hpp"
@@ -29,6 +29,7 @@ double seconds() {
 StereoWorkspace g_workspace;
 StereoResult g_result;
 PanoramaMatcher g_matcher;
+CoarseDem g_dem;
 EpipolarCurve g_curve;
 
 }  // namespace
@@ -95,11 +96,11 @@ int main() {
   PairTieReport report;
   const ImageView al = a.leftView(), ar = a.rightView(), bl = b.leftView(), br = b.rightView();
   double t0 = seconds();
-  (void)g_matcher.addPair(al, &ar, a.left, &a.right, report);
+  (void)g_matcher.addPair(al, &ar, a.left, &a.right, g_dem, report);
   const double first_pair_s = seconds() - t0;
   HeapAllocationScope scope;
   t0 = seconds();
-  (void)g_matcher.addPair(bl, &br, b.left, &b.right, report);
+  (void)g_matcher.addPair(bl, &br, b.left, &b.right, g_dem, report);
   const double second_pair_s = seconds() - t0;
   const uint64_t heap = scope.allocations();
 
@@ -114,10 +115,11 @@ int main() {
   std::printf("panorama matcher: first pair %.3f s, second pair %.3f s (%d inter observations), heap allocations "
               "in the second pair: %llu\n",
               first_pair_s, second_pair_s, report.inter_observations, static_cast<unsigned long long>(heap));
-  std::printf("static memory: PanoramaMatcher %.2f MiB (StereoWorkspace %.2f MiB, ForstnerWorkspace %.2f MiB, "
-              "CoarseDem %.2f MiB), NetworkAdapter %.2f MiB; budget %.0f MiB for the whole rover side\n",
-              sizeof(PanoramaMatcher) / 1048576.0, sizeof(StereoWorkspace) / 1048576.0,
-              sizeof(ForstnerWorkspace) / 1048576.0, sizeof(CoarseDem) / 1048576.0,
-              sizeof(NetworkAdapter) / 1048576.0, kStaticMemoryBudgetBytes / 1048576.0);
+  std::printf(
+      "static memory: PanoramaMatcher %.2f MiB (StereoWorkspace %.2f MiB, ForstnerWorkspace %.2f MiB), "
+      "CoarseDem %.2f MiB, NetworkBuilder %.2f MiB; budget %.0f MiB for the whole rover side\n",
+      sizeof(PanoramaMatcher) / 1048576.0, sizeof(StereoWorkspace) / 1048576.0,
+      sizeof(ForstnerWorkspace) / 1048576.0, sizeof(CoarseDem) / 1048576.0,
+      sizeof(NetworkBuilder) / 1048576.0, kStaticMemoryBudgetBytes / 1048576.0);
   return 0;
 }
