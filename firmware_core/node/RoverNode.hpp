@@ -31,7 +31,7 @@
 #include "firmware_core/base/Status.hpp"
 #include "firmware_core/dem/CoarseDem.hpp"
 #include "firmware_core/match/PanoramaMatcher.hpp"
-#include "firmware_core/node/MessageAdapters.hpp"
+#include "msgs/adapters/MessageAdapters.hpp"
 #include "platform/Clock.hpp"
 #include "platform/JpegCodec.hpp"
 #include "platform/Transport.hpp"

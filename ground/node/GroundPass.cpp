@@ -20,11 +20,11 @@
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
-#include "firmware_core/node/MessageAdapters.hpp"
 #include "ground/node/EventRecorder.hpp"
 #include "ground/node/Sha256.hpp"
 #include "ground/ties/TieAdjust.hpp"
 #include "ground/ties/TieRunner.hpp"
+#include "msgs/adapters/MessageAdapters.hpp"
 
 namespace areomap::ground {
 namespace {

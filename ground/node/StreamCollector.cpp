@@ -13,9 +13,9 @@
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
-#include "firmware_core/node/MessageAdapters.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
+#include "msgs/adapters/MessageAdapters.hpp"
 #include "platform/posix/TurboJpegCodec.hpp"
 
 namespace areomap::ground {

@@ -13,13 +13,13 @@
 #include "areomap/stereo_pair_t.hpp"
 #include "firmware_core/adjust/Network.hpp"
 #include "firmware_core/camera/CameraConversion.hpp"
-#include "firmware_core/node/MessageAdapters.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/io/ImageFile.hpp"
 #include "ground/ties/TieAdjust.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
+#include "msgs/adapters/MessageAdapters.hpp"
 #include "platform/posix/TurboJpegCodec.hpp"
 
 namespace areomap {

@@ -21,8 +21,8 @@
 #include "areomap/tiepoints_t.hpp"
 #include "firmware_core/base/Capacities.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
-#include "firmware_core/node/MessageAdapters.hpp"
 #include "msgs/Channels.hpp"
+#include "msgs/adapters/MessageAdapters.hpp"
 #include "platform/posix/TurboJpegCodec.hpp"
 #include "tests/platform/MessageFixtures.hpp"
 

@@ -1,7 +1,7 @@
 # Fuzz targets of every decoder of outside input (tests/README.md, "Fuzzing"), included from
 # cmake/AreomapFuzz.cmake at the end of the top-level CMakeLists.txt. Each FooFuzz.cpp defines
 # LLVMFuzzerTestOneInput; fuzz_foo links libFuzzer (AREOMAP_FUZZ, the `fuzz` preset) or ReplayMain.cpp.
-#   lcm_message  msgs::decodeMessage<T> for all 9 types (first byte picks the type) + the rover's checks
+#   lcm_message  msgs::decodeMessage<T> for all 9 types (first byte picks the type) + msgs/adapters checks
 #   lcm_log      platform LcmLogReplay over a log file, each event decoded as a stereo pair
 #   jpeg         platform ArenaJpegDecoder and TurboJpegCodec into the rover's fixed buffers
 #   pds3         PDS3 labels and image bodies (ground/io Pds3Label parsed once per input, readPds3ImageInfo,
@@ -11,15 +11,15 @@
 #   panorama     panorama.json (ground/dataset readDataset)
 #   tiepoints    tie-point / observation / check-point CSV (ground/dataset readObservationsCsv, readPointsCsv)
 set(AREOMAP_FUZZ_TARGETS lcm_message lcm_log jpeg pds3 camera_file panorama tiepoints)
-set(_libs_lcm_message areomap_msgs areomap_camera)
-set(_libs_lcm_log areomap_platform areomap_msgs areomap_camera)
+set(_libs_lcm_message areomap_msg_adapters areomap_msgs areomap_camera)
+set(_libs_lcm_log areomap_platform areomap_msg_adapters areomap_msgs areomap_camera)
 set(_libs_jpeg areomap_platform)
 set(_libs_pds3 areomap_ground_io)
 set(_libs_camera_file areomap_ground_io areomap_camera)
 set(_libs_panorama areomap_dataset)
 set(_libs_tiepoints areomap_dataset)
-set(_src_lcm_message ${CMAKE_CURRENT_LIST_DIR}/LcmMessageFuzz.cpp ${PROJECT_SOURCE_DIR}/firmware_core/node/MessageAdapters.cpp)
-set(_src_lcm_log ${CMAKE_CURRENT_LIST_DIR}/LcmLogFuzz.cpp ${PROJECT_SOURCE_DIR}/firmware_core/node/MessageAdapters.cpp)
+set(_src_lcm_message ${CMAKE_CURRENT_LIST_DIR}/LcmMessageFuzz.cpp)
+set(_src_lcm_log ${CMAKE_CURRENT_LIST_DIR}/LcmLogFuzz.cpp)
 set(_src_jpeg ${CMAKE_CURRENT_LIST_DIR}/JpegFuzz.cpp)
 set(_src_pds3 ${CMAKE_CURRENT_LIST_DIR}/Pds3Fuzz.cpp)
 set(_src_camera_file ${CMAKE_CURRENT_LIST_DIR}/CameraFileFuzz.cpp)
@@ -67,10 +67,8 @@ endforeach()
 # The seed maker: small valid inputs made with the project's own encoders (LCM messages of every type with
 # small JPEGs, LCM logs, JPEGs, camera model text); tests/fuzz/run.sh adds the real files of ../shared/data
 # and a simulated panorama.
-# MessageAdapters.cpp is compiled in (not areomap_node): the fuzz build need not build the whole rover.
-add_executable(fuzz_seeds ${CMAKE_CURRENT_LIST_DIR}/FuzzSeeds.cpp ${PROJECT_SOURCE_DIR}/tests/platform/MessageFixtures.cpp
-                          ${PROJECT_SOURCE_DIR}/firmware_core/node/MessageAdapters.cpp)
-target_link_libraries(fuzz_seeds PRIVATE areomap_warnings areomap_platform areomap_msgs areomap_camera)
+add_executable(fuzz_seeds ${CMAKE_CURRENT_LIST_DIR}/FuzzSeeds.cpp ${PROJECT_SOURCE_DIR}/tests/platform/MessageFixtures.cpp)
+target_link_libraries(fuzz_seeds PRIVATE areomap_warnings areomap_platform areomap_msg_adapters areomap_msgs areomap_camera)
 target_include_directories(fuzz_seeds PRIVATE ${PROJECT_SOURCE_DIR})
 set_target_properties(fuzz_seeds PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${_fuzz_dir})
 add_dependencies(fuzz_targets fuzz_seeds)

@@ -7,9 +7,9 @@
 #include <string>
 
 #include "areomap/stereo_pair_t.hpp"
-#include "firmware_core/node/MessageAdapters.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
+#include "msgs/adapters/MessageAdapters.hpp"
 #include "platform/posix/LcmLogReplay.hpp"
 #include "tests/fuzz/FuzzSupport.hpp"
 

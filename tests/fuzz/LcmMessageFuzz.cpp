@@ -16,8 +16,8 @@
 #include "areomap/stereo_pair_t.hpp"
 #include "areomap/tiepoints_t.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
-#include "firmware_core/node/MessageAdapters.hpp"
 #include "msgs/MessageCheck.hpp"
+#include "msgs/adapters/MessageAdapters.hpp"
 #include "tests/fuzz/FuzzSupport.hpp"
 
 namespace {

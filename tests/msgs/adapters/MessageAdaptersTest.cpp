@@ -4,8 +4,8 @@
 #include <vector>
 
 #include "areomap/stereo_pair_t.hpp"
-#include "firmware_core/node/MessageAdapters.hpp"
 #include "msgs/MessageCheck.hpp"
+#include "msgs/adapters/MessageAdapters.hpp"
 #include "platform/heap/HeapCounter.hpp"
 
 #include <CppUTest/TestHarness.h>

@@ -1,4 +1,4 @@
-#include "firmware_core/node/MessageAdapters.hpp"
+#include "msgs/adapters/MessageAdapters.hpp"
 
 #include <cmath>
 #include <cstring>

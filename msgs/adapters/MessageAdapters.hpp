@@ -1,8 +1,10 @@
 // Conversions between the core's types and the generated LCM message types (msgs/*.lcm), and the checks a
-// received stereo pair must pass before the generated decode() may touch it. Heap: none, as long as the
-// message objects were prepared once at start-up (prepareStereoPair and friends reserve their vectors and
-// strings; encoding never allocates; decoding stays within the reserved capacities because
-// checkStereoPairCapacity rejects anything larger first).
+// received stereo pair must pass before the generated decode() may touch it. Used by the rover node and by
+// the ground (stream collection, ground pass, areomap-pack); it depends on the message types, the camera
+// models and base only (library areomap_msg_adapters), so the ground does not link the rover pipeline.
+// Heap: none, as long as the message objects were prepared once at start-up (prepareStereoPair and friends
+// reserve their vectors and strings; encoding never allocates; decoding stays within the reserved capacities
+// because checkStereoPairCapacity rejects anything larger first).
 #pragma once
 
 #include <cstddef>
@@ -42,9 +44,9 @@ uint64_t encodedFingerprint(const uint8_t* data, std::size_t size);
 // (<= 0) or above the capacity: kMaxPairs.
 int32_t plannedPairs(int32_t pairs_planned);
 
-// The message's image and model sizes, before any decoding: a JPEG present (kMissingField), 1..kMaxImageWidth x 1..kMaxImageHeight
-// (kCapacityExceeded above, kInvalidArgument at or below 0), the model's size equal to the image's
-// (kInvalidArgument). `field` names what.
+// The message's image and model sizes, before any decoding: a JPEG present (kMissingField), 1..kMaxImageWidth
+// x 1..kMaxImageHeight (kCapacityExceeded above, kInvalidArgument at or below 0), the model's size equal to
+// the image's (kInvalidArgument). `field` names what.
 [[nodiscard]] Status checkImageSizes(const stereo_image_t& side, const char*& field);
 
 // Copies a NUL-terminated text into `out` (capacity chars incl. the NUL), truncating.
