@@ -18,7 +18,7 @@ constexpr int32_t kMaxPairConstraintRows = 18;
 using ConstraintRows = Eigen::Matrix<double, kMaxPairConstraintRows, 1>;
 using ConstraintJacobian = Eigen::Matrix<double, kMaxPairConstraintRows, 12>;
 
-// Unwhitened constraint misfits of a pair, for reports (the issue bounds them at 0.1 mm).
+// Unwhitened constraint misfits of a pair, for reports (kRigMisfitBound_m bounds them: 0.1 mm).
 struct ConstraintMisfit {
   double gimbal_m = 0.0;    // largest |C - XG - M^T c| of the pair's images
   double base_m = 0.0;      // |C_R - C_L - M_L^T e|

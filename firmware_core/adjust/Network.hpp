@@ -1,7 +1,7 @@
 // The image network of one panorama (Di, Xu, Li §3.1-§3.3): images, stereo pairs, tie points with their
 // observations, and the rig constraints (Eq. 3, Eq. 4 and the FIDO-style variants). Fixed arrays sized by
 // firmware_core/base/Capacities.hpp, no heap: the network is a caller-owned object allocated once (it is
-// several MiB: make it static or a member of a static workspace). Issue 6 builds it incrementally as pairs
+// several MiB: make it static or a member of a static workspace). The rover builds it incrementally as pairs
 // arrive; the adjusters (FastAdjuster here, the integrated ones on the ground) read and update it.
 //
 // Observations are IDEAL pixels of a distortion-free pinhole (the measured pixel mapped once through the

@@ -44,7 +44,7 @@ constexpr std::size_t kMaxModelTextLineChars = 512;
 constexpr std::size_t kModelTextBytes = 1024;
 
 
-// --- Tie points and coarse DEM (firmware_core/match, firmware_core/dem; issue 6) ---
+// --- Tie points and coarse DEM (firmware_core/match, firmware_core/dem) ---
 // Förstner interest points per image: a 32-px spreading grid with at most 2 points per cell on a 1024^2
 // frame (32 x 32 cells x 2).
 constexpr int32_t kMaxInterestPoints = 2048;

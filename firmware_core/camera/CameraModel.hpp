@@ -19,7 +19,7 @@ enum class CameraType : uint8_t { kCahv = 0, kCahvor = 1, kCahvore = 2 };
 enum class CahvoreKind : uint8_t { kPerspective = 1, kFisheye = 2, kGeneral = 3 };
 
 // The largest image side a model may declare (width, height): 10^6 px. validateModel and the text reader use
-// the same bound, so every valid model can be written and read back (issue 12: found by the fuzzer, a model
+// the same bound, so every valid model can be written and read back (the fuzzer found a model
 // of width 1786706496 from a message validated but its text form did not parse).
 constexpr int32_t kMaxModelImageSidePx = 1000000;
 

@@ -1,4 +1,4 @@
-// The rover pipeline (issue 9): one AREOMAP_STEREO_PAIR message in, per pair: JPEG decode into fixed
+// The rover pipeline: one AREOMAP_STEREO_PAIR message in, per pair: JPEG decode into fixed
 // buffers, tie points and coarse DEM (PanoramaMatcher), inter-stereo ties with the pairs already seen, an
 // incremental fast adjustment warm-started from the previous solution (FastAdjuster); a final adjustment at
 // the end-of-panorama marker. Publishes AREOMAP_TIEPOINTS, AREOMAP_COARSE_DEM, AREOMAP_EO_SOLUTION and

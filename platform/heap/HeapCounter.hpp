@@ -34,7 +34,7 @@ uint64_t heapFreeCount();
 // thread (LCM's receive thread) proves its pipeline thread heap-free with this count.
 uint64_t heapAllocationCountThisThread();
 
-// Allocation tracing, for finding an allocation that a count shows (issue 11): when the environment variable
+// Allocation tracing, for finding an allocation that a count shows: when the environment variable
 // AREOMAP_HEAP_TRACE is set (to anything but "0") at the first call, heapTraceArmThisThread() makes every
 // later allocation of the calling thread record its call stack (glibc backtrace(), into a static buffer of
 // kHeapTraceRecords records, no heap), and the records are printed to stderr at exit (backtrace_symbols_fd:

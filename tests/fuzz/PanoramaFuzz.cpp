@@ -1,6 +1,6 @@
 // Fuzz target: panorama.json (ground/dataset readDataset), the dataset contract of DESIGN.md. The input is
 // written as panorama.json into a scratch folder. Expected failures: DatasetError (a cli::InputError).
-// Invariants (safe inputs, issue 12 item 5): every path of a dataset that reads is relative without "..",
+// Invariants (safe inputs): every path of a dataset that reads is relative without "..",
 // resolved inside the dataset folder; ids are unique.
 #include <filesystem>
 #include <set>

@@ -1,4 +1,4 @@
-// Byte order on every target (issue 11): LCM puts big-endian bytes on the wire and in log files whatever the
+// Byte order on every target: LCM puts big-endian bytes on the wire and in log files whatever the
 // host's order. These tests build the expected bytes by hand with shifts (independent of the host's order
 // and of lcm-gen's code) and compare them with what the generated encode() writes, what
 // msgs::checkEncoding()/decodeMessage() accept, and what platform::LcmLogReplay reads back from a log file

@@ -160,7 +160,7 @@ TEST(LcmTransport, FileLogReadsBackCompleteInOrder) {
 
   // Heap on the calling thread of a replay that only copies into a fixed slot: LCM's file provider reads
   // each event into a fresh allocation (lcm_eventlog_read_next_event), so a file:// replay is not heap-free
-  // on the pipeline thread, unlike udpm (UdpmTest). Printed for issue 9; not a property asserted here.
+  // on the pipeline thread, unlike udpm (UdpmTest). Printed for the record; not a property asserted here.
   LcmTransport replay;
   CHECK(ok(replay.open(("file://" + path + "?speed=0").c_str())));
   static std::vector<uint8_t> slot_storage(1u << 20);

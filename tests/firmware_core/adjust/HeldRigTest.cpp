@@ -141,7 +141,7 @@ TEST(HeldRig, DefaultHoldsBothConstraintsOnUnlikeRigs) {
       CHECK(held.error.eo_px <= old.error.eo_px + 0.01);
       CHECK(held.error.eo_px <= 1.1 * hard.error.eo_px + 0.01);
       CHECK(held.result.sigma0 > 0.8 && held.result.sigma0 < 1.2);
-      CHECK(old.result.max_misfit.gimbal_m > kRigMisfitBound_m);  // the rig shows the defect
+      CHECK(old.result.max_misfit.gimbal_m > kRigMisfitBound_m);  // without held sigmas the rig breaks the bound
       for (int32_t i = 0; i < g_net.imageCount(); ++i) CHECK(g_net.image(i).sigma.allFinite());
     }
   }

@@ -1,5 +1,5 @@
-// Test-only generator of a synthetic panoramic stereo network with truth (own generator: the simulator's
-// makeGeometry was not available when issue 5 was written). A rig of two cameras on a mast spins about a
+// Test-only generator of a synthetic panoramic stereo network with truth (its own generator, independent of
+// the simulator's makeGeometry, so the adjuster is checked against geometry the simulator does not share). A rig of two cameras on a mast spins about a
 // gimbal centre (Eq. 3 holds exactly in truth); pairs are taken at `azimuths` x `tiers` pointings; tie
 // points are terrain points seen from the left camera on a pixel grid and observed in every image that
 // sees them; observations = true ideal pixels + Gaussian noise (+ optional gross outliers). The a-priori

@@ -12,7 +12,7 @@ using namespace areomap;
 
 TEST_GROUP(CameraConversion){};
 
-// The bound: converted-model projection agrees with the direct projection to <= 0.05 px RMS and
+// The bound: converted-model projection agrees with the direct projection to <= 0.05 px RMS and
 // <= 0.25 px max over a 32 x 32 grid at ranges 2-50 m.
 TEST(CameraConversion, ConvertedProjectionAgreesWithTheModel) {
   for (const test::NamedModel& nm : test::syntheticModels()) {

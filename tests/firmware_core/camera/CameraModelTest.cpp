@@ -209,7 +209,7 @@ TEST(CameraModel, TextFormRoundTripsExactly) {
   }
   char tiny[16];
   CHECK_EQUAL(0u, formatModelText(test::navcamLike(), tiny, sizeof tiny));
-  // Issue 12 (fuzz_lcm_message): the largest size validateModel accepts round-trips through the text form,
+  // Found by fuzz_lcm_message: the largest size validateModel accepts round-trips through the text form,
   // and one more pixel is refused by both (a model of width 1786706496 from a message validated before,
   // and its text form did not parse).
   for (const int32_t width : {kMaxModelImageSidePx, kMaxModelImageSidePx + 1, 1786706496}) {

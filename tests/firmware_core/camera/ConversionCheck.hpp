@@ -1,4 +1,4 @@
-// The agreement measure, shared by the firmware and ground (real data) tests: over a 32 x 32 grid
+// The conversion's agreement measure, shared by the firmware and ground (real data) tests: over a 32 x 32 grid
 // of cell centres of the image and ranges 2..50 m, a point on each pixel's ray (the model's own inverse)
 // is projected directly and through the converted model; RMS and max of the pixel distance.
 #pragma once

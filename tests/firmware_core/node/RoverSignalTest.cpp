@@ -1,4 +1,4 @@
-// areomap-rover ends within seconds on SIGTERM (issue 11: a rover under qemu ran on for minutes after it).
+// areomap-rover ends within seconds on SIGTERM (a rover under qemu must not run on for minutes after it).
 // The tool runs as a child process (in a cross build under the target's emulator, AREOMAP_TEST_EMULATOR)
 // replaying file://FIFO, a named pipe whose writer (this test) stays silent: without the signal the rover
 // would wait for its input for ever. Runs on every target (the file:// replay needs no LCM runtime).
