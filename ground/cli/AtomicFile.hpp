@@ -1,4 +1,4 @@
-// Products are never half-written (issue: hardening): every product file is written under a temporary
+// Products are never half-written: every product file is written under a temporary
 // name in the same folder and renamed into place only when complete. A full disk or an unwritable folder
 // gives an InputError naming the file, and leaves no partial file behind.
 #pragma once

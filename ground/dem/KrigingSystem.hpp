@@ -1,4 +1,4 @@
-// The per-cell solve of ordinary kriging, made fast (issue 10 benchmark: kriging against R's gstat):
+// The per-cell solve of ordinary kriging, made fast (benchmarked against R's gstat, BENCHMARKS.md "Kriging"):
 //
 //   [C 1; 1^T 0] [w; mu] = [c; 1]     C: covariances of the k neighbours (+ their noise on the diagonal),
 //                                     c: their covariances with the query point

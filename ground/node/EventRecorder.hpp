@@ -1,4 +1,4 @@
-// The ground node's record of what it received (issue 12 item 3, kill-and-resume): every message the node
+// The ground node's record of what it received (for kill-and-resume): every message the node
 // takes from a live transport is appended to an LCM event log (the format lcm-logger writes and
 // `areomap-ground --lcm file://LOG` reads) and flushed to the kernel before it is handled, so a node killed
 // at any moment (SIGKILL included) leaves a log of everything it had received; a trailing half-written

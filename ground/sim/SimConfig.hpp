@@ -1,4 +1,4 @@
-// Configuration of the simulator (issue 4): terrain, camera head, panorama plan, rendering. Presets
+// Configuration of the simulator: terrain, camera head, panorama plan, rendering. Presets
 // `navcam`, `imp` and `tiny` fill every field; the tool overrides single fields from the command line,
 // then validatePlan() rejects what cannot be made (cli::UsageError naming the option).
 #pragma once

@@ -1,5 +1,5 @@
 // areomap-adjust DATASET --out DIR: the constrained bundle adjustment of a dataset from given tie points
-// (issue 5). See kUsage.
+// See kUsage.
 #include <chrono>
 #include <cmath>
 #include <filesystem>

@@ -1,4 +1,4 @@
-// areomap-sim: synthetic Mars panoramas with known truth (issue 4).
+// areomap-sim: synthetic Mars panoramas with known truth.
 #include <cstdio>
 #include <optional>
 #include <sstream>

@@ -1,4 +1,4 @@
-// The issue's adjustment tests on areomap-sim scenes (issue 5 "Tests"): the simulator's true observations
+// The adjustment on areomap-sim scenes: the simulator's true observations
 // plus 0.3 px Gaussian noise, the network built by the library code areomap-adjust uses (ground/adjust
 // DatasetNetwork), adjusted by the rover's FastAdjuster at its DEFAULT options, checked against the
 // simulator's truth and against the integrated adjusters (Ceres on navcam, the dense SVD on a small tiny).

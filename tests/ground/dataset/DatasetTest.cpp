@@ -152,7 +152,7 @@ TEST(Dataset, BadInputsNameTheFileAndTheField) {
        "rig.gimbal_m.one: the key must be a sol number"},
       {R"({"rig": {"sigma_base_m": 0}, "pairs": [{"left": {"image": "a.png"}}]})", "rig.sigma_base_m: must be positive"},
       {R"({"pairs": [{"left": {"image": "a.png"}})", "panorama.json: not valid JSON"},
-      // Issue 12 (fuzz_panorama): a number beyond double threw nlohmann's out_of_range past the reader.
+      // Found by fuzz_panorama: a number beyond double threw nlohmann's out_of_range past the reader.
       {R"({"name": 1e1111, "pairs": [{"left": {"image": "a.png"}}]})", "panorama.json: not valid JSON"},
       {R"([1, 2])", "panorama.json: expected a JSON object"},
   };

@@ -1,4 +1,4 @@
-// Issue 10, the far-range disparity bias (suspect 2 of the task: semi-global aggregation on a surface
+// The far-range disparity bias (a suspect: semi-global aggregation on a surface
 // slanted in rows, textured below and textureless sky above). A flat ground seen at a grazing angle by a
 // rectified pair has d(y) = d0 + k (y - y_h) below the horizon row y_h (k = b / h, baseline over camera
 // height: 0.2 / 1.5 m on the navcam head); the far rows (d 4-7 px, just below the horizon) are where the

@@ -134,7 +134,7 @@ TEST(ImageFile, TruncatedOrBadImagesNameTheField) {
   }
 }
 
-// Issue 12 item 5: every size, pointer and record count of the label is checked before it is narrowed or
+// Every size, pointer and record count of the label is checked before it is narrowed or
 // multiplied. Each file here read "successfully" before the checks: LINES 2^32 + 8 narrowed to 8, a
 // pointer whose byte offset wrapped around to 0 (RECORD_BYTES 2^39 x 2^25 = 2^64), a pointer of 1e300
 // bytes (undefined conversion), and a detached data file outside the label's folder.

@@ -1,4 +1,4 @@
-// The PDS3 label parser: values continued over lines, and its work bounded by the input (issue 12: a long
+// The PDS3 label parser: values continued over lines, and its work bounded by the input (a long
 // unclosed value made the parse quadratic, found while fuzzing), and the reader's stop at the first NUL.
 #include <fstream>
 #include <string>

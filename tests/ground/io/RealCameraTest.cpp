@@ -1,4 +1,4 @@
-// The camera code on the real models of ../shared/data: conversion agreement (the issue's bound), the
+// The camera code on the real models of ../shared/data: conversion agreement (<= 0.05 px RMS), the
 // conversion oracle, the Spirit stereo baseline, M2020 scaling. Skips when the data is absent.
 #include <cmath>
 #include <cstdio>
@@ -61,7 +61,7 @@ std::vector<Named> realModels() {
 
 TEST_GROUP(RealCameras){};
 
-// Issue 3: converted-model projection agrees with the direct CAHVOR/CAHVORE projection to <= 0.05 px RMS
+// Converted-model projection agrees with the direct CAHVOR/CAHVORE projection to <= 0.05 px RMS
 // and <= 0.25 px max over a 32 x 32 grid at ranges 2-50 m.
 TEST(RealCameras, ConversionAgreesWithTheDirectProjection) {
   if (!haveAll()) return;

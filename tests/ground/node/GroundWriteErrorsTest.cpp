@@ -1,4 +1,4 @@
-// areomap-ground exits 1 when a product cannot be written (issue 10, DESIGN.md exit codes), naming the file,
+// areomap-ground exits 1 when a product cannot be written (DESIGN.md exit codes), naming the file,
 // while the other products are still made and none is left half-written: the real binary in a child
 // process, (1) on a dataset folder under a file-size limit (RLIMIT_FSIZE, SIGXFSZ ignored: write() fails
 // with EFBIG as on a full disk), (2) re-making a recorded stream (file://) into a folder where one

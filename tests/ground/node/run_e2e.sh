@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Process-level end to end on the tiny panorama (issue 9 tests): ./run.sh (areomap-sim, areomap-pack, then
+# Process-level end to end on the tiny panorama: ./run.sh (areomap-sim, areomap-pack, then
 # areomap-ground and areomap-rover as separate processes over udpm on loopback -- a private network
 # namespace when the host has no multicast route -- fed by stock lcm-logplayer at full speed), then the
 # ground again from the recorded log alone (file://), and the tool's exit codes.
@@ -86,7 +86,7 @@ assert "Pair 6 " in w and "Pair 7 " in w and "message 2 " in w and "message 4 " 
 assert r["method1_px"]["after"]["dist"] < 0.2 and r["truth"]["eo_px"] < r["truth"]["eo_px_before"]
 PY
 
-# The same pass without LCM on the dataset folder itself (issue 10 uses it): no stream or rover keys.
+# The same pass without LCM on the dataset folder itself (the products tests use it): no stream or rover keys.
 "$BUILD/bin/areomap-ground" --dataset "$SCRATCH/tiny" --out "$SCRATCH/direct" --no-products > /dev/null 2>&1 || fail "--dataset exited $?"
 python3 -c "
 import json, sys

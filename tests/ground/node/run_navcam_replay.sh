@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 9 test: the navcam panorama (areomap-sim --preset navcam --seed 1: 18 pairs of 1024x1024) packed and
+# The navcam panorama (areomap-sim --preset navcam --seed 1: 18 pairs of 1024x1024) packed and
 # replayed at full speed (stock `lcm-logplayer -s 0`) over udpm on loopback to both nodes: the ground's
 # collector (areomap-ground --stream-only) and the rover must see every pair: 0 sequence gaps, nothing
 # rejected, every pair accepted by the rover and its final EO arrived.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Kill-and-resume (issue 12 item 3) on the tiny panorama: areomap-ground and areomap-rover as separate
+# Kill-and-resume on the tiny panorama: areomap-ground and areomap-rover as separate
 # processes over udpm, the camera stream from stock lcm-logplayer at full speed.
 #   1. an uninterrupted pass: the reference products;
 #   2. the same, with the ground killed (SIGKILL) in the middle of its pass (after the stream and the rover's

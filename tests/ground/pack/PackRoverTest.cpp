@@ -380,7 +380,7 @@ TEST(RoverMemq, InjectedFaultsCountedAndResultAsWithoutTheFaultyPairs) {
   CHECK_TRUE(diff < 1e-6);
 }
 
-// Issue 12 item 3, more pairs than kMaxPairs: the tiny panorama, then untextured pairs (far away, so that
+// More pairs than kMaxPairs: the tiny panorama, then untextured pairs (far away, so that
 // nothing is predicted into them) up to kMaxPairs, then one pair more. That pair is rejected under
 // capacity_exceeded, and the panorama the rover has is kept: the final EO equals the run of the tiny pairs
 // alone with the same plan.
@@ -446,7 +446,7 @@ TEST(RoverMemq, MorePairsThanCapacityRejectedPanoramaKept) {
   CHECK_TRUE(diff < 1e-6);
 }
 
-// Issue 12 item 3, more tie points than kMaxTiePoints: the tiny panorama repeated in groups 1 km apart (a
+// More tie points than kMaxTiePoints: the tiny panorama repeated in groups 1 km apart (a
 // sol each, so nothing is predicted from one group into another) until the matcher's point list runs full.
 // The pair in which it runs full and every later pair are rejected under capacity_exceeded, the network
 // keeps the pairs accepted before, and the final EO of those is published. (Incremental solves capped at a

@@ -1,5 +1,5 @@
 #!/bin/sh
-# Rover node benchmark (issue 9): areomap-pack, then areomap-rover on a file:// replay (per-stage time per
+# Rover node benchmark: areomap-pack, then areomap-rover on a file:// replay (per-stage time per
 # pair, whole-panorama time, peak RSS) and over udpm with stock lcm-logplayer at full speed (-s 0) in a
 # private network namespace (messages per second, sequence gaps), and the binary's static memory (size).
 # usage: tests/ground/pack/rover_benchmark.sh [BUILD_DIR] [DATASET]   (DATASET default: areomap-sim navcam)

@@ -1,4 +1,4 @@
-// Issue 10 tests on the navcam preset (1024x1024, 45 degrees, 20 cm base), reduced so that the default
+// The products on the navcam preset (1024x1024, 45 degrees, 20 cm base), reduced so that the default
 // test run stays short: 2 pairs and terrain out to 14 m (the full navcam pass is a benchmark). Models are
 // the TRUE models (they stand in for the adjusted ones: the adjustment is tested in ground/adjust), so
 // the common datum rotation is zero and the "datum removed" figures equal the raw ones.

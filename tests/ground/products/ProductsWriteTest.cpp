@@ -1,4 +1,4 @@
-// Products are never half-written (issue 12 item 3, issue 10): a full disk (a small RLIMIT_FSIZE with
+// Products are never half-written: a full disk (a small RLIMIT_FSIZE with
 // SIGXFSZ ignored: write() fails with EFBIG as on a full disk) or a folder that cannot be written gives an
 // error naming each product that failed, and leaves every product either complete or as it was before.
 // Also: the finer DEM near the rover, and the residual plots filled when the caller gives no residuals.

@@ -1,4 +1,4 @@
-// report.html in a real browser (issue 10 item 6): headless Chromium (Debian's `chromium`) loads the page,
+// report.html in a real browser: headless Chromium (Debian's `chromium`) loads the page,
 // a probe script appended to a copy counts images that failed to load or decode, and a screenshot must not
 // be blank. The detector itself is checked on a page with a missing image. Skips (with a line saying so)
 // when chromium is not installed.

@@ -73,7 +73,7 @@ inline SimScene makeSimScene(const std::string& preset, int pairs, void (*edit)(
   return s;
 }
 
-// The "seen in truth": some true camera of `in` projects the ground point inside its image, the
+// "Seen in truth": some true camera of `in` projects the ground point inside its image, the
 // pixel's own ray passes through the point (1e-6 rad; the inverse converges to 1e-9: CAHVOR distortion
 // folds points ~76 degrees off the axis into the image, which the camera does not see), and
 // `clear(camera centre, unit direction, distance)` finds no terrain between the camera and the point (each

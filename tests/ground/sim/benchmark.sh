@@ -1,5 +1,5 @@
 #!/bin/sh
-# Time and peak memory of areomap-sim for each preset (issue 4 benchmark; figures go into BENCHMARKS.md).
+# Time and peak memory of areomap-sim for each preset (figures in BENCHMARKS.md "Simulator").
 # Usage: tests/ground/sim/benchmark.sh [BUILD_DIR] [PRESET...]   (default: build, tiny navcam imp)
 set -eu
 build=${1:-build}

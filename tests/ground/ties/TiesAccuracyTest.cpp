@@ -1,4 +1,4 @@
-// Issue 6 on the simulated navcam and imp scenes, through the library path of `areomap-ties --adjust`
+// Automatic tie points on the simulated navcam and imp scenes, through the library path of `areomap-ties --adjust`
 // (runTiePoints with the network built pair by pair, setRigConstraints, adjustNetwork): >= 98 % of the
 // observations within 1 px of the truth, every adjacent pair (in and across tiers) linked by >= 10
 // inter-stereo ties, and the fast adjustment of these AUTOMATIC ties meets the previous issue's bound

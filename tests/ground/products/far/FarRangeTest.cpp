@@ -1,11 +1,11 @@
-// Far range on a rendered scene (issue 10): "on a scene with terrain out to 60 m, the equi-parallax
+// Far range on a rendered scene: "on a scene with terrain out to 60 m, the equi-parallax
 // interpolation beats kriging alone against truth beyond 20 m (print both)". One navcam pair (1024x1024,
 // 45 degrees, 20 cm base, 1.5 m mast) tilted to -18 degrees and panned along a diagonal of the simulated
 // terrain square (+-50 m) so that it sees the ground from ~2 m out to 60 m. The true models stand in for
 // the adjusted ones. The products are made once with kriging alone (seam out of reach): dem.tif and
 // points.ply; the equi-parallax DEM of that cloud is then blended onto that kriging DEM beyond the 20 m
 // seam exactly as the products do, and both are compared with the true DEM per range band, over the cells
-// both filled and over those of them that a camera sees in truth (the issue's DEM criterion; cells behind
+// both filled and over those of them that a camera sees in truth (the DEM criterion; cells behind
 // relief are extrapolations for both methods). Both are printed; equi-parallax must win over the cells seen
 // in truth in every band 20-30, 30-45, 45-60 m and over 20-60 m.
 // Three causes made it fail before (BENCHMARKS.md, far range): the renderer aliased the texture along the
@@ -46,7 +46,7 @@ void farView(sim::SimConfig& c) {
   t.pan0_deg = 30.0;  // along a diagonal of the terrain square: the farthest ground
   c.tiers = {t};
   c.max_range_m = 60.0;
-  // Diagnostic knob (issue 10, the far-range bias): the renderer's rays per pixel side (1-4, default 2).
+  // Diagnostic knob (the far-range bias): the renderer's rays per pixel side (1-4, default 2).
   if (const char* ss = std::getenv("AREOMAP_FAR_SUPERSAMPLE")) c.supersample = std::max(1, std::atoi(ss));
   test::seedFromEnvironment(c, "AREOMAP_FAR_SEED");  // diagnostic knob
 }
@@ -58,7 +58,7 @@ struct BandRmse {
   double kr() const { return std::sqrt(s_kr / std::max(1LL, n)); }
 };
 
-// The issue's "cells that the cameras see in truth": some true camera projects the true ground point of
+// "Cells that the cameras see in truth": some true camera projects the true ground point of
 // the cell inside its image, and the ray from the camera stays above the true DEM (marched in 5 cm steps,
 // bilinear, 2 cm tolerance) until 0.5 m before the point (at grazing incidence the ray runs within
 // centimetres of the ground there). Cells behind relief are extrapolations for both methods.
@@ -111,7 +111,7 @@ void printGroups(const char* key, std::vector<std::pair<double, double>>& v, std
   }
 }
 
-// Diagnostic (issue 10, the far-range bias): the disparity error of each far point, (1/measured - 1/true
+// Diagnostic (the far-range bias): the disparity error of each far point, (1/measured - 1/true
 // distance) * f b along its own ray from the left camera (true distance: that ray cast into the true
 // DEM), binned by true range; mean, median, sd, share beyond 1 px; and apart for the points within 3 rows
 // ABOVE a depth edge of the true surface (the true disparity 3 rows below exceeds the point's by > 1 px:
@@ -275,7 +275,7 @@ TEST(FarRange, EquiParallaxBeatsKrigingAloneBeyondTwentyMetres) {
     }
   }
   CHECK_EQUAL(0, beyond);
-  // The criterion: over the cells seen in truth (the issue's DEM criterion); the figures over all cells
+  // The criterion: over the cells seen in truth (the DEM criterion); the figures over all cells
   // are printed beside them.
   for (const BandRmse& band : seen) {
     CHECK(band.n > 5000);
