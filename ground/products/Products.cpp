@@ -15,6 +15,7 @@
 
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
+#include "ground/dem/BinnedCloud.hpp"
 #include "ground/dem/DemProducts.hpp"
 #include "ground/dem/EquiParallax.hpp"
 #include "ground/dem/Kriging.hpp"
@@ -144,219 +145,6 @@ double autoCell(double extent_m) {
   return 1.0;
 }
 
-// The cloud binned to DEM cells (mean height, sigma of the mean) so that kriging sees one point per cell;
-// only the points for which keep(p) holds (no copy of the cloud for a subset).
-// The mean's sigma: the points of one pair in a cell are n_p neighbouring pixels of one image, whose match
-// errors are correlated (dense::kMatchErrorCorrelationPx, exp(-lag / L)); the cell is taken as a square
-// patch of sqrt(n_p) x sqrt(n_p) pixels, so Var(the pair's mean) = s_p^2 patchVarianceFactor(sqrt(n_p), L)
-// (s_p^2 the points' mean sigma^2); pairs are independent: Var(mean) = sum_p (n_p / n)^2 Var(pair's mean).
-// The cell's ground sample distance (gsd_m, what the kriging's error correlation needs): cell / sqrt(n_p)
-// of the pair with the most points there (the ground size of one of its pixels).
-// The cell's representation variance (rep_var_m2, KrigingOptions::point_extra_var_m2): the mean height
-// stands for the surface at the bin's centroid, and what the surface does inside the bin beyond a plane
-// is not in it. Measured from the bin's own points: the variance of their heights about their
-// least-squares plane, less what the points' noise puts there (s^2 (1 - patchVarianceFactor) per pair, the
-// part of correlated errors that does not move the bin's mean); 0 for bins of fewer than
-// kMinRepresentationPoints points.
-struct BinnedCloud {
-  std::vector<dem::DemPoint> points;
-  std::vector<float> gsd_m;            // per point
-  std::vector<float> rep_var_m2;       // per point
-  double shared_noise_fraction = 0.0;  // phi of sharedNoiseFraction
-  long long overlap_bins = 0;          // the bins it was measured on
-};
-
-constexpr double kMinRepresentationPoints = 6;  // a plane (3 unknowns) and 3 degrees of freedom
-
-// A bin's least-squares plane z = z0 + b u + c v from its moments (binPoints' Acc: sums of u, v, z and their
-// products about the cell's centre); rss: the squared residuals about it. False (b = c = 0, rss the spread
-// about the mean) when the points do not span a plane: fewer than kMinRepresentationPoints, or on a line.
-template <class Acc>
-bool binPlane(const Acc& a, double& b, double& c, double& rss) {
-  const double suu = a.uu - a.u * a.u / a.n, suv = a.uv - a.u * a.v / a.n, svv = a.vv - a.v * a.v / a.n;
-  const double suz = a.uz - a.u * a.z / a.n, svz = a.vz - a.v * a.z / a.n, szz = a.zz - a.z * a.z / a.n;
-  const double det = suu * svv - suv * suv;
-  b = c = 0.0;
-  rss = szz;
-  if (a.n < kMinRepresentationPoints || !(det > 1e-12 * (suu * svv) && det > 0.0)) return false;
-  b = (svv * suz - suv * svz) / det;
-  c = (suu * svz - suv * suz) / det;
-  rss = szz - b * suz - c * svz;
-  return true;
-}
-
-// The part of the points' noise variance that their number does not average down (phi), measured where
-// two pairs see one bin. Their mean heights, moved along the bin's plane to one position (the two pairs'
-// points sample different parts of a sloping bin), differ by d; when the noise model holds (the pairs'
-// errors independent, s_p^2 their points' mean noise variance), d^2 / sum over the two of s_p^2 (patch
-// factor + phi) is chi-square with one degree of freedom. phi is the value for which the MEDIAN of that
-// ratio over all such bins is chi-square's median: bins where the two pairs see different surfaces (a
-// rock's two sides, occlusion edges, mismatches) are the heavy tail of d, and the median is not moved by
-// them whatever their size, as the DEM's "within 1 sigma" is not. 0 with fewer than kMinOverlapBins bins,
-// or when phi = 0 already leaves the median ratio at or below chi-square's (the correlated-noise model
-// alone explains the data).
-constexpr double kMinOverlapPoints = 4;  // points of each of the two pairs in the bin
-constexpr long long kMinOverlapBins = 200;
-constexpr double kChiSquare1Median = 0.454936;  // median of chi-square with one degree of freedom
-
-template <class Acc>
-double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots,
-                           double l_px, long long& overlap_bins) {
-  struct Overlap {
-    double d2, pred, base;
-  };
-  std::vector<Overlap> overlaps;
-  for (std::size_t i = 0; i < by_cell.size();) {
-    const long long cell = by_cell[i].first / pair_slots;
-    const Acc* best[2] = {nullptr, nullptr};
-    Acc all;
-    for (; i < by_cell.size() && by_cell[i].first / pair_slots == cell; ++i) {
-      const Acc& a = by_cell[i].second;
-      all.addCell(a);
-      if (a.n < kMinOverlapPoints) continue;
-      if (best[0] == nullptr || a.n > best[0]->n) {
-        best[1] = best[0];
-        best[0] = &a;
-      } else if (best[1] == nullptr || a.n > best[1]->n) {
-        best[1] = &a;
-      }
-    }
-    if (best[1] == nullptr) continue;
-    double b = 0.0, c = 0.0, rss = 0.0;
-    binPlane(all, b, c, rss);
-    const Acc &p = *best[0], &q = *best[1];
-    const double d = (p.z / p.n - q.z / q.n) - b * (p.u / p.n - q.u / q.n) - c * (p.v / p.n - q.v / q.n);
-    Overlap o{d * d, 0.0, 0.0};
-    for (const Acc* a : best) {
-      o.pred += (a->s2 / a->n) * dem::patchVarianceFactor(std::sqrt(a->n), l_px);
-      o.base += a->s2 / a->n;
-    }
-    if (o.base > 0.0) overlaps.push_back(o);
-  }
-  overlap_bins = static_cast<long long>(overlaps.size());
-  if (overlap_bins < kMinOverlapBins) return 0.0;
-  std::vector<double> ratio(overlaps.size());
-  const auto medianRatio = [&](double phi) {
-    for (std::size_t k = 0; k < overlaps.size(); ++k) {
-      ratio[k] = overlaps[k].d2 / (overlaps[k].pred + phi * overlaps[k].base);
-    }
-    const auto mid = ratio.begin() + static_cast<std::ptrdiff_t>(ratio.size() / 2);
-    std::nth_element(ratio.begin(), mid, ratio.end());
-    return *mid;
-  };
-  if (medianRatio(0.0) <= kChiSquare1Median) return 0.0;
-  // The median ratio falls as phi grows: bracket it, then bisect to 1e-4 relative.
-  double lo = 0.0, hi = 1.0;
-  for (int k = 0; k < 60 && medianRatio(hi) > kChiSquare1Median; ++k) hi *= 4.0;
-  for (int k = 0; k < 40 && hi - lo > 1e-4 * hi; ++k) {
-    const double mid = 0.5 * (lo + hi);
-    (medianRatio(mid) > kChiSquare1Median ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
-template <class Keep>
-BinnedCloud binPoints(const std::vector<dem::DemPoint>& pts, const DemGrid& grid, const Keep& keep) {
-  struct Acc {
-    double n = 0, x = 0, y = 0, z = 0, s2 = 0;
-    // Moments about the cell's centre (u north, v east) for the bin's plane.
-    double u = 0, v = 0, uu = 0, uv = 0, vv = 0, uz = 0, vz = 0, zz = 0;
-    // The cell's sums over its pairs (s2 apart: the noise is kept per pair).
-    void addCell(const Acc& o) {
-      for (auto m : {&Acc::n, &Acc::x, &Acc::y, &Acc::z, &Acc::u, &Acc::v, &Acc::uu, &Acc::uv, &Acc::vv,
-                     &Acc::uz, &Acc::vz, &Acc::zz}) {
-        this->*m += o.*m;
-      }
-    }
-  };
-  constexpr long long kPairSlots = 4096;  // pairs per cell key (pair ids beyond share a slot: one pair)
-  std::unordered_map<long long, Acc> bins;  // key: cell * kPairSlots + pair slot
-  for (const dem::DemPoint& p : pts) {
-    if (!keep(p)) continue;
-    const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
-    const long long r = static_cast<long long>(std::floor((grid.north0_m - p.north_m) / grid.cell_m));
-    const long long pair = p.line >= 0 ? (dense::linePair(p.line) + 1) % kPairSlots : 0;
-    Acc& a = bins[(r * 1000003LL + c) * kPairSlots + pair];
-    a.n += 1;
-    a.x += p.north_m;
-    a.y += p.east_m;
-    a.z += p.elevation_m;
-    a.s2 += p.sigma_m * p.sigma_m;
-    const double u = p.north_m - grid.northOfRow(static_cast<int>(r)),
-                 v = p.east_m - grid.eastOfCol(static_cast<int>(c));
-    a.u += u;
-    a.v += v;
-    a.uu += u * u;
-    a.uv += u * v;
-    a.vv += v * v;
-    a.uz += u * p.elevation_m;
-    a.vz += v * p.elevation_m;
-    a.zz += p.elevation_m * p.elevation_m;
-  }
-  std::vector<std::pair<long long, Acc>> by_cell(bins.begin(), bins.end());
-  std::unordered_map<long long, Acc>().swap(bins);
-  std::sort(by_cell.begin(), by_cell.end(),
-            [](const std::pair<long long, Acc>& a, const std::pair<long long, Acc>& b) { return a.first < b.first; });
-  const double l_px = dense::kMatchErrorCorrelationPx;
-  // The bin's relief beyond its plane (BinnedCloud): the residual variance of the heights about their
-  // least-squares plane, less what the points' noise puts there.
-  const auto representationVariance = [](const Acc& a, double noise_spread) {
-    if (a.n < kMinRepresentationPoints) return 0.0;
-    double b = 0.0, c = 0.0, rss = 0.0;
-    binPlane(a, b, c, rss);
-    return std::max(0.0, (rss - noise_spread) / (a.n - 3.0));
-  };
-  long long overlap_bins = 0;
-  const double shared = sharedNoiseFraction(by_cell, kPairSlots, l_px, overlap_bins);
-  struct Binned {
-    dem::DemPoint point;
-    float gsd_m, rep_var_m2;
-  };
-  std::vector<Binned> out;
-  for (std::size_t i = 0; i < by_cell.size();) {
-    const long long cell = by_cell[i].first / kPairSlots;
-    Acc all;
-    double var_n2 = 0.0, n_max = 0.0;  // sum_p n_p^2 Var(pair's mean); the most points of one pair
-    double noise_spread = 0.0;         // sum_p s_p^2 n_p (1 - patch factor): the noise about the mean
-    long long pair_max = 0;
-    for (; i < by_cell.size() && by_cell[i].first / kPairSlots == cell; ++i) {
-      const Acc& a = by_cell[i].second;
-      all.addCell(a);
-      const double factor = dem::patchVarianceFactor(std::sqrt(a.n), l_px);
-      var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
-      noise_spread += a.s2 * (1.0 - factor);
-      if (a.n > n_max) {
-        n_max = a.n;
-        pair_max = by_cell[i].first % kPairSlots;
-      }
-    }
-    dem::DemPoint p;
-    p.north_m = all.x / all.n;
-    p.east_m = all.y / all.n;
-    p.elevation_m = all.z / all.n;
-    p.sigma_m = std::sqrt(var_n2) / all.n;
-    p.line = pair_max > 0 ? dense::lineId(pair_max - 1, 0) : -1;  // the pair of most of its points (row 0)
-    out.push_back({p, static_cast<float>(grid.cell_m / std::sqrt(n_max)),
-                   static_cast<float>(representationVariance(all, noise_spread))});
-  }
-  std::sort(out.begin(), out.end(), [](const Binned& a, const Binned& b) {
-    return a.point.north_m != b.point.north_m ? a.point.north_m < b.point.north_m
-                                              : a.point.east_m < b.point.east_m;
-  });
-  BinnedCloud binned;
-  binned.points.reserve(out.size());
-  binned.gsd_m.reserve(out.size());
-  binned.rep_var_m2.reserve(out.size());
-  binned.shared_noise_fraction = shared;
-  binned.overlap_bins = overlap_bins;
-  for (const Binned& b : out) {
-    binned.points.push_back(b.point);
-    binned.gsd_m.push_back(b.gsd_m);
-    binned.rep_var_m2.push_back(b.rep_var_m2);
-  }
-  return binned;
-}
-
 // The kriging's support rule (dem::KrigingOptions::min_cluster_points) as a progress line.
 void supportInfo(const std::string& product, const dem::KrigingResult& kr) {
   char b[240];
@@ -366,16 +154,6 @@ void supportInfo(const std::string& product, const dem::KrigingResult& kr) {
       "cells left empty",
       product.c_str(), kr.isolated_points, kr.min_cluster_points, kr.max_gap_m, kr.cells_unsupported);
   cli::info(b);
-}
-
-// Kriging of a binned cloud with the matcher's error correlation (the DEM sigma of Kriging.hpp).
-dem::KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGrid& grid) {
-  dem::KrigingOptions o;
-  o.noise_correlation_px = dense::kMatchErrorCorrelationPx;
-  o.point_gsd_m = &binned.gsd_m;
-  o.bin_cell_m = grid.cell_m;
-  o.point_extra_var_m2 = &binned.rep_var_m2;
-  return o;
 }
 
 // The dense cloud as the products keep it (a navcam panorama has ~1.7e7 points): the DEM points (40 B
@@ -739,7 +517,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     const double cell = options.cell_m > 0 ? options.cell_m : autoCell(2 * extent);
     DemGrid grid = dem::gridAround(box, cell);
     const auto all = [](const dem::DemPoint&) { return true; };
-    const BinnedCloud binned = binPoints(pts, grid, all);
+    const dem::BinnedCloud binned = dem::binPoints(pts, grid, all, dense::kMatchErrorCorrelationPx);
     {
       char b[160];
       std::snprintf(
@@ -763,7 +541,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     // near_cell_m, the points within near_range_m are kriged again at near_cell_m into dem_near.tif. Its
     // points are binned here, so that the cloud is freed before any kriging.
     std::optional<DemGrid> near_grid;
-    BinnedCloud near_binned;
+    dem::BinnedCloud near_binned;
     if (options.near_cell_m > 0 && options.near_range_m > 0 && cell > options.near_cell_m * 1.001) {
       const double reach = options.near_range_m + 0.5;  // points just beyond the edge support it
       const auto is_near = [&](const dem::DemPoint& p) {
@@ -774,7 +552,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
       if (count >= 16) {
         try {
           near_grid = dem::gridAround(corners, options.near_cell_m);
-          near_binned = binPoints(pts, *near_grid, is_near);
+          near_binned = dem::binPoints(pts, *near_grid, is_near, dense::kMatchErrorCorrelationPx);
         } catch (const std::exception& e) {
           ctx.warn(std::string("near-rover DEM not made: ") + e.what());
         }
@@ -782,7 +560,8 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     }
     std::vector<dem::DemPoint>().swap(pts);
     try {
-      dem::KrigingResult kr = dem::krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid));
+      dem::KrigingResult kr = dem::krigeDem(
+          binned.points, grid, dem::binnedKrigingOptions(binned, grid, dense::kMatchErrorCorrelationPx));
       supportInfo("dem.tif", kr);
       if (!far.empty()) {
         DemGrid far_sigma;
@@ -829,8 +608,9 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     }
     if (ctx.result.dem && near_grid) {
       try {
-        const dem::KrigingResult nk = dem::krigeDem(near_binned.points, *near_grid,
-                                                      binnedKrigingOptions(near_binned, *near_grid));
+        const dem::KrigingResult nk = dem::krigeDem(
+            near_binned.points, *near_grid,
+            dem::binnedKrigingOptions(near_binned, *near_grid, dense::kMatchErrorCorrelationPx));
         supportInfo("dem_near.tif", nk);
         ctx.result.dem_near = nk.elevation;
         try {

@@ -1,0 +1,45 @@
+// The dense cloud binned to DEM cells for kriging (paper 4.1): one point per cell (mean position and height,
+// sigma of the mean), with what the DEM sigma (Kriging.hpp) needs besides: each bin's ground sample distance
+// and the relief inside it that its mean does not carry, and the fraction of the points' noise that does
+// not average down, measured where two pairs see one bin.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "ground/dataset/DemRaster.hpp"
+#include "ground/dem/Kriging.hpp"
+
+namespace areomap::dem {
+
+// The cloud binned to DEM cells (mean height, sigma of the mean) so that kriging sees one point per cell;
+// only the points for which keep(p) holds (no copy of the cloud for a subset).
+// The mean's sigma: the points of one pair in a cell are n_p neighbouring pixels of one image, whose match
+// errors are correlated (dense::kMatchErrorCorrelationPx, exp(-lag / L)); the cell is taken as a square
+// patch of sqrt(n_p) x sqrt(n_p) pixels, so Var(the pair's mean) = s_p^2 patchVarianceFactor(sqrt(n_p), L)
+// (s_p^2 the points' mean sigma^2); pairs are independent: Var(mean) = sum_p (n_p / n)^2 Var(pair's mean).
+// The cell's ground sample distance (gsd_m, what the kriging's error correlation needs): cell / sqrt(n_p)
+// of the pair with the most points there (the ground size of one of its pixels).
+// The cell's representation variance (rep_var_m2, KrigingOptions::point_extra_var_m2): the mean height
+// stands for the surface at the bin's centroid, and what the surface does inside the bin beyond a plane
+// is not in it. Measured from the bin's own points: the variance of their heights about their
+// least-squares plane, less what the points' noise puts there (s^2 (1 - patchVarianceFactor) per pair, the
+// part of correlated errors that does not move the bin's mean); 0 for bins of fewer than
+// kMinRepresentationPoints points.
+struct BinnedCloud {
+  std::vector<DemPoint> points;
+  std::vector<float> gsd_m;            // per point
+  std::vector<float> rep_var_m2;       // per point
+  double shared_noise_fraction = 0.0;  // phi of sharedNoiseFraction
+  long long overlap_bins = 0;          // the bins it was measured on
+};
+
+// Bins the points of `pts` for which keep(p) holds (no copy of the cloud for a subset) on `grid`;
+// correlation_px: the matcher's error correlation length in pixels (exp(-lag / L)).
+BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
+                      const std::function<bool(const DemPoint&)>& keep, double correlation_px);
+
+// Kriging of a binned cloud with the matcher's error correlation (the DEM sigma of Kriging.hpp).
+KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGrid& grid, double correlation_px);
+
+}  // namespace areomap::dem
