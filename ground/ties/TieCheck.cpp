@@ -64,12 +64,14 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
   const DemGrid dem = readDemGeoTiff(dataset.root + "/" + kTruthDemFile);
   std::map<std::string, CameraModel> truth;
   std::map<std::string, int> pair_of;
+  std::map<std::string, int> side_of;  // 0 left, 1 right camera of its pair
   for (size_t k = 0; k < dataset.pairs.size(); ++k) {
     const Pair& p = dataset.pairs[k];
     for (const ImageRef* ref : {&p.left, p.right ? &*p.right : nullptr}) {
       if (ref == nullptr) continue;
       truth[ref->stem] = io::readCameraModelFile(dataset.root + "/" + kTruthModelsFolder + "/" + ref->stem + ".cahvor");
       pair_of[ref->stem] = static_cast<int>(k);
+      side_of[ref->stem] = ref == &p.left ? 0 : 1;
     }
   }
   // Claimed surface point of each tie point: its first observation.
@@ -79,6 +81,8 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
   double sum_sq = 0.0;
   Vec2 intra_sum = Vec2::Zero();
   int intra_n = 0;
+  Vec2 inter_sum[2] = {Vec2::Zero(), Vec2::Zero()};
+  int inter_n[2] = {0, 0};
   for (const ImageObservation& o : run.observations) {
     pairs_of_point[o.point].insert(pair_of.at(o.image));
     const CameraModel& m = truth.at(o.image);
@@ -101,6 +105,10 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
     if (o.kind != "inter" && e <= 1.0) {
       intra_sum += Vec2(o.sample_px, o.line_px) - px;
       ++intra_n;
+    } else if (o.kind == "inter" && e <= 1.0) {
+      const int side = side_of.at(o.image);
+      inter_sum[side] += Vec2(o.sample_px, o.line_px) - px;
+      ++inter_n[side];
     }
     check.within_1px += e <= 1.0 ? 1 : 0;
     if (o.kind == "inter") {
@@ -113,6 +121,11 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
   if (intra_n > 0) {
     check.intra_mean_dx_px = intra_sum.x() / intra_n;
     check.intra_mean_dy_px = intra_sum.y() / intra_n;
+  }
+  for (int side = 0; side < 2; ++side) {
+    if (inter_n[side] == 0) continue;
+    check.inter_mean_dx_px[side] = inter_sum[side].x() / inter_n[side];
+    check.inter_mean_dy_px[side] = inter_sum[side].y() / inter_n[side];
   }
   // Adjacency from the truth check points.
   std::map<int64_t, std::set<int>> truth_pairs;

@@ -26,6 +26,11 @@ struct TieCheck {
   // matcher's systematic offset (a disparity bias moves every pair's relative orientation alike).
   double intra_mean_dx_px = 0.0;
   double intra_mean_dy_px = 0.0;
+  // The same for the inter-stereo observations within 1 px, by the camera of their pair (0 left, 1 right):
+  // a difference between the two is a disparity bias of the inter-stereo matches, which moves every
+  // pair's convergence alike (a DEM raised or lowered in proportion to range).
+  double inter_mean_dx_px[2] = {0.0, 0.0};
+  double inter_mean_dy_px[2] = {0.0, 0.0};
   std::map<std::pair<int, int>, int> links;  // adjacent pair indices -> tie points shared
   int adjacent_pairs = 0;
   int min_link = 0;

@@ -107,6 +107,11 @@ int main(int argc, char** argv) {
           "truth: intra-stereo observations within 1 px are off by %+.4f px in x and %+.4f px in y on "
           "average (measured - truth)\n",
           c.intra_mean_dx_px, c.intra_mean_dy_px);
+      std::printf(
+          "truth: inter-stereo observations within 1 px are off by %+.4f / %+.4f px in x and %+.4f / %+.4f "
+          "px in y "
+          "in left / right images\n",
+          c.inter_mean_dx_px[0], c.inter_mean_dx_px[1], c.inter_mean_dy_px[0], c.inter_mean_dy_px[1]);
     }
     if (adjust) writeAdjustment(out, dataset, run, network);
     std::printf("tie points: %zu points, %d intra and %d inter observations, %.1f s; %s/tiepoints.csv\n",
