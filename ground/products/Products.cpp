@@ -20,6 +20,7 @@
 #include "ground/dem/EquiParallax.hpp"
 #include "ground/dem/Kriging.hpp"
 #include "ground/dense/DenseMatcher.hpp"
+#include "ground/dense/PairCloud.hpp"
 #include "ground/dense/LineId.hpp"
 #include "ground/dense/Rectification.hpp"
 #include "ground/dense/Triangulation.hpp"
@@ -36,12 +37,6 @@ namespace fs = std::filesystem;
 // Standard deviation of a dense match (pixels) for the intersection's covariance: the matcher's
 // sub-pixel precision, calibrated against truth (ground/dense/DenseMatcher.hpp).
 constexpr double kMatchSigmaPx = dense::kMatchSigmaPx;
-// Points are kept beyond max_range_m as support for the DEM, which stops at max_range_m: out to the range
-// whose disparity is this much below that of max_range_m (about 3 sd of the far matches' disparity error,
-// 0.33-0.36 px in tests/ground/products/far/FarRangeTest.cpp), at most twice max_range_m. Cut at max_range_m
-// itself, the outermost rows would keep only their points measured nearer than they are (the range noise is
-// metres at 60 m): a selection bias that lifted the DEM's outer metres by decimetres.
-constexpr double kSupportDisparityPx = 1.0;
 
 // The two corners (south-west, north-east) of the points that `keep` accepts, as points: dem::gridAround of
 // them is the grid around those points. Empty when it accepts none; `count` (optional) gets how many it does.
@@ -63,14 +58,6 @@ std::vector<dem::DemPoint> boundingCorners(const std::vector<dem::DemPoint>& poi
   if (kept == 0) corners.clear();
   if (count != nullptr) *count = kept;
   return corners;
-}
-
-// The support range of a pair (horizontal focal length f px, baseline b m) for a DEM out to max_range_m.
-double supportRangeM(const dense::RectifiedPair& rect, double max_range_m) {
-  const double fb = rect.left.h.cross(rect.left.a).norm() * rect.baseline_m;
-  const double d_edge = fb / max_range_m;
-  return d_edge > 2.0 * kSupportDisparityPx ? std::min(2.0 * max_range_m, fb / (d_edge - kSupportDisparityPx))
-                                            : 2.0 * max_range_m;
 }
 
 struct Context {
@@ -243,17 +230,6 @@ void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long lon
   cloud.extra.resize(kept);
 }
 
-// Pixels of a rectified image that come from inside the original, eroded by the matching window.
-cv::Mat insideMask(const cv::Mat& map) {
-  cv::Mat m(map.rows, map.cols, CV_8U);
-  for (int y = 0; y < map.rows; ++y) {
-    const cv::Vec2f* row = map.ptr<cv::Vec2f>(y);
-    for (int x = 0; x < map.cols; ++x) m.at<uint8_t>(y, x) = row[x][0] >= 0 ? 255 : 0;
-  }
-  cv::erode(m, m, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(11, 11)));
-  return m;
-}
-
 // An observation farther than this from the intersection of its point's other rays is an outlier (the
 // adjustment rejects such observations): it is left out of the point and keeps its residual.
 constexpr double kTieOutlierPx = 5.0;
@@ -378,16 +354,6 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
         ctx.warn(name + ": not matched (image or model unusable)");
         continue;
       }
-      double t0 = cli::nowSeconds();
-      dense::RectifiedPair rect;
-      try {
-        rect = dense::rectifyPair(sized(L), sized(R));
-      } catch (const std::exception& e) {
-        ctx.warn(name + ": cannot rectify (" + e.what() + ")");
-        continue;
-      }
-      const cv::Mat left = dense::remapToRectified(L.grey, rect.left_map);
-      const cv::Mat right = dense::remapToRectified(R.grey, rect.right_map);
       std::vector<Vec2> lp, rp;
       for (const auto& kv : tie_px) {
         if (kv.first.first != pair.left) continue;
@@ -396,64 +362,33 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
         lp.push_back(kv.second);
         rp.push_back(it->second);
       }
-      const std::vector<dense::TieDisparity> ties = dense::rectifiedTies(sized(L), sized(R), rect, lp, rp);
-      t_rect += cli::nowSeconds() - t0;
-      t0 = cli::nowSeconds();
-      dense::DenseOptions dopt;
-      dopt.min_disparity_px = 0;
-      dopt.max_disparity_px = options.dense_max_disparity_px;
-      std::vector<dense::RowRange> ranges;
-      if (ties.size() >= 3) {
-        ranges = dense::parallaxRowRanges(ties, left.rows, dopt.min_disparity_px, dopt.max_disparity_px);
-      }
-      dense::DenseResult d;
-      try {
-        d = dense::matchRectified(left, right, dopt, ranges.empty() ? nullptr : &ranges);
-      } catch (const std::exception& e) {
-        ctx.warn(name + ": dense matching failed (" + e.what() + ")");
+      dense::PairCloudOptions popt;
+      popt.max_disparity_px = options.dense_max_disparity_px;
+      popt.match_sigma_px = kMatchSigmaPx;
+      popt.max_range_m = options.max_range_m;
+      const dense::PairCloud pc = dense::pairCloud(sized(L), sized(R), L.grey, R.grey, lp, rp, pair.id, popt);
+      t_rect += pc.seconds_rectify;
+      t_dense += pc.seconds_dense;
+      if (!pc.error.empty()) {
+        ctx.warn(name + ": " + pc.error);
         continue;
       }
-      // Only matches inside both original images count: the rectified images are black where no original
-      // pixel maps, and those borders (eroded by the matching window) must not make matches.
-      const cv::Mat left_in = insideMask(rect.left_map), right_in = insideMask(rect.right_map);
-      long long good = 0;
-      for (int y = 0; y < d.disparity.rows; ++y) {
-        float* row = d.disparity.ptr<float>(y);
-        for (int x = 0; x < d.disparity.cols; ++x) {
-          if (!std::isfinite(row[x])) continue;
-          const int xr = static_cast<int>(std::lround(x - row[x]));
-          if (!left_in.at<uint8_t>(y, x) || xr < 0 || xr >= right_in.cols || !right_in.at<uint8_t>(y, xr)) {
-            row[x] = NAN;
-            continue;
-          }
-          ++good;
-        }
-      }
-      d.matched_fraction = static_cast<double>(good) / (static_cast<double>(d.disparity.total()) + 1e-9);
-      t_dense += cli::nowSeconds() - t0;
-      if (d.matched_fraction < 0.02) {
-        ctx.warn(name + ": no valid dense matches (" + std::to_string(d.matched_fraction * 100) +
-                 " % of pixels; no texture?)");
-        continue;
-      }
-      t0 = cli::nowSeconds();
-      dense::TriangulationStats stats;
-      std::vector<dense::CloudPoint> pts =
-          dense::triangulateDisparity(rect.left, rect.right, d.disparity, kMatchSigmaPx, pair.id, left, stats);
+      const double t0 = cli::nowSeconds();
       long long kept = 0;
-      const double support_m = supportRangeM(rect, options.max_range_m);
-      for (dense::CloudPoint& p : pts) {
+      for (const dense::CloudPoint& p : pc.points) {
         const double range = (p.site_m - in.gimbal_site_m).head<2>().norm();
-        if (range > support_m) continue;
+        if (range > pc.support_range_m) continue;
         cloud.push(p);
         ++kept;
       }
-      t_tri += cli::nowSeconds() - t0;
+      t_tri += pc.seconds_triangulate + cli::nowSeconds() - t0;
       {
         char b[200];
-        std::snprintf(b, sizeof b, "%s: %zu ties, %.1f %% matched, %lld triangulated (%lld geometry, %lld residual "
-                      "rejected), %lld kept", name.c_str(), ties.size(), 100 * d.matched_fraction, stats.triangulated,
-                      stats.rejected_geometry, stats.rejected_residual, kept);
+        std::snprintf(b, sizeof b,
+                      "%s: %zu ties, %.1f %% matched, %lld triangulated (%lld geometry, %lld residual "
+                      "rejected), %lld kept",
+                      name.c_str(), pc.ties, 100 * pc.matched_fraction, pc.stats.triangulated,
+                      pc.stats.rejected_geometry, pc.stats.rejected_residual, kept);
         cli::info(b);
       }
       if (kept == 0) {

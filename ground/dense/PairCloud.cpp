@@ -1,0 +1,110 @@
+#include "ground/dense/PairCloud.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <exception>
+
+#include <opencv2/imgproc.hpp>
+
+#include "ground/dense/DenseMatcher.hpp"
+#include "ground/dense/ParallaxCurve.hpp"
+#include "ground/dense/Rectification.hpp"
+
+namespace areomap::dense {
+
+namespace {
+
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// The support range of a pair (horizontal focal length f px, baseline b m) for a DEM out to max_range_m.
+double supportRangeM(const RectifiedPair& rect, double max_range_m) {
+  const double fb = rect.left.h.cross(rect.left.a).norm() * rect.baseline_m;
+  const double d_edge = fb / max_range_m;
+  return d_edge > 2.0 * kSupportDisparityPx ? std::min(2.0 * max_range_m, fb / (d_edge - kSupportDisparityPx))
+                                            : 2.0 * max_range_m;
+}
+
+// Pixels of a rectified image that come from inside the original, eroded by the matching window.
+cv::Mat insideMask(const cv::Mat& map) {
+  cv::Mat m(map.rows, map.cols, CV_8U);
+  for (int y = 0; y < map.rows; ++y) {
+    const cv::Vec2f* row = map.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < map.cols; ++x) m.at<uint8_t>(y, x) = row[x][0] >= 0 ? 255 : 0;
+  }
+  cv::erode(m, m, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(11, 11)));
+  return m;
+}
+
+// Only matches inside both original images count: the rectified images are black where no original pixel
+// maps, and those borders (eroded by the matching window) must not make matches. Returns the valid count.
+long long keepInside(const RectifiedPair& rect, cv::Mat& disparity) {
+  const cv::Mat left_in = insideMask(rect.left_map), right_in = insideMask(rect.right_map);
+  long long good = 0;
+  for (int y = 0; y < disparity.rows; ++y) {
+    float* row = disparity.ptr<float>(y);
+    for (int x = 0; x < disparity.cols; ++x) {
+      if (!std::isfinite(row[x])) continue;
+      const int xr = static_cast<int>(std::lround(x - row[x]));
+      if (!left_in.at<uint8_t>(y, x) || xr < 0 || xr >= right_in.cols || !right_in.at<uint8_t>(y, xr)) {
+        row[x] = NAN;
+        continue;
+      }
+      ++good;
+    }
+  }
+  return good;
+}
+
+}  // namespace
+
+PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
+                    const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
+                    const std::vector<Vec2>& right_ties_px, int pair_id, const PairCloudOptions& options) {
+  PairCloud out;
+  double t0 = now();
+  RectifiedPair rect;
+  try {
+    rect = rectifyPair(left, right);
+  } catch (const std::exception& e) {
+    out.error = std::string("cannot rectify (") + e.what() + ")";
+    return out;
+  }
+  const cv::Mat l = remapToRectified(left_grey, rect.left_map);
+  const cv::Mat r = remapToRectified(right_grey, rect.right_map);
+  const std::vector<TieDisparity> ties = rectifiedTies(left, right, rect, left_ties_px, right_ties_px);
+  out.ties = ties.size();
+  out.seconds_rectify = now() - t0;
+  t0 = now();
+  DenseOptions dopt;
+  dopt.min_disparity_px = 0;
+  dopt.max_disparity_px = options.max_disparity_px;
+  std::vector<RowRange> ranges;
+  if (ties.size() >= 3)
+    ranges = parallaxRowRanges(ties, l.rows, dopt.min_disparity_px, dopt.max_disparity_px);
+  DenseResult d;
+  try {
+    d = matchRectified(l, r, dopt, ranges.empty() ? nullptr : &ranges);
+  } catch (const std::exception& e) {
+    out.error = std::string("dense matching failed (") + e.what() + ")";
+    return out;
+  }
+  const long long good = keepInside(rect, d.disparity);
+  out.matched_fraction = static_cast<double>(good) / (static_cast<double>(d.disparity.total()) + 1e-9);
+  out.seconds_dense = now() - t0;
+  if (out.matched_fraction < options.min_matched_fraction) {
+    out.error = "no valid dense matches (" + std::to_string(out.matched_fraction * 100) +
+                " % of pixels; no texture?)";
+    return out;
+  }
+  t0 = now();
+  out.points =
+      triangulateDisparity(rect.left, rect.right, d.disparity, options.match_sigma_px, pair_id, l, out.stats);
+  out.support_range_m = supportRangeM(rect, options.max_range_m);
+  out.seconds_triangulate = now() - t0;
+  return out;
+}
+
+}  // namespace areomap::dense

@@ -1,0 +1,50 @@
+// One stereo pair to a point cloud (paper 4.1), the products' first stage: rectification with the
+// adjusted models, parallax ranges from the pair's tie points, dense coarse-to-fine matching, matches kept
+// only inside both original images, and space intersection through the models (per-point covariance from
+// the matcher's sub-pixel sigma). Errors of one pair (it cannot be rectified, the matcher fails, too few
+// valid matches: no texture) are returned as a message, never thrown: the other pairs go on.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "firmware_core/camera/CameraModel.hpp"
+#include "ground/dense/Triangulation.hpp"
+
+namespace areomap::dense {
+
+struct PairCloudOptions {
+  int max_disparity_px = 192;
+  double match_sigma_px = 0.15;        // the fine matcher's sub-pixel sigma (DenseMatcher.hpp kMatchSigmaPx)
+  double max_range_m = 60.0;           // the DEM's range: support_range_m is computed for it
+  double min_matched_fraction = 0.02;  // fewer valid matches: the pair has no texture (an error)
+};
+
+struct PairCloud {
+  std::string error;  // empty: matched; else why not (e.g. "cannot rectify (...)")
+  std::vector<CloudPoint> points;
+  std::size_t ties = 0;           // tie points that set the parallax ranges
+  double matched_fraction = 0.0;  // valid matches inside both images / left pixels
+  TriangulationStats stats;
+  // Points are kept beyond max_range_m as support for the DEM, which stops at max_range_m: out to the
+  // range whose disparity is kSupportDisparityPx below that of max_range_m (about 3 sd of the far matches'
+  // disparity error, 0.33-0.36 px in tests/ground/products/far/FarRangeTest.cpp), at most twice
+  // max_range_m. Cut at max_range_m itself, the outermost rows would keep only their points measured nearer
+  // than they are (the range noise is metres at 60 m): a selection bias that lifted the DEM's outer metres
+  // by decimetres.
+  double support_range_m = 0.0;
+  double seconds_rectify = 0.0, seconds_dense = 0.0, seconds_triangulate = 0.0;
+};
+
+inline constexpr double kSupportDisparityPx = 1.0;
+
+// left/right: the adjusted models in the pixel frames of left_grey/right_grey (CV_8U); left_ties_px and
+// right_ties_px: the measured pixels of the pair's tie points, one entry per point in both; pair_id names
+// the points' rectified lines (LineId.hpp).
+PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
+                    const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
+                    const std::vector<Vec2>& right_ties_px, int pair_id, const PairCloudOptions& options);
+
+}  // namespace areomap::dense
