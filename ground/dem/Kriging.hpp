@@ -9,7 +9,8 @@
 // correlated point errors (dense matches; KrigingOptions::noise_correlation_px): the variance of the
 // estimate's error under a model of both parts, the surface between the points (the signal variogram:
 // the robust experimental variogram less the points' noise) and the points' errors averaged with their
-// correlation (issue 10: honest per range band, tests/ground/products/NavcamAccuracyTest.cpp).
+// correlation (checked per range band against truth: tests/ground/products/NavcamAccuracyTest.cpp and
+// tests/ground/products/calibration).
 // Grids are ground/dataset's DemGrid
 // (north-up, columns east = site +Y, rows south = site -X, elevation up = -Z).
 #pragma once

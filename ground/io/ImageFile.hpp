@@ -17,8 +17,8 @@ namespace areomap::io {
 class Pds3Label;
 
 // The largest image side (lines or samples) a label or metadata file may declare: 2^20 px, beyond every rover
-// and orbiter frame read here, so that sizes fit int and byte counts fit size_t with room (issue 12: every
-// size read from a file is checked before use).
+// and orbiter frame read here, so that sizes fit int and byte counts fit size_t with room (every size read
+// from a file is checked before use).
 constexpr long kMaxImageSidePx = 1L << 20;
 
 struct Pds3ImageInfo {

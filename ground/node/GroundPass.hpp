@@ -1,4 +1,4 @@
-// The ground's work at the end of a panorama (issue 9 item 3), on a dataset folder: either the one given
+// The ground's work at the end of a panorama, on a dataset folder: either the one given
 // (`areomap-ground --dataset DIR`) or the one the ground wrote from the camera stream (full-resolution
 // images as decoded from the stream's JPEGs).
 //

@@ -1,4 +1,4 @@
-// report.html: one self-contained page an operator opens after a pass (issue 10 item 6): summary figures,
+// report.html: one self-contained page an operator opens after a pass: summary figures,
 // the paper's precision methods 1-3 before and after the adjustment, a residual histogram and per-image
 // residuals (inline SVG), DEM and ortho previews with scale, tie-point overlays, stage timings and
 // warnings. No external resource: images are embedded as data: URIs, plots are inline SVG, no scripts.

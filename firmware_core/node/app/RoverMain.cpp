@@ -1,4 +1,4 @@
-// areomap-rover --lcm URL: the rover node (issue 9). Two threads:
+// areomap-rover --lcm URL: the rover node. Two threads:
 //   transport thread (main): LCM (udpm://, memq://) or the heap-free log replay (file://), copies every
 //     AREOMAP_STEREO_PAIR message into the inbox ring, publishes what the pipeline put into the outbox;
 //   pipeline thread: takes messages from the inbox and runs RoverNode (decode, ties, DEM, adjustment),

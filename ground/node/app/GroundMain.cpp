@@ -1,4 +1,4 @@
-// areomap-ground: the ground node (issue 9 item 3). See kUsage.
+// areomap-ground: the ground node. See kUsage.
 #include <cstdio>
 #include <filesystem>
 #include <memory>

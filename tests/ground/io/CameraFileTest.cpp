@@ -132,13 +132,13 @@ TEST(CameraFile, RescaledModelIsTheSameCameraInTheNewPixelFrame) {
   CHECK((a - (offset + 2.0 * b)).norm() < 1e-9);
 }
 
-// Issue 3: malformed models and labels give an error that names the field.
+// Malformed models and labels give an error that names the field.
 TEST(CameraFile, MalformedLabelsNameTheField) {
   const std::string dir = test::scratchDir("camera_file_bad");
   struct Case {
     std::string name, text, field;
   };
-  // Issue 12 item 5: sizes read from a file are checked before they are narrowed to int or scaled.
+  // Sizes read from a file are checked before they are narrowed to int or scaled.
   std::string huge_lines = pdsLabel(kC, kA, kH, kV, kO, kR);
   huge_lines.replace(huge_lines.find("  LINES = 1024"), 14, "  LINES = 4294967304");  // 2^32 + 8
   const std::string cahv_json =
