@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Benchmark of the rover pipeline across targets (issue 11; BENCHMARKS.md "Cross targets"):
+# Benchmark of the rover pipeline across targets (BENCHMARKS.md "Cross targets"):
 #   tests/golden/cross_benchmark.sh [HOST_BUILD [AARCH64_BUILD [POWERPC_BUILD [SIM OPTIONS...]]]]
 # defaults: build build-aarch64 build-powerpc, areomap-sim --preset tiny --seed 1 --pairs 3.
 # 1. per-stage rover seconds (golden_rover's RoverNode stage counters: decode, ties + coarse DEM, network +

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Golden output on one cross target (issue 11; CTest label `golden`, registered by tests/golden/CMakeLists.txt
+# Golden output on one cross target (CTest label `golden`, registered by tests/golden/CMakeLists.txt
 # in the cross builds). In one run: the native build makes a small `tiny` panorama (areomap-sim) and its
 # camera-stream log (areomap-pack); the native golden_rover and this target's golden_rover (under qemu) run
 # the rover pipeline on that log; compare_golden.py compares tie points (identical lists) and the final EO

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The hardware-in-the-loop run (issue 11 item 4; CTest label `hil` in the aarch64 build). One command:
+# The hardware-in-the-loop run (CTest label `hil` in the aarch64 build). One command:
 #   tests/hil/run.sh [--host-build build] [--target-build build-aarch64] [--out DIR] [--pairs N]
 # 1. the native build makes a `tiny` panorama (areomap-sim --pairs N) ;
 # 2. all-native run: ./run.sh --dataset (areomap-ground and areomap-rover over udpm on loopback, stock

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Soak (issue 12 item 4): PASSES copies of one panorama back to back through both nodes -- one
+# Soak: PASSES copies of one panorama back to back through both nodes -- one
 # areomap-ground (--panoramas 0, stopped at the end) and one areomap-rover for the whole run, over udpm on loopback, each
 # pass replayed by stock lcm-logplayer at full speed once the ground has made the previous pass's products.
 # Checks: the rover's heap allocations after start-up stay 0 (its status, in every pass's report); the
