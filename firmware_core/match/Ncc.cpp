@@ -33,6 +33,28 @@ bool extractTemplate(const ImageView& image, int32_t cx, int32_t cy, NccTemplate
   return true;
 }
 
+bool extractTemplateAt(const ImageView& image, double cx, double cy, NccTemplate& t) {
+  t.textured = false;
+  if (!(cx - kNccRadius >= 0.0 && cy - kNccRadius >= 0.0 && cx + kNccRadius < image.width - 1.0 &&
+        cy + kNccRadius < image.height - 1.0)) {
+    return false;
+  }
+  const int32_t x0 = static_cast<int32_t>(std::floor(cx));
+  const int32_t y0 = static_cast<int32_t>(std::floor(cy));
+  const double fx = cx - x0, fy = cy - y0;
+  for (int32_t dy = 0; dy < kNccSide; ++dy) {
+    const uint8_t* r0 = image.row(y0 - kNccRadius + dy) + (x0 - kNccRadius);
+    const uint8_t* r1 = r0 + image.stride;
+    for (int32_t dx = 0; dx < kNccSide; ++dx) {
+      const double v =
+          (1.0 - fy) * ((1.0 - fx) * r0[dx] + fx * r0[dx + 1]) + fy * ((1.0 - fx) * r1[dx] + fx * r1[dx + 1]);
+      t.pixels[dy * kNccSide + dx] = static_cast<uint8_t>(std::lround(v));
+    }
+  }
+  finishTemplate(t);
+  return true;
+}
+
 void templateFromPixels(const uint8_t* pixels, NccTemplate& t) {
   for (int32_t i = 0; i < kNccPixels; ++i) t.pixels[i] = pixels[i];
   finishTemplate(t);

@@ -44,6 +44,8 @@ inline double nccFromSums(const NccTemplate& t, double var_t, double sum, double
 bool extractTemplate(const ImageView& image, int32_t cx, int32_t cy, NccTemplate& t);
 // Fills a template from stored pixels (a patch kept from an earlier pair).
 void templateFromPixels(const uint8_t* pixels, NccTemplate& t);
+// The template centred on a sub-pixel position (bilinear, rounded to 8 bits); false when it leaves the image.
+bool extractTemplateAt(const ImageView& image, double cx, double cy, NccTemplate& t);
 
 // NCC of the template with the window of `image` centred on (cx, cy); kNccInvalid when the window leaves
 // the image or is flat.

@@ -12,6 +12,7 @@ namespace {
 constexpr double kWarpBasePx = 4.0;  // pixel offset used to measure the local affine map of a patch
 constexpr double kOffsetScalePx = 512.0;  // normalises image positions in the offset field
 constexpr int32_t kMinAffineOffsets = 6;  // fewer inliers: a constant offset field
+constexpr double kTransferRangeFactor = 1.5;  // range interval searched by transferInPair
 
 Vec3 offsetBasis(const Vec2& px) { return Vec3(1.0, px.x() / kOffsetScalePx, px.y() / kOffsetScalePx); }
 }  // namespace
@@ -354,7 +355,20 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
   for (int32_t i = 0; i < new_pair; ++i) {
     StoredPair& source = pairs_[i];
     bool linked = false;
-    for (int32_t side = 0; side < 2; ++side) {
+    // The image of the new pair nearest the source's left camera (whose patches are stored) is matched
+    // first; the other one then takes each point's observation from the near one through the pair's own
+    // stereo geometry. A patch matched directly into a view from far off (a stereo base away) is pulled off
+    // its point wherever it straddles an occluding edge (a rock's outline), always the same way: the
+    // transfer keeps the inter-stereo observations as unbiased as the intra-stereo ones.
+    const bool both = images[0] != nullptr && images[1] != nullptr;
+    const int32_t near_side = both && (target.model[1].c - source.model[0].c).norm() <
+                                          (target.model[0].c - source.model[0].c).norm()
+                                  ? 1
+                                  : 0;
+    for (int32_t k = 0; k < source.tie_count; ++k) near_ok_[k] = false;
+    for (int32_t pass = 0; pass < 2; ++pass) {
+      const int32_t side = pass == 0 ? near_side : 1 - near_side;
+      const bool transfer = both && pass == 1;
       const ImageView* image = images[side];
       if (image == nullptr) continue;
       const CameraModel& model = target.model[side];
@@ -426,6 +440,18 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
       int32_t n = 0;
       for (int32_t c = 0; c < np; ++c) {
         const Prediction& pr = predictions_[c];
+        if (transfer && near_ok_[pr.tie]) {
+          const Vec3 p = source.ties[pr.tie].predicted_m.cast<double>();
+          Vec2 far_px;
+          double score = 0.0;
+          if (!transferInPair(*images[near_side], *image, target.model[near_side], model, near_px_[pr.tie],
+                              (p - target.model[near_side].c).norm(), far_px, score)) {
+            continue;
+          }
+          ++report.inter_matched;
+          candidates_[n++] = Candidate{pr.tie, pr.px, score, far_px.x() - pr.px.x(), far_px.y() - pr.px.y()};
+          continue;
+        }
         NccTemplate t;
         templateFromPixels(source.ties[pr.tie].patch, t);
         if (!t.textured) continue;
@@ -485,6 +511,10 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
         }
         if (addObservation(st.point, 2 * new_pair + side, predicted.x() + cand.dx, predicted.y() + cand.dy,
                            TieKind::kInter, static_cast<float>(cand.score))) {
+          if (pass == 0) {
+            near_px_[cand.tie] = Vec2(predicted.x() + cand.dx, predicted.y() + cand.dy);
+            near_ok_[cand.tie] = true;
+          }
           ++report.inter_observations;
           linked = true;
         } else {
@@ -494,6 +524,38 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
     }
     report.neighbours += linked ? 1 : 0;
   }
+}
+
+bool PanoramaMatcher::transferInPair(const ImageView& near_image, const ImageView& far_image,
+                                     const CameraModel& near_model, const CameraModel& far_model,
+                                     const Vec2& near_px, double range_m, Vec2& far_px, double& score) {
+  NccTemplate near_t, far_t;
+  if (!extractTemplateAt(near_image, near_px.x(), near_px.y(), near_t) || !near_t.textured) return false;
+  const double lo = std::fmax(stereo.min_range_m, range_m / kTransferRangeFactor);
+  const double hi = std::fmin(stereo.max_range_m, range_m * kTransferRangeFactor);
+  if (!(lo < hi)) return false;
+  EpipolarCurve& curve = stereo_workspace_.curve;
+  if (!ok(epipolarCurve(near_model, far_model, near_px, lo, hi, far_image.width, far_image.height, curve))) {
+    return false;
+  }
+  const SearchHit hit = searchAlongCurve(near_t, far_image, curve, stereo.band_px, stereo_workspace_.search);
+  if (hit.score < stereo.min_ncc || hit.second > stereo.max_second_ratio * hit.score) return false;
+  // Left-right: the far window searched back along its own curve in the near image.
+  if (!extractTemplate(far_image, hit.x, hit.y, far_t) || !far_t.textured) return false;
+  if (!ok(epipolarCurve(far_model, near_model, Vec2(hit.x, hit.y), lo, hi, near_image.width,
+                        near_image.height, curve))) {
+    return false;
+  }
+  const SearchHit back = searchAlongCurve(far_t, near_image, curve, stereo.band_px, stereo_workspace_.search);
+  if (back.score < stereo.min_ncc || std::fabs(back.x - near_px.x()) > stereo.lr_tolerance_px + 0.5 ||
+      std::fabs(back.y - near_px.y()) > stereo.lr_tolerance_px + 0.5) {
+    return false;
+  }
+  double x = 0.0, y = 0.0;
+  refinePeak(near_t, far_image, hit.x, hit.y, hit.score, x, y);
+  far_px = Vec2(x, y);
+  score = hit.score;
+  return true;
 }
 
 }  // namespace areomap

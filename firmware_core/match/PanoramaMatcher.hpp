@@ -5,8 +5,10 @@
 //      and projected with the a-priori models into the new pair's images, is searched by NCC in a small
 //      window there (after a probe of a few strong ties in a wide window has measured the common offset that
 //      the a-priori pointing errors cause); the offsets found must agree per image (verification) -- the
-//      same tie point keeps its
-//      identity, it gains observations,
+//      same tie point keeps its identity, it gains observations. Only the new pair's image nearest the
+//      stored patch's camera is matched so; its other image takes each point from that one through the
+//      pair's own stereo geometry (transferInPair: epipolar search, left-right check), because a patch
+//      matched a stereo base away is pulled off its point, one way, wherever it straddles a rock's outline,
 //   4. the new pair's ties are stored for later pairs: the 11 x 11 left-image patch around each tie and its
 //      DEM-predicted ground point (the full images are not kept: 256 pairs x 1 MiB would not fit). The
 //      selected ties (the tie budget of the pair) rarely fill the kMaxStoredTiesPerPair slots; the rest hold
@@ -152,6 +154,12 @@ class PanoramaMatcher {
                             const CameraModel& right_model, const CoarseDem& dem, StoredPair& stored,
                             PairTieReport& report);
   bool addObservation(int32_t point, int32_t image, double sample_px, double line_px, TieKind kind, float score);
+  // The far image's observation of a point observed at near_px in the near image of the same pair: the
+  // near image's patch there searched along the pair's epipolar curve (ranges within a factor of
+  // kTransferRangeFactor of range_m), left-right checked. False when it fails.
+  bool transferInPair(const ImageView& near_image, const ImageView& far_image, const CameraModel& near_model,
+                      const CameraModel& far_model, const Vec2& near_px, double range_m, Vec2& far_px,
+                      double& score);
 
   StereoWorkspace stereo_workspace_;
   StereoResult stereo_result_;
@@ -164,6 +172,9 @@ class PanoramaMatcher {
   Prediction predictions_[kMaxStoredTiesPerPair];
   Candidate candidates_[kMaxStoredTiesPerPair];
   bool inlier_[kMaxStoredTiesPerPair];
+  Vec2 near_px_[kMaxStoredTiesPerPair];  // per stored tie of the source pair: its observation in the near
+                                         // image
+  bool near_ok_[kMaxStoredTiesPerPair];
   // Inter-stereo candidate grids: corner cells (at most kCandidateGridSide^2) then band cells (as many; 32 x 32
   // cells of 32 px on a 1024^2 frame), the best verified unselected match per cell, sorted towards the
   // corner / border.

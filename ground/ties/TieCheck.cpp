@@ -126,6 +126,7 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
     if (inter_n[side] == 0) continue;
     check.inter_mean_dx_px[side] = inter_sum[side].x() / inter_n[side];
     check.inter_mean_dy_px[side] = inter_sum[side].y() / inter_n[side];
+    check.inter_within_1px_by_side[side] = inter_n[side];
   }
   // Adjacency from the truth check points.
   std::map<int64_t, std::set<int>> truth_pairs;

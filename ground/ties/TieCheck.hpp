@@ -31,6 +31,7 @@ struct TieCheck {
   // pair's convergence alike (a DEM raised or lowered in proportion to range).
   double inter_mean_dx_px[2] = {0.0, 0.0};
   double inter_mean_dy_px[2] = {0.0, 0.0};
+  int inter_within_1px_by_side[2] = {0, 0};  // the observations those means are over
   std::map<std::pair<int, int>, int> links;  // adjacent pair indices -> tie points shared
   int adjacent_pairs = 0;
   int min_link = 0;
