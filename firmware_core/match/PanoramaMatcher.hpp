@@ -98,6 +98,7 @@ class PanoramaMatcher {
   InterParams inter;
 
  private:
+  static constexpr double kWarpBasePx = 4.0;  // pixel offset used to measure the local affine map of a patch
   // The left-image patch is centred exactly on the tie's left observation, so a match of it anywhere is an
   // observation of the same surface point.
   // Compact (180 bytes): ground points in float (site frame, metres: ~10 um at 100 m, far below a pixel),
@@ -156,7 +157,7 @@ class PanoramaMatcher {
   bool addObservation(int32_t point, int32_t image, double sample_px, double line_px, TieKind kind, float score);
   // The far image's observation of a point observed at near_px in the near image of the same pair: the
   // near image's patch there searched along the pair's epipolar curve (ranges within a factor of
-  // kTransferRangeFactor of range_m), left-right checked. False when it fails.
+  // kTransferRangeFactor of range_m, InterStereoTies.cpp), left-right checked. False when it fails.
   bool transferInPair(const ImageView& near_image, const ImageView& far_image, const CameraModel& near_model,
                       const CameraModel& far_model, const Vec2& near_px, double range_m, Vec2& far_px,
                       double& score);
