@@ -9,7 +9,7 @@
 #include <map>
 #include <sstream>
 
-#include "ground/dataset/ModelFile.hpp"
+#include "ground/dataset/DatasetFile.hpp"
 
 namespace areomap {
 namespace {

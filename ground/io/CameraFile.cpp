@@ -458,6 +458,9 @@ void writeCameraModelFile(const std::string& path, const CameraModel& model) {
   char buffer[kModelTextBytes];
   const std::size_t n = formatModelText(model, buffer, sizeof buffer);
   if (n == 0) throw cli::InputError(path, "model", "does not fit the text buffer");
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!parent.empty()) std::filesystem::create_directories(parent, ec);  // a failure shows in the write
   cli::writeFileAtomic(path, buffer, n);  // temporary name, fsync, rename: whole or not at all
 }
 

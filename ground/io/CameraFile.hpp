@@ -55,7 +55,8 @@ CameraFile parseCameraText(const std::string& text, const std::string& path, int
 CameraFile readPds3Camera(const Pds3Label& label, int width = 0, int height = 0);
 
 // Writes the JPL text form (formatModelText) whole or not at all (cli::writeFileAtomic: temporary name,
-// fsync, rename; the previous file is kept on failure); throws cli::InputError naming `path` if it cannot.
+// fsync, rename; the previous file is kept on failure; the parent folder created); throws cli::InputError
+// naming `path` if it cannot. A dataset's models/ and truth/models/ are written and read here.
 void writeCameraModelFile(const std::string& path, const CameraModel& model);
 
 // The same camera in a resampled pixel frame: pixel' = (pixel - offset) / scale, size width x height.

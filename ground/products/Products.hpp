@@ -13,9 +13,11 @@
 //   (tie points on each image, unless already written by the caller); `report.html` (self-contained).
 //
 // NOT written here (the caller writes them with ground/adjust and ground/ties, before or after):
-// `models/*.cahvor`, `eo.csv`, `tiepoints.csv`, `report.json`. makeProducts ADDS its stage timings
-// ("rectify", "dense", "triangulate", "dem", "ortho", "previews"), its warnings and truth.dem_rmse_m to
-// the given AdjustReport, so write report.json with writeReportJson AFTER makeProducts.
+// `models/*.cahvor`, `eo.csv`, `tiepoints.csv`, `report.json`. makeProducts returns its own part of the
+// report (ProductsResult: stage timings "rectify", "dense", "triangulate", "dem", "ortho", "previews",
+// warnings, dem_rmse_m); the caller merges it into the adjustment's report (mergeIntoReport) before it
+// writes report.json. The pipeline: ground/dense (pair -> point cloud), ground/dem (SiteDem: binning,
+// kriging, equi-parallax, the near grid), ground/ortho, then the previews and report.html.
 //
 // Bad input never stops the other products: a missing image, a model inconsistent with its image size, a
 // pair without texture or without valid matches is skipped with a warning (report.warnings, stderr); with
@@ -24,6 +26,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -96,12 +99,18 @@ struct ProductsResult {
   std::optional<double> dem_rmse_m;   // against truth_dem over cells present in both
   double ortho_seam_px = -1.0;        // median geometric disagreement at ortho seams, px (-1: no seams)
   std::vector<double> residuals_px;   // tie back-projection residuals plotted in report.html
+  std::vector<std::pair<std::string, double>> seconds;  // stage timings (rectify, dense, ..., previews)
 };
 
 // Makes every product above in `out_dir` (created if needed). Progress lines on stderr.
 // Throws only for an out_dir that cannot be created (cli::InputError naming the path); products that
 // cannot be written are listed in `write_errors` (a caller should then exit non-zero).
-ProductsResult makeProducts(const ProductInputs& inputs, const ProductOptions& options, const std::string& out_dir,
-                            ground::AdjustReport& report);
+// `adjustment` (optional) is only read: report.html shows it with the products' part merged in.
+ProductsResult makeProducts(const ProductInputs& inputs, const ProductOptions& options,
+                            const std::string& out_dir, const ground::AdjustReport* adjustment = nullptr);
+
+// What the products add to report.json: their stage timings after the adjustment's, their warnings and
+// truth.dem_rmse_m (when the report has a truth section). Call before writeReportJson.
+void mergeIntoReport(const ProductsResult& products, ground::AdjustReport& report);
 
 }  // namespace areomap::products

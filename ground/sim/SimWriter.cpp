@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "ground/dataset/DemRaster.hpp"
-#include "ground/dataset/ModelFile.hpp"
+#include "ground/io/CameraFile.hpp"
 #include "ground/sim/Renderer.hpp"
 
 namespace areomap::sim {
@@ -74,8 +74,8 @@ void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::st
 
   const std::vector<const SimCamera*> cams = g.cameras();
   for (const SimCamera* c : cams) {
-    writeModelFile(out + "/models/" + c->stem + ".cahvor", c->apriori);
-    writeModelFile(out + "/" + kTruthModelsFolder + "/" + c->stem + ".cahvor", c->truth);
+    io::writeCameraModelFile(out + "/models/" + c->stem + ".cahvor", c->apriori);
+    io::writeCameraModelFile(out + "/" + kTruthModelsFolder + "/" + c->stem + ".cahvor", c->truth);
   }
   writePointsCsv(out + "/" + kTruthPointsFile, g.points);
   writeObservationsCsv(out + "/" + kTruthObservationsFile, g.observations);

@@ -131,7 +131,9 @@ void makeGroundProducts(const areomap::ground::ProductContext& c) {
   if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
     in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
   }
-  const products::ProductsResult made = products::makeProducts(in, products::ProductOptions{}, c.out_dir, *c.report);
+  const products::ProductsResult made =
+      products::makeProducts(in, products::ProductOptions{}, c.out_dir, c.report);
+  products::mergeIntoReport(made, *c.report);
   if (c.write_errors != nullptr) c.write_errors->insert(c.write_errors->end(), made.write_errors.begin(), made.write_errors.end());
 }
 #endif

@@ -1,6 +1,9 @@
+// A dataset's model files (models/, truth/models/) through ground/io's CameraFile, the one camera reader and
+// writer: exact round trip, errors naming the file and the component, whole-or-nothing writes.
 #include <string>
 
-#include "ground/dataset/ModelFile.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/io/CameraFile.hpp"
 #include "tests/ground/dataset/FileSizeLimit.hpp"
 #include "tests/ground/dataset/TextFiles.hpp"
 #include "tests/support/TestData.hpp"
@@ -34,8 +37,8 @@ CameraModel sampleCahvor() {
 TEST(ModelFile, RoundTripsACahvorModelExactly) {
   const CameraModel m = sampleCahvor();
   const std::string path = test::scratchDir("model-file") + "/models/p000_L.cahvor";
-  writeModelFile(path, m);
-  const CameraModel back = readModelFile(path);
+  io::writeCameraModelFile(path, m);
+  const CameraModel back = io::readCameraModelFile(path);
   CHECK(back.type == CameraType::kCahvor);
   CHECK(back.c == m.c);
   CHECK(back.a == m.a);
@@ -49,28 +52,28 @@ TEST(ModelFile, RoundTripsACahvorModelExactly) {
 TEST(ModelFile, BadFilesNameTheFileAndTheComponent) {
   const std::string dir = test::scratchDir("model-file-bad");
   try {
-    (void)readModelFile(dir + "/absent.cahvor");
+    (void)io::readCameraModelFile(dir + "/absent.cahvor");
     FAIL("no error");
-  } catch (const DatasetError& e) {
-    CHECK(contains(e.what(), "absent.cahvor: cannot open"));
+  } catch (const cli::InputError& e) {
+    CHECK(contains(e.what(), "absent.cahvor: file: cannot open"));
   }
   writeText(dir + "/bad.cahvor", "C = 0 0 0\nA = 1 0 0\nH = 0 1000 0\n");
   try {
-    (void)readModelFile(dir + "/bad.cahvor");
+    (void)io::readCameraModelFile(dir + "/bad.cahvor");
     FAIL("no error");
-  } catch (const DatasetError& e) {
+  } catch (const cli::InputError& e) {
     printf("\n%s\n", e.what());
     CHECK(contains(e.what(), "bad.cahvor: V"));
   }
 }
 
-// A model written on a full disk (a 64-byte file-size limit): DatasetError naming the file; the previous
+// A model written on a full disk (a 64-byte file-size limit): an InputError naming the file; the previous
 // model is still there byte for byte, a new one is absent, and no temporary is left.
 TEST(ModelFile, FailedWriteLeavesThePreviousFileWhole) {
   const CameraModel m = sampleCahvor();
   const std::string dir = test::scratchDir("model-file-full");
   const std::string path = dir + "/models/p000_L.cahvor";
-  writeModelFile(path, m);
+  io::writeCameraModelFile(path, m);
   const std::string before = test::fileBytes(path);
   CHECK(before.size() > 64);
   CameraModel moved = m;
@@ -80,8 +83,8 @@ TEST(ModelFile, FailedWriteLeavesThePreviousFileWhole) {
     {
       test::FileSizeLimit full(64);
       try {
-        writeModelFile(target, moved);
-      } catch (const DatasetError& e) {
+        io::writeCameraModelFile(target, moved);
+      } catch (const cli::InputError& e) {
         thrown = true;
         printf("\n%s\n", e.what());
         CHECK(contains(e.what(), target + ": cannot write"));

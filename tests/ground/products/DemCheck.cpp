@@ -19,7 +19,7 @@
 #include "firmware_core/camera/CameraConversion.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/DemRaster.hpp"
-#include "ground/dataset/ModelFile.hpp"
+#include "ground/io/CameraFile.hpp"
 #include "ground/ortho/Orthoimage.hpp"
 
 using namespace areomap;
@@ -90,13 +90,13 @@ int main(int argc, char** argv) {
   for (const Pair& p : ds.pairs) {
     for (const ImageRef* ref : {&p.left, p.right ? &*p.right : nullptr}) {
       if (ref == nullptr) continue;
-      CameraModel t = readModelFile(root + "/truth/models/" + ref->stem + ".cahvor");
+      CameraModel t = io::readCameraModelFile(root + "/truth/models/" + ref->stem + ".cahvor");
       if (t.width <= 0) t.width = ds.width, t.height = ds.height;
       cams.push_back(t);
       centre += t.c;
       const std::string adj = out + "/models/" + ref->stem + ".cahvor";
       if (std::filesystem::exists(adj)) {
-        m_est.push_back(rotationOf(readModelFile(adj), ds.width, ds.height));
+        m_est.push_back(rotationOf(io::readCameraModelFile(adj), ds.width, ds.height));
         m_true.push_back(rotationOf(t, ds.width, ds.height));
       }
     }

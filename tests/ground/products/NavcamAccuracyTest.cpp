@@ -54,7 +54,8 @@ const NavcamRun& navcam() {
     ground::AdjustReport report;
     products::ProductOptions options;
     options.max_range_m = 12.5;
-    r.result = products::makeProducts(r.scene.inputs, options, out, report);
+    r.result = products::makeProducts(r.scene.inputs, options, out, &report);
+    products::mergeIntoReport(r.result, report);
     r.sigma = readDemGeoTiff(out + "/dem_sigma.tif");
     for (const auto& kv : report.seconds) std::printf("  stage %-12s %7.2f s\n", kv.first.c_str(), kv.second);
     return r;

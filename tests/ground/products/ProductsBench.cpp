@@ -12,7 +12,7 @@
 
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/Dataset.hpp"
-#include "ground/dataset/ModelFile.hpp"
+#include "ground/io/CameraFile.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/ImageFile.hpp"
 #include "ground/products/Products.hpp"
@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
     im.stem = ref.stem;
     im.grey = io::loadImage8(ref.image_path);
     const std::string tm = root + "/truth/models/" + ref.stem + ".cahvor";
-    im.model = readModelFile(truth_models && std::filesystem::exists(tm) ? tm : ref.model_path);
+    im.model = io::readCameraModelFile(truth_models && std::filesystem::exists(tm) ? tm : ref.model_path);
     index[ref.stem] = static_cast<int>(in.images.size());
     in.images.push_back(im);
     return index[ref.stem];
@@ -69,7 +69,8 @@ int main(int argc, char** argv) {
   if (std::filesystem::exists(root + "/truth/dem.tif")) in.truth_dem = readDemGeoTiff(root + "/truth/dem.tif");
   const double t_load = cli::nowSeconds() - t0;
   ground::AdjustReport report;
-  const products::ProductsResult r = products::makeProducts(in, products::ProductOptions{}, out, report);
+  const products::ProductsResult r = products::makeProducts(in, products::ProductOptions{}, out, &report);
+  products::mergeIntoReport(r, report);
   std::printf("| load (%zu images) | %.1f s |\n", in.images.size(), t_load);
   double total = t_load;
   for (const auto& kv : report.seconds) {

@@ -54,7 +54,8 @@ TEST(Products, TinyPanoramaMakesEveryProduct) {
   products::ProductOptions options;
   options.dense_max_disparity_px = 64;
   options.max_range_m = 18.0;  // the tiny terrain ends at 20 m
-  const products::ProductsResult r = products::makeProducts(scene.inputs, options, out, report);
+  const products::ProductsResult r = products::makeProducts(scene.inputs, options, out, &report);
+  products::mergeIntoReport(r, report);
   for (const char* f : {"points.ply", "dem.tif", "dem_sigma.tif", "ortho.tif", "dem.png", "ortho.png", "report.html"}) {
     CHECK_TEXT(exists(out + "/" + f), f);
   }
@@ -102,7 +103,8 @@ TEST(Products, BadInputIsReportedAndTheRestIsMade) {
   ground::AdjustReport report;
   products::ProductOptions options;
   options.dense_max_disparity_px = 64;
-  const products::ProductsResult r = products::makeProducts(in, options, out, report);
+  const products::ProductsResult r = products::makeProducts(in, options, out, &report);
+  products::mergeIntoReport(r, report);
   CHECK(hasWarning(r, "image " + in.images[0].stem + ": missing"));
   CHECK(hasWarning(r, "model " + in.images[3].stem + ": size"));
   CHECK(hasWarning(r, "pair " + std::to_string(in.pairs[2].id) + ": no valid dense matches"));
@@ -124,7 +126,8 @@ TEST(Products, NoValidMatchesStillWritesTheReport) {
   ground::AdjustReport report;
   products::ProductOptions options;
   options.dense_max_disparity_px = 64;
-  const products::ProductsResult r = products::makeProducts(in, options, out, report);
+  const products::ProductsResult r = products::makeProducts(in, options, out, &report);
+  products::mergeIntoReport(r, report);
   CHECK_EQUAL(0, r.pairs_matched);
   CHECK_EQUAL(0, r.points);
   CHECK(!exists(out + "/dem.tif"));

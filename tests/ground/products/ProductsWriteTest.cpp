@@ -105,7 +105,7 @@ const RefRun& referenceRun() {
     RefRun r;
     r.out = test::scratchDir("products_write_ref");
     ground::AdjustReport report;
-    r.result = products::makeProducts(scene().inputs, options(), r.out, report);
+    r.result = products::makeProducts(scene().inputs, options(), r.out, &report);
     r.files = snapshot(r.out);
     return r;
   }();
@@ -121,7 +121,7 @@ products::ProductsResult runLimited(const std::string& out, rlim_t limit) {
   small.rlim_cur = limit;
   setrlimit(RLIMIT_FSIZE, &small);
   ground::AdjustReport report;
-  products::ProductsResult r = products::makeProducts(scene().inputs, options(), out, report);
+  products::ProductsResult r = products::makeProducts(scene().inputs, options(), out, &report);
   setrlimit(RLIMIT_FSIZE, &old_limit);
   std::signal(SIGXFSZ, SIG_DFL);
   return r;
@@ -190,7 +190,7 @@ TEST(ProductsWrite, ReadOnlyFolderNamesEveryProduct) {
   const uid_t euid = geteuid();
   const bool dropped = euid == 0 && seteuid(65534) == 0;
   ground::AdjustReport report;
-  const products::ProductsResult r = products::makeProducts(scene().inputs, options(), out, report);
+  const products::ProductsResult r = products::makeProducts(scene().inputs, options(), out, &report);
   if (dropped) CHECK(seteuid(euid) == 0);
   fs::permissions(out, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
   printErrors(r);
@@ -260,7 +260,7 @@ TEST(ProductsWrite, ResidualPlotsFilledFromTheModels) {
   ground::AdjustReport report;
   products::ProductOptions o = options();
   o.write_overlays = false;
-  const products::ProductsResult r = products::makeProducts(in, o, out, report);
+  const products::ProductsResult r = products::makeProducts(in, o, out, &report);
   double ss = 0;
   for (double v : r.residuals_px) ss += v * v;
   const double expected = 0.3 * 0.3 * redundancy;

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "ground/dataset/Dataset.hpp"
-#include "ground/dataset/ModelFile.hpp"
+#include "ground/io/CameraFile.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/sim/Renderer.hpp"
 #include "ground/sim/SimGeometry.hpp"
@@ -227,7 +227,7 @@ TEST(SimImages, SameSeedSameBytesWhateverTheThreadCount) {
   CHECK(points.size() >= 20u);
   double worst = 0.0;
   for (const ImageObservation& o : observations) {
-    const CameraModel m = readModelFile(a + "/" + kTruthModelsFolder + "/" + o.image + ".cahvor");
+    const CameraModel m = io::readCameraModelFile(a + "/" + kTruthModelsFolder + "/" + o.image + ".cahvor");
     Vec2 px;
     CHECK(project(m, points[static_cast<std::size_t>(o.point)].site_m, px) == Status::kOk);
     worst = std::max(worst, (px - Vec2(o.sample_px, o.line_px)).norm());

@@ -54,7 +54,7 @@ void runTerrain(uint64_t seed, double roughness, BandFigures bands[2]) {
   ground::AdjustReport report;
   products::ProductOptions options;
   options.max_range_m = 12.5;
-  const products::ProductsResult result = products::makeProducts(scene.inputs, options, out, report);
+  const products::ProductsResult result = products::makeProducts(scene.inputs, options, out, &report);
   CHECK(result.dem.has_value());
   const DemGrid& dem = *result.dem;
   const DemGrid sigma = readDemGeoTiff(out + "/dem_sigma.tif");

@@ -199,7 +199,8 @@ TEST(FarRange, EquiParallaxBeatsKrigingAloneBeyondTwentyMetres) {
   options.write_overlays = false;
   const std::string out = test::scratchDir("far_range");
   ground::AdjustReport report;
-  const products::ProductsResult alone = products::makeProducts(scene.inputs, options, out, report);
+  const products::ProductsResult alone = products::makeProducts(scene.inputs, options, out, &report);
+  products::mergeIntoReport(alone, report);
   CHECK(alone.dem.has_value());
   for (const auto& kv : report.seconds) std::printf("\n  stage %-12s %7.2f s", kv.first.c_str(), kv.second);
 

@@ -1,0 +1,158 @@
+#include "ground/dem/SiteDem.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+
+#include "ground/cli/Cli.hpp"
+#include "ground/dem/BinnedCloud.hpp"
+#include "ground/dem/EquiParallax.hpp"
+
+namespace areomap::dem {
+
+namespace {
+
+// The two corners (south-west, north-east) of the points that `keep` accepts, as points: gridAround of
+// them is the grid around those points. Empty when it accepts none; `count` (optional) gets how many it does.
+template <class Keep>
+std::vector<DemPoint> boundingCorners(const std::vector<DemPoint>& points, const Keep& keep,
+                                      std::size_t* count = nullptr) {
+  std::vector<DemPoint> corners(2);
+  corners[0].north_m = corners[0].east_m = 1e300;
+  corners[1].north_m = corners[1].east_m = -1e300;
+  std::size_t kept = 0;
+  for (const DemPoint& p : points) {
+    if (!keep(p)) continue;
+    ++kept;
+    corners[0].north_m = std::min(corners[0].north_m, p.north_m);
+    corners[0].east_m = std::min(corners[0].east_m, p.east_m);
+    corners[1].north_m = std::max(corners[1].north_m, p.north_m);
+    corners[1].east_m = std::max(corners[1].east_m, p.east_m);
+  }
+  if (kept == 0) corners.clear();
+  if (count != nullptr) *count = kept;
+  return corners;
+}
+
+// The kriging's support rule (KrigingOptions::min_cluster_points) as a progress line.
+void supportInfo(const std::string& product, const KrigingResult& kr) {
+  char b[240];
+  std::snprintf(
+      b, sizeof b,
+      "%s: %lld binned points in clusters of fewer than %d (farther than %.3f m from the rest): their %lld "
+      "cells left empty",
+      product.c_str(), kr.isolated_points, kr.min_cluster_points, kr.max_gap_m, kr.cells_unsupported);
+  cli::info(b);
+}
+
+}  // namespace
+
+double autoDemCell(double extent_m) {
+  const double cells = 2000.0;
+  const double c = std::max(0.02, extent_m / cells);
+  for (double nice : {0.02, 0.025, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0}) {
+    if (nice >= c) return nice;
+  }
+  return 1.0;
+}
+
+SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
+  SiteDem out;
+  const auto warn = [&](const std::string& text) {
+    cli::warn(text);
+    out.warnings.push_back(text);
+  };
+  if (pts.empty()) return out;
+  const Vec3& g = o.gimbal_site_m;
+  // The grid covers the points within max_range_m (those beyond only support it).
+  const auto in_range = [&](double north_m, double east_m) {
+    return std::hypot(north_m - g.x(), east_m - g.y()) <= o.max_range_m;
+  };
+  const auto in_range_point = [&](const DemPoint& p) { return in_range(p.north_m, p.east_m); };
+  std::vector<DemPoint> box = boundingCorners(pts, in_range_point);
+  if (box.empty()) box = boundingCorners(pts, [](const DemPoint&) { return true; });  // all beyond it
+  double extent = 0;
+  for (const DemPoint& c : box) {
+    extent = std::max({extent, std::fabs(c.north_m - g.x()), std::fabs(c.east_m - g.y())});
+  }
+  const double cell = o.cell_m > 0 ? o.cell_m : autoDemCell(2 * extent);
+  DemGrid grid = gridAround(box, cell);
+  const auto all = [](const DemPoint&) { return true; };
+  const BinnedCloud binned = binPoints(pts, grid, all, o.correlation_px);
+  {
+    char b[160];
+    std::snprintf(
+        b, sizeof b,
+        "DEM noise: %.3f of the points' variance does not average down (from %lld bins seen by two pairs)",
+        binned.shared_noise_fraction, binned.overlap_bins);
+    cli::info(b);
+  }
+  EquiParallaxOptions eo;
+  eo.centre_north_m = g.x();
+  eo.centre_east_m = g.y();
+  eo.centre_up_m = -g.z();
+  eo.seam_m = o.seam_m;
+  std::vector<DemPoint> far;
+  for (const DemPoint& p : pts) {
+    if (std::hypot(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m) >
+        eo.seam_m - eo.blend_m - 1.0) {
+      far.push_back(p);
+    }
+  }
+  // The finer DEM near the rover (DESIGN.md fixes dem.tif as one grid): when dem.tif is coarser than
+  // near_cell_m, the points within near_range_m are kriged again at near_cell_m into dem_near.tif. Its
+  // points are binned here, so that the cloud is freed before any kriging.
+  std::optional<DemGrid> near_grid;
+  BinnedCloud near_binned;
+  if (o.near_cell_m > 0 && o.near_range_m > 0 && cell > o.near_cell_m * 1.001) {
+    const double reach = o.near_range_m + 0.5;  // points just beyond the edge support it
+    const auto is_near = [&](const DemPoint& p) {
+      return std::fabs(p.north_m - g.x()) <= reach && std::fabs(p.east_m - g.y()) <= reach;
+    };
+    std::size_t count = 0;
+    const std::vector<DemPoint> corners = boundingCorners(pts, is_near, &count);
+    if (count >= 16) {
+      try {
+        near_grid = gridAround(corners, o.near_cell_m);
+        near_binned = binPoints(pts, *near_grid, is_near, o.correlation_px);
+      } catch (const std::exception& e) {
+        warn(std::string("near-rover DEM not made: ") + e.what());
+      }
+    }
+  }
+  std::vector<DemPoint>().swap(pts);
+  try {
+    KrigingResult kr = krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid, o.correlation_px));
+    supportInfo("dem.tif", kr);
+    if (!far.empty()) {
+      DemGrid far_sigma;
+      const DemGrid far_dem = equiParallaxDem(far, grid, eo, &far_sigma);
+      blendFarRange(kr, far_dem, &far_sigma, eo);
+    }
+    std::vector<DemPoint>().swap(far);
+    for (int r = 0; r < grid.rows; ++r) {
+      for (int c = 0; c < grid.cols; ++c) {
+        if (in_range(grid.northOfRow(r), grid.eastOfCol(c))) continue;
+        kr.elevation.at(c, r) = kr.elevation.nodata;
+        kr.sigma.at(c, r) = kr.sigma.nodata;
+      }
+    }
+    out.dem = std::move(kr);
+  } catch (const std::exception& e) {
+    warn(std::string("DEM not made: ") + e.what());
+  }
+  if (out.dem && near_grid) {
+    try {
+      KrigingResult nk = krigeDem(near_binned.points, *near_grid,
+                                  binnedKrigingOptions(near_binned, *near_grid, o.correlation_px));
+      supportInfo("dem_near.tif", nk);
+      out.near = std::move(nk);
+    } catch (const std::exception& e) {
+      warn(std::string("near-rover DEM not made: ") + e.what());
+    }
+  }
+  return out;
+}
+
+}  // namespace areomap::dem

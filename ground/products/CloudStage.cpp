@@ -1,0 +1,181 @@
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <unordered_map>
+
+#include "ground/cli/AtomicFile.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/dense/DenseMatcher.hpp"
+#include "ground/products/ProductStages.hpp"
+
+namespace areomap::products {
+
+namespace {
+
+// Standard deviation of a dense match (pixels) for the intersection's covariance: the matcher's
+// sub-pixel precision, calibrated against truth (ground/dense/DenseMatcher.hpp).
+constexpr double kMatchSigmaPx = dense::kMatchSigmaPx;
+
+// Drops gross outliers before gridding: points whose height sigma exceeds `max_sigma_m`, and points far
+// from the median height of their polar bin (1 m in range x 2 degrees in azimuth about the gimbal centre):
+// more than max(0.3 m, 6 MAD-sigmas) away. Mismatches at depth edges and near the horizon are such points.
+// In place (the cloud of a full panorama is gigabytes).
+void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long long& dropped) {
+  std::vector<dem::DemPoint>& in = cloud.dem;
+  std::unordered_map<long long, std::vector<float>> bins;
+  auto key = [&](const dem::DemPoint& p) {
+    const double dn = p.north_m - centre.x(), de = p.east_m - centre.y();
+    const long long r = static_cast<long long>(std::floor(std::hypot(dn, de)));
+    const long long a =
+        static_cast<long long>(std::floor((std::atan2(de, dn) + M_PI) / (2.0 * M_PI / 180.0)));
+    return r * 1000 + a;
+  };
+  for (const dem::DemPoint& p : in) {
+    if (p.sigma_m <= max_sigma_m) bins[key(p)].push_back(static_cast<float>(p.elevation_m));
+  }
+  std::unordered_map<long long, std::pair<float, float>> stat;  // median, tolerance
+  for (auto& kv : bins) {
+    std::vector<float>& v = kv.second;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    const float med = v[v.size() / 2];
+    for (float& x : v) x = std::fabs(x - med);
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    const float mad = v[v.size() / 2];
+    stat[kv.first] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
+  }
+  std::unordered_map<long long, std::vector<float>>().swap(bins);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const dem::DemPoint& p = in[i];
+    if (p.sigma_m > max_sigma_m) continue;
+    const auto& st = stat[key(p)];
+    if (std::fabs(p.elevation_m - st.first) > st.second) continue;
+    if (kept != i) {
+      in[kept] = p;
+      cloud.extra[kept] = cloud.extra[i];
+    }
+    ++kept;
+  }
+  dropped = static_cast<long long>(in.size() - kept);
+  in.resize(kept);
+  cloud.extra.resize(kept);
+}
+
+}  // namespace
+
+Cloud denseCloud(Context& ctx) {
+  // Tie observations per image and point: pixels for the parallax ranges.
+  std::map<std::pair<int, int>, Vec2> tie_px;  // (image, point) -> pixel
+  for (const ProductTie& t : ctx.in.ties) tie_px[{t.image, t.point}] = t.pixel_px;
+  Cloud cloud;
+  {
+    // Reserved for the largest possible cloud (address space only: pages are touched as points arrive), so
+    // that growing never copies gigabytes or doubles the footprint.
+    std::size_t most = 0;
+    for (const ProductPair& pair : ctx.in.pairs) {
+      if (pair.left >= 0 && pair.left < static_cast<int>(ctx.in.images.size()))
+        most += ctx.in.images[pair.left].grey.total();
+    }
+    cloud.reserve(most);
+  }
+  double t_rect = 0, t_dense = 0, t_tri = 0;
+  std::set<int> sols;
+  {
+    cli::Progress progress("dense matching", ctx.in.pairs.size());
+    for (const ProductPair& pair : ctx.in.pairs) {
+      progress.step();
+      const std::string name = "pair " + std::to_string(pair.id);
+      if (pair.left < 0 || pair.left >= static_cast<int>(ctx.in.images.size())) continue;
+      const ProductImage& L = ctx.in.images[pair.left];
+      const bool left_ok = usable(ctx, L);
+      if (left_ok) sols.insert(pair.sol);
+      if (pair.right < 0 || pair.right >= static_cast<int>(ctx.in.images.size())) continue;
+      const ProductImage& R = ctx.in.images[pair.right];
+      const bool right_ok = usable(ctx, R);
+      if (!left_ok || !right_ok) {
+        ctx.warn(name + ": not matched (image or model unusable)");
+        continue;
+      }
+      std::vector<Vec2> lp, rp;
+      for (const auto& kv : tie_px) {
+        if (kv.first.first != pair.left) continue;
+        auto it = tie_px.find({pair.right, kv.first.second});
+        if (it == tie_px.end()) continue;
+        lp.push_back(kv.second);
+        rp.push_back(it->second);
+      }
+      dense::PairCloudOptions popt;
+      popt.max_disparity_px = ctx.options.dense_max_disparity_px;
+      popt.match_sigma_px = kMatchSigmaPx;
+      popt.max_range_m = ctx.options.max_range_m;
+      const dense::PairCloud pc = dense::pairCloud(sized(L), sized(R), L.grey, R.grey, lp, rp, pair.id, popt);
+      t_rect += pc.seconds_rectify;
+      t_dense += pc.seconds_dense;
+      if (!pc.error.empty()) {
+        ctx.warn(name + ": " + pc.error);
+        continue;
+      }
+      const double t0 = cli::nowSeconds();
+      long long kept = 0;
+      for (const dense::CloudPoint& p : pc.points) {
+        const double range = (p.site_m - ctx.in.gimbal_site_m).head<2>().norm();
+        if (range > pc.support_range_m) continue;
+        cloud.push(p);
+        ++kept;
+      }
+      t_tri += pc.seconds_triangulate + cli::nowSeconds() - t0;
+      {
+        char b[200];
+        std::snprintf(b, sizeof b,
+                      "%s: %zu ties, %.1f %% matched, %lld triangulated (%lld geometry, %lld residual "
+                      "rejected), %lld kept",
+                      name.c_str(), pc.ties, 100 * pc.matched_fraction, pc.stats.triangulated,
+                      pc.stats.rejected_geometry, pc.stats.rejected_residual, kept);
+        cli::info(b);
+      }
+      if (kept == 0) {
+        ctx.warn(name + ": no valid matches triangulated");
+        continue;
+      }
+      ++ctx.result.pairs_matched;
+    }
+    progress.done();
+  }
+  ctx.result.seconds.emplace_back("rectify", t_rect);
+  ctx.result.seconds.emplace_back("dense", t_dense);
+  if (!cloud.empty()) {
+    long long dropped = 0;
+    dropOutliers(cloud, ctx.in.gimbal_site_m, ctx.options.max_point_sigma_m, dropped);
+    cli::info("dense cloud: " + std::to_string(cloud.size()) + " points (" + std::to_string(dropped) +
+              " outliers dropped)");
+  }
+  ctx.result.seconds.emplace_back("triangulate", t_tri);
+  ctx.result.points = static_cast<long long>(cloud.size());
+  ctx.meta.site = ctx.in.site;
+  ctx.meta.sols.assign(sols.begin(), sols.end());
+
+  if (!cloud.empty()) {
+    try {
+      // Thinned evenly to at most ply_max_points (a full navcam panorama has ~1.7e7 matches, 0.7 GB).
+      const std::size_t stride =
+          std::max<std::size_t>(1, (cloud.size() + ctx.options.ply_max_points - 1) /
+                                       std::max<std::size_t>(1, ctx.options.ply_max_points));
+      // Streamed from the cloud (a thinned copy would be 0.24 GB at the peak of the pass).
+      const std::size_t count = (cloud.size() + stride - 1) / stride;
+      cli::writeViaTemporary(ctx.out_dir + "/points.ply", [&](const std::string& tmp) {
+        dense::writePly(
+            tmp, count, [&cloud, stride](std::size_t i) { return cloud.cloudPoint(i * stride); },
+            "areomap " + ctx.in.site + " site frame; every " + std::to_string(stride) + ". dense point");
+      });
+      ctx.result.files.push_back(ctx.out_dir + "/points.ply");
+    } catch (const std::exception& e) {
+      ctx.writeFailed(e);
+    }
+  } else {
+    ctx.warn("no dense points: no points.ply, dem.tif or ortho.tif");
+  }
+
+  return cloud;
+}
+
+}  // namespace areomap::products
