@@ -1,17 +1,14 @@
 #include "ground/dataset/DemRaster.hpp"
 
 #include <cmath>
-#include <filesystem>
 #include <mutex>
 
 #include <gdal_priv.h>
 
+#include "ground/raster/RasterFiles.hpp"
+
 namespace areomap {
 namespace {
-
-constexpr const char* kSiteFrameWkt =
-    "LOCAL_CS[\"areomap site frame (east = +Y, north = +X, up = -Z)\",LOCAL_DATUM[\"site\",0],"
-    "UNIT[\"metre\",1],AXIS[\"Easting\",EAST],AXIS[\"Northing\",NORTH]]";
 
 void registerOnce() {
   static std::once_flag flag;
@@ -25,31 +22,15 @@ void writeDemGeoTiff(const std::string& path, const DemGrid& grid) {
     throw DatasetError(path, "grid", "empty grid or values of the wrong size");
   }
   if (!(grid.cell_m > 0.0)) throw DatasetError(path, "cell_m", "cell size must be positive");
-  registerOnce();
-  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
-  if (driver == nullptr) throw DatasetError(path, "", "GDAL has no GTiff driver");
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  char** options = nullptr;
-  options = CSLSetNameValue(options, "COMPRESS", "DEFLATE");
-  options = CSLSetNameValue(options, "PREDICTOR", "3");
-  options = CSLSetNameValue(options, "TILED", "YES");
-  GDALDataset* ds = driver->Create(path.c_str(), grid.cols, grid.rows, 1, GDT_Float32, options);
-  CSLDestroy(options);
-  if (ds == nullptr) throw DatasetError(path, "", std::string("cannot create GeoTIFF: ") + CPLGetLastErrorMsg());
-  double transform[6] = {grid.east0_m, grid.cell_m, 0.0, grid.north0_m, 0.0, -grid.cell_m};
-  ds->SetGeoTransform(transform);
-  // A local engineering frame (site metres): with it the GeoTIFF keys are written, and so is
-  // GTRasterTypeGeoKey = PixelIsArea.
-  ds->SetProjection(kSiteFrameWkt);
-  ds->SetMetadataItem(GDALMD_AREA_OR_POINT, GDALMD_AOP_AREA);
-  GDALRasterBand* band = ds->GetRasterBand(1);
-  band->SetNoDataValue(grid.nodata);
-  const CPLErr err = band->RasterIO(GF_Write, 0, 0, grid.cols, grid.rows, const_cast<float*>(grid.values.data()),
-                                    grid.cols, grid.rows, GDT_Float32, 0, 0);
-  GDALClose(ds);
-  if (err != CE_None) throw DatasetError(path, "", std::string("write failed: ") + CPLGetLastErrorMsg());
+  const raster::Geometry g{grid.cols, grid.rows, grid.east0_m, grid.north0_m, grid.cell_m};
+  try {
+    raster::writeGeoTiff(path, g, grid.values.data(), grid.nodata);
+  } catch (const cli::InputError& e) {
+    // "<path>: <what>" as a DatasetError names the file the same way.
+    const std::string what = e.what();
+    const std::string prefix = path + ": ";
+    throw DatasetError(path, "", what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what);
+  }
 }
 
 DemGrid readDemGeoTiff(const std::string& path) {

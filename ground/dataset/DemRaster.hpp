@@ -27,7 +27,8 @@ struct DemGrid {
   double eastOfCol(int col) const { return east0_m + (col + 0.5) * cell_m; }
 };
 
-// Writes a GeoTIFF (float32, one band, nodata, AREA_OR_POINT=Area). Throws DatasetError on failure.
+// Writes a GeoTIFF (float32, one band, nodata, AREA_OR_POINT=Area; ground/raster writes it). Throws
+// DatasetError on failure.
 void writeDemGeoTiff(const std::string& path, const DemGrid& grid);
 // Reads band 1 of a north-up GeoTIFF into a DemGrid (nodata from the file, else the default).
 DemGrid readDemGeoTiff(const std::string& path);

@@ -13,6 +13,7 @@
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
+#include "ground/raster/RasterFiles.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
 #include "msgs/adapters/MessageAdapters.hpp"
@@ -330,10 +331,7 @@ Dataset StreamCollector::writeDataset(const std::string& dir) const {
   d.name = panorama_.empty() ? "stream" : panorama_;
   auto writeSide = [&](const ReceivedImage& image) {
     const std::string rel = "images/" + image.stem + ".png";
-    cli::writeViaTemporary(dir + "/" + rel, [&](const std::string& tmp) {
-      if (!cv::imwrite(tmp + ".png", image.pixels)) throw cli::InputError(tmp, "image", "cannot write");
-      std::filesystem::rename(tmp + ".png", tmp);
-    });
+    raster::writePng(dir + "/" + rel, image.pixels);
     const std::string model_rel = "models/" + image.stem + ".cahvor";
     io::writeCameraModelFile(dir + "/" + model_rel, image.model);
     return makeImageRef(dir, rel, model_rel);

@@ -6,14 +6,12 @@
 #include <optional>
 #include <stdexcept>
 
-#include <gdal_priv.h>
-#include <opencv2/imgcodecs.hpp>
-
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/dem/SiteDem.hpp"
 #include "ground/dense/DenseMatcher.hpp"
 #include "ground/products/ProductStages.hpp"
+#include "ground/raster/RasterFiles.hpp"
 
 namespace areomap::products {
 
@@ -28,13 +26,8 @@ void Context::writeFailed(const std::exception& e) {
 }
 
 void writePng(Context& ctx, const std::string& path, const cv::Mat& image) {
-  std::vector<unsigned char> bytes;
-  if (!cv::imencode(".png", image, bytes)) {
-    ctx.warn(path + ": PNG encoding failed");
-    return;
-  }
   try {
-    cli::writeFileAtomic(path, bytes.data(), bytes.size());
+    raster::writePng(path, image);
     ctx.result.files.push_back(path);
   } catch (const std::exception& e) {
     ctx.writeFailed(e);
@@ -97,23 +90,11 @@ std::optional<double> rmseAgainst(const DemGrid& g, const DemGrid& truth) {
 
 void writeOrthoTif(const std::string& path, const ortho::OrthoResult& o, const dem::DemMetadata& meta) {
   cli::writeViaTemporary(path, [&](const std::string& tmp) {
-    GDALAllRegister();
-    GDALDriver* drv = GetGDALDriverManager()->GetDriverByName("GTiff");
-    if (drv == nullptr) throw std::runtime_error(path + ": GDAL GTiff driver missing");
-    GDALDataset* ds = drv->Create(tmp.c_str(), o.grid.cols, o.grid.rows, 1, GDT_Byte, nullptr);
-    if (ds == nullptr) throw std::runtime_error(path + ": cannot create");
-    double gt[6] = {o.grid.east0_m, o.grid.cell_m, 0.0, o.grid.north0_m, 0.0, -o.grid.cell_m};
-    ds->SetGeoTransform(gt);
-    ds->SetMetadataItem("AREA_OR_POINT", "Area");
-    GDALRasterBand* band = ds->GetRasterBand(1);
-    band->SetNoDataValue(0.0);
-    cv::Mat img = o.image.isContinuous() ? o.image : o.image.clone();
-    const CPLErr err = band->RasterIO(GF_Write, 0, 0, o.grid.cols, o.grid.rows, img.data, o.grid.cols, o.grid.rows,
-                                      GDT_Byte, 0, 0);
-    GDALClose(ds);
-    if (err != CE_None) throw std::runtime_error(path + ": write failed");
-    dem::tagSiteRaster(tmp, meta, "grey value (8-bit), 0 = no data");
-    dem::verifyRaster(tmp, o.grid.cols, o.grid.rows, false, img.data);
+    const cv::Mat img = o.image.isContinuous() ? o.image : o.image.clone();
+    const raster::Geometry g{o.grid.cols, o.grid.rows, o.grid.east0_m, o.grid.north0_m, o.grid.cell_m};
+    raster::writeGeoTiff(tmp, g, img.data, 0);
+    raster::tagSiteRaster(tmp, meta, "grey value (8-bit), 0 = no data");
+    raster::verifyRaster(tmp, o.grid.cols, o.grid.rows, false, img.data);
   });
 }
 

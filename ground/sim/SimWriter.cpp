@@ -11,6 +11,7 @@
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/sim/Renderer.hpp"
+#include "ground/raster/RasterFiles.hpp"
 
 namespace areomap::sim {
 namespace {
@@ -88,13 +89,11 @@ void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::st
     const RenderedImage image = renderImage(terrain, g.config, cams[i]->truth, static_cast<int>(i));
     const cv::Mat view(image.height, image.width, CV_8UC1, const_cast<uint8_t*>(image.pixels.data()));
     const std::string path = out + "/images/" + cams[i]->stem + ".png";
-    bool written = false;
     try {
-      written = cv::imwrite(path, view, png_params);
-    } catch (const cv::Exception& e) {
+      raster::writePng(path, view, png_params);
+    } catch (const std::exception& e) {
       throw DatasetError(path, "", std::string("cannot write PNG: ") + e.what());
     }
-    if (!written) throw DatasetError(path, "", "cannot write PNG");
     if (options.on_image) options.on_image(static_cast<int>(i + 1), static_cast<int>(cams.size()));
   }
 }

@@ -11,6 +11,7 @@
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/io/ImageFile.hpp"
+#include "ground/raster/RasterFiles.hpp"
 
 namespace areomap {
 namespace {
@@ -147,7 +148,7 @@ void writeOverlays(const std::string& out_dir, const Dataset& dataset, const Tie
         cv::drawMarker(colour, p, c, cv::MARKER_CROSS, 9, 1);
       }
       const std::string path = dir + "/" + ref->stem + ".png";
-      if (!cv::imwrite(path, colour)) throw cli::InputError(path, "overlay", "cannot write");
+      raster::writePng(path, colour);
     }
   }
 }
