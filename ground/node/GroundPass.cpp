@@ -156,16 +156,13 @@ std::optional<double> eoDifferencePx(const eo_solution_t& rover, const Network& 
   return alignedDifferencePx(est, ref, gimbal_m);
 }
 
-GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& options, const StreamCounts* stream,
-                               const RoverInputs* rover) {
-  const std::string& out = options.out_dir;
-  fs::create_directories(out);
-  GroundPassResult result;
-  AdjustReport report;
-  for (const std::string& note : dataset.notes) report.warnings.push_back(note);
+namespace {
 
-  // 1. Tie points: the rover's when they arrived complete, else the rover's matcher on the ground's images.
-  TieNetwork network;
+// Step 1: tie points -- the rover's when they arrived complete, else the rover's matcher on the ground's
+// images -- and the network with the rig constraints.
+TieRun tiePointsStage(const Dataset& dataset, const GroundPassOptions& options, const RoverInputs* rover,
+                      TieNetwork& network, GroundPassResult& result, AdjustReport& report) {
+  const std::string& out = options.out_dir;
   TieRun run;
   std::string why_not_rover = "not used (--no-rover-ties)";
   if (options.use_rover_ties) {
@@ -186,7 +183,6 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
   writeOrRecord(result, report, [&] { writeTiePoints(out, run); });
   report.seconds.emplace_back("tie_points", run.seconds);
   Network& net = *network.net;
-  const std::vector<std::string>& stems = network.stem_of_image;
   std::vector<std::string> notes;
   setRigConstraints(dataset, network.sol_of_index, net, notes);
   report.estimated = notes;
@@ -195,25 +191,14 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
   result.points = net.pointCount();
   result.intra_observations = run.intra_observations;
   result.inter_observations = run.inter_observations;
+  return run;
+}
 
-  // Truth (true models) when there is any.
-  const std::string truth_root = truthRoot(dataset, options.truth_dir);
-  NetworkTruth truth;
-  if (!truth_root.empty()) {
-    Dataset truth_dataset = dataset;
-    truth_dataset.root = truth_root;
-    NetworkSource source;
-    source.stems = stems;
-    truth = loadNetworkTruth(truth_dataset, source, false);
-    if (!truth.available) report.warnings.push_back("truth: a true model is missing in " + truth_root + "/truth/models.");
-  }
+// Step 2: the fast adjustment (rejection, figures), then the integrated reference from the a-priori EO;
+// the report's precision, rig and truth figures of the integrated solution.
+AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& options, Network& net,
+                          const NetworkTruth& truth, GroundPassResult& result, AdjustReport& report) {
   const Vec3 gimbal = net.rig.gimbal_m[0];
-  if (truth.available) {
-    result.truth_eo_before_px =
-        truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, gimbal, true, kNominalRange_m).eo_px;
-  }
-
-  // 2. Fast adjustment (rejection, figures), then the integrated reference from the a-priori EO.
   if (options.progress) {
     cli::info("fast adjustment: " + std::to_string(net.imageCount()) + " images, " + std::to_string(net.pointCount()) +
               " points");
@@ -282,12 +267,14 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
     report.warnings.push_back("truth.ground_m is not given: automatic tie points have no true positions.");
   }
 
-  // 3. Products.
-  t0 = cli::nowSeconds();
-  std::vector<std::string> model_errors;
-  writeAdjustedModels(out + "/models", net, network.apriori_of_image, stems, &model_errors);
-  for (const std::string& e : model_errors) recordWriteError(result, report, e);
-  writeOrRecord(result, report, [&] { writeEoCsv(out + "/eo.csv", net, stems); });
+  return fast;
+}
+
+// The rover's part of the products: rover_models/, rover_tiepoints.csv, its EO against the ground's, its
+// status figures (the report's "rover" object) and warnings.
+json roverFigures(const RoverInputs* rover, const Network& net, const std::vector<std::string>& stems,
+                  const std::string& out, GroundPassResult& result, AdjustReport& report) {
+  const Vec3 gimbal = net.rig.gimbal_m[0];
   json rover_json = json::object();
   if (rover != nullptr && rover->eo) {
     fs::create_directories(out + "/rover_models");
@@ -341,6 +328,53 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
     for (const std::string& w : rover->warnings) report.warnings.push_back(w);
     if (!rover->eo && !rover->status) report.warnings.push_back("Nothing arrived from the rover: no rover figures.");
   }
+  return rover_json;
+}
+
+}  // namespace
+
+GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& options,
+                               const StreamCounts* stream, const RoverInputs* rover) {
+  const std::string& out = options.out_dir;
+  fs::create_directories(out);
+  GroundPassResult result;
+  AdjustReport report;
+  for (const std::string& note : dataset.notes) report.warnings.push_back(note);
+
+  // 1. Tie points and the network.
+  TieNetwork network;
+  const TieRun run = tiePointsStage(dataset, options, rover, network, result, report);
+  Network& net = *network.net;
+  const std::vector<std::string>& stems = network.stem_of_image;
+
+  // Truth (true models) when there is any.
+  const std::string truth_root = truthRoot(dataset, options.truth_dir);
+  NetworkTruth truth;
+  if (!truth_root.empty()) {
+    Dataset truth_dataset = dataset;
+    truth_dataset.root = truth_root;
+    NetworkSource source;
+    source.stems = stems;
+    truth = loadNetworkTruth(truth_dataset, source, false);
+    if (!truth.available)
+      report.warnings.push_back("truth: a true model is missing in " + truth_root + "/truth/models.");
+  }
+  if (truth.available) {
+    result.truth_eo_before_px = truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr,
+                                            net.rig.gimbal_m[0], true, kNominalRange_m)
+                                    .eo_px;
+  }
+
+  // 2. The fast and the integrated adjustment.
+  const AdjustOutcome fast = adjustStage(dataset, options, net, truth, result, report);
+
+  // 3. Products: the adjusted models, eo.csv, the rover's part, then the products hook and report.json.
+  const double t0 = cli::nowSeconds();
+  std::vector<std::string> model_errors;
+  writeAdjustedModels(out + "/models", net, network.apriori_of_image, stems, &model_errors);
+  for (const std::string& e : model_errors) recordWriteError(result, report, e);
+  writeOrRecord(result, report, [&] { writeEoCsv(out + "/eo.csv", net, stems); });
+  const json rover_json = roverFigures(rover, net, stems, out, result, report);
   report.seconds.emplace_back("write_adjustment", cli::nowSeconds() - t0);
   if (options.products_hook) {
     ProductContext context{&dataset,         out,     &net,       &stems, &network.apriori_of_image,
