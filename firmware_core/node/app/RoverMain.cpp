@@ -285,10 +285,9 @@ bool awaitPipeline(areomap::platform::Transport* output, const areomap::platform
   return true;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options options;
+// The command line into `options`; -1 when the node is to run, else the exit code (0 for --help, 2 for a
+// usage error, with the message).
+int parseOptions(int argc, char** argv, Options& options) {
   for (int i = 1; i < argc; ++i) {
     const char* a = argv[i];
     auto value = [&](const char* name) -> const char* {
@@ -322,80 +321,70 @@ int main(int argc, char** argv) {
     }
   }
   if (options.lcm_url == nullptr) return usageError("--lcm URL is required");
-  const areomap::platform::UrlScheme scheme = areomap::platform::urlScheme(options.lcm_url);
-  if (scheme == areomap::platform::UrlScheme::kInvalid) return usageError("--lcm: unknown URL scheme");
-  const bool replay = scheme == areomap::platform::UrlScheme::kFile;
-  if (replay) options.exit_at_end = true;
+  return -1;
+}
 
-  std::signal(SIGALRM, onStopWatchdog);
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
-  areomap::platform::PosixClock clock;
-  areomap::platform::ArenaJpegDecoder jpeg(g_jpeg_arena, sizeof(g_jpeg_arena));
-  if (!areomap::ok(jpeg.open())) {
-    std::fprintf(stderr, "areomap-rover: the JPEG decoder did not start: %s\n", jpeg.lastError());
-    return 1;
-  }
-  // Input.
-  areomap::platform::LcmLogReplay log(g_replay_buffer, sizeof(g_replay_buffer));
+// The node's input (a file:// log replayed from a static buffer, or LCM) and output (LCM, or nowhere).
+struct Transports {
+  areomap::platform::LcmLogReplay log{g_replay_buffer, sizeof(g_replay_buffer)};
 #ifndef AREOMAP_NO_LCM_RUNTIME
   areomap::platform::LcmTransport lcm_in;
   areomap::platform::LcmTransport lcm_out;
 #endif
   areomap::platform::Transport* input = nullptr;
   areomap::platform::Transport* output = nullptr;
+};
+
+// Opens the input and output and subscribes to the stereo pairs; false (the reason on stderr) when it cannot.
+bool openTransports(const Options& options, bool replay, Transports& t) {
   if (replay) {
-    if (!areomap::ok(log.open(options.lcm_url))) {
+    if (!areomap::ok(t.log.open(options.lcm_url))) {
       std::fprintf(stderr, "areomap-rover: %s: cannot read the log\n", options.lcm_url);
-      return 1;
+      return false;
     }
-    input = &log;
+    t.input = &t.log;
   } else {
 #ifndef AREOMAP_NO_LCM_RUNTIME
-    if (!areomap::ok(lcm_in.open(options.lcm_url))) {
+    if (!areomap::ok(t.lcm_in.open(options.lcm_url))) {
       std::fprintf(stderr, "areomap-rover: %s: LCM cannot open this URL (no multicast route?)\n", options.lcm_url);
-      return 1;
+      return false;
     }
-    input = &lcm_in;
-    output = &lcm_in;
+    t.input = &t.lcm_in;
+    t.output = &t.lcm_in;
 #else
     std::fprintf(stderr, "areomap-rover: %s: this build has no LCM runtime; use a file:// log\n", options.lcm_url);
-    return 1;
+    return false;
 #endif
   }
   if (options.publish_url != nullptr) {
 #ifndef AREOMAP_NO_LCM_RUNTIME
-    if (!areomap::ok(lcm_out.open(options.publish_url))) {
+    if (!areomap::ok(t.lcm_out.open(options.publish_url))) {
       std::fprintf(stderr, "areomap-rover: %s: LCM cannot open the publish URL\n", options.publish_url);
-      return 1;
+      return false;
     }
-    output = &lcm_out;
+    t.output = &t.lcm_out;
 #else
     std::fprintf(stderr, "areomap-rover: --publish: this build has no LCM runtime\n");
-    return 1;
+    return false;
 #endif
   }
-  if (!areomap::ok(input->subscribe(areomap::channels::kStereoPair, onStereoPair, nullptr))) {
+  if (!areomap::ok(t.input->subscribe(areomap::channels::kStereoPair, onStereoPair, nullptr))) {
     std::fprintf(stderr, "areomap-rover: cannot subscribe to %s\n", areomap::channels::kStereoPair);
-    return 1;
+    return false;
   }
-  OutboxTransport outbox;
-  areomap::RoverOptions rover_options;
-  rover_options.log_to_stderr = !options.quiet;
-  g_node.start(outbox, jpeg, clock, rover_options);
-  g_node.setExtraStaticBytes(static_cast<int64_t>(sizeof(g_inbox_storage) + sizeof(g_outbox_storage) +
-                                                  sizeof(g_replay_buffer) + sizeof(g_jpeg_arena)));
-  std::fprintf(stderr, "areomap-rover: listening on %s (static memory %lld bytes, message buffers reserved at "
-               "start-up %lld bytes)\n", options.lcm_url, static_cast<long long>(g_node.staticBytes()),
-               static_cast<long long>(g_node.reservedBytes()));
+  return true;
+}
 
-  std::thread pipeline(pipelineLoop, std::cref(options), std::cref(clock), std::ref(jpeg));
+// The transport thread's loop: input into the inbox, the outbox out, the status heartbeat, the stop and
+// the end of the input; joins the pipeline thread. True when the input failed (a log that cannot be read).
+bool transportLoop(const Options& options, bool replay, Transports& t, const areomap::platform::Clock& clock,
+                   std::thread& pipeline) {
   const int64_t start_us = clock.monotonicUtime();
   bool input_failed = false;
   for (;;) {
     Status s = Status::kOk;
     if (!replay || !g_input_done) {
-      s = input->handle(kHandleTimeoutMs);
+      s = t.input->handle(kHandleTimeoutMs);
       if (s == Status::kEndOfStream ||
           (replay && s != Status::kOk && s != Status::kCapacityExceeded && s != Status::kTimeout)) {
         if (s != Status::kEndOfStream) {
@@ -409,10 +398,10 @@ int main(int argc, char** argv) {
     } else {
       std::this_thread::sleep_for(std::chrono::milliseconds(kHandleTimeoutMs));
     }
-    drainOutbox(output, clock);
+    drainOutbox(t.output, clock);
     if (g_last_status_bytes > 0 &&
         clock.monotonicUtime() - g_last_status_us >= static_cast<int64_t>(options.heartbeat_s * 1e6)) {
-      publishStatus(output, clock);
+      publishStatus(t.output, clock);
     }
     if (options.max_seconds > 0.0 && clock.monotonicUtime() - start_us > static_cast<int64_t>(options.max_seconds * 1e6))
       g_stop.store(true);
@@ -428,16 +417,21 @@ int main(int argc, char** argv) {
       join = join || (g_input_done && g_inbox.records() == 0 && (finished || replay));
     }
     if (!join) continue;
-    if (!awaitPipeline(output, clock)) {
+    if (!awaitPipeline(t.output, clock)) {
       writeStderr("areomap-rover: stopped while the pipeline was busy with a pair for longer than the grace "
                   "time; exiting without it\n");
       std::fflush(nullptr);
       std::_Exit(1);
     }
     pipeline.join();
-    drainOutbox(output, clock);  // last publications
+    drainOutbox(t.output, clock);  // last publications
     break;
   }
+  return input_failed;
+}
+
+// The run's figures at exit (stderr).
+void printSummary() {
   const areomap::RoverCounters& c = g_node.counters();
   std::fprintf(stderr,
                "areomap-rover: pairs seen %d, accepted %d, rejected %d; gaps %d, duplicates %d, reordered %d; "
@@ -457,5 +451,44 @@ int main(int argc, char** argv) {
                c.stage_seconds[static_cast<int>(areomap::RoverStage::kAdjust)] / pairs,
                c.stage_seconds[static_cast<int>(areomap::RoverStage::kPublish)] / pairs,
                static_cast<unsigned long long>(g_inbox_refused));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  const int parsed = parseOptions(argc, argv, options);
+  if (parsed >= 0) return parsed;
+  const areomap::platform::UrlScheme scheme = areomap::platform::urlScheme(options.lcm_url);
+  if (scheme == areomap::platform::UrlScheme::kInvalid) return usageError("--lcm: unknown URL scheme");
+  const bool replay = scheme == areomap::platform::UrlScheme::kFile;
+  if (replay) options.exit_at_end = true;
+
+  std::signal(SIGALRM, onStopWatchdog);
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  areomap::platform::PosixClock clock;
+  areomap::platform::ArenaJpegDecoder jpeg(g_jpeg_arena, sizeof(g_jpeg_arena));
+  if (!areomap::ok(jpeg.open())) {
+    std::fprintf(stderr, "areomap-rover: the JPEG decoder did not start: %s\n", jpeg.lastError());
+    return 1;
+  }
+  Transports transports;
+  if (!openTransports(options, replay, transports)) return 1;
+  OutboxTransport outbox;
+  areomap::RoverOptions rover_options;
+  rover_options.log_to_stderr = !options.quiet;
+  g_node.start(outbox, jpeg, clock, rover_options);
+  g_node.setExtraStaticBytes(static_cast<int64_t>(sizeof(g_inbox_storage) + sizeof(g_outbox_storage) +
+                                                  sizeof(g_replay_buffer) + sizeof(g_jpeg_arena)));
+  std::fprintf(stderr,
+               "areomap-rover: listening on %s (static memory %lld bytes, message buffers reserved at "
+               "start-up %lld bytes)\n",
+               options.lcm_url, static_cast<long long>(g_node.staticBytes()),
+               static_cast<long long>(g_node.reservedBytes()));
+
+  std::thread pipeline(pipelineLoop, std::cref(options), std::cref(clock), std::ref(jpeg));
+  const bool input_failed = transportLoop(options, replay, transports, clock, pipeline);
+  printSummary();
   return input_failed ? 1 : 0;
 }
