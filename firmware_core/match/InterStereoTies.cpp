@@ -261,26 +261,17 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
 bool PanoramaMatcher::transferInPair(const ImageView& near_image, const ImageView& far_image,
                                      const CameraModel& near_model, const CameraModel& far_model,
                                      const Vec2& near_px, double range_m, Vec2& far_px, double& score) {
-  NccTemplate near_t, far_t;
+  NccTemplate near_t;
   if (!extractTemplateAt(near_image, near_px.x(), near_px.y(), near_t) || !near_t.textured) return false;
   const double lo = std::fmax(stereo.min_range_m, range_m / kTransferRangeFactor);
   const double hi = std::fmin(stereo.max_range_m, range_m * kTransferRangeFactor);
   if (!(lo < hi)) return false;
-  EpipolarCurve& curve = stereo_workspace_.curve;
-  if (!ok(epipolarCurve(near_model, far_model, near_px, lo, hi, far_image.width, far_image.height, curve))) {
-    return false;
-  }
-  const SearchHit hit = searchAlongCurve(near_t, far_image, curve, stereo.band_px, stereo_workspace_.search);
-  if (hit.score < stereo.min_ncc || hit.second > stereo.max_second_ratio * hit.score) return false;
-  // Left-right: the far window searched back along its own curve in the near image.
-  if (!extractTemplate(far_image, hit.x, hit.y, far_t) || !far_t.textured) return false;
-  if (!ok(epipolarCurve(far_model, near_model, Vec2(hit.x, hit.y), lo, hi, near_image.width,
-                        near_image.height, curve))) {
-    return false;
-  }
-  const SearchHit back = searchAlongCurve(far_t, near_image, curve, stereo.band_px, stereo_workspace_.search);
-  if (back.score < stereo.min_ncc || std::fabs(back.x - near_px.x()) > stereo.lr_tolerance_px + 0.5 ||
-      std::fabs(back.y - near_px.y()) > stereo.lr_tolerance_px + 0.5) {
+  // near_px is sub-pixel, the back match an integer pixel: half a pixel more than the intra-stereo check.
+  SearchHit hit;
+  Vec2 curve_far_px;
+  if (matchAlongCurve(near_t, near_image, far_image, near_model, far_model, near_px, lo, hi, stereo,
+                      stereo.lr_tolerance_px + 0.5, stereo_workspace_, hit,
+                      curve_far_px) != CurveMatchStage::kMatched) {
     return false;
   }
   double x = 0.0, y = 0.0;

@@ -5,6 +5,11 @@
 namespace areomap {
 
 namespace {
+// Bilinear interpolation between two neighbouring rows at (r0[0] + fx, rows r0 and r1, fy).
+inline double bilinear(const uint8_t* r0, const uint8_t* r1, double fx, double fy) {
+  return (1.0 - fy) * ((1.0 - fx) * r0[0] + fx * r0[1]) + fy * ((1.0 - fx) * r1[0] + fx * r1[1]);
+}
+
 void finishTemplate(NccTemplate& t) {
   int64_t s = 0, s2 = 0;
   for (int32_t i = 0; i < kNccPixels; ++i) {
@@ -46,9 +51,7 @@ bool extractTemplateAt(const ImageView& image, double cx, double cy, NccTemplate
     const uint8_t* r0 = image.row(y0 - kNccRadius + dy) + (x0 - kNccRadius);
     const uint8_t* r1 = r0 + image.stride;
     for (int32_t dx = 0; dx < kNccSide; ++dx) {
-      const double v =
-          (1.0 - fy) * ((1.0 - fx) * r0[dx] + fx * r0[dx + 1]) + fy * ((1.0 - fx) * r1[dx] + fx * r1[dx + 1]);
-      t.pixels[dy * kNccSide + dx] = static_cast<uint8_t>(std::lround(v));
+      t.pixels[dy * kNccSide + dx] = static_cast<uint8_t>(std::lround(bilinear(r0 + dx, r1 + dx, fx, fy)));
     }
   }
   finishTemplate(t);
@@ -103,7 +106,7 @@ double nccWarpedAt(const NccTemplate& t, const ImageView& image, double cx, doub
       const double fx = x - x0, fy = y - y0;
       const uint8_t* r0 = image.row(y0) + x0;
       const uint8_t* r1 = image.row(y0 + 1) + x0;
-      const double value = (1.0 - fy) * ((1.0 - fx) * r0[0] + fx * r0[1]) + fy * ((1.0 - fx) * r1[0] + fx * r1[1]);
+      const double value = bilinear(r0, r1, fx, fy);
       const double tv = t.pixels[(v + kNccRadius) * kNccSide + (u + kNccRadius)];
       s += value;
       s2 += value * value;

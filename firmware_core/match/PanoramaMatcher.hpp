@@ -173,8 +173,8 @@ class PanoramaMatcher {
   Prediction predictions_[kMaxStoredTiesPerPair];
   Candidate candidates_[kMaxStoredTiesPerPair];
   bool inlier_[kMaxStoredTiesPerPair];
-  Vec2 near_px_[kMaxStoredTiesPerPair];  // per stored tie of the source pair: its observation in the near
-                                         // image
+  // Per stored tie of the source pair in interTies: its observation in the near image, when it has one.
+  Vec2 near_px_[kMaxStoredTiesPerPair];
   bool near_ok_[kMaxStoredTiesPerPair];
   // Inter-stereo candidate grids: corner cells (at most kCandidateGridSide^2) then band cells (as many; 32 x 32
   // cells of 32 px on a 1024^2 frame), the best verified unselected match per cell, sorted towards the

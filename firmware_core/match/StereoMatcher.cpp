@@ -1,7 +1,6 @@
 #include "firmware_core/match/StereoMatcher.hpp"
 
 #include <cmath>
-#include <cstdlib>
 
 #include "firmware_core/match/Ncc.hpp"
 
@@ -21,6 +20,35 @@ int32_t spreadingGridPx(const StereoParams& params, int32_t width, int32_t heigh
   const int32_t side = width > height ? width : height;
   const int32_t cell = (side + 31) / 32;
   return cell < kMinSpreadingCellPx ? kMinSpreadingCellPx : cell;
+}
+
+CurveMatchStage matchAlongCurve(const NccTemplate& t, const ImageView& from, const ImageView& to,
+                                const CameraModel& from_model, const CameraModel& to_model,
+                                const Vec2& from_px, double lo_m, double hi_m, const StereoParams& params,
+                                double back_tolerance_px, StereoWorkspace& workspace, SearchHit& hit,
+                                Vec2& far_px) {
+  if (!ok(epipolarCurve(from_model, to_model, from_px, lo_m, hi_m, to.width, to.height, workspace.curve))) {
+    return CurveMatchStage::kNoCurve;
+  }
+  far_px = workspace.curve.far_px;
+  hit = searchAlongCurve(t, to, workspace.curve, params.band_px, workspace.search);
+  if (hit.score < params.min_ncc || hit.second > params.max_second_ratio * hit.score) {
+    return CurveMatchStage::kNoMatch;
+  }
+  // Left-right: the window at the hit searched back along its own curve in `from`.
+  NccTemplate back_template;
+  if (!extractTemplate(to, hit.x, hit.y, back_template) || !back_template.textured ||
+      !ok(epipolarCurve(to_model, from_model, Vec2(hit.x, hit.y), lo_m, hi_m, from.width, from.height,
+                        workspace.curve))) {
+    return CurveMatchStage::kNoBackMatch;
+  }
+  const SearchHit back =
+      searchAlongCurve(back_template, from, workspace.curve, params.band_px, workspace.search);
+  if (back.score < params.min_ncc || std::fabs(back.x - from_px.x()) > back_tolerance_px ||
+      std::fabs(back.y - from_px.y()) > back_tolerance_px) {
+    return CurveMatchStage::kNoBackMatch;
+  }
+  return CurveMatchStage::kMatched;
 }
 
 Status matchStereoPair(const ImageView& left, const ImageView& right, const CameraModel& left_model,
@@ -48,33 +76,21 @@ Status matchStereoPair(const ImageView& left, const ImageView& right, const Came
   // Match every interest point along its epipolar curve, then check left-right consistency.
   int32_t match_count = 0;
   NccTemplate left_template;
-  NccTemplate right_template;
   for (int32_t i = 0; i < point_count; ++i) {
     const int32_t lx = static_cast<int32_t>(std::lround(workspace.points[i].x_px));
     const int32_t ly = static_cast<int32_t>(std::lround(workspace.points[i].y_px));
     if (!extractTemplate(left, lx, ly, left_template) || !left_template.textured) continue;
     const Vec2 left_px(lx, ly);
-    if (!ok(epipolarCurve(left_model, right_model, left_px, params.min_range_m, params.max_range_m, right.width,
-                          right.height, workspace.curve))) {
-      continue;
-    }
+    SearchHit hit;
+    Vec2 far_px;
+    const CurveMatchStage stage =
+        matchAlongCurve(left_template, left, right, left_model, right_model, left_px, params.min_range_m,
+                        params.max_range_m, params, params.lr_tolerance_px, workspace, hit, far_px);
+    if (stage == CurveMatchStage::kNoCurve) continue;
     ++result.counts.searched;
-    const Vec2 far_px = workspace.curve.far_px;
-    const SearchHit hit = searchAlongCurve(left_template, right, workspace.curve, params.band_px, workspace.search);
-    if (hit.score < params.min_ncc) continue;
-    if (hit.second > params.max_second_ratio * hit.score) continue;
+    if (stage == CurveMatchStage::kNoMatch) continue;
     ++result.counts.ncc_passed;
-    // Left-right: the right window searched back along its own curve in the left image.
-    if (!extractTemplate(right, hit.x, hit.y, right_template) || !right_template.textured) continue;
-    if (!ok(epipolarCurve(right_model, left_model, Vec2(hit.x, hit.y), params.min_range_m, params.max_range_m,
-                          left.width, left.height, workspace.curve))) {
-      continue;
-    }
-    const SearchHit back = searchAlongCurve(right_template, left, workspace.curve, params.band_px, workspace.search);
-    if (back.score < params.min_ncc || std::abs(back.x - lx) > params.lr_tolerance_px ||
-        std::abs(back.y - ly) > params.lr_tolerance_px) {
-      continue;
-    }
+    if (stage != CurveMatchStage::kMatched) continue;
     ++result.counts.lr_passed;
     StereoMatch& m = workspace.matches[match_count];
     m.left_px = left_px;

@@ -88,6 +88,20 @@ struct StereoResult {
 int32_t selectionGridPx(const StereoParams& params, int32_t width, int32_t height);
 int32_t spreadingGridPx(const StereoParams& params, int32_t width, int32_t height);
 
+// How far matchAlongCurve got.
+enum class CurveMatchStage { kNoCurve, kNoMatch, kNoBackMatch, kMatched };
+
+// The template `t` of `from` at from_px searched along its epipolar curve in `to` (surface ranges lo_m to
+// hi_m, params.band_px across): the best hit must score params.min_ncc and stand clear of the second peak
+// (params.max_second_ratio), and the window there, searched back along its own curve in `from`, must land
+// within back_tolerance_px of from_px in x and y (left-right check). `hit`: the integer match; `far_px`: the
+// curve's far-range end (the parallax origin). Uses the workspace's curve and search scratch.
+CurveMatchStage matchAlongCurve(const NccTemplate& t, const ImageView& from, const ImageView& to,
+                                const CameraModel& from_model, const CameraModel& to_model,
+                                const Vec2& from_px, double lo_m, double hi_m, const StereoParams& params,
+                                double back_tolerance_px, StereoWorkspace& workspace, SearchHit& hit,
+                                Vec2& far_px);
+
 // kNoTexture for a blank, saturated or noise-only pair (too few interest points or verified matches);
 // kInvalidArgument for bad views or parameters; kCapacityExceeded for oversized images or grids.
 [[nodiscard]] Status matchStereoPair(const ImageView& left, const ImageView& right, const CameraModel& left_model,

@@ -16,6 +16,13 @@ class DatasetError : public cli::InputError {
 
   const std::string& message() const { return message_; }
 
+  // The same error of a lower layer (its message "<file>: <what>") as a DatasetError naming `file`.
+  static DatasetError from(const std::string& file, const cli::InputError& e) {
+    const std::string what = e.what();
+    const std::string prefix = file + ": ";
+    return DatasetError(file, "", what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what);
+  }
+
  private:
   std::string message_;
 };

@@ -13,10 +13,7 @@ void writeDatasetFile(const std::string& path, const std::string& text) {
   try {
     cli::writeFileAtomic(path, text);
   } catch (const cli::InputError& e) {
-    // writeFileAtomic's message is "<path>: <what>"; a DatasetError names the file the same way.
-    const std::string what = e.what();
-    const std::string prefix = path + ": ";
-    throw DatasetError(path, "", what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what);
+    throw DatasetError::from(path, e);
   }
 }
 

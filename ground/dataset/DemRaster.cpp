@@ -26,10 +26,7 @@ void writeDemGeoTiff(const std::string& path, const DemGrid& grid) {
   try {
     raster::writeGeoTiff(path, g, grid.values.data(), grid.nodata);
   } catch (const cli::InputError& e) {
-    // "<path>: <what>" as a DatasetError names the file the same way.
-    const std::string what = e.what();
-    const std::string prefix = path + ": ";
-    throw DatasetError(path, "", what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what);
+    throw DatasetError::from(path, e);
   }
 }
 
