@@ -359,6 +359,9 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
       }
     }
   }
+  if (o.refine_subpixel) {
+    res.subpixel = refineSubpixel(left, right, res.disparity, res.valid, o.subpixel, &res.sigma_px);
+  }
   if (o.fill_holes) fillHoles(res.disparity, res.valid, res.filled, occluded);
   res.post_seconds = seconds() - t2;
   res.matched_fraction = static_cast<double>(cv::countNonZero(res.valid)) / (static_cast<double>(rows) * cols);

@@ -5,8 +5,9 @@
 //     semi-global aggregation over the grid);
 //  3. fine matching on the 1-px grid in a small range around the coarse result (min..max of the coarse
 //     disparities of the 4x4 surrounding grid nodes, +- a margin), census cost + semi-global aggregation;
-//  4. sub-pixel refinement (parabola), uniqueness and left-right consistency checks, speckle removal,
-//     and a validity mask.
+//  4. uniqueness and left-right consistency checks, speckle removal, and a validity mask;
+//  5. sub-pixel disparities by least-squares matching (SubpixelRefine.hpp) from the integer winner and the
+//     parabola through its aggregated costs.
 // Rows of a rectified pair are epipolar lines, so every search is restricted to the epipolar line.
 // Disparity d is positive: left pixel (x, y) matches right pixel (x - d, y).
 #pragma once
@@ -17,6 +18,7 @@
 
 #include "ground/dense/ParallaxCurve.hpp"
 #include "ground/dense/SemiGlobal.hpp"
+#include "ground/dense/SubpixelRefine.hpp"
 
 namespace areomap::dense {
 
@@ -51,6 +53,8 @@ struct DenseOptions {
   double lr_max_diff_px = 1.0;     // left-right consistency tolerance
   int speckle_max_area_px = -1;    // connected disparity blobs smaller than this are removed (-1: auto)
   double speckle_max_step_px = 1.0;
+  bool refine_subpixel = false;  // least-squares matching (SubpixelRefine.hpp); false: the parabola's
+  SubpixelOptions subpixel;
   bool fill_holes = false;         // fill LR-check failures: occlusions from the background side,
                                    // mismatches from their neighbours (marked in `filled`)
 };
@@ -60,9 +64,11 @@ struct DenseResult {
   cv::Mat valid;      // CV_8U, 255 where disparity is a match (or a filled value, see `filled`)
   cv::Mat filled;     // CV_8U, 255 where the value was filled rather than matched
   cv::Mat coarse;     // CV_32F, the coarse-grid disparities (grid rows x grid cols)
+  cv::Mat sigma_px;   // CV_32F, least-squares matching's a-posteriori sd per match (empty without it)
+  SubpixelStats subpixel;
   double coarse_seconds = 0.0;
   double fine_seconds = 0.0;
-  double post_seconds = 0.0;
+  double post_seconds = 0.0;  // speckles, sub-pixel refinement, holes
   long long fine_cells = 0;   // size of the fine banded volume (pixels x candidates)
   double matched_fraction = 0.0;  // valid pixels / all pixels
 };
