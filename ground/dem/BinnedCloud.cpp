@@ -30,56 +30,99 @@ bool binPlane(const Acc& a, double& b, double& c, double& rss) {
   return true;
 }
 
-// The part of the points' noise variance that their number does not average down (phi), measured where
-// two pairs see one bin. Their mean heights, moved along the bin's plane to one position (the two pairs'
-// points sample different parts of a sloping bin), differ by d; when the noise model holds (the pairs'
-// errors independent, s_p^2 their points' mean noise variance), d^2 / sum over the two of s_p^2 (patch
-// factor + phi) is chi-square with one degree of freedom. phi is the value for which the MEDIAN of that
-// ratio over all such bins is chi-square's median: bins where the two pairs see different surfaces (a
-// rock's two sides, occlusion edges, mismatches) are the heavy tail of d, and the median is not moved by
-// them whatever their size, as the DEM's "within 1 sigma" is not. 0 with fewer than kMinOverlapBins bins,
-// or when phi = 0 already leaves the median ratio at or below chi-square's (the correlated-noise model
-// alone explains the data).
+// The part of the points' noise variance that their number does not average down (phi): errors that one
+// pair's points share over a wide part of its view (e.g. a sub-pixel bias that changes only as slowly as the
+// image's geometry does), which no bin and no kriging neighbourhood averages away. Measured where two pairs
+// see the same ground. In one bin, their mean heights, moved along the bin's plane to one position (the two
+// pairs' points sample different parts of a sloping bin), differ by d. Bin by bin d is no measure of phi:
+// the two pairs' errors at one ground point are themselves correlated over the first centimetres (the same
+// texture matched from nearby views), which makes d smaller than independent errors would, by as much as
+// phi makes it larger. So the d of the bins that one pair of pairs shares in a block of kBlockCells x
+// kBlockCells cells are averaged: D = mean d over the block's N bins. Their short-range parts, both the
+// noise and the pairs' common error, average down over the bins; the pair-wide parts do not:
+//   Var(D) = sum_k v_k / N^2 + phi * mean_k (s_p^2 + s_q^2)_k,   v_k = sum over the two of s^2 patch factor
+// (s^2 the points' mean noise variance of each pair in bin k). phi is the value for which the MEDIAN of
+// D^2 / Var(D) over the blocks is chi-square's median (one degree of freedom): blocks where the two pairs
+// see different surfaces (a rock's two sides, occlusion edges, mismatches) are the heavy tail of D, and the
+// median is not moved by them whatever their size, as the DEM's "within 1 sigma" is not. 0 with fewer than
+// kMinOverlapBlocks blocks, or when phi = 0 already leaves the median at or below chi-square's.
 constexpr double kMinOverlapPoints = 4;  // points of each of the two pairs in the bin
-constexpr long long kMinOverlapBins = 200;
+constexpr int kBlockCells = 5;           // a block is 5 x 5 cells: about one kriging neighbourhood
+constexpr int kMinBlockBins = 8;         // bins the two pairs share in a block
+constexpr long long kMinOverlapBlocks = 50;
 constexpr double kChiSquare1Median = 0.454936;  // median of chi-square with one degree of freedom
+constexpr long long kCellKeyStride = 1000003LL;  // cell key = row * stride + column (binPoints)
 
 template <class Acc>
 double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots,
                            double l_px, long long& overlap_bins) {
-  struct Overlap {
-    double d2, pred, base;
+  struct Block {
+    double sum_d = 0.0, sum_v = 0.0, sum_base = 0.0;
+    int bins = 0;
   };
-  std::vector<Overlap> overlaps;
+  std::unordered_map<long long, Block> blocks;  // key: block row, block column, the two pair slots
+  overlap_bins = 0;
   for (std::size_t i = 0; i < by_cell.size();) {
     const long long cell = by_cell[i].first / pair_slots;
     const Acc* best[2] = {nullptr, nullptr};
+    long long slot[2] = {0, 0};
     Acc all;
     for (; i < by_cell.size() && by_cell[i].first / pair_slots == cell; ++i) {
       const Acc& a = by_cell[i].second;
       all.addCell(a);
       if (a.n < kMinOverlapPoints) continue;
+      const long long k = by_cell[i].first % pair_slots;
       if (best[0] == nullptr || a.n > best[0]->n) {
         best[1] = best[0];
+        slot[1] = slot[0];
         best[0] = &a;
+        slot[0] = k;
       } else if (best[1] == nullptr || a.n > best[1]->n) {
         best[1] = &a;
+        slot[1] = k;
       }
     }
-    if (best[1] == nullptr) continue;
+    if (best[1] == nullptr || cell < 0 || slot[0] == 0 || slot[1] == 0) continue;  // slot 0: no pair's
+    if (slot[0] > slot[1]) {  // one sign of d per pair of pairs: the lower slot first
+      std::swap(best[0], best[1]);
+      std::swap(slot[0], slot[1]);
+    }
     double b = 0.0, c = 0.0, rss = 0.0;
     binPlane(all, b, c, rss);
     const Acc &p = *best[0], &q = *best[1];
     const double d = (p.z / p.n - q.z / q.n) - b * (p.u / p.n - q.u / q.n) - c * (p.v / p.n - q.v / q.n);
-    Overlap o{d * d, 0.0, 0.0};
+    double v = 0.0, base = 0.0;
     for (const Acc* a : best) {
-      o.pred += (a->s2 / a->n) * patchVarianceFactor(std::sqrt(a->n), l_px);
-      o.base += a->s2 / a->n;
+      v += (a->s2 / a->n) * patchVarianceFactor(std::sqrt(a->n), l_px);
+      base += a->s2 / a->n;
     }
-    if (o.base > 0.0) overlaps.push_back(o);
+    if (!(base > 0.0)) continue;
+    ++overlap_bins;
+    const long long row = cell / kCellKeyStride, col = cell % kCellKeyStride;
+    const long long key =
+        (((row / kBlockCells) * (kCellKeyStride / kBlockCells + 1) + col / kBlockCells) * pair_slots +
+         slot[0]) *
+            pair_slots +
+        slot[1];
+    Block& blk = blocks[key];
+    blk.sum_d += d;
+    blk.sum_v += v;
+    blk.sum_base += base;
+    ++blk.bins;
   }
-  overlap_bins = static_cast<long long>(overlaps.size());
-  if (overlap_bins < kMinOverlapBins) return 0.0;
+  struct Overlap {
+    double d2, pred, base;
+  };
+  std::vector<Overlap> overlaps;
+  for (const auto& [key, blk] : blocks) {
+    if (blk.bins < kMinBlockBins) continue;
+    const double n = blk.bins, mean_d = blk.sum_d / n;
+    overlaps.push_back({mean_d * mean_d, blk.sum_v / (n * n), blk.sum_base / n});
+  }
+  if (static_cast<long long>(overlaps.size()) < kMinOverlapBlocks) return 0.0;
+  std::sort(overlaps.begin(), overlaps.end(), [](const Overlap& a, const Overlap& b) {
+    return a.d2 != b.d2 ? a.d2 < b.d2 : (a.pred != b.pred ? a.pred < b.pred : a.base < b.base);
+  });  // the unordered map's order must not reach the result
   std::vector<double> ratio(overlaps.size());
   const auto medianRatio = [&](double phi) {
     for (std::size_t k = 0; k < overlaps.size(); ++k) {
@@ -123,7 +166,7 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
     const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
     const long long r = static_cast<long long>(std::floor((grid.north0_m - p.north_m) / grid.cell_m));
     const long long pair = p.line >= 0 ? (dense::linePair(p.line) + 1) % kPairSlots : 0;
-    Acc& a = bins[(r * 1000003LL + c) * kPairSlots + pair];
+    Acc& a = bins[(r * kCellKeyStride + c) * kPairSlots + pair];
     a.n += 1;
     a.x += p.north_m;
     a.y += p.east_m;
@@ -159,13 +202,14 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
   const double shared = sharedNoiseFraction(by_cell, kPairSlots, l_px, overlap_bins);
   struct Binned {
     DemPoint point;
-    float gsd_m, rep_var_m2;
+    float gsd_m, rep_var_m2, pair_sd_m;
   };
   std::vector<Binned> out;
   for (std::size_t i = 0; i < by_cell.size();) {
     const long long cell = by_cell[i].first / kPairSlots;
     Acc all;
     double var_n2 = 0.0, n_max = 0.0;  // sum_p n_p^2 Var(pair's mean); the most points of one pair
+    double shared_n2 = 0.0;            // the pair-wide part of var_n2
     double noise_spread = 0.0;         // sum_p s_p^2 n_p (1 - patch factor): the noise about the mean
     long long pair_max = 0;
     for (; i < by_cell.size() && by_cell[i].first / kPairSlots == cell; ++i) {
@@ -173,6 +217,7 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
       all.addCell(a);
       const double factor = patchVarianceFactor(std::sqrt(a.n), l_px);
       var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
+      shared_n2 += a.n * a.n * (a.s2 / a.n) * shared;
       noise_spread += a.s2 * (1.0 - factor);
       if (a.n > n_max) {
         n_max = a.n;
@@ -186,7 +231,8 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
     p.sigma_m = std::sqrt(var_n2) / all.n;
     p.line = pair_max > 0 ? dense::lineId(pair_max - 1, 0) : -1;  // the pair of most of its points (row 0)
     out.push_back({p, static_cast<float>(grid.cell_m / std::sqrt(n_max)),
-                   static_cast<float>(representationVariance(all, noise_spread))});
+                   static_cast<float>(representationVariance(all, noise_spread)),
+                   static_cast<float>(std::sqrt(shared_n2) / all.n)});
   }
   std::sort(out.begin(), out.end(), [](const Binned& a, const Binned& b) {
     return a.point.north_m != b.point.north_m ? a.point.north_m < b.point.north_m
@@ -196,12 +242,14 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
   binned.points.reserve(out.size());
   binned.gsd_m.reserve(out.size());
   binned.rep_var_m2.reserve(out.size());
+  binned.pair_sd_m.reserve(out.size());
   binned.shared_noise_fraction = shared;
   binned.overlap_bins = overlap_bins;
   for (const Binned& b : out) {
     binned.points.push_back(b.point);
     binned.gsd_m.push_back(b.gsd_m);
     binned.rep_var_m2.push_back(b.rep_var_m2);
+    binned.pair_sd_m.push_back(b.pair_sd_m);
   }
   return binned;
 }
@@ -213,6 +261,7 @@ KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGrid& gr
   o.point_gsd_m = &binned.gsd_m;
   o.bin_cell_m = grid.cell_m;
   o.point_extra_var_m2 = &binned.rep_var_m2;
+  o.point_pair_sd_m = &binned.pair_sd_m;
   return o;
 }
 

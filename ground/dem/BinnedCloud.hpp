@@ -1,7 +1,8 @@
 // The dense cloud binned to DEM cells for kriging (paper 4.1): one point per cell (mean position and height,
 // sigma of the mean), with what the DEM sigma (Kriging.hpp) needs besides: each bin's ground sample distance
 // and the relief inside it that its mean does not carry, and the fraction of the points' noise that does
-// not average down, measured where two pairs see one bin.
+// not average down (errors one pair's points share over a wide part of its view), measured where two pairs
+// see the same ground, and carried into the kriging as an error the pair's neighbouring cells share.
 #pragma once
 
 #include <functional>
@@ -26,10 +27,13 @@ namespace areomap::dem {
 // least-squares plane, less what the points' noise puts there (s^2 (1 - patchVarianceFactor) per pair, the
 // part of correlated errors that does not move the bin's mean); 0 for bins of fewer than
 // kMinRepresentationPoints points.
+// The cell's pair-wide error (pair_sd_m, KrigingOptions::point_pair_sd_m): phi's part of Var(mean), which
+// the same pair's neighbouring cells share.
 struct BinnedCloud {
   std::vector<DemPoint> points;
   std::vector<float> gsd_m;            // per point
   std::vector<float> rep_var_m2;       // per point
+  std::vector<float> pair_sd_m;        // per point: the part of sigma its pair shares (KrigingOptions)
   double shared_noise_fraction = 0.0;  // phi of sharedNoiseFraction
   long long overlap_bins = 0;          // the bins it was measured on
 };

@@ -36,32 +36,50 @@ struct CorrelatedNoise {
   const std::vector<float>* gsd = nullptr;
   double bin_m = 0.0;
   VariogramModel signal;
-  const std::vector<float>* extra = nullptr;  // KrigingOptions::point_extra_var_m2 (or none)
+  const std::vector<float>* extra = nullptr;    // KrigingOptions::point_extra_var_m2 (or none)
+  const std::vector<float>* pair_sd = nullptr;  // KrigingOptions::point_pair_sd_m (or none)
 
   bool on() const { return l_px > 0.0 && gsd != nullptr; }
 
+  static bool samePair(const DemPoint& a, const DemPoint& b) {
+    return !(a.line >= 0 && b.line >= 0 && dense::linePair(a.line) != dense::linePair(b.line));
+  }
+
   double rho(const DemPoint& a, const DemPoint& b, double gsd_a, double gsd_b) const {
-    if (a.line >= 0 && b.line >= 0 && dense::linePair(a.line) != dense::linePair(b.line)) return 0.0;  // other images
+    if (!samePair(a, b)) return 0.0;  // other images
     const double g = std::max(1e-6, 0.5 * (gsd_a + gsd_b));
     return patchCorrelation(std::fabs(a.north_m - b.north_m) / g, std::fabs(a.east_m - b.east_m) / g,
                             std::max(1.0, bin_m / g), l_px);
   }
 
+  double pairSd(std::size_t i) const { return pair_sd != nullptr ? (*pair_sd)[i] : 0.0; }
+  // The point's noise sd less its pair-wide part.
+  double localSd(const DemPoint& p, std::size_t i) const {
+    const double c = pairSd(i);
+    return std::sqrt(std::max(0.0, p.sigma_m * p.sigma_m - c * c));
+  }
+  // Cov(e_i, e_j) of two different points.
+  double noiseCovariance(const std::vector<DemPoint>& points, std::size_t i, std::size_t j) const {
+    const DemPoint &a = points[i], &b = points[j];
+    const double r = rho(a, b, (*gsd)[i], (*gsd)[j]);
+    const double shared = samePair(a, b) ? pairSd(i) * pairSd(j) : 0.0;
+    return (r != 0.0 ? localSd(a, i) * localSd(b, j) * r : 0.0) + shared;
+  }
+
   // 1/2 Var(e_i - e_j): what the noise adds to the pair's semivariance.
   double pairNoise(const std::vector<DemPoint>& points, std::size_t i, std::size_t j) const {
     const DemPoint &a = points[i], &b = points[j];
-    return 0.5 * (a.sigma_m * a.sigma_m + b.sigma_m * b.sigma_m) -
-           a.sigma_m * b.sigma_m * rho(a, b, (*gsd)[i], (*gsd)[j]);
+    return 0.5 * (a.sigma_m * a.sigma_m + b.sigma_m * b.sigma_m) - noiseCovariance(points, i, j);
   }
 
   // The signal's semivariance without its nugget (filtered kriging: the nugget is measurement error).
   double filtered(double h) const { return signal.partial_sill_m2 * (1.0 - signal.correlation(h)); }
 
-  // A pair's part of the double sum: s_i s_j rho_ij - g(d_ij) (symmetric in i and j, bit for bit).
+  // A pair's part of the double sum: Cov(e_i, e_j) - g(d_ij) (symmetric in i and j, bit for bit).
   double pairTerm(const std::vector<DemPoint>& points, std::size_t pi, std::size_t pj) const {
     const DemPoint &a = points[pi], &b = points[pj];
     const double h = std::hypot(a.north_m - b.north_m, a.east_m - b.east_m);
-    return a.sigma_m * b.sigma_m * rho(a, b, (*gsd)[pi], (*gsd)[pj]) - filtered(h);
+    return noiseCovariance(points, pi, pj) - filtered(h);
   }
 
   // The pair terms come from `terms` (the set's PairTable, filled by pairTerm; `position`: where each
@@ -232,9 +250,12 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   CorrelatedNoise correlated{
       o.noise_correlation_px,
       o.point_gsd_m != nullptr && o.point_gsd_m->size() == points.size() ? o.point_gsd_m : nullptr,
-      o.bin_cell_m, VariogramModel{},
+      o.bin_cell_m,
+      VariogramModel{},
       o.point_extra_var_m2 != nullptr && o.point_extra_var_m2->size() == points.size() ? o.point_extra_var_m2
-                                                                                       : nullptr};
+                                                                                       : nullptr,
+      o.point_pair_sd_m != nullptr && o.point_pair_sd_m->size() == points.size() ? o.point_pair_sd_m
+                                                                                 : nullptr};
   if (correlated.on()) {
     res.signal_experimental =
         experimentalVariogram(xs, ys, zs, max_lag, 20, 2000000, 1,

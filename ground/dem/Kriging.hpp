@@ -61,6 +61,12 @@ struct KrigingOptions {
   // representation error: a bin's mean height stands for the surface at its centroid, and the surface's
   // relief inside the bin, beyond a plane, is what the mean does not carry (Products.cpp binPoints).
   const std::vector<float>* point_extra_var_m2 = nullptr;
+  // A part of each point's error that the other points of its pair share (standard deviation c_i per point,
+  // within its sigma: s_i^2 = sigma_i^2 - c_i^2 is the rest; with point_gsd_m): errors that change only
+  // over a pair's whole view, such as the sub-pixel error's dependence on the disparity's fractional part
+  // on smooth ground. Cov(e_i, e_j) = s_i s_j rho_ij + c_i c_j for points of one pair, so no neighbourhood
+  // averages it down. The binned points' c_i: BinnedCloud::pair_sd_m.
+  const std::vector<float>* point_pair_sd_m = nullptr;
   int threads = 0;  // threads for the cells (0: one per core); the result is the same for any number
 };
 

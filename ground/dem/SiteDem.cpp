@@ -82,10 +82,10 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
   const BinnedCloud binned = binPoints(pts, grid, all, o.correlation_px);
   {
     char b[160];
-    std::snprintf(
-        b, sizeof b,
-        "DEM noise: %.3f of the points' variance does not average down (from %lld bins seen by two pairs)",
-        binned.shared_noise_fraction, binned.overlap_bins);
+    std::snprintf(b, sizeof b,
+                  "DEM noise: %.3f of the points' variance is shared by a pair's cells (from %lld bins seen "
+                  "by two pairs)",
+                  binned.shared_noise_fraction, binned.overlap_bins);
     cli::info(b);
   }
   EquiParallaxOptions eo;
