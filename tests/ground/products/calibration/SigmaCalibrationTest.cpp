@@ -6,7 +6,8 @@
 // matcher's noise model, the noise fraction that does not average measured where two pairs overlap, and the
 // bins' relief measured from their own points (ground/products/Products.cpp binPoints).
 // Label long: runs with AREOMAP_LONG_TESTS=1 (otherwise prints SKIP and passes); AREOMAP_CALIBRATION_SEEDS=N
-// runs seeds 1..N (default 8).
+// runs seeds 1..N (default 8); AREOMAP_CALIBRATION_CELL_M=C makes dem.tif with C-metre cells (default: the
+// automatic cell, 2 cm on this scene; the main job's navcam DEM has 5 cm).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -54,6 +55,7 @@ void runTerrain(uint64_t seed, double roughness, BandFigures bands[2]) {
   ground::AdjustReport report;
   products::ProductOptions options;
   options.max_range_m = 12.5;
+  if (const char* c = std::getenv("AREOMAP_CALIBRATION_CELL_M")) options.cell_m = std::atof(c);
   const products::ProductsResult result = products::makeProducts(scene.inputs, options, out, &report);
   CHECK(result.dem.has_value());
   const DemGrid& dem = *result.dem;
