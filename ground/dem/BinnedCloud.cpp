@@ -53,15 +53,11 @@ constexpr long long kMinOverlapBlocks = 50;
 constexpr double kChiSquare1Median = 0.454936;  // median of chi-square with one degree of freedom
 constexpr long long kCellKeyStride = 1000003LL;  // cell key = row * stride + column (binPoints)
 
-template <class Acc>
-double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots,
-                           double l_px, long long& overlap_bins) {
-  struct Block {
-    double sum_d = 0.0, sum_v = 0.0, sum_base = 0.0;
-    int bins = 0;
-  };
-  std::unordered_map<long long, Block> blocks;  // key: block row, block column, the two pair slots
-  overlap_bins = 0;
+// Calls fn(cell, p, q, slot_p, slot_q, d) for every bin that two pairs see with at least kMinOverlapPoints
+// points each (the two with the most; p the lower slot): d = their mean heights' difference, moved along
+// the bin's plane to one position (the two pairs' points sample different parts of a sloping bin).
+template <class Acc, class Fn>
+void forEachOverlapBin(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots, Fn&& fn) {
   for (std::size_t i = 0; i < by_cell.size();) {
     const long long cell = by_cell[i].first / pair_slots;
     const Acc* best[2] = {nullptr, nullptr};
@@ -91,25 +87,69 @@ double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell
     binPlane(all, b, c, rss);
     const Acc &p = *best[0], &q = *best[1];
     const double d = (p.z / p.n - q.z / q.n) - b * (p.u / p.n - q.u / q.n) - c * (p.v / p.n - q.v / q.n);
-    double v = 0.0, base = 0.0;
-    for (const Acc* a : best) {
-      v += (a->s2 / a->n) * patchVarianceFactor(std::sqrt(a->n), l_px);
-      base += a->s2 / a->n;
-    }
-    if (!(base > 0.0)) continue;
-    ++overlap_bins;
-    const long long row = cell / kCellKeyStride, col = cell % kCellKeyStride;
-    const long long key =
-        (((row / kBlockCells) * (kCellKeyStride / kBlockCells + 1) + col / kBlockCells) * pair_slots +
-         slot[0]) *
-            pair_slots +
-        slot[1];
-    Block& blk = blocks[key];
-    blk.sum_d += d;
-    blk.sum_v += v;
-    blk.sum_base += base;
-    ++blk.bins;
+    fn(cell, p, q, slot[0], slot[1], d);
   }
+}
+
+// The value x in [lo, hi] at which the median of ratio(k, x) over k = 0..n-1 is chi-square's median (one
+// degree of freedom), the median moving the other way from `falls` (true: it falls as x grows);
+// bisection to 1e-4 relative. lo when the median is already on the far side at lo.
+template <class Ratio>
+double medianCrossing(std::size_t n, double lo, double hi, bool falls, const Ratio& ratio_of) {
+  std::vector<double> ratio(n);
+  const auto medianAt = [&](double x) {
+    for (std::size_t k = 0; k < n; ++k) ratio[k] = ratio_of(k, x);
+    const auto mid = ratio.begin() + static_cast<std::ptrdiff_t>(n / 2);
+    std::nth_element(ratio.begin(), mid, ratio.end());
+    return *mid;
+  };
+  const auto beyond = [&](double x) {
+    return falls ? medianAt(x) > kChiSquare1Median : medianAt(x) < kChiSquare1Median;
+  };
+  if (!beyond(lo)) return lo;
+  if (falls) {
+    for (int k = 0; k < 60 && beyond(hi); ++k) hi *= 4.0;
+  } else if (beyond(hi)) {
+    return hi;
+  }
+  for (int k = 0; k < 40 && hi - lo > 1e-4 * hi; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (beyond(mid) ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+template <class Acc>
+double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots,
+                           double l_px, long long& overlap_bins) {
+  struct Block {
+    double sum_d = 0.0, sum_v = 0.0, sum_base = 0.0;
+    int bins = 0;
+  };
+  std::unordered_map<long long, Block> blocks;  // key: block row, block column, the two pair slots
+  overlap_bins = 0;
+  forEachOverlapBin(
+      by_cell, pair_slots,
+      [&](long long cell, const Acc& p, const Acc& q, long long slot_p, long long slot_q, double d) {
+        double v = 0.0, base = 0.0;
+        for (const Acc* a : {&p, &q}) {
+          v += (a->s2 / a->n) * patchVarianceFactor(std::sqrt(a->n), l_px);
+          base += a->s2 / a->n;
+        }
+        if (!(base > 0.0)) return;
+        ++overlap_bins;
+        const long long row = cell / kCellKeyStride, col = cell % kCellKeyStride;
+        const long long key =
+            (((row / kBlockCells) * (kCellKeyStride / kBlockCells + 1) + col / kBlockCells) * pair_slots +
+             slot_p) *
+                pair_slots +
+            slot_q;
+        Block& blk = blocks[key];
+        blk.sum_d += d;
+        blk.sum_v += v;
+        blk.sum_base += base;
+        ++blk.bins;
+      });
   struct Overlap {
     double d2, pred, base;
   };
@@ -123,24 +163,39 @@ double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell
   std::sort(overlaps.begin(), overlaps.end(), [](const Overlap& a, const Overlap& b) {
     return a.d2 != b.d2 ? a.d2 < b.d2 : (a.pred != b.pred ? a.pred < b.pred : a.base < b.base);
   });  // the unordered map's order must not reach the result
-  std::vector<double> ratio(overlaps.size());
-  const auto medianRatio = [&](double phi) {
-    for (std::size_t k = 0; k < overlaps.size(); ++k) {
-      ratio[k] = overlaps[k].d2 / (overlaps[k].pred + phi * overlaps[k].base);
-    }
-    const auto mid = ratio.begin() + static_cast<std::ptrdiff_t>(ratio.size() / 2);
-    std::nth_element(ratio.begin(), mid, ratio.end());
-    return *mid;
+  return medianCrossing(overlaps.size(), 0.0, 1.0, true, [&](std::size_t k, double phi) {
+    return overlaps[k].d2 / (overlaps[k].pred + phi * overlaps[k].base);
+  });
+}
+
+// The correlation rho of two pairs' bin-mean errors where both see a bin (the same ground matched from two
+// views: the same relief and texture smooth both pairs' disparities alike). Their difference d has
+// Var(d) = V_p + V_q - 2 rho sqrt(V_p V_q), V = Var(pair's mean) of the model (with phi); rho is the value at
+// which the median of d^2 / Var(d) over the bins is chi-square's median, in [0, kMaxCommonCorrelation];
+// 0 with fewer than kMinOverlapBins bins or when rho = 0 leaves the median at or above chi-square's. What
+// two pairs share, the DEM does not average down where they overlap (binPoints adds it to the bin's
+// variance); the overlap test of phi cancels it, which is why phi is measured over blocks.
+constexpr double kMaxCommonCorrelation = 0.9;
+constexpr long long kMinOverlapBins = 200;
+
+template <class Acc>
+double commonErrorCorrelation(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots,
+                              double l_px, double phi) {
+  struct Overlap {
+    double d2, sum, cross;  // d^2, V_p + V_q, 2 sqrt(V_p V_q)
   };
-  if (medianRatio(0.0) <= kChiSquare1Median) return 0.0;
-  // The median ratio falls as phi grows: bracket it, then bisect to 1e-4 relative.
-  double lo = 0.0, hi = 1.0;
-  for (int k = 0; k < 60 && medianRatio(hi) > kChiSquare1Median; ++k) hi *= 4.0;
-  for (int k = 0; k < 40 && hi - lo > 1e-4 * hi; ++k) {
-    const double mid = 0.5 * (lo + hi);
-    (medianRatio(mid) > kChiSquare1Median ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
+  std::vector<Overlap> overlaps;
+  forEachOverlapBin(by_cell, pair_slots,
+                    [&](long long, const Acc& p, const Acc& q, long long, long long, double d) {
+                      const double vp = (p.s2 / p.n) * (patchVarianceFactor(std::sqrt(p.n), l_px) + phi);
+                      const double vq = (q.s2 / q.n) * (patchVarianceFactor(std::sqrt(q.n), l_px) + phi);
+                      if (vp > 0.0 && vq > 0.0)
+                        overlaps.push_back({d * d, vp + vq, 2.0 * std::sqrt(vp * vq)});
+                    });
+  if (static_cast<long long>(overlaps.size()) < kMinOverlapBins) return 0.0;
+  return medianCrossing(overlaps.size(), 0.0, kMaxCommonCorrelation, false, [&](std::size_t k, double rho) {
+    return overlaps[k].d2 / (overlaps[k].sum - rho * overlaps[k].cross);
+  });
 }
 
 }  // namespace
@@ -200,6 +255,7 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
   };
   long long overlap_bins = 0;
   const double shared = sharedNoiseFraction(by_cell, kPairSlots, l_px, overlap_bins);
+  const double common = commonErrorCorrelation(by_cell, kPairSlots, l_px, shared);
   struct Binned {
     DemPoint point;
     float gsd_m, rep_var_m2, pair_sd_m;
@@ -210,6 +266,7 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
     Acc all;
     double var_n2 = 0.0, n_max = 0.0;  // sum_p n_p^2 Var(pair's mean); the most points of one pair
     double shared_n2 = 0.0;            // the pair-wide part of var_n2
+    double sum_sd_n = 0.0;             // sum_p n_p sd(pair's mean), for the pairs' common error
     double noise_spread = 0.0;         // sum_p s_p^2 n_p (1 - patch factor): the noise about the mean
     long long pair_max = 0;
     for (; i < by_cell.size() && by_cell[i].first / kPairSlots == cell; ++i) {
@@ -218,12 +275,16 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
       const double factor = patchVarianceFactor(std::sqrt(a.n), l_px);
       var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
       shared_n2 += a.n * a.n * (a.s2 / a.n) * shared;
+      sum_sd_n += a.n * std::sqrt((a.s2 / a.n) * (factor + shared));
       noise_spread += a.s2 * (1.0 - factor);
       if (a.n > n_max) {
         n_max = a.n;
         pair_max = by_cell[i].first % kPairSlots;
       }
     }
+    // Two pairs' errors in one bin are correlated by `common`: Var(mean) gains
+    // sum_{p != q} n_p n_q rho sd_p sd_q / n^2 = rho ((sum_p n_p sd_p)^2 - sum_p n_p^2 sd_p^2) / n^2.
+    var_n2 += common * std::max(0.0, sum_sd_n * sum_sd_n - var_n2);
     DemPoint p;
     p.north_m = all.x / all.n;
     p.east_m = all.y / all.n;
@@ -244,6 +305,7 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
   binned.rep_var_m2.reserve(out.size());
   binned.pair_sd_m.reserve(out.size());
   binned.shared_noise_fraction = shared;
+  binned.common_error_correlation = common;
   binned.overlap_bins = overlap_bins;
   for (const Binned& b : out) {
     binned.points.push_back(b.point);

@@ -36,6 +36,7 @@ struct BinnedCloud {
   std::vector<float> pair_sd_m;        // per point: the part of sigma its pair shares (KrigingOptions)
   double shared_noise_fraction = 0.0;  // phi of sharedNoiseFraction
   long long overlap_bins = 0;          // the bins it was measured on
+  double common_error_correlation = 0.0;  // rho of commonErrorCorrelation: two pairs' errors in one bin
 };
 
 // Bins the points of `pts` for which keep(p) holds (no copy of the cloud for a subset) on `grid`;

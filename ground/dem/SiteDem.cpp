@@ -81,11 +81,12 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
   const auto all = [](const DemPoint&) { return true; };
   const BinnedCloud binned = binPoints(pts, grid, all, o.correlation_px);
   {
-    char b[160];
-    std::snprintf(b, sizeof b,
-                  "DEM noise: %.3f of the points' variance is shared by a pair's cells (from %lld bins seen "
-                  "by two pairs)",
-                  binned.shared_noise_fraction, binned.overlap_bins);
+    char b[200];
+    std::snprintf(
+        b, sizeof b,
+        "DEM noise: %.3f of the points' variance is shared by a pair's cells, two pairs' errors in one "
+        "cell correlated by %.2f (from %lld bins seen by two pairs)",
+        binned.shared_noise_fraction, binned.common_error_correlation, binned.overlap_bins);
     cli::info(b);
   }
   EquiParallaxOptions eo;
