@@ -53,11 +53,19 @@ constexpr long long kMinOverlapBlocks = 50;
 constexpr double kChiSquare1Median = 0.454936;  // median of chi-square with one degree of freedom
 constexpr long long kCellKeyStride = 1000003LL;  // cell key = row * stride + column (binPoints)
 
-// Calls fn(cell, p, q, slot_p, slot_q, d) for every bin that two pairs see with at least kMinOverlapPoints
-// points each (the two with the most; p the lower slot): d = their mean heights' difference, moved along
-// the bin's plane to one position (the two pairs' points sample different parts of a sloping bin).
-template <class Acc, class Fn>
-void forEachOverlapBin(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots, Fn&& fn) {
+// A bin that two pairs see with at least kMinOverlapPoints points each (the two with the most; p the lower
+// slot, so that d has one sign per pair of pairs): d = their mean heights' difference, moved along the
+// bin's plane to one position (the two pairs' points sample different parts of a sloping bin); per pair
+// the points' mean noise variance (s2 / n) and the patch factor of its n points.
+struct OverlapBin {
+  long long cell, slot_p, slot_q;
+  double d, mean_var_p, mean_var_q, factor_p, factor_q;
+};
+
+template <class Acc>
+std::vector<OverlapBin> overlapBins(const std::vector<std::pair<long long, Acc>>& by_cell,
+                                    long long pair_slots, double l_px) {
+  std::vector<OverlapBin> out;
   for (std::size_t i = 0; i < by_cell.size();) {
     const long long cell = by_cell[i].first / pair_slots;
     const Acc* best[2] = {nullptr, nullptr};
@@ -79,7 +87,7 @@ void forEachOverlapBin(const std::vector<std::pair<long long, Acc>>& by_cell, lo
       }
     }
     if (best[1] == nullptr || cell < 0 || slot[0] == 0 || slot[1] == 0) continue;  // slot 0: no pair's
-    if (slot[0] > slot[1]) {  // one sign of d per pair of pairs: the lower slot first
+    if (slot[0] > slot[1]) {
       std::swap(best[0], best[1]);
       std::swap(slot[0], slot[1]);
     }
@@ -87,8 +95,10 @@ void forEachOverlapBin(const std::vector<std::pair<long long, Acc>>& by_cell, lo
     binPlane(all, b, c, rss);
     const Acc &p = *best[0], &q = *best[1];
     const double d = (p.z / p.n - q.z / q.n) - b * (p.u / p.n - q.u / q.n) - c * (p.v / p.n - q.v / q.n);
-    fn(cell, p, q, slot[0], slot[1], d);
+    out.push_back({cell, slot[0], slot[1], d, p.s2 / p.n, q.s2 / q.n,
+                   patchVarianceFactor(std::sqrt(p.n), l_px), patchVarianceFactor(std::sqrt(q.n), l_px)});
   }
+  return out;
 }
 
 // The value x in [lo, hi] at which the median of ratio(k, x) over k = 0..n-1 is chi-square's median (one
@@ -119,37 +129,31 @@ double medianCrossing(std::size_t n, double lo, double hi, bool falls, const Rat
   return 0.5 * (lo + hi);
 }
 
-template <class Acc>
-double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots,
-                           double l_px, long long& overlap_bins) {
+double sharedNoiseFraction(const std::vector<OverlapBin>& bins, long long pair_slots,
+                           long long& overlap_bins) {
   struct Block {
     double sum_d = 0.0, sum_v = 0.0, sum_base = 0.0;
     int bins = 0;
   };
   std::unordered_map<long long, Block> blocks;  // key: block row, block column, the two pair slots
   overlap_bins = 0;
-  forEachOverlapBin(
-      by_cell, pair_slots,
-      [&](long long cell, const Acc& p, const Acc& q, long long slot_p, long long slot_q, double d) {
-        double v = 0.0, base = 0.0;
-        for (const Acc* a : {&p, &q}) {
-          v += (a->s2 / a->n) * patchVarianceFactor(std::sqrt(a->n), l_px);
-          base += a->s2 / a->n;
-        }
-        if (!(base > 0.0)) return;
-        ++overlap_bins;
-        const long long row = cell / kCellKeyStride, col = cell % kCellKeyStride;
-        const long long key =
-            (((row / kBlockCells) * (kCellKeyStride / kBlockCells + 1) + col / kBlockCells) * pair_slots +
-             slot_p) *
-                pair_slots +
-            slot_q;
-        Block& blk = blocks[key];
-        blk.sum_d += d;
-        blk.sum_v += v;
-        blk.sum_base += base;
-        ++blk.bins;
-      });
+  for (const OverlapBin& o : bins) {
+    const double v = o.mean_var_p * o.factor_p + o.mean_var_q * o.factor_q,
+                 base = o.mean_var_p + o.mean_var_q;
+    if (!(base > 0.0)) continue;
+    ++overlap_bins;
+    const long long row = o.cell / kCellKeyStride, col = o.cell % kCellKeyStride;
+    const long long key =
+        (((row / kBlockCells) * (kCellKeyStride / kBlockCells + 1) + col / kBlockCells) * pair_slots +
+         o.slot_p) *
+            pair_slots +
+        o.slot_q;
+    Block& blk = blocks[key];
+    blk.sum_d += o.d;
+    blk.sum_v += v;
+    blk.sum_base += base;
+    ++blk.bins;
+  }
   struct Overlap {
     double d2, pred, base;
   };
@@ -160,9 +164,7 @@ double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell
     overlaps.push_back({mean_d * mean_d, blk.sum_v / (n * n), blk.sum_base / n});
   }
   if (static_cast<long long>(overlaps.size()) < kMinOverlapBlocks) return 0.0;
-  std::sort(overlaps.begin(), overlaps.end(), [](const Overlap& a, const Overlap& b) {
-    return a.d2 != b.d2 ? a.d2 < b.d2 : (a.pred != b.pred ? a.pred < b.pred : a.base < b.base);
-  });  // the unordered map's order must not reach the result
+  // The median does not depend on the blocks' (the unordered map's) order.
   return medianCrossing(overlaps.size(), 0.0, 1.0, true, [&](std::size_t k, double phi) {
     return overlaps[k].d2 / (overlaps[k].pred + phi * overlaps[k].base);
   });
@@ -178,20 +180,15 @@ double sharedNoiseFraction(const std::vector<std::pair<long long, Acc>>& by_cell
 constexpr double kMaxCommonCorrelation = 0.9;
 constexpr long long kMinOverlapBins = 200;
 
-template <class Acc>
-double commonErrorCorrelation(const std::vector<std::pair<long long, Acc>>& by_cell, long long pair_slots,
-                              double l_px, double phi) {
+double commonErrorCorrelation(const std::vector<OverlapBin>& bins, double phi) {
   struct Overlap {
     double d2, sum, cross;  // d^2, V_p + V_q, 2 sqrt(V_p V_q)
   };
   std::vector<Overlap> overlaps;
-  forEachOverlapBin(by_cell, pair_slots,
-                    [&](long long, const Acc& p, const Acc& q, long long, long long, double d) {
-                      const double vp = (p.s2 / p.n) * (patchVarianceFactor(std::sqrt(p.n), l_px) + phi);
-                      const double vq = (q.s2 / q.n) * (patchVarianceFactor(std::sqrt(q.n), l_px) + phi);
-                      if (vp > 0.0 && vq > 0.0)
-                        overlaps.push_back({d * d, vp + vq, 2.0 * std::sqrt(vp * vq)});
-                    });
+  for (const OverlapBin& o : bins) {
+    const double vp = o.mean_var_p * (o.factor_p + phi), vq = o.mean_var_q * (o.factor_q + phi);
+    if (vp > 0.0 && vq > 0.0) overlaps.push_back({o.d * o.d, vp + vq, 2.0 * std::sqrt(vp * vq)});
+  }
   if (static_cast<long long>(overlaps.size()) < kMinOverlapBins) return 0.0;
   return medianCrossing(overlaps.size(), 0.0, kMaxCommonCorrelation, false, [&](std::size_t k, double rho) {
     return overlaps[k].d2 / (overlaps[k].sum - rho * overlaps[k].cross);
@@ -254,8 +251,9 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
     return std::max(0.0, (rss - noise_spread) / (a.n - 3.0));
   };
   long long overlap_bins = 0;
-  const double shared = sharedNoiseFraction(by_cell, kPairSlots, l_px, overlap_bins);
-  const double common = commonErrorCorrelation(by_cell, kPairSlots, l_px, shared);
+  const std::vector<OverlapBin> overlaps = overlapBins(by_cell, kPairSlots, l_px);
+  const double shared = sharedNoiseFraction(overlaps, kPairSlots, overlap_bins);
+  const double common = commonErrorCorrelation(overlaps, shared);
   struct Binned {
     DemPoint point;
     float gsd_m, rep_var_m2, pair_sd_m;

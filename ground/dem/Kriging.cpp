@@ -38,6 +38,7 @@ struct CorrelatedNoise {
   VariogramModel signal;
   const std::vector<float>* extra = nullptr;    // KrigingOptions::point_extra_var_m2 (or none)
   const std::vector<float>* pair_sd = nullptr;  // KrigingOptions::point_pair_sd_m (or none)
+  const std::vector<double>* local_sd = nullptr;  // with pair_sd: per point, sqrt(sigma^2 - pair_sd^2)
 
   bool on() const { return l_px > 0.0 && gsd != nullptr; }
 
@@ -45,25 +46,21 @@ struct CorrelatedNoise {
     return !(a.line >= 0 && b.line >= 0 && dense::linePair(a.line) != dense::linePair(b.line));
   }
 
+  // Of two points of one pair (samePair).
   double rho(const DemPoint& a, const DemPoint& b, double gsd_a, double gsd_b) const {
-    if (!samePair(a, b)) return 0.0;  // other images
     const double g = std::max(1e-6, 0.5 * (gsd_a + gsd_b));
     return patchCorrelation(std::fabs(a.north_m - b.north_m) / g, std::fabs(a.east_m - b.east_m) / g,
                             std::max(1.0, bin_m / g), l_px);
   }
 
-  double pairSd(std::size_t i) const { return pair_sd != nullptr ? (*pair_sd)[i] : 0.0; }
-  // The point's noise sd less its pair-wide part.
-  double localSd(const DemPoint& p, std::size_t i) const {
-    const double c = pairSd(i);
-    return std::sqrt(std::max(0.0, p.sigma_m * p.sigma_m - c * c));
-  }
   // Cov(e_i, e_j) of two different points.
   double noiseCovariance(const std::vector<DemPoint>& points, std::size_t i, std::size_t j) const {
     const DemPoint &a = points[i], &b = points[j];
+    if (!samePair(a, b)) return 0.0;  // other images
     const double r = rho(a, b, (*gsd)[i], (*gsd)[j]);
-    const double shared = samePair(a, b) ? pairSd(i) * pairSd(j) : 0.0;
-    return (r != 0.0 ? localSd(a, i) * localSd(b, j) * r : 0.0) + shared;
+    if (pair_sd == nullptr) return a.sigma_m * b.sigma_m * r;
+    return (r != 0.0 ? (*local_sd)[i] * (*local_sd)[j] * r : 0.0) +
+           static_cast<double>((*pair_sd)[i]) * (*pair_sd)[j];
   }
 
   // 1/2 Var(e_i - e_j): what the noise adds to the pair's semivariance.
@@ -255,7 +252,19 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
       o.point_extra_var_m2 != nullptr && o.point_extra_var_m2->size() == points.size() ? o.point_extra_var_m2
                                                                                        : nullptr,
       o.point_pair_sd_m != nullptr && o.point_pair_sd_m->size() == points.size() ? o.point_pair_sd_m
-                                                                                 : nullptr};
+                                                                                 : nullptr,
+      nullptr};
+  // Each point's noise sd less its pair-wide part, once (the pair terms need it for every pair of
+  // neighbours).
+  std::vector<double> local_sd;
+  if (correlated.pair_sd != nullptr) {
+    local_sd.resize(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const double c = (*correlated.pair_sd)[i];
+      local_sd[i] = std::sqrt(std::max(0.0, points[i].sigma_m * points[i].sigma_m - c * c));
+    }
+    correlated.local_sd = &local_sd;
+  }
   if (correlated.on()) {
     res.signal_experimental =
         experimentalVariogram(xs, ys, zs, max_lag, 20, 2000000, 1,

@@ -2,7 +2,6 @@
 // Writes the left image's disparity (positive: left x matches right x - d) as a float32 TIFF, NaN = no match.
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <string>
 
 #include <opencv2/imgcodecs.hpp>
@@ -84,12 +83,10 @@ int main(int argc, char** argv) {
     std::snprintf(line, sizeof line, "coarse %.2f s, fine %.2f s, post %.2f s; %.1f %% of pixels matched",
                   r.coarse_seconds, r.fine_seconds, r.post_seconds, 100.0 * r.matched_fraction);
     if (o.refine_subpixel) {
-      char more[120];
-      std::snprintf(more, sizeof more, "; least-squares matching: %lld refined, %lld kept the parabola's",
+      std::snprintf(line, sizeof line, "least-squares matching: %lld refined, %lld kept the parabola's",
                     r.subpixel.refined, r.subpixel.kept);
-      std::strncat(line, more, sizeof line - std::strlen(line) - 1);
+      areomap::cli::info(line);
     }
-    areomap::cli::info(line);
     if (!cv::imwrite(out, r.disparity)) throw areomap::cli::InputError(out, "--out", "cannot write the TIFF");
     if (!mask_path.empty()) {
       cv::Mat mask = r.valid.clone();

@@ -39,19 +39,9 @@ double trueDisparity(double x, double y) {
 
 // Left(x, y) = T(x, y); right(xr, y) = T(x, y) where x - d(x, y) = xr (solved by fixed point: |dd/dx| < 0.2).
 void slantedPair(cv::Mat& left, cv::Mat& right) {
-  const int w = 400, h = 300, pad = 40;
   cv::RNG rng(11);
-  cv::Mat tex(h + 2 * pad, w + 2 * pad, CV_32FC1);
-  rng.fill(tex, cv::RNG::UNIFORM, 0.0, 255.0);
-  cv::GaussianBlur(tex, tex, cv::Size(0, 0), 1.0);
   cv::Mat l, r;
-  areomap::test::remapPair(tex, pad, w, h,
-                           [](int xr, int y) {
-                             double x = xr + kA;
-                             for (int k = 0; k < 30; ++k) x = xr + trueDisparity(x, y);
-                             return x;
-                           },
-                           l, r);
+  areomap::test::texturedDisparityPair(rng, 400, 300, 40, 1.0, trueDisparity, l, r);
   l.convertTo(left, CV_8UC1);
   r.convertTo(right, CV_8UC1);
 }

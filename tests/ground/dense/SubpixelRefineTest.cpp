@@ -34,18 +34,8 @@ struct Score {
 void renderPair(unsigned seed, const std::function<double(double, double)>& disparity, cv::Mat& left,
                 cv::Mat& right) {
   cv::RNG rng(seed);
-  cv::Mat tex(kHeight + 2 * kPad, kWidth + 2 * kPad, CV_32FC1);
-  rng.fill(tex, cv::RNG::UNIFORM, 0.0, 255.0);
-  cv::GaussianBlur(tex, tex, cv::Size(0, 0), 1.0);
   cv::Mat l, r;
-  areomap::test::remapPair(
-      tex, kPad, kWidth, kHeight,
-      [&](int xr, int y) {
-        double x = xr + disparity(xr, y);  // left x with x - d(x, y) = xr
-        for (int k = 0; k < 30; ++k) x = xr + disparity(x, y);
-        return x;
-      },
-      l, r);
+  areomap::test::texturedDisparityPair(rng, kWidth, kHeight, kPad, 1.0, disparity, l, r);
   cv::Mat noise(l.size(), CV_32FC1);
   rng.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
   l += noise;

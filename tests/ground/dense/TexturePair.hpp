@@ -23,4 +23,24 @@ void remapPair(const cv::Mat& tex, int pad, int w, int h, const TextureX& textur
   cv::remap(tex, right, rx, my, cv::INTER_CUBIC, cv::BORDER_REFLECT);
 }
 
+// `w` x `h` pixels of a uniform random texture (grey 0..255 from `rng`, Gaussian blur of blur_px, a margin
+// of `pad`) seen with the disparity field d(x, y) of the LEFT pixels: left(x, y) = T(x, y), right(xr, y) =
+// T(x, y) where x - d(x, y) = xr (solved by fixed point from x = xr + d(xr, y): |dd/dx| must stay well
+// below 1). CV_32F, for the caller's noise before it converts to 8 bit.
+template <class Disparity>
+void texturedDisparityPair(cv::RNG& rng, int w, int h, int pad, double blur_px, const Disparity& d,
+                           cv::Mat& left, cv::Mat& right) {
+  cv::Mat tex(h + 2 * pad, w + 2 * pad, CV_32FC1);
+  rng.fill(tex, cv::RNG::UNIFORM, 0.0, 255.0);
+  cv::GaussianBlur(tex, tex, cv::Size(0, 0), blur_px);
+  remapPair(
+      tex, pad, w, h,
+      [&](int xr, int y) {
+        double x = xr + d(xr, y);
+        for (int k = 0; k < 30; ++k) x = xr + d(x, y);
+        return x;
+      },
+      left, right);
+}
+
 }  // namespace areomap::test
