@@ -11,8 +11,47 @@ namespace areomap::dem {
 
 namespace {
 constexpr int kNeighbourPairs = 8;     // short-lag pairs per point from the k-d tree
+// With pair noise: the precise points are where the cloud is dense (near range), a minority of it, and
+// only their pairs tell the surface's short-lag semivariance; each sampled point takes enough neighbours
+// that they cover the lags of a few kriging neighbourhoods there, not just the nearest cell or two.
+constexpr int kNoisyNeighbourPairs = 63;
 constexpr int kRangeCandidates = 80;   // log-spaced ranges tried per model kind
 constexpr double kMedianChi2 = 0.4549;  // median of chi^2 with 1 degree of freedom
+constexpr int kMaxMedianIterations = 30;  // fixed-point steps of the precision-weighted median
+
+// The robust semivariance of one lag from its pairs' (noise-free semivariance g_k, noise n_k): each g_k is
+// (gamma + n_k) X - n_k with X = chi^2_1 / its median, whose median is gamma whatever n_k, but whose
+// spread grows with gamma + n_k. So gamma is the median of the g_k weighted by their precision there,
+// 1 / (gamma + n_k) (the density of each pair's g at its median): where the cloud mixes precise and noisy
+// points (near and far range), the precise pairs make the estimate and the noisy ones cannot bury it.
+// Starts from the plain median; fixed-point steps (the weights depend on gamma) until it moves by < 0.1 %.
+double precisionWeightedMedian(std::vector<std::pair<float, float>>& v, double& information) {
+  std::sort(v.begin(), v.end());
+  const auto weightedMedian = [&](double gamma) {
+    double total = 0.0;
+    for (const auto& [g, n] : v) total += 1.0 / (std::max(gamma, 0.0) + n + 1e-30);
+    double run = 0.0;
+    for (const auto& [g, n] : v) {
+      run += 1.0 / (std::max(gamma, 0.0) + n + 1e-30);
+      if (run >= 0.5 * total) return static_cast<double>(g);
+    }
+    return static_cast<double>(v.back().first);
+  };
+  double gamma = v[v.size() / 2].first;
+  for (int it = 0; it < kMaxMedianIterations; ++it) {
+    const double next = weightedMedian(gamma);
+    const bool settled = std::fabs(next - gamma) <= 1e-3 * std::fabs(next);
+    gamma = next;
+    if (settled) break;
+  }
+  information = 0.0;
+  for (const auto& [g, n] : v) {
+    const double s = std::max(gamma, 0.0) + n + 1e-30;
+    information += 1.0 / (s * s);
+  }
+  return gamma;
+}
+
 }  // namespace
 
 const char* variogramName(VariogramKind kind) {
@@ -54,8 +93,8 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
   std::vector<double> sum_d(static_cast<std::size_t>(bins), 0.0), sum_g(sum_d.size(), 0.0);
   std::vector<int64_t> count(sum_d.size(), 0);
   std::vector<double> sum_noise(sum_d.size(), 0.0);
-  // robust: every pair's noise-free semivariance, 1/2 dz^2 / kMedianChi2 - its noise
-  std::vector<std::vector<float>> pair_g(robust ? sum_d.size() : 0);
+  // robust: every pair's noise-free semivariance, 1/2 dz^2 / kMedianChi2 - its noise, and that noise
+  std::vector<std::vector<std::pair<float, float>>> pair_g(robust ? sum_d.size() : 0);
   const double bin_w = max_lag_m / bins;
   auto add = [&](std::size_t i, std::size_t j) {
     const double dx = x[i] - x[j], dy = y[i] - y[j];
@@ -66,7 +105,8 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
     sum_d[b] += h;
     sum_g[b] += 0.5 * dz * dz;
     const double pn = pair_noise_m2 ? pair_noise_m2(i, j) : 0.0;
-    if (robust) pair_g[b].push_back(static_cast<float>(0.5 * dz * dz / kMedianChi2 - pn));
+    if (robust)
+      pair_g[b].emplace_back(static_cast<float>(0.5 * dz * dz / kMedianChi2 - pn), static_cast<float>(pn));
     sum_noise[b] += pn;
     ++count[b];
   };
@@ -91,11 +131,12 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
     std::vector<std::size_t> order(n);
     for (std::size_t i = 0; i < n; ++i) order[i] = i;
     std::shuffle(order.begin(), order.end(), rng);
-    order.resize(std::min(n, static_cast<std::size_t>(max_pairs / (2 * kNeighbourPairs))));
-    int32_t idx[kNeighbourPairs + 1];
-    double d2[kNeighbourPairs + 1];
+    const int kn = pair_noise_m2 ? kNoisyNeighbourPairs : kNeighbourPairs;
+    order.resize(std::min(n, static_cast<std::size_t>(max_pairs / (2 * kn))));
+    int32_t idx[kNoisyNeighbourPairs + 1];
+    double d2[kNoisyNeighbourPairs + 1];
     for (std::size_t i : order) {
-      const int f = tree.nearest(x[i], y[i], kNeighbourPairs + 1, idx, d2);
+      const int f = tree.nearest(x[i], y[i], kn + 1, idx, d2);
       for (int k = 0; k < f; ++k) {
         if (static_cast<std::size_t>(idx[k]) != i) add(i, static_cast<std::size_t>(idx[k]));
       }
@@ -107,9 +148,9 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
     ev.lag_m.push_back(sum_d[b] / count[b]);
     double g = 0.0;
     if (robust) {
-      std::vector<float>& v = pair_g[b];
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      g = v[v.size() / 2];
+      double information = 0.0;
+      g = precisionWeightedMedian(pair_g[b], information);
+      ev.fit_weight.push_back(information);
     } else {
       g = (sum_g[b] - sum_noise[b]) / count[b];
     }
@@ -133,7 +174,7 @@ VariogramModel fitVariogram(const ExperimentalVariogram& ev, VariogramKind kind)
   std::vector<double> w(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double g = std::max(ev.gamma_m2[i], 1e-6 * gmax);
-    w[i] = static_cast<double>(ev.pairs[i]) / (g * g);
+    w[i] = ev.fit_weight.size() == n ? ev.fit_weight[i] : static_cast<double>(ev.pairs[i]) / (g * g);
   }
   for (int c = 0; c < kRangeCandidates; ++c) {
     VariogramModel m;
