@@ -10,29 +10,19 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include "firmware_core/adjust/Datum.hpp"
-#include "firmware_core/camera/CameraConversion.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/ortho/Orthoimage.hpp"
+#include "tests/ground/products/TruthDatum.hpp"
 
 using namespace areomap;
 
 namespace {
-
-// The site -> camera rotation of the project's conversion (identity if the model does not convert).
-Mat3 rotationOf(CameraModel m, int width, int height) {
-  if (m.width <= 0) m.width = width, m.height = height;
-  PhotogrammetricCamera p;
-  ConversionResidual residual;
-  return cahvorToPhotogrammetric(m, p, residual) == Status::kOk ? p.m : Mat3::Identity();
-}
 
 // The ray from `c` to `p` stays above the truth surface until 3 cm before p.
 bool clearRay(const DemGrid& truth, const Vec3& c, const Vec3& p) {
@@ -84,31 +74,13 @@ int main(int argc, char** argv) {
   const DemGrid truth = readDemGeoTiff(root + "/truth/dem.tif");
   const DemGrid dem = readDemGeoTiff(out + "/" + stem + ".tif");
   const DemGrid sigma = readDemGeoTiff(out + "/" + stem + "_sigma.tif");
-  std::vector<CameraModel> cams;
-  std::vector<Mat3> m_est, m_true;
-  Vec3 centre = Vec3::Zero();
-  for (const Pair& p : ds.pairs) {
-    for (const ImageRef* ref : {&p.left, p.right ? &*p.right : nullptr}) {
-      if (ref == nullptr) continue;
-      CameraModel t = io::readCameraModelFile(root + "/truth/models/" + ref->stem + ".cahvor");
-      if (t.width <= 0) t.width = ds.width, t.height = ds.height;
-      cams.push_back(t);
-      centre += t.c;
-      const std::string adj = out + "/models/" + ref->stem + ".cahvor";
-      if (std::filesystem::exists(adj)) {
-        m_est.push_back(rotationOf(io::readCameraModelFile(adj), ds.width, ds.height));
-        m_true.push_back(rotationOf(t, ds.width, ds.height));
-      }
-    }
-  }
-  centre /= static_cast<double>(cams.size());
-  const Vec3 g = ds.rig.gimbal_m.empty() ? centre : Vec3(ds.rig.gimbal_m.begin()->second);
-  const Mat3 r = m_est.empty()
-                     ? Mat3::Identity()
-                     : commonRotation(m_est.data(), m_true.data(), static_cast<int32_t>(m_est.size()));
-  const double angle = std::acos(std::min(1.0, 0.5 * (r.trace() - 1.0)));
+  const test::TruthDatum datum = test::truthDatum(ds, root, out);
+  const std::vector<CameraModel>& cams = datum.truth_models;
+  const Vec3& g = datum.centre;
+  const Mat3& r = datum.rotation;
+  const double angle = datum.angleRad();
   std::printf("%s: datum rotation removed %.3f mrad (%zu adjusted models)\n", out.c_str(), 1e3 * angle,
-              m_est.size());
+              datum.adjusted_models);
   struct Band {
     long long seen = 0, filled = 0, w1 = 0, w2 = 0;
     double s2 = 0, sig2 = 0, sum = 0;

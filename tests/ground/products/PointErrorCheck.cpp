@@ -1,7 +1,9 @@
 // How a point cloud's height errors are correlated on the ground (BENCHMARKS.md "DEM accuracy and DEM
 // sigma"): point_error_check DATASET POINTS.ply [--range LO,HI]
 // Every point of POINTS.ply (site frame, products' points.ply) between LO and HI metres from the site origin
-// (default 2,5) against DATASET/truth/dem.tif; errors over 5 cm are left out (mismatches, occlusion edges).
+// (default 2,5) against DATASET/truth/dem.tif, after the common datum rotation of the adjusted models beside
+// it (POINTS.ply's folder/models; TruthDatum.hpp) is removed; errors over 5 cm are left out (mismatches,
+// occlusion edges).
 // Prints the median |error|, the median |error| / sigma (0.674 for an honest Gaussian sigma), and the
 // correlation of two points' errors by their distance on the ground, for points of one pair and of two
 // different pairs (LineId.hpp). What a DEM cell's bin and the kriging's neighbourhood can average down
@@ -15,14 +17,17 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/dense/LineId.hpp"
 #include "ground/dense/Triangulation.hpp"
 #include "ground/ortho/Orthoimage.hpp"
+#include "tests/ground/products/TruthDatum.hpp"
 
 using namespace areomap;
 
@@ -135,15 +140,21 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    const DemGrid truth = readDemGeoTiff(std::string(argv[1]) + "/truth/dem.tif");
+    const std::string root = argv[1], ply = argv[2];
+    const DemGrid truth = readDemGeoTiff(root + "/truth/dem.tif");
+    const test::TruthDatum datum =
+        test::truthDatum(readDataset(root), root, std::filesystem::path(ply).parent_path().string());
+    std::printf("datum rotation removed %.3f mrad (%zu adjusted models)\n", 1e3 * datum.angleRad(),
+                datum.adjusted_models);
     std::vector<PointError> pts;
-    for (const dense::CloudPoint& p : dense::readPly(argv[2])) {
-      const double r = std::hypot(p.site_m.x(), p.site_m.y());
+    for (const dense::CloudPoint& p : dense::readPly(ply)) {
+      const Vec3 q = datum.align(p.site_m);
+      const double r = std::hypot(q.x(), q.y());
       double z = 0.0;
-      if (r < lo || r > hi || !ortho::demElevation(truth, p.site_m.x(), p.site_m.y(), z)) continue;
-      const double e = -p.site_m.z() - z;
+      if (r < lo || r > hi || !ortho::demElevation(truth, q.x(), q.y(), z)) continue;
+      const double e = -q.z() - z;
       if (std::fabs(e) > 0.05 || !(p.sigmaHeight_m() > 0.0)) continue;
-      pts.push_back({p.site_m.x(), p.site_m.y(), e, p.sigmaHeight_m(), dense::linePair(p.line)});
+      pts.push_back({q.x(), q.y(), e, p.sigmaHeight_m(), dense::linePair(p.line)});
     }
     if (pts.size() < 100) {
       std::fprintf(stderr, "point_error_check: only %zu points in %.1f..%.1f m\n", pts.size(), lo, hi);
