@@ -125,9 +125,9 @@ GroundNodeResult makePanorama(platform::Transport& transport, const GroundNodeOp
   GroundPassOptions pass_options = options.pass;
   pass_options.out_dir = out;
   if (options.pass.progress) cli::info("writing the received images to " + out + "/stream");
-  const Dataset dataset = collector.writeDataset(out + "/stream");
-  collector.releaseImages();  // the pass reads them back from stream/ (one copy in memory, not two)
-  result.pass = runGroundPass(dataset, pass_options, &result.stream, &result.rover);
+  // The images and models as they arrived (stream/ is the record of them; one copy in memory).
+  const io::Panorama panorama = collector.takePanorama(collector.writeDataset(out + "/stream"));
+  result.pass = runGroundPass(panorama.dataset, pass_options, &result.stream, &result.rover, &panorama);
   result.pass.files = buildManifest(out, "stream/");
   if (options.can_publish) {
     const product_t message = manifestMessage(collector.panorama(), out, result.pass.files, k - 1);

@@ -160,8 +160,9 @@ namespace {
 
 // Step 1: tie points -- the rover's when they arrived complete, else the rover's matcher on the ground's
 // images -- and the network with the rig constraints.
-TieRun tiePointsStage(const Dataset& dataset, const GroundPassOptions& options, const RoverInputs* rover,
-                      TieNetwork& network, GroundPassResult& result, AdjustReport& report) {
+TieRun tiePointsStage(const Dataset& dataset, const std::function<const io::Panorama&()>& panorama,
+                      const GroundPassOptions& options, const RoverInputs* rover, TieNetwork& network,
+                      GroundPassResult& result, AdjustReport& report) {
   const std::string& out = options.out_dir;
   TieRun run;
   std::string why_not_rover = "not used (--no-rover-ties)";
@@ -178,7 +179,7 @@ TieRun tiePointsStage(const Dataset& dataset, const GroundPassOptions& options, 
                                 "): the ground matched its own images instead.");
     }
     if (options.progress) cli::info("tie points on " + std::to_string(dataset.pairs.size()) + " pairs");
-    run = runTiePoints(dataset, options.progress, &network);
+    run = runTiePoints(panorama(), options.progress, &network);
   }
   writeOrRecord(result, report, [&] { writeTiePoints(out, run); });
   report.seconds.emplace_back("tie_points", run.seconds);
@@ -334,16 +335,26 @@ json roverFigures(const RoverInputs* rover, const Network& net, const std::vecto
 }  // namespace
 
 GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& options,
-                               const StreamCounts* stream, const RoverInputs* rover) {
+                               const StreamCounts* stream, const RoverInputs* rover,
+                               const io::Panorama* loaded) {
   const std::string& out = options.out_dir;
   fs::create_directories(out);
   GroundPassResult result;
   AdjustReport report;
   for (const std::string& note : dataset.notes) report.warnings.push_back(note);
 
+  // The images and their a-priori models, read once when a stage first needs them (the ground's matcher,
+  // the products); the rover's ties and --no-products need neither.
+  std::optional<io::Panorama> read;
+  const auto panorama = [&]() -> const io::Panorama& {
+    if (loaded != nullptr) return *loaded;
+    if (!read) read = io::loadPanorama(dataset);
+    return *read;
+  };
+
   // 1. Tie points and the network.
   TieNetwork network;
-  const TieRun run = tiePointsStage(dataset, options, rover, network, result, report);
+  const TieRun run = tiePointsStage(dataset, panorama, options, rover, network, result, report);
   Network& net = *network.net;
   const std::vector<std::string>& stems = network.stem_of_image;
 
@@ -377,8 +388,15 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
   const json rover_json = roverFigures(rover, net, stems, out, result, report);
   report.seconds.emplace_back("write_adjustment", cli::nowSeconds() - t0);
   if (options.products_hook) {
-    ProductContext context{&dataset,         out,     &net,       &stems, &network.apriori_of_image,
-                           &run.observations, &report, truth_root, &result.write_errors};
+    ProductContext context{&panorama(),
+                           out,
+                           &net,
+                           &stems,
+                           &network.apriori_of_image,
+                           &run.observations,
+                           &report,
+                           truth_root,
+                           &result.write_errors};
     options.products_hook(context);
   } else {
     report.warnings.push_back(

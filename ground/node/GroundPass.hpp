@@ -29,6 +29,7 @@
 #include "ground/adjust/AdjustProducts.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/TruthFiles.hpp"
+#include "ground/io/Panorama.hpp"
 #include "ground/node/StreamCollector.hpp"
 
 namespace areomap::ground {
@@ -49,7 +50,7 @@ struct RoverInputs {
 
 // Handed to the products hook after the adjustment products are written.
 struct ProductContext {
-  const Dataset* dataset = nullptr;
+  const io::Panorama* panorama = nullptr;  // the dataset with its images and a-priori models, loaded once
   std::string out_dir;
   const Network* net = nullptr;                         // the integrated solution
   const std::vector<std::string>* stems = nullptr;      // per network image
@@ -108,9 +109,11 @@ std::string roverTiesIncomplete(const Dataset& dataset, const RoverInputs& rover
 
 // Runs the pass and writes the products. Throws cli::InputError on bad input or an unsolvable network; a
 // product that cannot be written does not stop the pass: it is named in `write_errors` (and report.json's
-// warnings when report.json itself can be written).
+// warnings when report.json itself can be written). The images and a-priori models are read once, when a
+// stage first needs them, or come from `loaded` (the same dataset, already loaded: a stream's images).
 GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& options,
-                               const StreamCounts* stream, const RoverInputs* rover);
+                               const StreamCounts* stream, const RoverInputs* rover,
+                               const io::Panorama* loaded = nullptr);
 
 // RMS pixel-equivalent difference (f x (angle + |dC| / 5 m)) between the rover's EO and the network's
 // current EO over the images both have (by stem), after removing their best-fit common rotation about

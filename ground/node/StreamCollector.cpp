@@ -4,6 +4,7 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <stdexcept>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -100,11 +101,37 @@ void StreamCollector::nextPanorama() {
   for (const std::vector<uint8_t>& m : next) receive(channels::kStereoPair, m.data(), m.size());
 }
 
-void StreamCollector::releaseImages() {
+io::Panorama StreamCollector::takePanorama(Dataset written) {
+  io::Panorama p;
+  const auto take = [](ReceivedImage& image, const ImageRef& ref) {
+    if (image.stem != ref.stem) {
+      throw std::logic_error("takePanorama: image " + image.stem + " is " + ref.stem +
+                             " in the dataset written");
+    }
+    io::PanoramaImage out;
+    out.stem = ref.stem;
+    out.image_path = ref.image_path;
+    out.grey = std::move(image.pixels);
+    if (!out.grey.isContinuous()) out.grey = out.grey.clone();
+    out.model = image.model;
+    if (out.model.width <= 0) out.model.width = out.grey.cols, out.model.height = out.grey.rows;
+    return out;
+  };
+  std::size_t k = 0;
   for (auto& [id, pair] : pairs_) {
-    pair.left.pixels.release();
-    if (pair.right) pair.right->pixels.release();
+    if (k >= written.pairs.size())
+      throw std::logic_error("takePanorama: more pairs than the dataset written");
+    const Pair& ref = written.pairs[k++];
+    p.left.push_back(take(pair.left, ref.left));
+    if (pair.right.has_value() != ref.right.has_value()) {
+      throw std::logic_error("takePanorama: pair " + ref.left.stem + " differs from the dataset written");
+    }
+    p.right.push_back(pair.right ? std::optional<io::PanoramaImage>(take(*pair.right, *ref.right))
+                                 : std::nullopt);
   }
+  if (k != written.pairs.size()) throw std::logic_error("takePanorama: fewer pairs than the dataset written");
+  p.dataset = std::move(written);
+  return p;
 }
 
 int32_t StreamCollector::roverTieMessagesMissing() const {

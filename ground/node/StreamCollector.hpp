@@ -25,6 +25,7 @@
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/TruthFiles.hpp"
+#include "ground/io/Panorama.hpp"
 
 namespace areomap::ground {
 
@@ -96,8 +97,9 @@ class StreamCollector {
   // Ready for the next panorama (after its products are made): the camera stream's numbering starts
   // again at 0; the rover's channels go on from where they were; everything else is forgotten.
   void nextPanorama();
-  // Frees the pixels of the kept pairs (after writeDataset: the pass reads the images from disk).
-  void releaseImages();
+  // The kept pairs' images and models, moved out of the collector, as the loaded panorama of `written`
+  // (writeDataset's, in its pair order): the pass uses what arrived, not a re-read of the files it wrote.
+  io::Panorama takePanorama(Dataset written);
   int64_t messagesReceived() const { return messages_; }
   const std::string& panorama() const { return panorama_; }
 

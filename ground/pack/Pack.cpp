@@ -14,8 +14,7 @@
 #include "firmware_core/adjust/Network.hpp"
 #include "firmware_core/camera/CameraConversion.hpp"
 #include "ground/cli/Cli.hpp"
-#include "ground/io/CameraFile.hpp"
-#include "ground/io/ImageFile.hpp"
+#include "ground/io/Panorama.hpp"
 #include "ground/ties/TieAdjust.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
@@ -54,24 +53,12 @@ struct Encoder {
   }
 };
 
-struct SideData {
-  cv::Mat pixels;
-  CameraModel model;
-};
-
-SideData loadSide(const ImageRef& ref) {
-  SideData d;
-  d.pixels = io::loadImage8(ref.image_path);
-  const std::string model_path = ref.model_path.empty() ? ref.image_path : ref.model_path;
-  d.model = io::readCameraModelForImage(model_path, ref.image_path, d.pixels.cols, d.pixels.rows);
-  return d;
-}
-
-void fillSide(stereo_image_t& out, const ImageRef& ref, const SideData& d, Encoder& enc, int quality) {
+void fillSide(stereo_image_t& out, const ImageRef& ref, const io::PanoramaImage& d, Encoder& enc,
+              int quality) {
   out.stem = ref.stem;
-  out.width_px = d.pixels.cols;
-  out.height_px = d.pixels.rows;
-  out.jpeg = enc.encode(d.pixels, quality, ref.image_path);
+  out.width_px = d.grey.cols;
+  out.height_px = d.grey.rows;
+  out.jpeg = enc.encode(d.grey, quality, ref.image_path);
   out.jpeg_bytes = static_cast<int32_t>(out.jpeg.size());
   toMessage(d.model, out.model);
 }
@@ -98,14 +85,14 @@ std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& opt
   if (!(options.interval_s >= 0.0)) throw cli::UsageError("--interval-s must be >= 0");
   Encoder encoder;
   // Load every pair first: the rig is estimated from all a-priori models (as areomap-ties does).
-  std::vector<SideData> left(dataset.pairs.size()), right(dataset.pairs.size());
+  std::vector<io::PanoramaImage> left(dataset.pairs.size()), right(dataset.pairs.size());
   auto net = std::make_unique<Network>();
   std::vector<int> sol_of_index;
   cli::Progress progress("pack: reading", dataset.pairs.size());
   for (std::size_t k = 0; k < dataset.pairs.size(); ++k) {
     const Pair& p = dataset.pairs[k];
-    left[k] = loadSide(p.left);
-    if (p.right) right[k] = loadSide(*p.right);
+    left[k] = io::loadPanoramaImage(p.left);
+    if (p.right) right[k] = io::loadPanoramaImage(*p.right);
     auto it = std::find(sol_of_index.begin(), sol_of_index.end(), p.sol);
     if (it == sol_of_index.end()) {
       if (static_cast<int>(sol_of_index.size()) >= kMaxSols)

@@ -9,29 +9,18 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ground/cli/Cli.hpp"
-#include "ground/io/CameraFile.hpp"
-#include "ground/io/ImageFile.hpp"
 #include "ground/raster/RasterFiles.hpp"
 
 namespace areomap {
 namespace {
 
-struct LoadedImage {
-  cv::Mat pixels;
-  CameraModel model;
-};
-
-LoadedImage loadImage(const ImageRef& ref) {
-  LoadedImage out;
-  out.pixels = io::loadImage8(ref.image_path);
-  if (!out.pixels.isContinuous()) out.pixels = out.pixels.clone();
-  if (out.pixels.cols > kMaxImageWidth || out.pixels.rows > kMaxImageHeight) {
-    throw cli::InputError(ref.image_path, "image", "larger than the rover's " + std::to_string(kMaxImageWidth) + "x" +
-                                                       std::to_string(kMaxImageHeight) + " capacity");
+// The matcher takes images up to the rover's capacity.
+void checkCapacity(const io::PanoramaImage& im) {
+  if (im.grey.cols > kMaxImageWidth || im.grey.rows > kMaxImageHeight) {
+    throw cli::InputError(im.image_path, "image",
+                          "larger than the rover's " + std::to_string(kMaxImageWidth) + "x" +
+                              std::to_string(kMaxImageHeight) + " capacity");
   }
-  const std::string model_path = ref.model_path.empty() ? ref.image_path : ref.model_path;
-  out.model = io::readCameraModelForImage(model_path, ref.image_path, out.pixels.cols, out.pixels.rows);
-  return out;
 }
 
 ImageView viewOf(const cv::Mat& m) {
@@ -40,7 +29,8 @@ ImageView viewOf(const cv::Mat& m) {
 
 }  // namespace
 
-TieRun runTiePoints(const Dataset& dataset, bool progress, TieNetwork* network) {
+TieRun runTiePoints(const io::Panorama& panorama, bool progress, TieNetwork* network) {
+  const Dataset& dataset = panorama.dataset;
   if (static_cast<int32_t>(dataset.pairs.size()) > kMaxPairs) {
     throw cli::InputError(dataset.root + "/panorama.json", "pairs",
                           std::to_string(dataset.pairs.size()) + " pairs exceed the rover's " +
@@ -59,13 +49,15 @@ TieRun runTiePoints(const Dataset& dataset, bool progress, TieNetwork* network) 
   const double start = cli::nowSeconds();
   for (size_t k = 0; k < dataset.pairs.size(); ++k) {
     const Pair& pair = dataset.pairs[k];
-    const LoadedImage left = loadImage(pair.left);
-    LoadedImage right;
-    if (pair.right) right = loadImage(*pair.right);
+    const io::PanoramaImage& left = panorama.left[k];
+    checkCapacity(left);
+    static const io::PanoramaImage kNoImage;
+    const io::PanoramaImage& right = panorama.right[k] ? *panorama.right[k] : kNoImage;
+    if (pair.right) checkCapacity(right);
     run.stems.push_back(pair.left.stem);
     run.stems.push_back(pair.right ? pair.right->stem : std::string());
-    const ImageView lv = viewOf(left.pixels);
-    const ImageView rv = pair.right ? viewOf(right.pixels) : ImageView{};
+    const ImageView lv = viewOf(left.grey);
+    const ImageView rv = pair.right ? viewOf(right.grey) : ImageView{};
     PairTieReport report;
     const Status s = matcher->addPair(lv, pair.right ? &rv : nullptr, left.model,
                                       pair.right ? &right.model : nullptr, *dem, report);
@@ -132,22 +124,22 @@ void writeTiePoints(const std::string& out_dir, const TieRun& run) {
   writeObservationsCsv(out_dir + "/tiepoints.csv", run.observations, true);
 }
 
-void writeOverlays(const std::string& out_dir, const Dataset& dataset, const TieRun& run) {
+void writeOverlays(const std::string& out_dir, const io::Panorama& panorama, const TieRun& run) {
   const std::string dir = out_dir + "/overlays";
   std::filesystem::create_directories(dir);
-  for (const Pair& pair : dataset.pairs) {
-    for (const ImageRef* ref : {&pair.left, pair.right ? &*pair.right : nullptr}) {
-      if (ref == nullptr) continue;
-      cv::Mat grey = io::loadImage8(ref->image_path);
+  for (std::size_t k = 0; k < panorama.left.size(); ++k) {
+    for (const io::PanoramaImage* im :
+         {&panorama.left[k], panorama.right[k] ? &*panorama.right[k] : nullptr}) {
+      if (im == nullptr) continue;
       cv::Mat colour;
-      cv::cvtColor(grey, colour, cv::COLOR_GRAY2BGR);
+      cv::cvtColor(im->grey, colour, cv::COLOR_GRAY2BGR);
       for (const ImageObservation& o : run.observations) {
-        if (o.image != ref->stem) continue;
+        if (o.image != im->stem) continue;
         const cv::Scalar c = o.kind == "intra" ? cv::Scalar(255, 0, 0) : cv::Scalar(0, 0, 255);  // BGR
         const cv::Point p(static_cast<int>(std::lround(o.sample_px)), static_cast<int>(std::lround(o.line_px)));
         cv::drawMarker(colour, p, c, cv::MARKER_CROSS, 9, 1);
       }
-      const std::string path = dir + "/" + ref->stem + ".png";
+      const std::string path = dir + "/" + im->stem + ".png";
       raster::writePng(path, colour);
     }
   }

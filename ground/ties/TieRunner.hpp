@@ -1,6 +1,6 @@
-// The rover's tie-point pipeline (firmware_core/match PanoramaMatcher) run on a dataset folder on the
-// ground: pairs in panorama.json order, each image loaded as 8-bit grey (PNG/JPEG/PGM/PDS3) with its
-// a-priori model (the .cahvor file, or the PDS3 label), the observations named by image stem.
+// The rover's tie-point pipeline (firmware_core/match PanoramaMatcher) run on a loaded panorama on the
+// ground (io::Panorama: each image as 8-bit grey with its a-priori model): pairs in panorama.json order,
+// the observations named by image stem.
 #pragma once
 
 #include <memory>
@@ -12,6 +12,7 @@
 #include "firmware_core/match/PanoramaMatcher.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/TruthFiles.hpp"
+#include "ground/io/Panorama.hpp"
 
 namespace areomap {
 
@@ -36,13 +37,13 @@ struct TieNetwork {
 };
 
 // Runs the matcher on every pair. `progress` prints a line per pair on stderr; `network` (optional) is
-// built as the pairs arrive. Throws cli::InputError for unreadable images/models or images larger than the
-// rover's capacity.
-TieRun runTiePoints(const Dataset& dataset, bool progress, TieNetwork* network = nullptr);
+// built as the pairs arrive. Throws cli::InputError for images larger than the rover's capacity or that the
+// matcher or the network refuses.
+TieRun runTiePoints(const io::Panorama& panorama, bool progress, TieNetwork* network = nullptr);
 
 // DIR/tiepoints.csv (point,image,sample_px,line_px,kind).
 void writeTiePoints(const std::string& out_dir, const TieRun& run);
 // DIR/overlays/<stem>.png: the image with blue crosses on intra-stereo and red on inter-stereo observations.
-void writeOverlays(const std::string& out_dir, const Dataset& dataset, const TieRun& run);
+void writeOverlays(const std::string& out_dir, const io::Panorama& panorama, const TieRun& run);
 
 }  // namespace areomap

@@ -17,7 +17,6 @@
 #include <map>
 
 #include "ground/dataset/DemRaster.hpp"
-#include "ground/io/ImageFile.hpp"
 #include "ground/products/Products.hpp"
 #endif
 
@@ -88,23 +87,20 @@ void printSummary(const areomap::ground::GroundPassResult& p, const std::string&
 void makeGroundProducts(const areomap::ground::ProductContext& c) {
   using namespace areomap;
   products::ProductInputs in;
-  in.site = c.dataset->name;
+  const Dataset& dataset = c.panorama->dataset;
+  in.site = dataset.name;
   std::map<std::string, int> index_of_stem;
   for (std::size_t i = 0; i < c.stems->size(); ++i) {
     const std::string& stem = (*c.stems)[i];
-    int pair_index = 0;
-    bool is_right = false;
     products::ProductImage image;
     image.stem = stem;
-    if (c.dataset->findStem(stem, pair_index, is_right)) {
-      const Pair& pair = c.dataset->pairs[static_cast<std::size_t>(pair_index)];
-      image.grey = io::loadImage8(is_right ? pair.right->image_path : pair.left.image_path);
-    }
+    if (const io::PanoramaImage* loaded = c.panorama->find(stem))
+      image.grey = loaded->grey;  // shared, not copied
     image.model = ground::adjustedModelOf(*c.net, static_cast<int>(i), (*c.apriori)[i]);
     index_of_stem[stem] = static_cast<int>(in.images.size());
     in.images.push_back(image);
   }
-  for (const Pair& pair : c.dataset->pairs) {
+  for (const Pair& pair : dataset.pairs) {
     products::ProductPair p;
     p.id = pair.id;
     p.sol = pair.sol;

@@ -90,11 +90,12 @@ int main(int argc, char** argv) {
     const std::string out = args.required("--out");
     const bool adjust = args.flag("--adjust");
     const std::string dataset_dir = args.positional(0, "DATASET");
-    const areomap::Dataset dataset = areomap::readDataset(dataset_dir);
+    const areomap::io::Panorama panorama = areomap::io::loadPanorama(areomap::readDataset(dataset_dir));
+    const areomap::Dataset& dataset = panorama.dataset;
     areomap::TieNetwork network;
-    const areomap::TieRun run = areomap::runTiePoints(dataset, true, adjust ? &network : nullptr);
+    const areomap::TieRun run = areomap::runTiePoints(panorama, true, adjust ? &network : nullptr);
     areomap::writeTiePoints(out, run);
-    areomap::writeOverlays(out, dataset, run);
+    areomap::writeOverlays(out, panorama, run);
     if (std::filesystem::exists(dataset.root + "/" + areomap::kTruthDemFile) &&
         std::filesystem::exists(dataset.root + "/" + areomap::kTruthModelsFolder)) {
       const areomap::TieCheck c = areomap::checkTiesAgainstTruth(dataset, run);

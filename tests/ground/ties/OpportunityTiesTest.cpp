@@ -30,7 +30,7 @@ TEST(OpportunityTies, TiesInTheOverlapAndTheAdjustmentLowersTheResidual) {
     dataset.pairs.push_back(p);
   }
   TieNetwork network;
-  const TieRun run = runTiePoints(dataset, false, &network);
+  const TieRun run = runTiePoints(io::loadPanorama(dataset), false, &network);
   // Every observation is an inter-image tie, and on each frame they lie in the strip the other one sees.
   double min_x[2] = {1e9, 1e9}, max_x[2] = {-1e9, -1e9};
   int per_image[2] = {0, 0};

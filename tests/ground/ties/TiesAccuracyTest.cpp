@@ -51,7 +51,7 @@ struct Outcome {
 Outcome tiesAndAdjustment(const std::string& dir, const char* name) {
   const Dataset dataset = readDataset(dir);
   TieNetwork network;
-  const TieRun run = runTiePoints(dataset, false, &network);
+  const TieRun run = runTiePoints(io::loadPanorama(dataset), false, &network);
   Outcome out;
   out.check = checkTiesAgainstTruth(dataset, run);
   const TieCheck& c = out.check;
@@ -124,7 +124,7 @@ TEST(TiesNavcamAdjustment, InterStereoDisparityIsUnbiasedOnRockyGround) {
     const std::string dir = simulate("ties-rocks", "--preset navcam --pairs 3 --threads 2", seed);
     CHECK(!dir.empty());
     const Dataset dataset = readDataset(dir);
-    const TieRun run = runTiePoints(dataset, false, nullptr);
+    const TieRun run = runTiePoints(io::loadPanorama(dataset), false, nullptr);
     const TieCheck c = checkTiesAgainstTruth(dataset, run);
     std::printf(
         "\nnavcam seed %d: inter-stereo x error %+.4f px (left, %d) / %+.4f px (right, %d), intra %+.4f px\n",

@@ -36,7 +36,7 @@ TEST_GROUP(TiesOnSimulation){};
 TEST(TiesOnSimulation, TiesMatchTheTruthLinkEveryAdjacentPairAndAdjust) {
   const Dataset dataset = readDataset(tinyDataset());
   TieNetwork network;
-  const TieRun run = runTiePoints(dataset, false, &network);
+  const TieRun run = runTiePoints(io::loadPanorama(dataset), false, &network);
   const TieCheck c = checkTiesAgainstTruth(dataset, run);
   std::printf("tiny: %zu points, %d intra + %d inter observations; %.2f %% of %d within 1 px (inter %.2f %% of %d), "
               "rms %.3f px; %d adjacent pairs, weakest %s; %.2f s\n",
