@@ -27,12 +27,14 @@ constexpr int kMaxMedianIterations = 30;  // fixed-point steps of the precision-
 // Starts from the plain median; fixed-point steps (the weights depend on gamma) until it moves by < 0.1 %.
 double precisionWeightedMedian(std::vector<std::pair<float, float>>& v, double& information) {
   std::sort(v.begin(), v.end());
+  // A pair's spread at gamma: gamma + its noise (the weight is its inverse; 1e-30 keeps it finite).
+  const auto spread = [](double gamma, float n) { return std::max(gamma, 0.0) + n + 1e-30; };
   const auto weightedMedian = [&](double gamma) {
     double total = 0.0;
-    for (const auto& [g, n] : v) total += 1.0 / (std::max(gamma, 0.0) + n + 1e-30);
+    for (const auto& [g, n] : v) total += 1.0 / spread(gamma, n);
     double run = 0.0;
     for (const auto& [g, n] : v) {
-      run += 1.0 / (std::max(gamma, 0.0) + n + 1e-30);
+      run += 1.0 / spread(gamma, n);
       if (run >= 0.5 * total) return static_cast<double>(g);
     }
     return static_cast<double>(v.back().first);
@@ -45,10 +47,7 @@ double precisionWeightedMedian(std::vector<std::pair<float, float>>& v, double& 
     if (settled) break;
   }
   information = 0.0;
-  for (const auto& [g, n] : v) {
-    const double s = std::max(gamma, 0.0) + n + 1e-30;
-    information += 1.0 / (s * s);
-  }
+  for (const auto& [g, n] : v) information += 1.0 / (spread(gamma, n) * spread(gamma, n));
   return gamma;
 }
 

@@ -50,17 +50,17 @@ TieRun runTiePoints(const io::Panorama& panorama, bool progress, TieNetwork* net
   for (size_t k = 0; k < dataset.pairs.size(); ++k) {
     const Pair& pair = dataset.pairs[k];
     const io::PanoramaImage& left = panorama.left[k];
+    const io::PanoramaImage* right = panorama.right[k] ? &*panorama.right[k] : nullptr;  // mono: none
     checkCapacity(left);
-    static const io::PanoramaImage kNoImage;
-    const io::PanoramaImage& right = panorama.right[k] ? *panorama.right[k] : kNoImage;
-    if (pair.right) checkCapacity(right);
+    if (right != nullptr) checkCapacity(*right);
     run.stems.push_back(pair.left.stem);
     run.stems.push_back(pair.right ? pair.right->stem : std::string());
     const ImageView lv = viewOf(left.grey);
-    const ImageView rv = pair.right ? viewOf(right.grey) : ImageView{};
+    const ImageView rv = right != nullptr ? viewOf(right->grey) : ImageView{};
+    const CameraModel* right_model = right != nullptr ? &right->model : nullptr;
     PairTieReport report;
-    const Status s = matcher->addPair(lv, pair.right ? &rv : nullptr, left.model,
-                                      pair.right ? &right.model : nullptr, *dem, report);
+    const Status s =
+        matcher->addPair(lv, right != nullptr ? &rv : nullptr, left.model, right_model, *dem, report);
     if (s == Status::kInvalidArgument || s == Status::kCapacityExceeded) {
       throw cli::InputError(pair.left.image_path, "image", std::string("rejected by the matcher: ") + statusName(s));
     }
@@ -78,18 +78,17 @@ TieRun runTiePoints(const io::Panorama& panorama, bool progress, TieNetwork* net
       const int sol_index = static_cast<int>(it - network->sol_of_index.begin());
       const int tier = std::max(0, std::min(kMaxTiers - 1, pair.tier));
       int32_t failed = 0;
-      const Status ns =
-          network->builder->syncPair(matcher->ties(), sol_index, tier, left.model,
-                                     pair.right ? &right.model : nullptr, *network->net, failed);
+      const Status ns = network->builder->syncPair(matcher->ties(), sol_index, tier, left.model, right_model,
+                                                   *network->net, failed);
       if (!ok(ns)) {
         throw cli::InputError(pair.left.image_path, "model", std::string("cannot enter the network: ") + statusName(ns));
       }
       network->failed_observations += failed;
       network->stem_of_image.push_back(pair.left.stem);
       network->apriori_of_image.push_back(left.model);
-      if (pair.right) {
-        network->stem_of_image.push_back(pair.right->stem);
-        network->apriori_of_image.push_back(right.model);
+      if (right != nullptr) {
+        network->stem_of_image.push_back(right->stem);
+        network->apriori_of_image.push_back(right->model);
       }
     }
     if (progress) {
