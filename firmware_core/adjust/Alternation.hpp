@@ -1,5 +1,5 @@
-// kAlternation, the paper's fast adjustment (Di, Xu, Li §3.3): sweeps that alternate per-pair 12x12 solves
-// and per-point 3x3 solves until the stop rule of FastAdjuster.hpp holds. A sweep is one of
+// kGaussSeidelAnderson and kPaperAlternation (FastAdjuster.hpp): sweeps of per-pair 12x12 solves and
+// per-point 3x3 solves (Di, Xu, Li §3.3) until the stop rule of FastAdjuster.hpp holds. A sweep is one of
 //   reduced (FastAdjustOptions::reduced_pair_solves, the default): pair after pair, the pair's REDUCED block
 //     (its points eliminated by their 3x3 blocks, the other pairs fixed), i.e. block Gauss-Seidel on the
 //     reduced camera system, then the points back-substituted;

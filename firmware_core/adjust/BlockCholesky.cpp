@@ -69,11 +69,18 @@ bool BlockCholesky::order(const Network& net) {
 }
 
 bool BlockCholesky::assembleAndFactor(const Network& net, AdjustWorkspace& ws, double damping) {
-  assemble(net, ws, damping);
+  // Marquardt's scaling, with a 1e-12 floor that keeps a step's system positive definite.
+  assemble(net, ws, damping, 1.0 + damping + 1e-12);
   return factor(net.pairCount(), ws);
 }
 
-void BlockCholesky::assemble(const Network& net, AdjustWorkspace& ws, double damping) {
+bool BlockCholesky::assembleAndFactorUndamped(const Network& net, AdjustWorkspace& ws) {
+  assemble(net, ws, 0.0, 1.0);
+  return factor(net.pairCount(), ws);
+}
+
+void BlockCholesky::assemble(const Network& net, AdjustWorkspace& ws, double damping,
+                             double diagonal_factor) {
   // S = C - W N^-1 W^T: the pairs' damped blocks on the diagonal, then each eliminated point's contribution
   // to the blocks of the pairs it couples (lower triangle in elimination order).
   const int32_t n = net.pairCount();
@@ -83,7 +90,7 @@ void BlockCholesky::assemble(const Network& net, AdjustWorkspace& ws, double dam
     Mat12 c;
     Vec12 g;
     (void)pairBlock(net, ws, pi, c, g, false);
-    c.diagonal() *= 1.0 + damping + 1e-12;
+    c.diagonal() *= diagonal_factor;
     const int32_t q = position_[pi];
     block(ws, q, q) = c;
     Eigen::Map<Vec12>(rhs_ + 12 * q) = g;
@@ -166,6 +173,32 @@ void BlockCholesky::solve(const Network& net, AdjustWorkspace& ws) {
   for (int32_t pi = 0; pi < n; ++pi) {
     const NetPair& pr = net.pair(pi);
     scatterPair(pr, Eigen::Map<const Vec12>(rhs_ + 12 * position_[pi]), ws.step);
+  }
+}
+
+void BlockCholesky::solvePairColumns(const Network& net, const AdjustWorkspace& ws, int32_t pair,
+                                     Mat12* x) const {
+  // Block forward and back substitution with 12 right-hand sides at once, the unknowns of the pair at
+  // elimination position k held in x[order_[k]]. The right-hand side is zero above the pair's position.
+  const int32_t n = net.pairCount();
+  const auto factor_block = [&](int32_t row, int32_t col) { return ws.poolBlock(block_pos_[row][col]); };
+  for (int32_t j = 0; j < n; ++j) x[j].setZero();
+  x[pair].setIdentity();
+  for (int32_t k = position_[pair]; k < n; ++k) {
+    Mat12& xk = x[order_[k]];
+    const Mat12 lkk = factor_block(k, k);
+    lkk.triangularView<Eigen::Lower>().solveInPlace(xk);
+    for (int32_t r = col_start_[k]; r < col_start_[k + 1]; ++r) {
+      x[order_[col_rows_[r]]].noalias() -= factor_block(col_rows_[r], k) * xk;
+    }
+  }
+  for (int32_t k = n - 1; k >= 0; --k) {
+    Mat12& xk = x[order_[k]];
+    for (int32_t r = col_start_[k]; r < col_start_[k + 1]; ++r) {
+      xk.noalias() -= factor_block(col_rows_[r], k).transpose() * x[order_[col_rows_[r]]];
+    }
+    const Mat12 lkk = factor_block(k, k);
+    lkk.triangularView<Eigen::Lower>().transpose().solveInPlace(xk);
   }
 }
 

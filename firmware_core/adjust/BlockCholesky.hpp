@@ -28,15 +28,22 @@ class BlockCholesky {
   // The damped RCS (rhs v = g - W N^-1 b) from the observation rows of the last linearize(), in the
   // factor's pattern, then its factor in place. False when S is not positive definite at this damping.
   bool assembleAndFactor(const Network& net, AdjustWorkspace& ws, double damping);
+  // S itself (no damping, no regularisation), for the EO covariance.
+  bool assembleAndFactorUndamped(const Network& net, AdjustWorkspace& ws);
 
   // L L^T x = v by block forward and back substitution; the cameras' step into ws.step (per image).
   void solve(const Network& net, AdjustWorkspace& ws);
+
+  // The 12 columns of S^-1 that belong to pair `pair`: x[j] = the 12x12 block (pair j's rows, `pair`'s
+  // columns), by pair index, from the factor of the last assembleAndFactor() (EoCovariance.hpp).
+  void solvePairColumns(const Network& net, const AdjustWorkspace& ws, int32_t pair, Mat12* x) const;
 
  private:
   Eigen::Map<Mat12, Eigen::Aligned16> block(AdjustWorkspace& ws, int32_t row, int32_t col) const {
     return ws.poolBlock(block_pos_[row][col]);
   }
-  void assemble(const Network& net, AdjustWorkspace& ws, double damping);
+  // The points' blocks damped by `damping`, the pairs' diagonals multiplied by `diagonal_factor`.
+  void assemble(const Network& net, AdjustWorkspace& ws, double damping, double diagonal_factor);
   bool factor(int32_t n, AdjustWorkspace& ws);
 
   // The pairs' elimination order (order_[k] = pair, position_[pair] = k), the factor's pattern

@@ -4,6 +4,13 @@
 
 namespace areomap {
 
+namespace {
+void tagRows(ConstraintKind* kinds, int32_t first, int32_t count, ConstraintKind kind) {
+  if (kinds == nullptr) return;
+  for (int32_t r = first; r < first + count; ++r) kinds[r] = kind;
+}
+}  // namespace
+
 // Eq. 3, the gimbal constraint of one image: g = C - XG - M^T c (c = camera centre minus gimbal centre in
 // the camera frame); dg/dC = I, dg/ddelta = d(-M'^T c) with M'^T = M^T exp(-[delta]x): -M^T [c]x.
 void gimbalRows(const Vec3& c, const Mat3& m, const Vec3& xg, const Vec3& offset, Vec3& g, Mat3x6& j) {
@@ -30,7 +37,7 @@ void baseRows(const Vec3& c_left, const Mat3& m_left, const Vec3& c_right, const
 
 int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left, const Mat3& m_left,
                            const Vec3& c_right, const Mat3& m_right, ConstraintRows& rows,
-                           ConstraintJacobian& jacobian, ConstraintMisfit* misfit) {
+                           ConstraintJacobian& jacobian, ConstraintMisfit* misfit, ConstraintKind* kinds) {
   rows.setZero();
   jacobian.setZero();
   if (misfit != nullptr) *misfit = ConstraintMisfit{};
@@ -53,6 +60,7 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
       gimbalRows(*centers[s], *ms[s], rig.gimbal_m[left.sol], *offsets[s], g, j);
       rows.segment<3>(n) = g * w;
       jacobian.block<3, 6>(n, 6 * s) = j * w;
+      tagRows(kinds, n, 3, ConstraintKind::kGimbal);
       n += 3;
       if (misfit != nullptr) misfit->gimbal_m = std::fmax(misfit->gimbal_m, g.norm());
     }
@@ -64,6 +72,7 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
     baseRows(c_left, m_left, c_right, rig.base_m, g, j);
     rows.segment<3>(n) = g * w;
     jacobian.block<3, 12>(n, 0) = j * w;
+    tagRows(kinds, n, 3, ConstraintKind::kBase);
     n += 3;
     if (misfit != nullptr) misfit->base_m = g.norm();
   }
@@ -75,8 +84,10 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
       if (len > 0.0) {
         rows(n) = (len - distances[s]) * w;
         jacobian.block<1, 3>(n, 6 * s) = d.transpose() / len * w;
-        if (misfit != nullptr) misfit->distance_m = std::fmax(misfit->distance_m, std::fabs(len - distances[s]));
+        if (misfit != nullptr)
+          misfit->distance_m = std::fmax(misfit->distance_m, std::fabs(len - distances[s]));
       }
+      tagRows(kinds, n, 1, ConstraintKind::kSpinCentre);
       n += 1;
     }
   }
@@ -88,8 +99,10 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
       rows(n) = (len - rig.lr_distance_m) * w;
       jacobian.block<1, 3>(n, 0) = -d.transpose() / len * w;
       jacobian.block<1, 3>(n, 6) = d.transpose() / len * w;
-      if (misfit != nullptr) misfit->distance_m = std::fmax(misfit->distance_m, std::fabs(len - rig.lr_distance_m));
+      if (misfit != nullptr)
+        misfit->distance_m = std::fmax(misfit->distance_m, std::fabs(len - rig.lr_distance_m));
     }
+    tagRows(kinds, n, 1, ConstraintKind::kLrDistance);
     n += 1;
   }
   if (rig.use_datum_prior && rig.sigma_datum_rad > 0.0) {
@@ -100,6 +113,7 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
       d.noalias() = (*ms[s]) * net.image(images[s]).m_apriori.transpose();
       rows.segment<3>(n) = rotationVector(d) * w;
       jacobian.block<3, 3>(n, 6 * s + 3) = Mat3::Identity() * w;
+      tagRows(kinds, n, 3, ConstraintKind::kDatumPrior);
       n += 3;
     }
   }
@@ -107,11 +121,40 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
 }
 
 int32_t currentPairConstraintRows(const Network& net, int32_t pair, ConstraintRows& rows,
-                                  ConstraintJacobian& jacobian, ConstraintMisfit* misfit) {
+                                  ConstraintJacobian& jacobian, ConstraintMisfit* misfit,
+                                  ConstraintKind* kinds) {
   const NetPair& pr = net.pair(pair);
   const NetImage& l = net.image(pr.left);
   const NetImage& r = net.image(pr.right >= 0 ? pr.right : pr.left);
-  return pairConstraintRows(net, pair, l.center_m, l.m, r.center_m, r.m, rows, jacobian, misfit);
+  return pairConstraintRows(net, pair, l.center_m, l.m, r.center_m, r.m, rows, jacobian, misfit, kinds);
+}
+
+bool isMeasurement(const RigConstraints& rig, ConstraintKind kind) {
+  switch (kind) {
+    case ConstraintKind::kGimbal:
+      return !rig.hold_gimbal;
+    case ConstraintKind::kBase:
+      return !rig.hold_base;
+    case ConstraintKind::kSpinCentre:
+    case ConstraintKind::kLrDistance:
+      return true;
+    case ConstraintKind::kDatumPrior:
+      return false;
+  }
+  return true;
+}
+
+int32_t nonMeasurementRows(const Network& net, int32_t pair, ConstraintJacobian& jacobian) {
+  ConstraintRows rows;
+  ConstraintJacobian all;
+  ConstraintKind kinds[kMaxPairConstraintRows];
+  const int32_t n = currentPairConstraintRows(net, pair, rows, all, nullptr, kinds);
+  jacobian.setZero();
+  int32_t kept = 0;
+  for (int32_t r = 0; r < n; ++r) {
+    if (!isMeasurement(net.rig, kinds[r])) jacobian.row(kept++) = all.row(r);
+  }
+  return kept;
 }
 
 ConstraintMisfit networkMisfit(const Network& net) {
@@ -179,8 +222,8 @@ Status observationRow(const NetObservation& obs, const NetImage& image, const Ve
   Vec2 pixel;
   Mat2x3 d_rotation, d_xyz;
   const bool derivatives = d_image != nullptr || d_point != nullptr;
-  const Status s = collinearity(image.io, center, m, point, pixel, nullptr, d_image != nullptr ? &d_rotation : nullptr,
-                                derivatives ? &d_xyz : nullptr);
+  const Status s = collinearity(image.io, center, m, point, pixel, nullptr,
+                                d_image != nullptr ? &d_rotation : nullptr, derivatives ? &d_xyz : nullptr);
   if (!ok(s)) {
     return s;
   }

@@ -32,15 +32,28 @@ void gimbalRows(const Vec3& c, const Mat3& m, const Vec3& xg, const Vec3& offset
 void baseRows(const Vec3& c_left, const Mat3& m_left, const Vec3& c_right, const Vec3& base, Vec3& g,
               Mat3x12& j);
 
+// What a constraint row is, and whether it is a measurement: rows of a rig value whose sigma the dataset
+// gave are; the datum prior and the rows of a held constraint (a sigma chosen only to make it hold,
+// Network.hpp) are not, and the EO covariance takes them out of its sandwich (EoCovariance.hpp).
+enum class ConstraintKind : uint8_t { kGimbal, kBase, kSpinCentre, kLrDistance, kDatumPrior };
+bool isMeasurement(const RigConstraints& rig, ConstraintKind kind);
+
 // Fills rows (whitened) and their Jacobian for pair `pair` evaluated at the given cameras (right ignored
-// for a single image). Returns the number of rows used; unused rows are zero.
+// for a single image), and each row's kind when `kinds` is given. Returns the number of rows used; unused
+// rows are zero.
 int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left, const Mat3& m_left,
                            const Vec3& c_right, const Mat3& m_right, ConstraintRows& rows,
-                           ConstraintJacobian& jacobian, ConstraintMisfit* misfit = nullptr);
+                           ConstraintJacobian& jacobian, ConstraintMisfit* misfit = nullptr,
+                           ConstraintKind* kinds = nullptr);
 
 // The same at the network's current cameras.
 int32_t currentPairConstraintRows(const Network& net, int32_t pair, ConstraintRows& rows,
-                                  ConstraintJacobian& jacobian, ConstraintMisfit* misfit = nullptr);
+                                  ConstraintJacobian& jacobian, ConstraintMisfit* misfit = nullptr,
+                                  ConstraintKind* kinds = nullptr);
+
+// The Jacobian rows (whitened) of pair `pair`'s constraint rows that are no measurement (isMeasurement), at
+// the network's current cameras, packed at the top of `jacobian`; returns their number.
+int32_t nonMeasurementRows(const Network& net, int32_t pair, ConstraintJacobian& jacobian);
 
 // The largest misfits over all pairs at the network's current cameras (constraints in use only): the
 // issue's measure, max over images of |Eq. 3| and over pairs of |Eq. 4|.

@@ -24,8 +24,10 @@ const char* fastMethodName(FastMethod method) {
       return "schur_pcg";
     case FastMethod::kSchurCholesky:
       return "schur_cholesky";
+    case FastMethod::kPaperAlternation:
+      return "paper_alternation";
     default:
-      return "alternation";
+      return "gauss_seidel_anderson";
   }
 }
 

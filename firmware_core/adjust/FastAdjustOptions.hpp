@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "firmware_core/adjust/Constraints.hpp"
+#include "firmware_core/adjust/EoCovariance.hpp"
 #include "firmware_core/base/EigenTypes.hpp"
 #include "firmware_core/base/Status.hpp"
 
@@ -18,9 +19,16 @@ constexpr int32_t kMaxStopWindow = 16;           // sweeps of the relative-cost 
 constexpr int32_t kMinObservationsPerImage = 3;  // a camera needs at least 3 rays to be resected
 
 // How the fast adjuster solves (all use only per-pair 12x12 and per-point 3x3 blocks and fixed memory; see
-// the top of FastAdjuster.hpp): kAlternation (the paper's, Anderson-accelerated), kSchurPcg (LM, RCS by
-// block-Jacobi conjugate gradients), kSchurCholesky (LM, RCS by block-sparse Cholesky; the default).
-enum class FastMethod : uint8_t { kAlternation = 0, kSchurPcg = 1, kSchurCholesky = 2 };
+// the top of FastAdjuster.hpp): kSchurCholesky (LM, RCS by block-sparse Cholesky; the default), kSchurPcg
+// (LM, RCS by block-Jacobi conjugate gradients), kGaussSeidelAnderson (block Gauss-Seidel on the RCS, pair
+// after pair with its points eliminated, Anderson-accelerated), kPaperAlternation (the paper's §3.3 step as
+// written: every pair's EO with the points fixed, then every point with the EO fixed, nothing more).
+enum class FastMethod : uint8_t {
+  kGaussSeidelAnderson = 0,
+  kSchurPcg = 1,
+  kSchurCholesky = 2,
+  kPaperAlternation = 3
+};
 const char* fastMethodName(FastMethod method);
 
 enum class StopRule : uint8_t {
@@ -35,10 +43,10 @@ struct FastAdjustOptions {
   FastMethod method = FastMethod::kSchurCholesky;
   int32_t max_sweeps = 1000;             // <= kMaxFastSweeps (LM methods: linearisations)
   double pcg_relative_tolerance = 1e-3;  // kSchurPcg: |residual| / |rhs| of the reduced system
-  // true: each pair's 12x12 block is the REDUCED one (its points eliminated by their 3x3 blocks, the
-  // other pairs fixed), solved pair after pair (block Gauss-Seidel on the reduced camera system), then the
-  // points are back-substituted (3x3). false: the paper's plain alternation (pair with points fixed, then
-  // points with EO fixed). Both use only 12x12 and 3x3 solves and fixed memory.
+  // kGaussSeidelAnderson only (kPaperAlternation sets both false). reduced_pair_solves true: each pair's
+  // 12x12 block is the REDUCED one (its points eliminated by their 3x3 blocks, the other pairs fixed),
+  // solved pair after pair, then the points are back-substituted (3x3); false: the pair with its points
+  // fixed, then the points with the EO fixed. anderson: the sweep map accelerated (Alternation.hpp).
   bool reduced_pair_solves = true;
   bool anderson = true;
   int32_t anderson_depth = 10;  // <= kMaxAndersonDepth
@@ -49,6 +57,9 @@ struct FastAdjustOptions {
   bool robust = true;
   double reject_k = 5.0;
   double reject_floor_sigma = 4.5;  // never reject below 4.5 sigma (whitened norm, P ~ 4e-5)
+  // The EO covariance at the end (EoCovariance.hpp); off, the sigmas are left as they were (a benchmark
+  // timing the solve alone).
+  bool eo_covariance = true;
   // Optional caller-owned trace of the final solve: total cost and largest EO step (px) after each sweep.
   double* cost_trace = nullptr;
   double* step_trace = nullptr;
@@ -79,6 +90,11 @@ struct FastAdjustResult {
   ConstraintMisfit max_misfit;  // largest constraint misfits after the adjustment
   int32_t rig_tightenings = 0;  // re-solves with tighter held rig sigmas (Network.hpp)
   bool held_rig_met = true;     // every held constraint holds to kRigMisfitBound_m
+  // Which solver gave the EO covariance's columns (EoCovariance.hpp); kNone when it was not computed or
+  // failed, and then covariance_status says why (kDegenerate: S is singular, the network not rigid) and
+  // every sigma is zero.
+  CovarianceSolver covariance_solver = CovarianceSolver::kNone;
+  Status covariance_status = Status::kOk;
 };
 
 // "Pixel equivalent" of an EO difference (one definition for the whole project): f x (rotation angle +

@@ -165,7 +165,14 @@ Status FastAdjuster::solveLm(Network& net, const FastAdjustOptions& options, Fas
 }
 
 Status FastAdjuster::solve(Network& net, const FastAdjustOptions& options, FastAdjustResult& result) {
-  if (options.method == FastMethod::kAlternation) return alternation_.solve(net, ws_, options, result);
+  if (options.method == FastMethod::kGaussSeidelAnderson)
+    return alternation_.solve(net, ws_, options, result);
+  if (options.method == FastMethod::kPaperAlternation) {
+    FastAdjustOptions paper = options;
+    paper.reduced_pair_solves = false;
+    paper.anderson = false;
+    return alternation_.solve(net, ws_, paper, result);
+  }
   return solveLm(net, options, result);
 }
 
@@ -210,40 +217,31 @@ int32_t FastAdjuster::rejectOutliers(Network& net, const FastAdjustOptions& opti
   return rejected;
 }
 
-Status FastAdjuster::precision(Network& net, FastAdjustResult& result) {
-  const Status s = pairStep(net, ws_, true);
-  if (!ok(s)) return s;
+Status FastAdjuster::precision(Network& net, FastAdjustResult& result, bool eo_covariance) {
   result.cost = evaluateCost(net, &result.rms_px, &result.active_observations);
-  int32_t constraint_rows = 0;
-  for (int32_t p = 0; p < net.pairCount(); ++p) {
-    const NetPair& pr = net.pair(p);
-    ConstraintRows rows;
-    ConstraintJacobian jac;
-    constraint_rows += currentPairConstraintRows(net, p, rows, jac);
-    if (net.rig.use_datum_prior) constraint_rows -= 3 * (pr.right >= 0 ? 2 : 1);
-  }
   result.max_misfit = networkMisfit(net);
   result.held_rig_met = heldConstraintsMet(net.rig, result.max_misfit);
-  int32_t points = 0;
-  for (int32_t p = 0; p < net.pointCount(); ++p) {
-    if (net.point(p).solvable) {
-      ++points;
-    } else {
-      ++result.unsolvable_points;
-    }
-  }
-  // The prior fixes the datum's 3 rotations; it is not counted as observations.
-  result.redundancy = 2 * result.active_observations + constraint_rows - 6 * net.imageCount() - 3 * points +
-                      (net.rig.use_datum_prior ? 3 : 0);
+  for (int32_t p = 0; p < net.pointCount(); ++p) result.unsolvable_points += net.point(p).solvable ? 0 : 1;
+  result.redundancy = networkRedundancy(net, result.active_observations);
   result.sigma0 = result.redundancy > 0 ? std::sqrt(result.cost / result.redundancy) : 0.0;
-  for (int32_t p = 0; p < net.pairCount(); ++p) {
-    const NetPair& pr = net.pair(p);
-    const Eigen::LDLT<Mat12> ldlt(ws_.pair_normal[p]);
-    const Mat12 cov = ldlt.solve(Mat12::Identity());
-    net.image(pr.left).sigma = result.sigma0 * cov.diagonal().head<6>().cwiseSqrt();
-    if (pr.right >= 0) net.image(pr.right).sigma = result.sigma0 * cov.diagonal().tail<6>().cwiseSqrt();
+  if (!eo_covariance) return Status::kOk;
+  // A network the constraints do not make rigid (e.g. both switched off: scale and translation free) has a
+  // singular S: the adjustment stands, its sigmas stay zero and the result says why.
+  result.covariance_status =
+      covariance_.compute(net, ws_, cholesky_, pcg_, result.sigma0, result.covariance_solver);
+  if (!ok(result.covariance_status)) {
+    result.covariance_solver = CovarianceSolver::kNone;
+    for (int32_t i = 0; i < net.imageCount(); ++i) net.image(i).sigma.setZero();
+    for (int32_t p = 0; p < net.pairCount(); ++p) net.pair(p).covariance.setZero();
   }
   return Status::kOk;
+}
+
+Status FastAdjuster::precisionOf(Network& net, FastAdjustResult& result) {
+  result = FastAdjustResult{};
+  const Status s = checkNetwork(net, result.degenerate_image);
+  result.status = ok(s) ? precision(net, result, true) : s;
+  return result.status;
 }
 
 Status FastAdjuster::adjust(Network& net, const FastAdjustOptions& options, FastAdjustResult& result) {
@@ -275,7 +273,7 @@ Status FastAdjuster::adjust(Network& net, const FastAdjustOptions& options, Fast
       return s;
     }
   }
-  result.status = precision(net, result);
+  result.status = precision(net, result, options.eo_covariance);
   return result.status;
 }
 

@@ -8,11 +8,15 @@
 //     network whose factor does not fit the pool is solved by kSchurPcg instead (counted in the result).
 //   kSchurPcg: the same LM, the RCS solved by conjugate gradients with the pairs' reduced 12x12 blocks as
 //     block-Jacobi preconditioner.
-//   kAlternation: the paper's method — alternate per-pair 12x12 solves (points fixed, or eliminated) and
-//     per-point 3x3 solves. Plain alternation is a nonlinear block Gauss-Seidel iteration that stalls on a
-//     panorama (shared/reference/fast-adjustment.md), so the sweep map is Anderson-accelerated over the
-//     stacked EO vector in the tangent space (fixed-size history; the extrapolated EO is kept only if the
-//     total weighted cost goes down, else the plain sweep is taken).
+//   kGaussSeidelAnderson: nonlinear block Gauss-Seidel on the reduced camera system — pair after pair, the
+//     pair's 12x12 block with its points eliminated (the other pairs fixed), then the points back-
+//     substituted by their 3x3 blocks — with the sweep map Anderson-accelerated over the stacked EO vector
+//     in the tangent space (fixed-size history; the extrapolated EO is kept only if the total weighted
+//     cost goes down, else the plain sweep is taken).
+//   kPaperAlternation: the paper's §3.3 step as written — every pair's 12x12 EO solve with the points
+//     fixed, then every point's 3x3 solve with the EO fixed, repeated until the stop rule. No elimination,
+//     no acceleration: it stalls on a panorama (shared/reference/fast-adjustment.md) and is here so that
+//     the paper's method itself can be run and measured.
 //
 // Stop rule (both must hold): the total weighted cost changed by less than `relative_cost_tolerance`
 // (relative, in absolute value) over the last `window` sweeps (kSchurCholesky: over its last accepted step,
@@ -45,6 +49,7 @@
 #include "firmware_core/adjust/Alternation.hpp"
 #include "firmware_core/adjust/BlockCholesky.hpp"
 #include "firmware_core/adjust/Constraints.hpp"
+#include "firmware_core/adjust/EoCovariance.hpp"
 #include "firmware_core/adjust/FastAdjustOptions.hpp"
 #include "firmware_core/adjust/Network.hpp"
 #include "firmware_core/adjust/PcgSolver.hpp"
@@ -64,6 +69,12 @@ class FastAdjuster {
   // adding pairs). EO sigmas are written into each NetImage.
   [[nodiscard]] Status adjust(Network& net, const FastAdjustOptions& options, FastAdjustResult& result);
 
+  // The precision of the network as it stands (solved by any adjuster with the same observations and
+  // rejection flags: the integrated ones on the ground): cost, redundancy, sigma0, rig misfits and the EO
+  // covariance (EoCovariance.hpp) into every pair and image, as adjust() ends (a covariance that cannot be
+  // had is said in result.covariance_status, not as a failure). Checks the network first.
+  [[nodiscard]] Status precisionOf(Network& net, FastAdjustResult& result);
+
   // Total weighted cost and image RMS of the current state, no update.
   double evaluateCost(const Network& net, double* rms_px = nullptr, int32_t* active = nullptr) const;
 
@@ -77,13 +88,15 @@ class FastAdjuster {
   void saveState(const Network& net);
   void restoreState(Network& net) const;
   int32_t rejectOutliers(Network& net, const FastAdjustOptions& options);
-  // Sigma naught from the redundancy and the EO sigmas from the pair normal matrices (points fixed).
-  [[nodiscard]] Status precision(Network& net, FastAdjustResult& result);
+  // Sigma naught from the redundancy and, when asked, the EO covariance (points eliminated,
+  // EoCovariance.hpp).
+  [[nodiscard]] Status precision(Network& net, FastAdjustResult& result, bool eo_covariance);
 
   AdjustWorkspace ws_;
   BlockCholesky cholesky_;
   PcgSolver pcg_;
   Alternation alternation_;
+  EoCovariance covariance_;
   // The LM methods' state before a step, restored when the step does not lower the cost.
   Vec3 saved_center_[kMaxImages];
   Mat3 saved_m_[kMaxImages];

@@ -11,9 +11,9 @@ void Network::clear() {
   observation_count_ = 0;
 }
 
-Status Network::addPair(int32_t sol, int32_t tier, const InteriorOrientation& left_io, const Vec3& left_center_m,
-                        const Mat3& left_m, const InteriorOrientation* right_io, const Vec3& right_center_m,
-                        const Mat3& right_m, int32_t& pair_index) {
+Status Network::addPair(int32_t sol, int32_t tier, const InteriorOrientation& left_io,
+                        const Vec3& left_center_m, const Mat3& left_m, const InteriorOrientation* right_io,
+                        const Vec3& right_center_m, const Mat3& right_m, int32_t& pair_index) {
   if (sol < 0 || sol >= kMaxSols || tier < 0 || tier >= kMaxTiers || !(left_io.f_px > 0.0)) {
     return Status::kInvalidArgument;
   }
@@ -24,13 +24,15 @@ Status Network::addPair(int32_t sol, int32_t tier, const InteriorOrientation& le
   if (pair_count_ >= kMaxPairs || image_count_ + needed > kMaxImages) {
     return Status::kCapacityExceeded;
   }
-  if (!left_center_m.allFinite() || !left_m.allFinite() || !right_center_m.allFinite() || !right_m.allFinite()) {
+  if (!left_center_m.allFinite() || !left_m.allFinite() || !right_center_m.allFinite() ||
+      !right_m.allFinite()) {
     return Status::kNotFinite;
   }
   pair_index = pair_count_;
   NetPair& p = pairs_[pair_count_++];
   p.left = image_count_;
   p.right = -1;
+  p.covariance.setZero();
   const InteriorOrientation* ios[2] = {&left_io, right_io};
   const Vec3* centers[2] = {&left_center_m, &right_center_m};
   const Mat3* ms[2] = {&left_m, &right_m};
@@ -138,6 +140,7 @@ void Network::resetToApriori() {
     images_[i].m = images_[i].m_apriori;
     images_[i].sigma.setZero();
   }
+  for (int32_t i = 0; i < pair_count_; ++i) pairs_[i].covariance.setZero();
   for (int32_t i = 0; i < observation_count_; ++i) observations_[i].rejected = false;
 }
 

@@ -28,16 +28,19 @@ struct NetImage {
   int32_t sol = 0;   // index into RigConstraints::gimbal_m
   int32_t tier = 0;  // index into RigConstraints::spin_centre_m
   InteriorOrientation io;
-  Vec3 center_m = Vec3::Zero();           // current X0, Y0, Z0 (site frame)
-  Mat3 m = Mat3::Identity();              // current rotation, site -> camera
-  Vec3 center_apriori_m = Vec3::Zero();   // a-priori (pointing-derived) values
+  Vec3 center_m = Vec3::Zero();          // current X0, Y0, Z0 (site frame)
+  Mat3 m = Mat3::Identity();             // current rotation, site -> camera
+  Vec3 center_apriori_m = Vec3::Zero();  // a-priori (pointing-derived) values
   Mat3 m_apriori = Mat3::Identity();
-  Vec6 sigma = Vec6::Zero();              // a-posteriori sigmas: centre (m), rotation (rad, camera frame)
+  Vec6 sigma = Vec6::Zero();  // a-posteriori sigmas: centre (m), rotation (rad, camera frame)
 };
 
 struct NetPair {
   int32_t left = -1;
   int32_t right = -1;  // -1: a single image
+  // A-posteriori covariance of the pair's EO [left dC, delta, right dC, delta] (EoCovariance.hpp); a single
+  // image has its right half zero.
+  Mat12 covariance = Mat12::Zero();
 };
 
 struct NetPoint {

@@ -4,7 +4,8 @@
 
 namespace areomap {
 
-void PcgSolver::eliminatePoints(const Network& net, AdjustWorkspace& ws, double damping) {
+void PcgSolver::eliminatePoints(const Network& net, AdjustWorkspace& ws, double damping,
+                                double diagonal_factor) {
   // Damped point blocks, the pairs' damped 12x12 blocks (kept in ws.pair_normal), their right-hand sides
   // (in r_, before the reduction) and their reduced inverses (the preconditioner).
   pointBlocks(net, ws, damping);
@@ -13,7 +14,7 @@ void PcgSolver::eliminatePoints(const Network& net, AdjustWorkspace& ws, double 
     Mat12 n;
     Vec12 b;
     const int32_t n_touched = pairBlock(net, ws, pi, n, b, true);
-    n.diagonal() *= 1.0 + damping + 1e-12;
+    n.diagonal() *= diagonal_factor;
     ws.pair_normal[pi] = n;
     reducePairBlock(ws, n_touched, n, nullptr);
     const Eigen::LDLT<Mat12> ldlt(n);
@@ -26,11 +27,21 @@ void PcgSolver::eliminatePoints(const Network& net, AdjustWorkspace& ws, double 
 
 void PcgSolver::solve(const Network& net, AdjustWorkspace& ws, double relative_tolerance, double damping,
                       int32_t& iterations) {
-  const int32_t dim = 6 * net.imageCount();
-  double* x = ws.step;
-  eliminatePoints(net, ws, damping);
+  eliminatePoints(net, ws, damping, 1.0 + damping + 1e-12);  // Marquardt's scaling with a 1e-12 floor
   reduceRightHandSide(net, ws, r_);
-  // Preconditioned conjugate gradients from x = 0.
+  iterate(net, ws, relative_tolerance, ws.step, iterations);
+}
+
+void PcgSolver::solveReduced(const Network& net, const AdjustWorkspace& ws, const double* v,
+                             double relative_tolerance, double* x, int32_t& iterations) {
+  for (int32_t d = 0; d < 6 * net.imageCount(); ++d) r_[d] = v[d];
+  iterate(net, ws, relative_tolerance, x, iterations);
+}
+
+void PcgSolver::iterate(const Network& net, const AdjustWorkspace& ws, double relative_tolerance, double* x,
+                        int32_t& iterations) {
+  const int32_t dim = 6 * net.imageCount();
+  // Preconditioned conjugate gradients from x = 0, the right-hand side in r_.
   double rhs_norm2 = 0.0;
   for (int32_t d = 0; d < dim; ++d) {
     x[d] = 0.0;

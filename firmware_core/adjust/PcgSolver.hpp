@@ -23,8 +23,19 @@ class PcgSolver {
   void solve(const Network& net, AdjustWorkspace& ws, double relative_tolerance, double damping,
              int32_t& iterations);
 
+  // S x = v for any right-hand side v (6 per image) with the system of the last prepare(): the EO
+  // covariance's columns when the block Cholesky factor does not fit its pool (EoCovariance.hpp). S is
+  // that of prepareUndamped(): no damping, no regularisation.
+  void prepareUndamped(const Network& net, AdjustWorkspace& ws) { eliminatePoints(net, ws, 0.0, 1.0); }
+  void solveReduced(const Network& net, const AdjustWorkspace& ws, const double* v, double relative_tolerance,
+                    double* x, int32_t& iterations);
+
  private:
-  void eliminatePoints(const Network& net, AdjustWorkspace& ws, double damping);
+  // The points' blocks damped by `damping`, the pairs' diagonals multiplied by `diagonal_factor`.
+  void eliminatePoints(const Network& net, AdjustWorkspace& ws, double damping, double diagonal_factor);
+  // Conjugate gradients from x = 0 for the right-hand side in r_.
+  void iterate(const Network& net, const AdjustWorkspace& ws, double relative_tolerance, double* x,
+               int32_t& iterations);
 
   // The pairs' reduced inverses (the preconditioner) and the conjugate-gradient vectors (6 per image).
   Mat12 pair_inverse_[kMaxPairs];

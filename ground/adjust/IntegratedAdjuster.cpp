@@ -44,11 +44,19 @@ Layout makeLayout(const Network& net) {
   return l;
 }
 
-bool usable(const Network& net, const NetObservation& o) { return !o.rejected && net.point(o.point).solvable; }
+bool usable(const Network& net, const NetObservation& o) {
+  return !o.rejected && net.point(o.point).solvable;
+}
+
+// One shared fast adjuster (~15 MiB, static): its cost, redundancy and reduced camera system serve every
+// integrated solution.
+FastAdjuster& fastAdjuster() {
+  static FastAdjuster adjuster;
+  return adjuster;
+}
 
 double networkCost(const Network& net, double* rms_px) {
-  static FastAdjuster evaluator;  // no workspace is used by evaluateCost; one shared instance
-  return evaluator.evaluateCost(net, rms_px);
+  return fastAdjuster().evaluateCost(net, rms_px);
 }
 
 double largestEoStepPx(const Network& net, const Eigen::VectorXd& delta, double range_m) {
@@ -146,7 +154,8 @@ class ObservationCost final : public ceres::SizedCostFunction<2, 12, 3> {
       if (jacobians[0] != nullptr) {
         Eigen::Map<Eigen::Matrix<double, 2, 12, Eigen::RowMajor>> j(jacobians[0]);
         j.block<2, 3>(0, 0) = d_image.block<2, 3>(0, 0);
-        j.block<2, 9>(0, 3) = d_image.block<2, 3>(0, 3) * rotationPlusJacobian(parameters[0] + 3).transpose() / 2.0;
+        j.block<2, 9>(0, 3) =
+            d_image.block<2, 3>(0, 3) * rotationPlusJacobian(parameters[0] + 3).transpose() / 2.0;
       }
       if (jacobians[1] != nullptr) {
         Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> j(jacobians[1]);
@@ -201,6 +210,65 @@ class PairConstraintCost final : public ceres::CostFunction {
   int pair_;
 };
 
+// The normal equations N x = b of every unknown (Layout) at the network's current state: the usable
+// observations and every pair's constraint rows; `prior` (may be null) receives the part of N from rows that
+// are no measurement (the datum prior, held rig constraints), which the covariance takes out of the
+// sandwich (EoCovariance.hpp).
+void assembleNormal(const Network& net, const Layout& layout, Eigen::MatrixXd& n, Eigen::VectorXd& b,
+                    Eigen::MatrixXd* prior) {
+  n.setZero();
+  b.setZero();
+  for (int k = 0; k < net.observationCount(); ++k) {
+    const NetObservation& o = net.observation(k);
+    if (!usable(net, o)) continue;
+    const NetImage& im = net.image(o.image);
+    Vec2 r;
+    Mat2x6 ji;
+    Mat2x3 jp;
+    if (!ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, r, &ji, &jp))) continue;
+    const int ci = 6 * o.image;
+    const int cp = layout.point_col[o.point];
+    n.block<6, 6>(ci, ci).noalias() += ji.transpose() * ji;
+    n.block<6, 3>(ci, cp).noalias() += ji.transpose() * jp;
+    n.block<3, 6>(cp, ci).noalias() += jp.transpose() * ji;
+    n.block<3, 3>(cp, cp).noalias() += jp.transpose() * jp;
+    b.segment<6>(ci).noalias() += ji.transpose() * r;
+    b.segment<3>(cp).noalias() += jp.transpose() * r;
+  }
+  for (int p = 0; p < net.pairCount(); ++p) {
+    ConstraintRows rows;
+    ConstraintJacobian jac;
+    if (currentPairConstraintRows(net, p, rows, jac) == 0) continue;
+    const Mat12 nn = jac.transpose() * jac;
+    const Vec12 bb = -(jac.transpose() * rows);
+    const int idx[2] = {net.pair(p).left, net.pair(p).right};
+    for (int a = 0; a < 2; ++a) {
+      if (idx[a] < 0) continue;
+      b.segment<6>(6 * idx[a]) += bb.segment<6>(6 * a);
+      for (int c = 0; c < 2; ++c) {
+        if (idx[c] < 0) continue;
+        n.block<6, 6>(6 * idx[a], 6 * idx[c]) += nn.block<6, 6>(6 * a, 6 * c);
+      }
+    }
+  }
+  if (prior != nullptr) {
+    prior->setZero(n.rows(), n.cols());
+    for (int p = 0; p < net.pairCount(); ++p) {
+      ConstraintJacobian fixed;
+      const int rows = nonMeasurementRows(net, p, fixed);
+      if (rows == 0) continue;
+      const Mat12 nn = fixed.topRows(rows).transpose() * fixed.topRows(rows);
+      const int idx[2] = {net.pair(p).left, net.pair(p).right};
+      for (int a = 0; a < 2; ++a) {
+        for (int c = 0; c < 2; ++c) {
+          if (idx[a] >= 0 && idx[c] >= 0)
+            prior->block<6, 6>(6 * idx[a], 6 * idx[c]) += nn.block<6, 6>(6 * a, 6 * c);
+        }
+      }
+    }
+  }
+}
+
 IntegratedResult svdOnce(Network& net, const IntegratedOptions& options) {
   const auto t0 = Clock::now();
   IntegratedResult result;
@@ -212,42 +280,9 @@ IntegratedResult svdOnce(Network& net, const IntegratedOptions& options) {
   Eigen::MatrixXd n(u, u);
   Eigen::VectorXd b(u);
   for (int iter = 0; iter < options.max_iterations; ++iter) {
-    n.setZero();
-    b.setZero();
-    for (int k = 0; k < net.observationCount(); ++k) {
-      const NetObservation& o = net.observation(k);
-      if (!usable(net, o)) continue;
-      const NetImage& im = net.image(o.image);
-      Vec2 r;
-      Mat2x6 ji;
-      Mat2x3 jp;
-      if (!ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, r, &ji, &jp))) continue;
-      const int ci = 6 * o.image;
-      const int cp = layout.point_col[o.point];
-      n.block<6, 6>(ci, ci).noalias() += ji.transpose() * ji;
-      n.block<6, 3>(ci, cp).noalias() += ji.transpose() * jp;
-      n.block<3, 6>(cp, ci).noalias() += jp.transpose() * ji;
-      n.block<3, 3>(cp, cp).noalias() += jp.transpose() * jp;
-      b.segment<6>(ci).noalias() += ji.transpose() * r;
-      b.segment<3>(cp).noalias() += jp.transpose() * r;
-    }
-    for (int p = 0; p < net.pairCount(); ++p) {
-      ConstraintRows rows;
-      ConstraintJacobian jac;
-      if (currentPairConstraintRows(net, p, rows, jac) == 0) continue;
-      const Mat12 nn = jac.transpose() * jac;
-      const Vec12 bb = -(jac.transpose() * rows);
-      const int idx[2] = {net.pair(p).left, net.pair(p).right};
-      for (int a = 0; a < 2; ++a) {
-        if (idx[a] < 0) continue;
-        b.segment<6>(6 * idx[a]) += bb.segment<6>(6 * a);
-        for (int c = 0; c < 2; ++c) {
-          if (idx[c] < 0) continue;
-          n.block<6, 6>(6 * idx[a], 6 * idx[c]) += nn.block<6, 6>(6 * a, 6 * c);
-        }
-      }
-    }
-    if (!n.allFinite() || !b.allFinite()) throw std::runtime_error("integrated adjustment: non-finite normal matrix");
+    assembleNormal(net, layout, n, b, nullptr);
+    if (!n.allFinite() || !b.allFinite())
+      throw std::runtime_error("integrated adjustment: non-finite normal matrix");
     // Minimum-norm least squares: singular values below the threshold are treated as zero.
     Eigen::BDCSVD<Eigen::MatrixXd> svd(n, Eigen::ComputeThinU | Eigen::ComputeThinV);
     svd.setThreshold(1e-12);
@@ -294,7 +329,8 @@ IntegratedResult ceresOnce(Network& net, const IntegratedOptions& options) {
   for (int k = 0; k < net.observationCount(); ++k) {
     const NetObservation& o = net.observation(k);
     if (!usable(net, o)) continue;
-    problem.AddResidualBlock(new ObservationCost(net, k), nullptr, &cameras[12 * o.image], &points[3 * o.point]);
+    problem.AddResidualBlock(new ObservationCost(net, k), nullptr, &cameras[12 * o.image],
+                             &points[3 * o.point]);
   }
   for (int p = 0; p < net.pairCount(); ++p) {
     ConstraintRows rows;
@@ -331,7 +367,8 @@ IntegratedResult ceresOnce(Network& net, const IntegratedOptions& options) {
     readCamera(&cameras[12 * i], net.image(i).center_m, net.image(i).m);
   }
   for (int p = 0; p < net.pointCount(); ++p) {
-    if (layout.point_col[p] >= 0) net.point(p).xyz_m = Vec3(points[3 * p], points[3 * p + 1], points[3 * p + 2]);
+    if (layout.point_col[p] >= 0)
+      net.point(p).xyz_m = Vec3(points[3 * p], points[3 * p + 1], points[3 * p + 2]);
   }
   result.iterations = static_cast<int>(summary.iterations.size());
   result.converged = summary.IsSolutionUsable() && summary.termination_type == ceres::CONVERGENCE;
@@ -339,6 +376,67 @@ IntegratedResult ceresOnce(Network& net, const IntegratedOptions& options) {
   result.cost = networkCost(net, &result.rms_px);
   result.seconds = secondsSince(t0);
   return result;
+}
+
+// The SVD path's own EO covariance (EoCovariance.hpp defines it): sigma0^2 G (N - P) G over the cameras,
+// with G = N^+ from the full normal matrix at the solution (the points among the unknowns, so that their
+// uncertainty is carried, not held fixed), pseudo-inverted with the solver's own threshold, and P the part
+// of N from rows that are no measurement.
+void svdCovariance(Network& net, double sigma0) {
+  const Layout layout = makeLayout(net);
+  const int u = layout.unknowns;
+  Eigen::MatrixXd n(u, u);
+  Eigen::MatrixXd prior;
+  Eigen::VectorXd b(u);
+  assembleNormal(net, layout, n, b, &prior);
+  Eigen::BDCSVD<Eigen::MatrixXd> svd(n, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  Eigen::VectorXd inverse = Eigen::VectorXd::Zero(sv.size());
+  for (Eigen::Index k = 0; k < sv.size(); ++k) inverse(k) = sv(k) > 1e-12 * sv(0) ? 1.0 / sv(k) : 0.0;
+  const Eigen::MatrixXd g_cameras =
+      svd.matrixV().topRows(layout.cameras) * inverse.asDiagonal() * svd.matrixU().transpose();
+  const Eigen::MatrixXd middle = n - prior;
+  const Eigen::MatrixXd cov = sigma0 * sigma0 * (g_cameras * middle * g_cameras.transpose());
+  for (int p = 0; p < net.pairCount(); ++p) {
+    NetPair& pr = net.pair(p);
+    const int idx[2] = {pr.left, pr.right};
+    pr.covariance.setZero();
+    for (int a = 0; a < 2; ++a) {
+      for (int c = 0; c < 2; ++c) {
+        if (idx[a] >= 0 && idx[c] >= 0)
+          pr.covariance.block<6, 6>(6 * a, 6 * c) = cov.block<6, 6>(6 * idx[a], 6 * idx[c]);
+      }
+    }
+    for (int a = 0; a < 2; ++a) {
+      if (idx[a] >= 0)
+        net.image(idx[a]).sigma = pr.covariance.diagonal().segment<6>(6 * a).cwiseMax(0.0).cwiseSqrt();
+    }
+  }
+}
+
+// The precision of an integrated solution: sigma0 from its cost and the network's redundancy, and the EO
+// covariance into every pair and image, from the full normal matrix (svd) or from the reduced camera system
+// at the solution (ceres; EoCovariance.hpp: Ceres' own covariance would count the datum prior as a
+// measurement).
+void solutionPrecision(Network& net, IntegratedResult& result) {
+  int32_t active = 0;
+  result.cost = fastAdjuster().evaluateCost(net, &result.rms_px, &active);
+  result.redundancy = networkRedundancy(net, active);
+  result.sigma0 = result.redundancy > 0 ? std::sqrt(result.cost / result.redundancy) : 0.0;
+  if (result.method == "svd") {
+    svdCovariance(net, result.sigma0);
+    return;
+  }
+  FastAdjustResult fast;
+  if (!ok(fastAdjuster().precisionOf(net, fast))) {
+    throw std::runtime_error(std::string("integrated adjustment: the solution's network is not usable: ") +
+                             statusName(fast.status));
+  }
+  if (!ok(fast.covariance_status)) {
+    result.covariance_note = std::string("no EO covariance: the reduced camera system is ") +
+                             statusName(fast.covariance_status) +
+                             " (the constraints do not make the network rigid)";
+  }
 }
 
 // Held rig sigmas (Network.hpp), as the fast adjuster applies them: solved again from where the solver
@@ -353,6 +451,7 @@ IntegratedResult withHeldRig(Network& net, SolveOnce solve_once) {
     again.rig_tightenings = result.rig_tightenings + 1;
     result = again;
   }
+  solutionPrecision(net, result);
   return result;
 }
 

@@ -68,7 +68,9 @@ double alignedDifferencePx(const EoSet& est, const EoSet& ref, const Vec3& gimba
   return std::sqrt(sum / n);
 }
 
-json differences(const ImageDifferences& d) { return json{{"x", d.x}, {"y", d.y}, {"dist", d.dist}}; }
+json differences(const ImageDifferences& d) {
+  return json{{"x", d.x}, {"y", d.y}, {"dist", d.dist}};
+}
 
 // The folder that holds truth/ for this pass ("" when none).
 std::string truthRoot(const Dataset& dataset, const std::string& truth_dir) {
@@ -77,7 +79,8 @@ std::string truthRoot(const Dataset& dataset, const std::string& truth_dir) {
     if (fs::path(truth_dir).filename() == "truth" && fs::exists(truth_dir + "/models")) {
       return fs::path(truth_dir).parent_path().string();
     }
-    throw cli::InputError(truth_dir, "truth/models", "no true models there (give a dataset folder with truth/)");
+    throw cli::InputError(truth_dir, "truth/models",
+                          "no true models there (give a dataset folder with truth/)");
   }
   return fs::exists(dataset.root + "/truth/models") ? dataset.root : std::string();
 }
@@ -94,7 +97,8 @@ TieRun roverTieRun(const Dataset& dataset, const RoverInputs& rover, TieNetwork&
   network.apriori_of_image = source.apriori_models;
   TieRun run;
   run.observations = rover.ties;
-  for (const ImageObservation& o : rover.ties) (o.kind == "inter" ? run.inter_observations : run.intra_observations) += 1;
+  for (const ImageObservation& o : rover.ties)
+    (o.kind == "inter" ? run.inter_observations : run.intra_observations) += 1;
   run.seconds = cli::nowSeconds() - start;
   return run;
 }
@@ -167,10 +171,12 @@ TieRun tiePointsStage(const Dataset& dataset, const std::function<const io::Pano
   TieRun run;
   std::string why_not_rover = "not used (--no-rover-ties)";
   if (options.use_rover_ties) {
-    why_not_rover = rover == nullptr ? "no rover input (a dataset folder)" : roverTiesIncomplete(dataset, *rover);
+    why_not_rover =
+        rover == nullptr ? "no rover input (a dataset folder)" : roverTiesIncomplete(dataset, *rover);
   }
   if (why_not_rover.empty()) {
-    if (options.progress) cli::info("the rover's tie points (" + std::to_string(rover->ties.size()) + " observations)");
+    if (options.progress)
+      cli::info("the rover's tie points (" + std::to_string(rover->ties.size()) + " observations)");
     run = roverTieRun(dataset, *rover, network, report.warnings);
     result.rover_ties_used = true;
   } else {
@@ -201,8 +207,8 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
                           const NetworkTruth& truth, GroundPassResult& result, AdjustReport& report) {
   const Vec3 gimbal = net.rig.gimbal_m[0];
   if (options.progress) {
-    cli::info("fast adjustment: " + std::to_string(net.imageCount()) + " images, " + std::to_string(net.pointCount()) +
-              " points");
+    cli::info("fast adjustment: " + std::to_string(net.imageCount()) + " images, " +
+              std::to_string(net.pointCount()) + " points");
   }
   double t0 = cli::nowSeconds();
   const AdjustOutcome fast = adjustNetwork(net, FastAdjustOptions{});
@@ -217,7 +223,8 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   const EoSet fast_eo = currentEo(net);
   if (truth.available) {
     result.truth_eo_fast_px =
-        truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, gimbal, true, kNominalRange_m).eo_px;
+        truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, gimbal, true, kNominalRange_m)
+            .eo_px;
   }
   std::vector<bool> rejected(static_cast<std::size_t>(net.observationCount()));
   for (int32_t k = 0; k < net.observationCount(); ++k) rejected[k] = net.observation(k).rejected;
@@ -234,15 +241,20 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   try {
     integrated = adjustCeres(net);
   } catch (const std::runtime_error& e) {
-    throw cli::InputError(dataset.root + "/panorama.json", "pairs", std::string("the integrated adjustment failed: ") + e.what());
+    throw cli::InputError(dataset.root + "/panorama.json", "pairs",
+                          std::string("the integrated adjustment failed: ") + e.what());
   }
   report.seconds.emplace_back("adjust_integrated", cli::nowSeconds() - t0);
-  if (!integrated.converged) report.warnings.push_back("The integrated adjustment did not report convergence.");
+  if (!integrated.converged)
+    report.warnings.push_back("The integrated adjustment did not report convergence.");
+  if (!integrated.covariance_note.empty()) {
+    report.warnings.push_back("eo.csv sigmas are zero: " + integrated.covariance_note + ".");
+  }
   report.solver = "ceres (integrated reference; outliers rejected by the fast adjustment first)";
   report.stop_rule = integrated.converged ? "converged" : "not_converged";
   report.iterations = integrated.iterations;
   report.rms_px = integrated.rms_px;
-  report.sigma0 = fast.result.redundancy > 0 ? std::sqrt(integrated.cost / fast.result.redundancy) : 0.0;
+  report.sigma0 = integrated.sigma0;
   report.method1_after = precisionMethod1(net);
   report.method2_after = precisionMethod2(net);
   report.method3_after = precisionMethod3(net);
@@ -255,10 +267,10 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   result.rms_px = integrated.rms_px;
   result.fast_vs_ground_px = alignedDifferencePx(fast_eo, currentEo(net), gimbal);
   if (truth.available) {
-    const TruthErrors aligned =
-        truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, gimbal, true, kNominalRange_m);
-    const TruthErrors raw =
-        truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, gimbal, false, kNominalRange_m);
+    const TruthErrors aligned = truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr,
+                                            gimbal, true, kNominalRange_m);
+    const TruthErrors raw = truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, gimbal,
+                                        false, kNominalRange_m);
     TruthFigures t;
     t.eo_px = aligned.eo_px;
     t.eo_px_raw = raw.eo_px;
@@ -283,21 +295,24 @@ json roverFigures(const RoverInputs* rover, const Network& net, const std::vecto
       CameraModel model;
       std::string why;
       const char* field = "";
-      if (!ok(toCameraModel(e.model, model, field)) || e.stem.empty() || e.stem.find('/') != std::string::npos ||
-          !isSafeRelativePath(e.stem, why)) {
+      if (!ok(toCameraModel(e.model, model, field)) || e.stem.empty() ||
+          e.stem.find('/') != std::string::npos || !isSafeRelativePath(e.stem, why)) {
         report.warnings.push_back("The rover's EO entry '" + e.stem + "' has no usable model; not written.");
         continue;
       }
-      writeOrRecord(result, report, [&] { io::writeCameraModelFile(out + "/rover_models/" + e.stem + ".cahvor", model); });
+      writeOrRecord(result, report,
+                    [&] { io::writeCameraModelFile(out + "/rover_models/" + e.stem + ".cahvor", model); });
     }
     int32_t compared = 0;
     result.rover_vs_ground_px = eoDifferencePx(*rover->eo, net, stems, gimbal, &compared);
-    rover_json["eo_vs_ground_px"] = result.rover_vs_ground_px ? json(*result.rover_vs_ground_px) : json(nullptr);
+    rover_json["eo_vs_ground_px"] =
+        result.rover_vs_ground_px ? json(*result.rover_vs_ground_px) : json(nullptr);
     rover_json["eo_images_compared"] = compared;
     rover_json["eo_is_final"] = static_cast<bool>(rover->eo->is_final);
     rover_json["sweeps"] = rover->eo->sweeps;
     rover_json["rms_px"] = rover->eo->rms_px;
-    if (!rover->eo->is_final) report.warnings.push_back("The rover's final EO solution did not arrive; its last one is compared.");
+    if (!rover->eo->is_final)
+      report.warnings.push_back("The rover's final EO solution did not arrive; its last one is compared.");
   }
   if (rover != nullptr) {
     if (rover->status) {
@@ -321,13 +336,15 @@ json roverFigures(const RoverInputs* rover, const Network& net, const std::vecto
       if (!s.last_error.empty()) report.warnings.push_back("The rover reported: " + s.last_error);
     }
     if (!rover->ties.empty()) {
-      writeOrRecord(result, report, [&] { writeObservationsCsv(out + "/rover_tiepoints.csv", rover->ties, true); });
+      writeOrRecord(result, report,
+                    [&] { writeObservationsCsv(out + "/rover_tiepoints.csv", rover->ties, true); });
     }
     rover_json["tiepoint_messages"] = rover->tie_messages;
     rover_json["tiepoint_observations"] = rover->tie_observations;
     rover_json["coarse_dem_messages"] = rover->dem_messages;
     for (const std::string& w : rover->warnings) report.warnings.push_back(w);
-    if (!rover->eo && !rover->status) report.warnings.push_back("Nothing arrived from the rover: no rover figures.");
+    if (!rover->eo && !rover->status)
+      report.warnings.push_back("Nothing arrived from the rover: no rover figures.");
   }
   return rover_json;
 }
@@ -400,12 +417,14 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
     options.products_hook(context);
   } else {
     report.warnings.push_back(
-        "DEM, orthoimage and previews were not made (no products hook: --no-products, or ground/products not linked).");
+        "DEM, orthoimage and previews were not made (no products hook: --no-products, or ground/products not "
+        "linked).");
   }
   if (stream != nullptr) {
     for (const std::string& w : stream->warnings) report.warnings.push_back(w);
   }
-  writeOrRecord(result, report, [&] { writeNodeReport(out, report, stream, rover, rover_json, fast, result); });
+  writeOrRecord(result, report,
+                [&] { writeNodeReport(out, report, stream, rover, rover_json, fast, result); });
   result.seconds = report.seconds;
   result.warnings = report.warnings;
   return result;
@@ -433,8 +452,9 @@ void writeNodeReport(const std::string& out, const AdjustReport& report, const S
                    {"pairs_planned", stream->pairs_planned}};
   }
   if (rover != nullptr) j["rover"] = rover_json;
-  j["ground"] = {{"ties", result.rover_ties_used ? "the rover's tie points (AREOMAP_TIEPOINTS)"
-                                                : "the rover's matcher (firmware_core/match) run on the ground's images"},
+  j["ground"] = {{"ties", result.rover_ties_used
+                              ? "the rover's tie points (AREOMAP_TIEPOINTS)"
+                              : "the rover's matcher (firmware_core/match) run on the ground's images"},
                  {"tie_source", result.rover_ties_used ? "rover" : "ground"},
                  {"reference", "integrated adjustment, Ceres sparse Schur"},
                  {"method1_fast_px", differences(fast.after)},
@@ -456,7 +476,8 @@ std::vector<ManifestEntry> buildManifest(const std::string& out_dir, const std::
     if (rel.find(".tmp-") != std::string::npos) continue;
     files.push_back(ManifestEntry{rel, static_cast<int64_t>(e.file_size()), sha256File(e.path().string())});
   }
-  std::sort(files.begin(), files.end(), [](const ManifestEntry& a, const ManifestEntry& b) { return a.name < b.name; });
+  std::sort(files.begin(), files.end(),
+            [](const ManifestEntry& a, const ManifestEntry& b) { return a.name < b.name; });
   return files;
 }
 

@@ -29,7 +29,8 @@ const char* kUsage =
     "  DATASET          folder with panorama.json and the a-priori models\n"
     "  --out DIR        writes DIR/models/<stem>.cahvor (adjusted), DIR/eo.csv, DIR/report.json\n"
     "  --ties FILE      tie points, CSV point,image,sample_px,line_px (image = image stem, measured pixels)\n"
-    "  --truth-ties     use DATASET/truth/observations.csv plus Gaussian noise of --noise-px S (default 0.3)\n"
+    "  --truth-ties     use DATASET/truth/observations.csv plus Gaussian noise of --noise-px S (default "
+    "0.3)\n"
     "  --seed N         seed of that noise (default 1)\n"
     "  --solver         fast (default; the rover's adjuster: per-pair 12x12 and per-point 3x3 blocks),\n"
     "                   svd (integrated, dense normal matrix, minimum-norm SVD; small networks only) or\n"
@@ -41,16 +42,22 @@ const char* kUsage =
     "  --sigma-px S     a-priori sigma of the image observations (default 0.3)\n"
     "  --no-robust      no outlier rejection\n"
     "  --max-sweeps N   bound of the fast adjuster's sweeps / LM steps (default 1000)\n"
-    "  --fast-method M  how the fast adjuster solves: cholesky (default; LM, the reduced camera system of the\n"
-    "                   pairs' 12x12 blocks factorised directly), pcg (LM, the same system by block-Jacobi\n"
-    "                   conjugate gradients) or alternation (the paper's pair/point alternation, Anderson-\n"
-    "                   accelerated)\n"
+    "  --fast-method M  how the fast adjuster solves: cholesky (default; Levenberg-Marquardt, every point\n"
+    "                   eliminated, the reduced camera system of the pairs' 12x12 blocks factorised "
+    "jointly),\n"
+    "                   pcg (the same LM, the system by block-Jacobi conjugate gradients), gauss-seidel\n"
+    "                   (block Gauss-Seidel on the reduced system, pair after pair with its points\n"
+    "                   eliminated, Anderson-accelerated; 'alternation' is its former name) or paper (the\n"
+    "                   paper's step as written: each pair's EO with the points fixed, then each point with\n"
+    "                   the EO fixed, no acceleration; slow to converge, for comparison)\n"
     "Exit codes: 0 ok, 2 usage error, 1 other error.\n";
 
 constexpr int kMaxSvdUnknowns = 5000;  // dense SVD memory and time grow as n^2 and n^3
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 areomap::Network g_net;  // several MiB: static
 areomap::FastAdjuster g_fast;
@@ -74,16 +81,20 @@ int main(int argc, char** argv) {
     choice.sigma_px = args.number("--sigma-px", 0.3);
     const bool robust = !args.flag("--no-robust");
     const int64_t max_sweeps = args.integer("--max-sweeps", 1000);
-    const std::string fast_method = args.option("--fast-method", "cholesky");
+    std::string fast_method = args.option("--fast-method", "cholesky");
     const std::string dataset_dir = args.positional(0, "DATASET");
-    if (ties.has_value() == truth_ties) throw cli::UsageError("give exactly one of --ties FILE and --truth-ties");
+    if (ties.has_value() == truth_ties)
+      throw cli::UsageError("give exactly one of --ties FILE and --truth-ties");
     if (solver != "fast" && solver != "svd" && solver != "ceres") {
       throw cli::UsageError("--solver: '" + solver + "' is not fast, svd or ceres");
     }
     if (!(noise_px >= 0.0)) throw cli::UsageError("--noise-px: must be >= 0");
     if (!(choice.sigma_px > 0.0)) throw cli::UsageError("--sigma-px: must be > 0");
-    if (fast_method != "cholesky" && fast_method != "pcg" && fast_method != "alternation") {
-      throw cli::UsageError("--fast-method: '" + fast_method + "' is not cholesky, pcg or alternation");
+    if (fast_method == "alternation") fast_method = "gauss-seidel";
+    if (fast_method != "cholesky" && fast_method != "pcg" && fast_method != "gauss-seidel" &&
+        fast_method != "paper") {
+      throw cli::UsageError("--fast-method: '" + fast_method +
+                            "' is not cholesky, pcg, gauss-seidel or paper");
     }
     if (max_sweeps < 1 || max_sweeps > kMaxFastSweeps) {
       throw cli::UsageError("--max-sweeps: must be 1.." + std::to_string(kMaxFastSweeps));
@@ -100,11 +111,13 @@ int main(int argc, char** argv) {
     ground::buildNetwork(dataset, observations, choice, g_net, source);
     for (const std::string& w : source.warnings) report.warnings.push_back(w);
     report.estimated = source.estimated;
-    report.constraints = {{"gimbal", choice.gimbal}, {"base", choice.base}, {"fido", choice.fido},
+    report.constraints = {{"gimbal", choice.gimbal},
+                          {"base", choice.base},
+                          {"fido", choice.fido},
                           {"datum_prior", choice.datum_prior}};
-    cli::info("network: " + std::to_string(g_net.pairCount()) + " pairs, " + std::to_string(g_net.imageCount()) +
-              " images, " + std::to_string(g_net.pointCount()) + " points, " +
-              std::to_string(g_net.observationCount()) + " observations");
+    cli::info("network: " + std::to_string(g_net.pairCount()) + " pairs, " +
+              std::to_string(g_net.imageCount()) + " images, " + std::to_string(g_net.pointCount()) +
+              " points, " + std::to_string(g_net.observationCount()) + " observations");
     report.seconds.emplace_back("load", since(t0));
 
     t0 = Clock::now();
@@ -120,8 +133,8 @@ int main(int argc, char** argv) {
     const std::vector<Vec3>& true_points = truth.points;
     std::optional<double> eo_before;
     if (have_truth) {
-      eo_before = truthErrors(g_net, true_centers.data(), true_rotations.data(), nullptr, g_net.rig.gimbal_m[0], true,
-                              5.0)
+      eo_before = truthErrors(g_net, true_centers.data(), true_rotations.data(), nullptr,
+                              g_net.rig.gimbal_m[0], true, 5.0)
                       .eo_px;
     }
     report.seconds.emplace_back("precision_before", since(t0));
@@ -130,9 +143,10 @@ int main(int argc, char** argv) {
     FastAdjustOptions options;
     options.max_sweeps = static_cast<int32_t>(max_sweeps);
     options.robust = robust;
-    options.method = fast_method == "pcg"           ? FastMethod::kSchurPcg
-                     : fast_method == "alternation" ? FastMethod::kAlternation
-                                                    : FastMethod::kSchurCholesky;
+    options.method = fast_method == "pcg"            ? FastMethod::kSchurPcg
+                     : fast_method == "gauss-seidel" ? FastMethod::kGaussSeidelAnderson
+                     : fast_method == "paper"        ? FastMethod::kPaperAlternation
+                                                     : FastMethod::kSchurCholesky;
     FastAdjustResult fr;
     const Status s = g_fast.adjust(g_net, options, fr);
     if (!ok(s)) {
@@ -144,11 +158,16 @@ int main(int argc, char** argv) {
       throw cli::InputError(ties ? *ties : dataset.root + "/" + kTruthObservationsFile, "point", what);
     }
     report.seconds.emplace_back(solver == "fast" ? "adjust" : "rejection", since(t0));
-    report.solver = solver;
+    report.solver = solver == "fast" ? std::string("fast (") + fastMethodName(options.method) + ")" : solver;
     report.stop_rule = stopRuleName(fr.stop_rule);
     report.iterations = fr.sweeps;
     report.sigma0 = fr.sigma0;
     report.rms_px = fr.rms_px;
+    if (solver == "fast" && !ok(fr.covariance_status)) {
+      report.warnings.push_back(std::string("eo.csv sigmas are zero: the reduced camera system is ") +
+                                statusName(fr.covariance_status) +
+                                " (the constraints do not make the network rigid).");
+    }
     if (fr.stop_rule == StopRule::kMaxSweeps) {
       report.warnings.push_back("The fast adjustment reached its sweep bound (" + std::to_string(max_sweeps) +
                                 ") before its stop rule held.");
@@ -167,17 +186,21 @@ int main(int argc, char** argv) {
         int unknowns = 6 * g_net.imageCount();
         for (int p = 0; p < g_net.pointCount(); ++p) unknowns += g_net.point(p).solvable ? 3 : 0;
         if (unknowns > kMaxSvdUnknowns) {
-          throw cli::UsageError("--solver svd: " + std::to_string(unknowns) + " unknowns exceed the dense limit " +
-                                std::to_string(kMaxSvdUnknowns) + "; use ceres or fast");
+          throw cli::UsageError("--solver svd: " + std::to_string(unknowns) +
+                                " unknowns exceed the dense limit " + std::to_string(kMaxSvdUnknowns) +
+                                "; use ceres or fast");
         }
         ir = ground::adjustSvd(g_net);
       } else {
         ir = ground::adjustCeres(g_net);
       }
-      if (!ir.converged) report.warnings.push_back("The " + solver + " adjustment did not report convergence.");
+      if (!ir.converged)
+        report.warnings.push_back("The " + solver + " adjustment did not report convergence.");
+      if (!ir.covariance_note.empty())
+        report.warnings.push_back("eo.csv sigmas are zero: " + ir.covariance_note + ".");
       report.iterations = ir.iterations;
       report.rms_px = ir.rms_px;
-      report.sigma0 = fr.redundancy > 0 ? std::sqrt(ir.cost / fr.redundancy) : 0.0;
+      report.sigma0 = ir.sigma0;
       report.stop_rule = ir.converged ? "converged" : "not_converged";
       report.seconds.emplace_back("adjust", since(t0));
     }
@@ -189,10 +212,10 @@ int main(int argc, char** argv) {
     ground::setRigFigures(report, g_net);  // of the solution written (the integrated one for svd / ceres)
     if (have_truth) {
       const Vec3* tp = true_points.empty() ? nullptr : true_points.data();
-      const TruthErrors aligned =
-          truthErrors(g_net, true_centers.data(), true_rotations.data(), tp, g_net.rig.gimbal_m[0], true, 5.0);
-      const TruthErrors raw =
-          truthErrors(g_net, true_centers.data(), true_rotations.data(), tp, g_net.rig.gimbal_m[0], false, 5.0);
+      const TruthErrors aligned = truthErrors(g_net, true_centers.data(), true_rotations.data(), tp,
+                                              g_net.rig.gimbal_m[0], true, 5.0);
+      const TruthErrors raw = truthErrors(g_net, true_centers.data(), true_rotations.data(), tp,
+                                          g_net.rig.gimbal_m[0], false, 5.0);
       ground::TruthFigures t;
       t.eo_px = aligned.eo_px;
       t.eo_px_raw = raw.eo_px;
@@ -201,7 +224,8 @@ int main(int argc, char** argv) {
         t.ground_m = aligned.ground_m;
         t.ground_m_raw = raw.ground_m;
       } else {
-        report.warnings.push_back("truth.ground_m is not given: tie points have true positions only with --truth-ties.");
+        report.warnings.push_back(
+            "truth.ground_m is not given: tie points have true positions only with --truth-ties.");
       }
       report.warnings.push_back("truth.dem_rmse_m is not given: areomap-adjust makes no DEM.");
       report.truth = t;

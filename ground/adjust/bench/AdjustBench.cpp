@@ -1,6 +1,7 @@
 // areomap-adjust-bench: fast vs integrated-SVD vs Ceres sparse Schur, side by side in one process, on
 // simulated datasets (areomap-sim output, truth observations + 0.3 px noise, no outliers, no rejection),
-// and the BAL problem through the generic parts (fast alternation vs Ceres, intrinsics held fixed).
+// and the BAL problem through the generic parts (every fast method vs Ceres, intrinsics held fixed). Each
+// fast method is timed on its solve alone; the EO covariance that adjust() adds is timed on its own.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -21,7 +22,8 @@ using namespace areomap;
 using Clock = std::chrono::steady_clock;
 
 const char* kUsage =
-    "usage: areomap-adjust-bench [DATASET...] [--bal FILE] [--svd-max-unknowns N] [--repeat N] [--pcg-tol T]\n"
+    "usage: areomap-adjust-bench [DATASET...] [--bal FILE] [--svd-max-unknowns N] [--repeat N] [--pcg-tol "
+    "T]\n"
     "Prints a markdown table: wall time, iterations, final method-1 RMS, EO and ground error vs truth.\n";
 
 double g_pcg_tolerance = 1e-3;
@@ -29,7 +31,9 @@ Network g_start;
 Network g_work;
 FastAdjuster g_fast;
 
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 struct Row {
   std::string name;
@@ -43,16 +47,17 @@ struct Row {
 };
 
 void printRow(const std::string& problem, const Row& r, double fast_seconds) {
-  std::printf("| %s | %s | %.4f | %.0fx | %d | %.4f | %.3f | %s | %s | %s |\n", problem.c_str(), r.name.c_str(),
-              r.seconds, r.seconds / fast_seconds, r.iterations, r.rms_px, r.cost,
+  std::printf("| %s | %s | %.4f | %.0fx | %d | %.4f | %.3f | %s | %s | %s |\n", problem.c_str(),
+              r.name.c_str(), r.seconds, r.seconds / fast_seconds, r.iterations, r.rms_px, r.cost,
               r.eo_px >= 0 ? std::to_string(r.eo_px).c_str() : "-",
               r.ground_m >= 0 ? std::to_string(r.ground_m).c_str() : "-", r.note.c_str());
 }
 
 void truthFigures(const ground::NetworkTruth& t, Row& r) {
   if (!t.available) return;
-  const TruthErrors e = truthErrors(g_work, t.centers.data(), t.rotations.data(),
-                                    t.points.empty() ? nullptr : t.points.data(), g_work.rig.gimbal_m[0], true, 5.0);
+  const TruthErrors e =
+      truthErrors(g_work, t.centers.data(), t.rotations.data(), t.points.empty() ? nullptr : t.points.data(),
+                  g_work.rig.gimbal_m[0], true, 5.0);
   r.eo_px = e.eo_px;
   r.ground_m = e.ground_m;
 }
@@ -65,9 +70,10 @@ int unknownsOf(const Network& net) {
 
 void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth, int svd_max, int repeat,
                   const FastAdjustOptions& fast_options) {
-  Row fast, alternation, pcg, ceres, svd;
+  Row fast, alternation, paper, pcg, ceres, svd;
   fast.name = "fast (default: LM, RCS by block Cholesky)";
-  alternation.name = "fast (alternation + Anderson)";
+  alternation.name = "fast (block Gauss-Seidel on the RCS + Anderson)";
+  paper.name = "fast (the paper's alternation as written: pairs with points fixed, then points)";
   pcg.name = "fast (LM, RCS by PCG, 12x12 block-Jacobi)";
   ceres.name = "ceres sparse Schur";
   svd.name = "integrated SVD";
@@ -75,6 +81,7 @@ void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth,
     row.seconds = 1e30;
     FastAdjustOptions o = fast_options;
     o.method = method;
+    o.eo_covariance = false;  // the solve alone; the covariance is timed on its own below
     o.pcg_relative_tolerance = g_pcg_tolerance;
     for (int k = 0; k < repeat; ++k) {
       g_work = g_start;
@@ -86,7 +93,9 @@ void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth,
       row.rms_px = fr.rms_px;
       row.cost = fr.cost;
       row.note = std::string(statusName(s)) + ", stop " + stopRuleName(fr.stop_rule);
-      if (method == FastMethod::kAlternation) {
+      if (method == FastMethod::kPaperAlternation) {
+        row.note += ", largest EO step of the last sweep " + std::to_string(fr.last_step_px) + " px";
+      } else if (method == FastMethod::kGaussSeidelAnderson) {
         row.note += ", Anderson " + std::to_string(fr.anderson_accepted) + "/" +
                     std::to_string(fr.anderson_accepted + fr.anderson_rejected);
       } else if (method == FastMethod::kSchurPcg || fr.cholesky_fallback) {
@@ -100,8 +109,18 @@ void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth,
     truthFigures(truth, row);
   };
   runFast(FastMethod::kSchurPcg, pcg);
-  runFast(FastMethod::kAlternation, alternation);
+  runFast(FastMethod::kGaussSeidelAnderson, alternation);
+  runFast(FastMethod::kPaperAlternation, paper);
   runFast(FastMethod::kSchurCholesky, fast);  // last: its solution is compared with Ceres' below
+  // The EO covariance at the default's solution (EoCovariance.hpp), which adjust() adds by default.
+  double covariance_seconds = 1e30;
+  for (int k = 0; k < repeat; ++k) {
+    FastAdjustResult pr;
+    const auto t0 = Clock::now();
+    (void)g_fast.precisionOf(g_work, pr);
+    covariance_seconds = std::min(covariance_seconds, since(t0));
+  }
+  fast.note += "; + EO covariance " + std::to_string(covariance_seconds) + " s";
 
   Network* fast_solution = new Network(g_work);
   ceres.seconds = 1e30;
@@ -117,9 +136,10 @@ void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth,
   truthFigures(truth, ceres);
   double d_eo = 0.0, d_ground = 0.0;
   for (int i = 0; i < g_work.imageCount(); ++i) {
-    d_eo = std::max(d_eo, eoPixelEquivalent(g_work.image(i).io.f_px,
-                                            g_work.image(i).center_m - fast_solution->image(i).center_m,
-                                            rotationAngle(g_work.image(i).m, fast_solution->image(i).m), 5.0));
+    d_eo =
+        std::max(d_eo, eoPixelEquivalent(g_work.image(i).io.f_px,
+                                         g_work.image(i).center_m - fast_solution->image(i).center_m,
+                                         rotationAngle(g_work.image(i).m, fast_solution->image(i).m), 5.0));
   }
   for (int p = 0; p < g_work.pointCount(); ++p) {
     if (g_work.point(p).solvable && fast_solution->point(p).solvable) {
@@ -132,13 +152,15 @@ void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth,
   ceres.note += buf;
   delete fast_solution;
   const int u = unknownsOf(g_start);
-  std::printf("\n%s: %d images, %d points, %d observations, %d unknowns\n\n", problem.c_str(), g_start.imageCount(),
-              g_start.pointCount(), g_start.observationCount(), u);
-  std::printf("| problem | solver | seconds | x fast | iterations | RMS px (method 1) | cost | EO err px (aligned) "
-              "| ground err m (aligned) | note |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("\n%s: %d images, %d points, %d observations, %d unknowns\n\n", problem.c_str(),
+              g_start.imageCount(), g_start.pointCount(), g_start.observationCount(), u);
+  std::printf(
+      "| problem | solver | seconds | x fast | iterations | RMS px (method 1) | cost | EO err px (aligned) "
+      "| ground err m (aligned) | note |\n|---|---|---|---|---|---|---|---|---|---|\n");
   printRow(problem, fast, fast.seconds);
   printRow(problem, pcg, fast.seconds);
   printRow(problem, alternation, fast.seconds);
+  printRow(problem, paper, fast.seconds);
   printRow(problem, ceres, fast.seconds);
   if (u <= svd_max) {
     g_work = g_start;
@@ -148,11 +170,15 @@ void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth,
     svd.rms_px = r.rms_px;
     svd.cost = r.cost;
     svd.note = r.converged ? "converged" : "NOT converged";
+    char ratio[160];
+    std::snprintf(ratio, sizeof ratio, "; svd / paper alternation time %.1f, svd / default %.1f",
+                  svd.seconds / paper.seconds, svd.seconds / fast.seconds);
+    svd.note += ratio;
     truthFigures(truth, svd);
     printRow(problem, svd, fast.seconds);
   } else {
-    std::printf("| %s | integrated SVD | - | - | - | - | - | - | - | skipped: %d unknowns > %d |\n", problem.c_str(), u,
-                svd_max);
+    std::printf("| %s | integrated SVD | - | - | - | - | - | - | - | skipped: %d unknowns > %d |\n",
+                problem.c_str(), u, svd_max);
   }
   std::fflush(stdout);
 }
@@ -177,8 +203,9 @@ void benchDataset(const std::string& dir, int svd_max, int repeat) {
   }
   int32_t failed = 0;
   (void)g_start.triangulateAll(failed);
-  std::printf("\n%s: %d observations rejected before the comparison (at triangulation and by the robust pre-run)\n",
-              dir.c_str(), rejected);
+  std::printf(
+      "\n%s: %d observations rejected before the comparison (at triangulation and by the robust pre-run)\n",
+      dir.c_str(), rejected);
   FastAdjustOptions options;
   options.robust = false;  // all solvers see the same observations
   benchNetwork(dataset.name.empty() ? dir : dataset.name, truth, svd_max, repeat, options);
@@ -191,7 +218,8 @@ void benchBal(const std::string& path, int repeat) {
   if (!in) throw cli::InputError(path, "file", "cannot be read");
   int n_cam = 0, n_pt = 0, n_obs = 0;
   in >> n_cam >> n_pt >> n_obs;
-  if (!in || n_cam <= 0 || n_cam > kMaxPairs || n_pt <= 0 || n_pt > kMaxTiePoints || n_obs > kMaxObservations) {
+  if (!in || n_cam <= 0 || n_cam > kMaxPairs || n_pt <= 0 || n_pt > kMaxTiePoints ||
+      n_obs > kMaxObservations) {
     throw cli::InputError(path, "header", "counts outside the network capacities");
   }
   std::vector<int> oc(n_obs), op(n_obs);
@@ -213,7 +241,8 @@ void benchBal(const std::string& path, int repeat) {
     io.f_px = x[6];
     const Vec3 center = -(r.transpose() * Vec3(x[3], x[4], x[5]));
     int32_t pair = 0;
-    if (!ok(g_start.addPair(0, 0, io, center, r, nullptr, center, r, pair))) throw cli::InputError(path, "camera", "bad");
+    if (!ok(g_start.addPair(0, 0, io, center, r, nullptr, center, r, pair)))
+      throw cli::InputError(path, "camera", "bad");
   }
   for (int p = 0; p < n_pt; ++p) {
     int32_t idx = 0;
@@ -247,10 +276,11 @@ void benchBal(const std::string& path, int repeat) {
       ++behind;
     }
   }
-  std::printf("\nBAL %s: %d cameras (intrinsics fixed), %d points, %d observations (%d over the %d-per-point "
-              "capacity dropped, %d behind their camera at the start left out), sigma 1 px, no constraints, "
-              "no datum prior\n",
-              path.c_str(), n_cam, n_pt, n_obs, dropped, kMaxObsPerPoint, behind);
+  std::printf(
+      "\nBAL %s: %d cameras (intrinsics fixed), %d points, %d observations (%d over the %d-per-point "
+      "capacity dropped, %d behind their camera at the start left out), sigma 1 px, no constraints, "
+      "no datum prior\n",
+      path.c_str(), n_cam, n_pt, n_obs, dropped, kMaxObsPerPoint, behind);
   FastAdjustOptions options;
   options.robust = false;
   options.max_sweeps = kMaxFastSweeps;
@@ -267,7 +297,8 @@ int main(int argc, char** argv) {
     const int repeat = static_cast<int>(args.integer("--repeat", 3));
     g_pcg_tolerance = args.number("--pcg-tol", g_pcg_tolerance);
     std::vector<std::string> datasets;
-    for (std::size_t i = 0; i < args.positionalCount(); ++i) datasets.push_back(args.positional(i, "DATASET"));
+    for (std::size_t i = 0; i < args.positionalCount(); ++i)
+      datasets.push_back(args.positional(i, "DATASET"));
     for (const std::string& d : datasets) benchDataset(d, svd_max, repeat);
     if (bal) benchBal(*bal, repeat);
     return 0;

@@ -141,7 +141,8 @@ TEST(HeldRig, DefaultHoldsBothConstraintsOnUnlikeRigs) {
       CHECK(held.error.eo_px <= old.error.eo_px + 0.01);
       CHECK(held.error.eo_px <= 1.1 * hard.error.eo_px + 0.01);
       CHECK(held.result.sigma0 > 0.8 && held.result.sigma0 < 1.2);
-      CHECK(old.result.max_misfit.gimbal_m > kRigMisfitBound_m);  // without held sigmas the rig breaks the bound
+      CHECK(old.result.max_misfit.gimbal_m >
+            kRigMisfitBound_m);  // without held sigmas the rig breaks the bound
       for (int32_t i = 0; i < g_net.imageCount(); ++i) CHECK(g_net.image(i).sigma.allFinite());
     }
   }
@@ -188,7 +189,8 @@ TEST(HeldRig, LooseHeldSigmaIsTightenedAndGivenSigmaIsHonoured) {
 // sigma (the alternation stops on its 1e-9 relative-cost window a little before the minimum at any sigma),
 // i.e. the normal equations stay well conditioned.
 TEST(HeldRig, MethodsAgreeAtTheTightestHeldSigma) {
-  const FastMethod methods[3] = {FastMethod::kSchurCholesky, FastMethod::kSchurPcg, FastMethod::kAlternation};
+  const FastMethod methods[3] = {FastMethod::kSchurCholesky, FastMethod::kSchurPcg,
+                                 FastMethod::kGaussSeidelAnderson};
   const double sigmas[2] = {kHeldRigSigma_m, kMinHeldRigSigma_m};
   static Network first;
   for (int32_t k = 0; k < kRigs; ++k) {
