@@ -407,8 +407,8 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   const double t0 = nowS();
   const PointCoordinates xyz = coordinatesOf(points);
   const KdTree2 tree(xyz.x, xyz.y);
-  const PointBuckets buckets(xyz.x,
-                             xyz.y);  // the cells' neighbours near the last cell's (the k-d tree on ties)
+  // The cells' neighbours near the last cell's (the k-d tree on ties).
+  const PointBuckets buckets(xyz.x, xyz.y);
   const PointSpacing spacing = pointSpacing(tree, xyz, k);
   double gap = o.max_gap_m;
   if (!(gap > 0.0)) gap = std::max(3.0 * spacing.to_8th_m, 2.0 * grid.cell_m);
