@@ -1,34 +1,27 @@
+// CAHV, CAHVOR and CAHVORE: validation, projection and back-projection, the distortion maps; the text form
+// is in CameraModelText.cpp.
 #include "firmware_core/camera/CameraModel.hpp"
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
-#include <cstring>
 
 #include "firmware_core/base/Capacities.hpp"
 
 namespace areomap {
 namespace {
 
-constexpr double kUnitTolerance = 1e-4;       // |A| and |O| must be 1 within this (labels carry ~6 digits)
-constexpr double kParallelTolerance = 1e-6;   // |A x H| / |H| below this: H parallel to A
-constexpr double kSmallAngleRad = 1e-8;       // below this a ray is on the O axis (JPL's small-angle branch)
-constexpr double kNewtonToleranceRad = 1e-13; // Newton stop on theta / chi / u steps
-constexpr double kNewtonAcceptRad = 1e-9;     // a last step above this is a failure to converge
+constexpr double kUnitTolerance = 1e-4;        // |A| and |O| must be 1 within this (labels carry ~6 digits)
+constexpr double kParallelTolerance = 1e-6;    // |A x H| / |H| below this: H parallel to A
+constexpr double kSmallAngleRad = 1e-8;        // below this a ray is on the O axis (JPL's small-angle branch)
+constexpr double kNewtonToleranceRad = 1e-13;  // Newton stop on theta / chi / u steps
+constexpr double kNewtonAcceptRad = 1e-9;      // a last step above this is a failure to converge
 constexpr double kHalfPi = 1.57079632679489661923;
 
-bool finite3(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
+bool finite3(const Vec3& v) {
+  return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
+}
 
-bool hasDistortion(const CameraModel& m) { return m.type == CameraType::kCahvor || m.type == CameraType::kCahvore; }
-
-// The linearity of a CAHVORE model (JPL: type 1 perspective -> 1, type 2 fisheye -> 0, type 3 general -> L).
-double linearityOf(const CameraModel& m) {
-  switch (m.cahvore_kind) {
-    case CahvoreKind::kPerspective: return 1.0;
-    case CahvoreKind::kFisheye: return 0.0;
-    case CahvoreKind::kGeneral: return m.linearity;
-  }
-  return m.linearity;
+bool hasDistortion(const CameraModel& m) {
+  return m.type == CameraType::kCahvor || m.type == CameraType::kCahvore;
 }
 
 // CAHV projection of a camera-relative vector pp, with d(pixel)/d(pp).
@@ -87,7 +80,7 @@ void chiOfTheta(double linearity, double theta, double& chi, double& d_chi) {
 // (JPL cmod_cahvore_3d_to_2d).
 Status distortCahvore(const CameraModel& m, const Vec3& p, Vec3& pp, Mat3* d_pp_d_p) {
   const Vec3 o = m.o.normalized();  // labels give O to ~6 digits: |O| = 1 +- 1e-6
-  const double linearity = linearityOf(m);
+  const double linearity = cahvoreLinearity(m);
   const double zeta = p.dot(o);
   const Vec3 lambda = p - zeta * o;
   const double l = lambda.norm();
@@ -227,7 +220,7 @@ Status undistortCahvoreRay(const CameraModel& m, const Vec3& rp, Vec3& origin, V
   if (!(std::fabs(dchi) < kNewtonAcceptRad * std::fmax(1.0, chi))) {
     return Status::kNoConvergence;
   }
-  const double linearity = linearityOf(m);
+  const double linearity = cahvoreLinearity(m);
   const double lin_chi = linearity * chi;
   double theta = chi;
   if (linearity < 0.0) {
@@ -247,32 +240,19 @@ Status undistortCahvoreRay(const CameraModel& m, const Vec3& rp, Vec3& origin, V
   return Status::kOk;
 }
 
-// The JPL text form: one "KEY = values" line at a time, copied into a bounded, NUL-terminated buffer.
-bool keyIs(const char* key, std::size_t key_len, const char* name) {
-  return std::strlen(name) == key_len && std::strncmp(key, name, key_len) == 0;
-}
-
-bool parseNumbers(const char* values, double* out, int32_t count) {
-  const char* cursor = values;
-  for (int32_t i = 0; i < count; ++i) {
-    char* end = nullptr;
-    out[i] = std::strtod(cursor, &end);
-    if (end == cursor) {
-      return false;
-    }
-    cursor = end;
-  }
-  return true;
-}
-
-bool allFinite(const double* v, int32_t count) {
-  for (int32_t i = 0; i < count; ++i) {
-    if (!std::isfinite(v[i])) return false;
-  }
-  return true;
-}
-
 }  // namespace
+
+double cahvoreLinearity(const CameraModel& model) {
+  switch (model.cahvore_kind) {
+    case CahvoreKind::kPerspective:
+      return 1.0;
+    case CahvoreKind::kFisheye:
+      return 0.0;
+    case CahvoreKind::kGeneral:
+      return model.linearity;
+  }
+  return model.linearity;
+}
 
 Status validateModel(const CameraModel& model, const char*& field) {
   field = "";
@@ -315,7 +295,8 @@ Status validateModel(const CameraModel& model, const char*& field) {
   }
   if (model.type == CameraType::kCahvore) {
     const bool kind_ok = model.cahvore_kind == CahvoreKind::kPerspective ||
-                         model.cahvore_kind == CahvoreKind::kFisheye || model.cahvore_kind == CahvoreKind::kGeneral;
+                         model.cahvore_kind == CahvoreKind::kFisheye ||
+                         model.cahvore_kind == CahvoreKind::kGeneral;
     if (!kind_ok) {
       field = "type";
       return Status::kInvalidArgument;
@@ -325,7 +306,8 @@ Status validateModel(const CameraModel& model, const char*& field) {
       return Status::kNotFinite;
     }
   }
-  if (model.type != CameraType::kCahv && model.type != CameraType::kCahvor && model.type != CameraType::kCahvore) {
+  if (model.type != CameraType::kCahv && model.type != CameraType::kCahvor &&
+      model.type != CameraType::kCahvore) {
     field = "type";
     return Status::kUnsupported;
   }
@@ -433,182 +415,6 @@ CameraModel movedModel(const CameraModel& model, const Mat3& rotation, const Vec
   m.v.noalias() = rotation * model.v;
   m.o.noalias() = rotation * model.o;
   return m;
-}
-
-Status parseModelText(const char* text, std::size_t length, CameraModel& model, const char*& field) {
-  field = "";
-  model = CameraModel{};
-  bool seen[7] = {false, false, false, false, false, false, false};  // C A H V O R E
-  Vec3* targets[7] = {&model.c, &model.a, &model.h, &model.v, &model.o, &model.r, &model.e};
-  static const char* const kNames[7] = {"C", "A", "H", "V", "O", "R", "E"};
-  bool type_given = false;
-  CameraType declared = CameraType::kCahv;
-  bool kind_given = false;
-  char line[kMaxModelTextLineChars + 1];
-  std::size_t pos = 0;
-  while (pos < length) {  // bounded by length: every pass consumes at least one character
-    std::size_t end = pos;
-    while (end < length && text[end] != '\n' && text[end] != '\0') ++end;
-    const std::size_t n = end - pos;
-    const std::size_t start = pos;
-    pos = end + 1;
-    if (n > kMaxModelTextLineChars) {
-      field = "line";
-      return Status::kCapacityExceeded;
-    }
-    std::memcpy(line, text + start, n);
-    line[n] = '\0';
-    const char* eq = std::strchr(line, '=');
-    if (eq == nullptr) continue;
-    const char* key = line;
-    while (*key == ' ' || *key == '\t') ++key;
-    const char* key_end = eq;
-    while (key_end > key && (key_end[-1] == ' ' || key_end[-1] == '\t')) --key_end;
-    const std::size_t key_len = static_cast<std::size_t>(key_end - key);
-    const char* values = eq + 1;
-    bool matched = false;
-    for (int32_t i = 0; i < 7 && !matched; ++i) {
-      if (keyIs(key, key_len, kNames[i])) {
-        matched = true;
-        double v[3];
-        if (!parseNumbers(values, v, 3)) {
-          field = kNames[i];
-          return Status::kCorruptData;
-        }
-        if (!allFinite(v, 3)) {
-          field = kNames[i];
-          return Status::kNotFinite;
-        }
-        *targets[i] = Vec3(v[0], v[1], v[2]);
-        seen[i] = true;
-      }
-    }
-    if (matched) continue;
-    if (keyIs(key, key_len, "Dimensions")) {
-      double v[2];
-      if (!parseNumbers(values, v, 2) || !allFinite(v, 2) || v[0] < 0.0 || v[1] < 0.0 ||
-          v[0] > kMaxModelImageSidePx || v[1] > kMaxModelImageSidePx) {
-        field = "Dimensions";
-        return Status::kCorruptData;
-      }
-      model.width = static_cast<int32_t>(v[0]);
-      model.height = static_cast<int32_t>(v[1]);
-    } else if (keyIs(key, key_len, "Model")) {
-      // "Model = CAHVORE3,0.5 = general" (JPL), "Model = CAHVOR", "Model = CAHV".
-      const char* t = values;
-      while (*t == ' ' || *t == '\t') ++t;
-      type_given = true;
-      if (std::strncmp(t, "CAHVORE", 7) == 0) {
-        declared = CameraType::kCahvore;
-        const char* k = t + 7;
-        if (*k >= '1' && *k <= '3') {
-          model.cahvore_kind = static_cast<CahvoreKind>(*k - '0');
-          kind_given = true;
-          ++k;
-          if (*k == ',') {
-            double p = 0.0;
-            if (!parseNumbers(k + 1, &p, 1) || !std::isfinite(p)) {
-              field = "parameter";
-              return Status::kCorruptData;
-            }
-            model.linearity = p;
-          }
-        }
-      } else if (std::strncmp(t, "CAHVOR", 6) == 0) {
-        declared = CameraType::kCahvor;
-      } else if (std::strncmp(t, "CAHV", 4) == 0) {
-        declared = CameraType::kCahv;
-      } else {
-        field = "Model";
-        return Status::kUnsupported;
-      }
-    } else if (keyIs(key, key_len, "T")) {  // CAHVORE type alone (1, 2, 3)
-      double v = 0.0;
-      if (!parseNumbers(values, &v, 1) || !(v == 1.0 || v == 2.0 || v == 3.0)) {
-        field = "T";
-        return Status::kCorruptData;
-      }
-      model.cahvore_kind = static_cast<CahvoreKind>(static_cast<int32_t>(v));
-      kind_given = true;
-    } else if (keyIs(key, key_len, "P")) {  // CAHVORE parameter alone
-      double v = 0.0;
-      if (!parseNumbers(values, &v, 1) || !std::isfinite(v)) {
-        field = "P";
-        return Status::kCorruptData;
-      }
-      model.linearity = v;
-    }
-  }
-  for (int32_t i = 0; i < 4; ++i) {
-    if (!seen[i]) {
-      field = kNames[i];
-      return Status::kMissingField;
-    }
-  }
-  if (type_given) {
-    model.type = declared;
-  } else if (seen[6]) {
-    model.type = CameraType::kCahvore;
-  } else if (seen[4] || seen[5]) {
-    model.type = CameraType::kCahvor;
-  }
-  const int32_t needed = model.type == CameraType::kCahv ? 4 : (model.type == CameraType::kCahvor ? 6 : 7);
-  for (int32_t i = 4; i < needed; ++i) {
-    if (!seen[i]) {
-      field = kNames[i];
-      return Status::kMissingField;
-    }
-  }
-  if (model.type == CameraType::kCahvore && !kind_given) {
-    model.cahvore_kind = CahvoreKind::kPerspective;
-  }
-  if (model.type == CameraType::kCahvore && model.cahvore_kind != CahvoreKind::kGeneral) {
-    model.linearity = linearityOf(model);
-  }
-  return validateModel(model, field);
-}
-
-std::size_t formatModelText(const CameraModel& model, char* buffer, std::size_t capacity) {
-  if (buffer == nullptr || capacity == 0) {
-    return 0;
-  }
-  std::size_t used = 0;
-  bool fits = true;
-  auto append = [&](int written) {
-    if (written < 0 || static_cast<std::size_t>(written) >= capacity - used) {
-      fits = false;
-      return;
-    }
-    used += static_cast<std::size_t>(written);
-  };
-  switch (model.type) {
-    case CameraType::kCahv: append(std::snprintf(buffer + used, capacity - used, "Model = CAHV\n")); break;
-    case CameraType::kCahvor: append(std::snprintf(buffer + used, capacity - used, "Model = CAHVOR\n")); break;
-    case CameraType::kCahvore: {
-      const char* kind_name = model.cahvore_kind == CahvoreKind::kPerspective
-                                  ? "perspective"
-                                  : (model.cahvore_kind == CahvoreKind::kFisheye ? "fisheye" : "general");
-      append(std::snprintf(buffer + used, capacity - used, "Model = CAHVORE%d,%.17g = %s\n",
-                           static_cast<int>(model.cahvore_kind), model.linearity, kind_name));
-      break;
-    }
-  }
-  if (fits && model.width > 0 && model.height > 0) {
-    append(std::snprintf(buffer + used, capacity - used, "Dimensions = %d %d\n", static_cast<int>(model.width),
-                         static_cast<int>(model.height)));
-  }
-  const Vec3* vectors[] = {&model.c, &model.a, &model.h, &model.v, &model.o, &model.r, &model.e};
-  const char* names[] = {"C", "A", "H", "V", "O", "R", "E"};
-  const int32_t count = model.type == CameraType::kCahv ? 4 : (model.type == CameraType::kCahvor ? 6 : 7);
-  for (int32_t i = 0; i < count && fits; ++i) {
-    append(std::snprintf(buffer + used, capacity - used, "%s = %.17g %.17g %.17g\n", names[i], vectors[i]->x(),
-                         vectors[i]->y(), vectors[i]->z()));
-  }
-  if (!fits) {
-    buffer[0] = '\0';
-    return 0;
-  }
-  return used;
 }
 
 }  // namespace areomap

@@ -38,6 +38,10 @@ struct CameraModel {
   int32_t height = 0;
 };
 
+// The linearity L of a CAHVORE model (JPL): 1 for type 1 (perspective), 0 for type 2 (fisheye), the model's
+// own `linearity` for type 3 (general).
+double cahvoreLinearity(const CameraModel& model);
+
 // Checks a model: finite numbers, |A| = 1 (and |O| = 1), H and V not parallel to A, 0 <= sizes <=
 // kMaxModelImageSidePx.
 // On failure `field` names the offending component ("A", "H", "O", "R", ...).

@@ -2,26 +2,19 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 
-#include "firmware_core/camera/CameraConversion.hpp"
-#include "firmware_core/camera/Photogrammetric.hpp"
-#include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
 
 namespace areomap {
 namespace {
 
-int32_t stageIndex(RoverStage stage) { return static_cast<int32_t>(stage); }
-
-void setString(std::string& s, const char* text) {
-  // Within the capacity reserved at start-up: assign() of a shorter text reuses the buffer.
-  std::size_t n = std::strlen(text);
-  if (n > static_cast<std::size_t>(kMaxMessageStringChars)) n = static_cast<std::size_t>(kMaxMessageStringChars);
-  s.assign(text, n);
+int32_t stageIndex(RoverStage stage) {
+  return static_cast<int32_t>(stage);
 }
 
-Vec3 vec(const double v[3]) { return Vec3(v[0], v[1], v[2]); }
+Vec3 vec(const double v[3]) {
+  return Vec3(v[0], v[1], v[2]);
+}
 
 }  // namespace
 
@@ -64,7 +57,9 @@ int64_t RoverNode::staticBytes() const {
   return static_cast<int64_t>(sizeof(RoverNode)) + extra_static_bytes_;
 }
 
-double RoverNode::now() const { return static_cast<double>(clock_->monotonicUtime()) * 1e-6; }
+double RoverNode::now() const {
+  return static_cast<double>(clock_->monotonicUtime()) * 1e-6;
+}
 
 void RoverNode::resetPanorama() {
   matcher_.reset();
@@ -82,8 +77,8 @@ void RoverNode::reject(Status cause, int64_t sequence, int32_t pair_id, const ch
   const int32_t c = static_cast<int32_t>(cause);
   if (c > 0 && c < static_cast<int32_t>(Status::kCount)) counters_.rejected_by_cause[c] += 1;
   counters_.pairs_rejected += 1;
-  std::snprintf(last_error_, sizeof(last_error_), "sequence %lld pair %d: %s: %s", static_cast<long long>(sequence),
-                static_cast<int>(pair_id), statusName(cause), what);
+  std::snprintf(last_error_, sizeof(last_error_), "sequence %lld pair %d: %s: %s",
+                static_cast<long long>(sequence), static_cast<int>(pair_id), statusName(cause), what);
   if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
 }
 
@@ -106,8 +101,8 @@ bool RoverNode::trackSequence(int64_t sequence) {
     // A corrupt sequence number may jump by up to 2^63: the count saturates instead of overflowing.
     const int64_t room = INT32_MAX - static_cast<int64_t>(counters_.sequence_gaps);
     counters_.sequence_gaps += static_cast<int32_t>(missing < room ? missing : room);
-    int32_t len = std::snprintf(last_error_, sizeof(last_error_), "sequence gap: %lld missing:",
-                                static_cast<long long>(missing));
+    int32_t len = std::snprintf(last_error_, sizeof(last_error_),
+                                "sequence gap: %lld missing:", static_cast<long long>(missing));
     for (int64_t k = 0; k < missing && k < kMaxNamedGapSequences && len > 0 &&
                         len < static_cast<int32_t>(sizeof(last_error_));
          ++k) {
@@ -132,8 +127,8 @@ bool RoverNode::trackSequence(int64_t sequence) {
 void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
   counters_.pairs_seen += 1;
   const double t0 = now();
-  Status s = msgs::checkEncoding(stereo_pair_t::getTypeName(), static_cast<uint64_t>(stereo_pair_t::getHash()), data,
-                                 size);
+  Status s = msgs::checkEncoding(stereo_pair_t::getTypeName(),
+                                 static_cast<uint64_t>(stereo_pair_t::getHash()), data, size);
   if (s == Status::kCorruptData && size >= 8 &&
       encodedFingerprint(data, size) != static_cast<uint64_t>(stereo_pair_t::getHash())) {
     // Another message type on this channel (a well-formed one or not): its own cause.
@@ -142,27 +137,24 @@ void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
                        print == static_cast<uint64_t>(eo_solution_t::getHash()) ||
                        print == static_cast<uint64_t>(coarse_dem_t::getHash()) ||
                        print == static_cast<uint64_t>(rover_status_t::getHash());
-    reject(Status::kUnsupported, -1, -1, known ? "another areomap message type on the stereo-pair channel"
-                                                : "not a stereo_pair_t (unknown fingerprint)");
-    publishStatus();
+    rejectAndPublish(Status::kUnsupported, -1, -1,
+                     known ? "another areomap message type on the stereo-pair channel"
+                           : "not a stereo_pair_t (unknown fingerprint)");
     return;
   }
   if (!ok(s)) {
-    reject(s, -1, -1, "message does not decode");
-    publishStatus();
+    rejectAndPublish(s, -1, -1, "message does not decode");
     return;
   }
   const char* field = "";
   s = checkStereoPairCapacity(data, size, field);
   if (!ok(s)) {
-    reject(s, -1, -1, field);
-    publishStatus();
+    rejectAndPublish(s, -1, -1, field);
     return;
   }
   s = msgs::decodeMessage(data, size, in_);
   if (!ok(s)) {
-    reject(s, -1, -1, "message does not decode");
-    publishStatus();
+    rejectAndPublish(s, -1, -1, "message does not decode");
     return;
   }
   counters_.stage_seconds[stageIndex(RoverStage::kDecode)] += now() - t0;
@@ -174,8 +166,7 @@ void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
     highest_sequence_ = -1;
   }
   if (in_.sequence < 0) {
-    reject(Status::kInvalidArgument, in_.sequence, in_.pair_id, "negative sequence number");
-    publishStatus();
+    rejectAndPublish(Status::kInvalidArgument, in_.sequence, in_.pair_id, "negative sequence number");
     return;
   }
   if (!trackSequence(in_.sequence)) {
@@ -188,8 +179,7 @@ void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
     return;
   }
   if (in_.kind != stereo_pair_t::KIND_PAIR) {
-    reject(Status::kInvalidArgument, in_.sequence, in_.pair_id, "kind");
-    publishStatus();
+    rejectAndPublish(Status::kInvalidArgument, in_.sequence, in_.pair_id, "kind");
     return;
   }
   processPair(in_.sequence);
@@ -205,104 +195,155 @@ Status RoverNode::decodeSide(const stereo_image_t& side, uint8_t* pixels, int32_
   return Status::kOk;
 }
 
+void RoverNode::rejectAndPublish(Status cause, int64_t sequence, int32_t pair_id, const char* what) {
+  reject(cause, sequence, pair_id, what);
+  publishStatus();
+}
+
 void RoverNode::processPair(int64_t sequence) {
   const int32_t pair_id = in_.pair_id;
-  if (counters_.finished) resetPanorama();
-  if (!panorama_open_) {
-    panorama_open_ = true;
-    panorama_start_s_ = now();
-    copyText(in_.panorama.c_str(), panorama_, sizeof(panorama_));
-  }
-  if (matcher_.pairCount() >= kMaxPairs) {
-    reject(Status::kCapacityExceeded, sequence, pair_id, "workspace full: more pairs than kMaxPairs (panorama kept)");
-    publishStatus();
+  openPanorama();
+  if (!workspaceHasRoom(sequence, pair_id)) return;
+  CameraModel models[2];
+  if (!readModels(sequence, pair_id, models) || !rigValuesFinite(sequence, pair_id) ||
+      !imageSizesFit(sequence, pair_id)) {
     return;
+  }
+  int32_t w[2] = {0, 0}, h[2] = {0, 0};
+  if (!decodeImages(sequence, pair_id, w, h)) return;
+  int32_t sol_index = -1;
+  if (!findSol(sequence, pair_id, sol_index)) return;
+  int32_t first_observation = 0;
+  if (!matchPair(sequence, pair_id, models, w, h, first_observation)) return;
+  double t = now();
+  if (!enterNetwork(sequence, pair_id, sol_index, models)) return;
+  setRigFromMessage(sol_index);
+  counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
+  counters_.pairs_accepted += 1;
+  // Incremental adjustment, warm-started from the previous solution.
+  t = now();
+  (void)adjustNow(false);
+  counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
+  t = now();
+  publishTiePoints(pair_id, first_observation);
+  publishDem(pair_id);
+  publishEo(pair_id, false);
+  publishStatus();
+  counters_.stage_seconds[stageIndex(RoverStage::kPublish)] += now() - t;
+}
+
+// A pair after the end-of-panorama marker starts a new panorama; a panorama's first pair names it and starts
+// its clock.
+void RoverNode::openPanorama() {
+  if (counters_.finished) resetPanorama();
+  if (panorama_open_) return;
+  panorama_open_ = true;
+  panorama_start_s_ = now();
+  copyText(in_.panorama.c_str(), panorama_, sizeof(panorama_));
+}
+
+bool RoverNode::workspaceHasRoom(int64_t sequence, int32_t pair_id) {
+  if (matcher_.pairCount() >= kMaxPairs) {
+    rejectAndPublish(Status::kCapacityExceeded, sequence, pair_id,
+                     "workspace full: more pairs than kMaxPairs (panorama kept)");
+    return false;
   }
   if (workspace_full_ || matcher_.points().size() >= kMaxTiePoints ||
       matcher_.observations().size() + 2 > kMaxObservations) {
     workspace_full_ = true;
-    reject(Status::kCapacityExceeded, sequence, pair_id,
-           "workspace full: tie points or observations at capacity (panorama kept)");
-    publishStatus();
-    return;
+    rejectAndPublish(Status::kCapacityExceeded, sequence, pair_id,
+                     "workspace full: tie points or observations at capacity (panorama kept)");
+    return false;
   }
-  // Models.
-  CameraModel models[2];
+  return true;
+}
+
+bool RoverNode::readModels(int64_t sequence, int32_t pair_id, CameraModel models[2]) {
   const char* field = "";
   Status s = toCameraModel(in_.left.model, models[0], field);
   if (ok(s) && in_.has_right) s = toCameraModel(in_.right.model, models[1], field);
-  if (!ok(s)) {
-    char what[96];
-    std::snprintf(what, sizeof(what), "a-priori model, component %s", field);
-    reject(s, sequence, pair_id, what);
-    publishStatus();
-    return;
-  }
-  const double rig[] = {in_.gimbal_m[0], in_.gimbal_m[1], in_.gimbal_m[2], in_.left_offset_m[0],
-                        in_.left_offset_m[1], in_.left_offset_m[2], in_.right_offset_m[0], in_.right_offset_m[1],
-                        in_.right_offset_m[2], in_.base_m[0], in_.base_m[1], in_.base_m[2], in_.sigma_gimbal_m,
-                        in_.sigma_base_m};
+  if (ok(s)) return true;
+  char what[96];
+  std::snprintf(what, sizeof(what), "a-priori model, component %s", field);
+  rejectAndPublish(s, sequence, pair_id, what);
+  return false;
+}
+
+bool RoverNode::rigValuesFinite(int64_t sequence, int32_t pair_id) {
+  const double rig[] = {in_.gimbal_m[0],       in_.gimbal_m[1],       in_.gimbal_m[2],
+                        in_.left_offset_m[0],  in_.left_offset_m[1],  in_.left_offset_m[2],
+                        in_.right_offset_m[0], in_.right_offset_m[1], in_.right_offset_m[2],
+                        in_.base_m[0],         in_.base_m[1],         in_.base_m[2],
+                        in_.sigma_gimbal_m,    in_.sigma_base_m};
   for (double v : rig) {
     if (!std::isfinite(v)) {
-      reject(Status::kNotFinite, sequence, pair_id, "rig values");
-      publishStatus();
-      return;
+      rejectAndPublish(Status::kNotFinite, sequence, pair_id, "rig values");
+      return false;
     }
   }
-  // Sizes read from the message, checked before anything is decoded into the fixed buffers.
+  return true;
+}
+
+// Sizes read from the message, checked before anything is decoded into the fixed buffers.
+bool RoverNode::imageSizesFit(int64_t sequence, int32_t pair_id) {
   for (int32_t side = 0; side < (in_.has_right ? 2 : 1); ++side) {
-    s = checkImageSizes(side == 0 ? in_.left : in_.right, field);
+    const char* field = "";
+    const Status s = checkImageSizes(side == 0 ? in_.left : in_.right, field);
     if (!ok(s)) {
       char what[96];
       std::snprintf(what, sizeof(what), "%s image: %s", side == 0 ? "left" : "right", field);
-      reject(s, sequence, pair_id, what);
-      publishStatus();
-      return;
+      rejectAndPublish(s, sequence, pair_id, what);
+      return false;
     }
   }
-  // Images.
-  double t = now();
-  int32_t w[2] = {0, 0}, h[2] = {0, 0};
-  s = decodeSide(in_.left, left_pixels_, w[0], h[0]);
+  return true;
+}
+
+bool RoverNode::decodeImages(int64_t sequence, int32_t pair_id, int32_t w[2], int32_t h[2]) {
+  const double t = now();
+  Status s = decodeSide(in_.left, left_pixels_, w[0], h[0]);
   if (ok(s) && in_.has_right) s = decodeSide(in_.right, right_pixels_, w[1], h[1]);
   counters_.stage_seconds[stageIndex(RoverStage::kDecode)] += now() - t;
-  if (!ok(s)) {
-    reject(s, sequence, pair_id, "JPEG image");
-    publishStatus();
-    return;
-  }
-  // Sol index of the rig.
-  int32_t sol_index = -1;
+  if (ok(s)) return true;
+  rejectAndPublish(s, sequence, pair_id, "JPEG image");
+  return false;
+}
+
+// The rig's index of the pair's sol: a new one for a sol not seen before in this panorama.
+bool RoverNode::findSol(int64_t sequence, int32_t pair_id, int32_t& sol_index) {
+  sol_index = -1;
   for (int32_t i = 0; i < sol_count_; ++i) {
     if (sols_[i] == in_.sol) sol_index = i;
   }
-  if (sol_index < 0) {
-    if (sol_count_ >= kMaxSols) {
-      reject(Status::kCapacityExceeded, sequence, pair_id, "more sols than kMaxSols");
-      publishStatus();
-      return;
-    }
-    sol_index = sol_count_;
-    sols_[sol_count_++] = in_.sol;
+  if (sol_index >= 0) return true;
+  if (sol_count_ >= kMaxSols) {
+    rejectAndPublish(Status::kCapacityExceeded, sequence, pair_id, "more sols than kMaxSols");
+    return false;
   }
-  // Tie points and coarse DEM: one matcher call, so STAGE_MATCH holds Förstner, NCC, the coarse DEM and the
-  // inter-stereo ties together (STAGE_FEATURES and STAGE_DEM stay 0); STAGE_ADJUST holds the network update
-  // and the adjustment.
-  t = now();
+  sol_index = sol_count_;
+  sols_[sol_count_++] = in_.sol;
+  return true;
+}
+
+// Tie points and coarse DEM: one matcher call, so STAGE_MATCH holds Förstner, NCC, the coarse DEM and the
+// inter-stereo ties together (STAGE_FEATURES and STAGE_DEM stay 0); STAGE_ADJUST holds the network update
+// and the adjustment. `first_observation`: the pair's first observation in the matcher's list.
+bool RoverNode::matchPair(int64_t sequence, int32_t pair_id, const CameraModel models[2], const int32_t w[2],
+                          const int32_t h[2], int32_t& first_observation) {
+  const double t = now();
   const ImageView left{left_pixels_, w[0], h[0], w[0]};
   const ImageView right{right_pixels_, w[1], h[1], w[1]};
   PairTieReport report;
-  const int32_t first_observation = matcher_.observations().size();
+  first_observation = matcher_.observations().size();
   // The tie budget, planned once per panorama for the pair count the stream announces (as areomap-ties).
   if (matcher_.pairCount() == 0) matcher_.planForPairs(plannedPairs(in_.pairs_planned));
-  s = matcher_.addPair(left, in_.has_right ? &right : nullptr, models[0],
-                       in_.has_right ? &models[1] : nullptr, coarse_dem_, report);
+  const Status s = matcher_.addPair(left, in_.has_right ? &right : nullptr, models[0],
+                                    in_.has_right ? &models[1] : nullptr, coarse_dem_, report);
   const double match_s = now() - t;
   counters_.stage_seconds[stageIndex(RoverStage::kMatch)] += match_s;
   if (s == Status::kInvalidArgument || s == Status::kCapacityExceeded) {
-    reject(s, sequence, pair_id, "rejected by the matcher");
-    publishStatus();
-    return;
+    rejectAndPublish(s, sequence, pair_id, "rejected by the matcher");
+    return false;
   }
   const int32_t matcher_pair = matcher_.pairCount() - 1;
   copyText(in_.left.stem.c_str(), stem_of_matcher_image_[2 * matcher_pair], kMaxMessageStringChars + 1);
@@ -314,37 +355,47 @@ void RoverNode::processPair(int64_t sequence) {
     // network, and so does every later pair of this panorama (the network keeps what it has).
     workspace_full_ = true;
     char what[128];
-    std::snprintf(what, sizeof(what), "workspace full: %d ties did not fit (%d points, %d observations); pair kept out, panorama kept",
-                  static_cast<int>(report.overflow), static_cast<int>(matcher_.points().size()),
-                  static_cast<int>(matcher_.observations().size()));
-    reject(Status::kCapacityExceeded, sequence, pair_id, what);
-    publishStatus();
-    return;
+    std::snprintf(
+        what, sizeof(what),
+        "workspace full: %d ties did not fit (%d points, %d observations); pair kept out, panorama kept",
+        static_cast<int>(report.overflow), static_cast<int>(matcher_.points().size()),
+        static_cast<int>(matcher_.observations().size()));
+    rejectAndPublish(Status::kCapacityExceeded, sequence, pair_id, what);
+    return false;
   }
   if (s == Status::kNoTexture) {
     // The matcher keeps the pair (no ties); the adjustment cannot resect it, so it stays out of the network.
     counters_.no_texture_pairs += 1;
-    reject(s, sequence, pair_id, "no tie point in this pair (kept out of the adjustment)");
-    publishStatus();
-    return;
+    rejectAndPublish(s, sequence, pair_id, "no tie point in this pair (kept out of the adjustment)");
+    return false;
   }
-  // Network: cameras, new points and observations; rig from the message.
-  t = now();
+  return true;
+}
+
+// Network: the cameras, new points and observations of the matcher's last pair; the rig comes from the
+// message (setRigFromMessage).
+bool RoverNode::enterNetwork(int64_t sequence, int32_t pair_id, int32_t sol_index,
+                             const CameraModel models[2]) {
   int32_t failed = 0;
-  s = network_builder_.syncPair(matcher_.ties(), sol_index,
-                                in_.tier < 0 ? 0 : (in_.tier >= kMaxTiers ? kMaxTiers - 1 : in_.tier),
-                                models[0], in_.has_right ? &models[1] : nullptr, net_, failed);
+  const Status s = network_builder_.syncPair(
+      matcher_.ties(), sol_index, in_.tier < 0 ? 0 : (in_.tier >= kMaxTiers ? kMaxTiers - 1 : in_.tier),
+      models[0], in_.has_right ? &models[1] : nullptr, net_, failed);
   if (!ok(s)) {
-    reject(s, sequence, pair_id, "cannot enter the adjustment network");
-    publishStatus();
-    return;
+    rejectAndPublish(s, sequence, pair_id, "cannot enter the adjustment network");
+    return false;
   }
+  const int32_t matcher_pair = matcher_.pairCount() - 1;
   for (int32_t side = 0; side < 2; ++side) {
     const int32_t image = network_builder_.networkImage(2 * matcher_pair + side);
     if (image < 0) continue;
-    copyText(stem_of_matcher_image_[2 * matcher_pair + side], stem_of_image_[image], kMaxMessageStringChars + 1);
+    copyText(stem_of_matcher_image_[2 * matcher_pair + side], stem_of_image_[image],
+             kMaxMessageStringChars + 1);
     pair_id_of_image_[image] = pair_id;
   }
+  return true;
+}
+
+void RoverNode::setRigFromMessage(int32_t sol_index) {
   RigConstraints& rigc = net_.rig;
   rigc.gimbal_m[sol_index] = vec(in_.gimbal_m);
   rigc.gimbal_set[sol_index] = true;
@@ -360,18 +411,6 @@ void RoverNode::processPair(int64_t sequence) {
   rigc.sigma_base_m = in_.sigma_base_m;
   rigc.hold_gimbal = !in_.sigmas_given;
   rigc.hold_base = !in_.sigmas_given;
-  counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
-  counters_.pairs_accepted += 1;
-  // Incremental adjustment, warm-started from the previous solution.
-  t = now();
-  (void)adjustNow(false);
-  counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
-  t = now();
-  publishTiePoints(pair_id, first_observation);
-  publishDem(pair_id);
-  publishEo(pair_id, false);
-  publishStatus();
-  counters_.stage_seconds[stageIndex(RoverStage::kPublish)] += now() - t;
 }
 
 Status RoverNode::adjustNow(bool final_solve) {
@@ -397,8 +436,8 @@ Status RoverNode::adjustNow(bool final_solve) {
                                                            : eo_solution_t::STOP_DIVERGED;
   if (!ok(s)) {
     counters_.adjust_failures += 1;
-    std::snprintf(last_error_, sizeof(last_error_), "adjustment after %d pairs: %s", static_cast<int>(net_.pairCount()),
-                  statusName(s));
+    std::snprintf(last_error_, sizeof(last_error_), "adjustment after %d pairs: %s",
+                  static_cast<int>(net_.pairCount()), statusName(s));
     if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
   }
   return s;
@@ -420,120 +459,5 @@ void RoverNode::finishPanorama() {
   publishEo(-1, true);
   publishStatus();
 }
-
-template <class Message>
-void RoverNode::publishMessage(const char* channel, Message& message) {
-  const int size = message.getEncodedSize();
-  if (size <= 0 || static_cast<std::size_t>(size) > kMaxOutgoingBytes ||
-      message.encode(out_buffer_, 0, static_cast<int>(kMaxOutgoingBytes)) != size ||
-      !ok(out_->publish(channel, out_buffer_, static_cast<std::size_t>(size)))) {
-    counters_.publish_failures += 1;
-  }
-}
-
-void RoverNode::publishTiePoints(int32_t pair_id, int32_t first_observation) {
-  tiepoints_.utime = clock_->wallUtime();
-  tiepoints_.sequence = seq_tiepoints_++;
-  setString(tiepoints_.panorama, panorama_);
-  tiepoints_.pair_id = pair_id;
-  const int32_t images = 2 * matcher_.pairCount();
-  tiepoints_.num_images = images;
-  for (int32_t i = 0; i < images; ++i) setString(tiepoints_.image_stems[static_cast<std::size_t>(i)], stem_of_matcher_image_[i]);
-  const auto& obs = matcher_.observations();
-  int32_t n = 0;
-  for (int32_t i = first_observation; i < obs.size(); ++i) {
-    if (n >= kMaxTiePointsPerMessage) {
-      counters_.tie_overflow += 1;
-      continue;
-    }
-    const auto k = static_cast<std::size_t>(n++);
-    tiepoints_.point_id[k] = obs[i].point;
-    tiepoints_.image_index[k] = static_cast<int16_t>(obs[i].image);
-    tiepoints_.sample_px[k] = obs[i].sample_px;
-    tiepoints_.line_px[k] = obs[i].line_px;
-    tiepoints_.kind[k] = obs[i].kind == TieKind::kIntra ? tiepoints_t::KIND_INTRA : tiepoints_t::KIND_INTER;
-  }
-  tiepoints_.num_observations = n;
-  publishMessage(channels::kTiePoints, tiepoints_);
-}
-
-void RoverNode::publishDem(int32_t pair_id) {
-  const CoarseDem& dem = coarse_dem_;
-  dem_.utime = clock_->wallUtime();
-  dem_.sequence = seq_dem_++;
-  setString(dem_.panorama, panorama_);
-  dem_.pair_id = pair_id;
-  const int32_t n = CoarseDem::cells();
-  const Vec3 origin = dem.origin();
-  // The DEM's grid: row index along +X (north), column along +Y (east) from the outer corner `origin`;
-  // the message is north-up, so its row 0 is the DEM's last row.
-  dem_.cell_m = CoarseDem::cellSize();
-  dem_.east0_m = origin.y();
-  dem_.north0_m = origin.x() + n * CoarseDem::cellSize();
-  dem_.cols = n;
-  dem_.rows = n;
-  dem_.nodata_m = -32768.0f;
-  dem_.num_points = dem.pointCount();
-  dem_.num_cells = n * n;
-  for (int32_t r = 0; r < n; ++r) {
-    for (int32_t c = 0; c < n; ++c) {
-      double z = 0.0;
-      const bool has = dem.cellValue(n - 1 - r, c, z);
-      dem_.elevation_m[static_cast<std::size_t>(r * n + c)] = has ? static_cast<float>(-z) : dem_.nodata_m;
-    }
-  }
-  publishMessage(channels::kCoarseDem, dem_);
-}
-
-void RoverNode::publishEo(int32_t pair_id, bool final_solution) {
-  eo_.utime = clock_->wallUtime();
-  eo_.sequence = seq_eo_++;
-  setString(eo_.panorama, panorama_);
-  eo_.last_pair_id = pair_id;
-  eo_.num_images = net_.imageCount();
-  eo_.is_final = final_solution;
-  for (int32_t i = 0; i < net_.imageCount(); ++i) {
-    const NetImage& im = net_.image(i);
-    eo_entry_t& e = eo_.images[static_cast<std::size_t>(i)];
-    setString(e.stem, stem_of_image_[i]);
-    e.pair_id = pair_id_of_image_[i];
-    e.side = im.side == Side::kLeft ? eo_entry_t::SIDE_LEFT : eo_entry_t::SIDE_RIGHT;
-    for (int32_t k = 0; k < 3; ++k) {
-      e.center_m[k] = im.center_m[k];
-      e.sigma_center_m[k] = im.sigma[k];
-      e.sigma_angles_rad[k] = im.sigma[3 + k];
-    }
-    opkFromRotation(im.m, e.omega_rad, e.phi_rad, e.kappa_rad);
-    toMessage(adjustedModel(network_builder_.model(i), im.m_apriori, im.m, im.center_m), e.model);
-  }
-  publishMessage(channels::kEoSolution, eo_);
-}
-
-void RoverNode::publishStatus() {
-  status_.utime = clock_->wallUtime();
-  status_.sequence = seq_status_++;
-  status_.state = counters_.finished ? rover_status_t::STATE_FINISHED
-                  : panorama_open_   ? rover_status_t::STATE_RUNNING
-                                     : rover_status_t::STATE_STARTING;
-  status_.pairs_seen = counters_.pairs_seen;
-  status_.pairs_accepted = counters_.pairs_accepted;
-  status_.pairs_rejected = counters_.pairs_rejected;
-  for (int32_t i = 0; i < rover_status_t::NUM_CAUSES; ++i) {
-    status_.rejected_by_cause[i] = i < static_cast<int32_t>(Status::kCount) ? counters_.rejected_by_cause[i] : 0;
-  }
-  status_.sequence_gaps = counters_.sequence_gaps;
-  status_.duplicates = counters_.duplicates;
-  status_.reordered = counters_.reordered;
-  for (int32_t i = 0; i < rover_status_t::NUM_STAGES; ++i) status_.stage_seconds[i] = counters_.stage_seconds[i];
-  status_.sweeps = counters_.last_sweeps;
-  status_.rms_px = counters_.last_rms_px;
-  status_.heap_allocs_after_init = heap_pipeline_;
-  status_.static_bytes = staticBytes();
-  std::size_t n = std::strlen(last_error_);
-  status_.last_error.assign(last_error_, n);
-  publishMessage(channels::kRoverStatus, status_);
-}
-
-void RoverNode::heartbeat() { publishStatus(); }
 
 }  // namespace areomap

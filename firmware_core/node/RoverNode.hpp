@@ -50,7 +50,14 @@ constexpr int32_t kMaxTiePointsPerMessage = kMaxTiePoints;
 // Missing sequence numbers named in last_error and on stderr per gap (the count is always exact).
 constexpr int32_t kMaxNamedGapSequences = 8;
 
-enum class RoverStage : uint8_t { kDecode = 0, kFeatures = 1, kMatch = 2, kDem = 3, kAdjust = 4, kPublish = 5 };
+enum class RoverStage : uint8_t {
+  kDecode = 0,
+  kFeatures = 1,
+  kMatch = 2,
+  kDem = 3,
+  kAdjust = 4,
+  kPublish = 5
+};
 
 struct RoverCounters {
   int32_t pairs_seen = 0;
@@ -60,14 +67,14 @@ struct RoverCounters {
   int32_t sequence_gaps = 0;
   int32_t duplicates = 0;
   int32_t reordered = 0;
-  int32_t no_texture_pairs = 0;     // pairs without any tie (also in rejected_by_cause[kNoTexture])
+  int32_t no_texture_pairs = 0;  // pairs without any tie (also in rejected_by_cause[kNoTexture])
   int32_t adjustments = 0;
   int32_t adjust_failures = 0;
-  int32_t tie_overflow = 0;         // observations not sent for lack of message room
+  int32_t tie_overflow = 0;  // observations not sent for lack of message room
   int32_t publish_failures = 0;
   int32_t end_markers = 0;
   double stage_seconds[8] = {};
-  double panorama_seconds = 0.0;    // first pair message to the final EO
+  double panorama_seconds = 0.0;  // first pair message to the final EO
   int32_t last_sweeps = 0;
   double last_rms_px = 0.0;
   bool finished = false;
@@ -113,10 +120,26 @@ class RoverNode {
   void reject(Status cause, int64_t sequence, int32_t pair_id, const char* what);
   // kOk: process it; kCorruptData: duplicate, drop.
   bool trackSequence(int64_t sequence);
+  // reject(), then the status published.
+  void rejectAndPublish(Status cause, int64_t sequence, int32_t pair_id, const char* what);
+  // One pair of the panorama, then its steps in the order they run. A step that returns false has rejected
+  // the pair (counted under its cause, the status published).
   void processPair(int64_t sequence);
+  void openPanorama();
+  bool workspaceHasRoom(int64_t sequence, int32_t pair_id);
+  bool readModels(int64_t sequence, int32_t pair_id, CameraModel models[2]);
+  bool rigValuesFinite(int64_t sequence, int32_t pair_id);
+  bool imageSizesFit(int64_t sequence, int32_t pair_id);
+  bool decodeImages(int64_t sequence, int32_t pair_id, int32_t w[2], int32_t h[2]);
+  bool findSol(int64_t sequence, int32_t pair_id, int32_t& sol_index);
+  bool matchPair(int64_t sequence, int32_t pair_id, const CameraModel models[2], const int32_t w[2],
+                 const int32_t h[2], int32_t& first_observation);
+  bool enterNetwork(int64_t sequence, int32_t pair_id, int32_t sol_index, const CameraModel models[2]);
+  void setRigFromMessage(int32_t sol_index);
   void finishPanorama();
   Status decodeSide(const stereo_image_t& side, uint8_t* pixels, int32_t& width, int32_t& height);
   Status adjustNow(bool final_solve);
+  // Publications (RoverNodePublishing.cpp).
   void publishTiePoints(int32_t pair_id, int32_t first_observation);
   void publishDem(int32_t pair_id);
   void publishEo(int32_t pair_id, bool final_solution);

@@ -19,10 +19,10 @@ double nowS() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-constexpr int kGapSample = 2000;  // points sampled for the automatic gap limit
+constexpr int kGapSample = 2000;              // points sampled for the automatic gap limit
 constexpr double kLagPerNeighbourhood = 3.0;  // automatic variogram extent, in neighbourhood radii
 
-constexpr int kCalibrationSample = 400;   // points of the leave-one-out sigma calibration
+constexpr int kCalibrationSample = 400;  // points of the leave-one-out sigma calibration
 constexpr int kMinCalibrationPoints = 30;
 
 // The error variance of a cell's estimate sum_i w_i z_i when the points' errors are correlated
@@ -36,8 +36,8 @@ struct CorrelatedNoise {
   const std::vector<float>* gsd = nullptr;
   double bin_m = 0.0;
   VariogramModel signal;
-  const std::vector<float>* extra = nullptr;    // KrigingOptions::point_extra_var_m2 (or none)
-  const std::vector<float>* pair_sd = nullptr;  // KrigingOptions::point_pair_sd_m (or none)
+  const std::vector<float>* extra = nullptr;      // KrigingOptions::point_extra_var_m2 (or none)
+  const std::vector<float>* pair_sd = nullptr;    // KrigingOptions::point_pair_sd_m (or none)
   const std::vector<double>* local_sd = nullptr;  // with pair_sd: per point, sqrt(sigma^2 - pair_sd^2)
 
   bool on() const { return l_px > 0.0 && gsd != nullptr; }
@@ -141,6 +141,220 @@ struct Solver {
   }
 };
 
+// The points' coordinates as the search structures and the variogram take them: x north, y east, z up.
+struct PointCoordinates {
+  std::vector<double> x, y, z;
+};
+
+PointCoordinates coordinatesOf(const std::vector<DemPoint>& points) {
+  PointCoordinates c;
+  c.x.resize(points.size());
+  c.y.resize(points.size());
+  c.z.resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    c.x[i] = points[i].north_m;
+    c.y[i] = points[i].east_m;
+    c.z[i] = points[i].elevation_m;
+  }
+  return c;
+}
+
+// Point spacing: the median distance to the 8th and to the k-th neighbour over a sample of points.
+struct PointSpacing {
+  double to_8th_m = 0.0;
+  double to_kth_m = 0.0;
+};
+
+PointSpacing pointSpacing(const KdTree2& tree, const PointCoordinates& xyz, int k) {
+  std::vector<double> s8, sk;
+  const std::size_t n = xyz.x.size();
+  const std::size_t step = std::max<std::size_t>(1, n / kGapSample);
+  int32_t idx[kMaxNeighbours];
+  double d2[kMaxNeighbours];
+  for (std::size_t i = 0; i < n; i += step) {
+    const int f = tree.nearest(xyz.x[i], xyz.y[i], k, idx, d2);
+    if (f > 0) {
+      s8.push_back(std::sqrt(d2[std::min(f, 8) - 1]));
+      sk.push_back(std::sqrt(d2[f - 1]));
+    }
+  }
+  std::nth_element(s8.begin(), s8.begin() + s8.size() / 2, s8.end());
+  std::nth_element(sk.begin(), sk.begin() + sk.size() / 2, sk.end());
+  return PointSpacing{s8[s8.size() / 2], sk[sk.size() / 2]};
+}
+
+// The variogram matters at the scale of the kriging neighbourhoods: fit it there (at most a third of the
+// points' extent).
+double automaticMaxLag(const std::vector<DemPoint>& points, double cell_m, double spacing_k_m) {
+  const DemGrid box = gridAround(points, cell_m);
+  return std::min(std::hypot(box.cols * box.cell_m, box.rows * box.cell_m) / 3.0,
+                  kLagPerNeighbourhood * std::max(spacing_k_m, cell_m));
+}
+
+// Per point: whether it belongs to a cluster of at least `min_cluster_points` (points `gap_m` apart at most);
+// `isolated` counts those that do not.
+std::vector<uint8_t> supportedPoints(const PointCoordinates& xyz, double gap_m, int min_cluster_points,
+                                     long long& isolated) {
+  std::vector<uint8_t> supported(xyz.x.size(), 1);
+  if (min_cluster_points > 1) {
+    const std::vector<int32_t> size = clusterSizes(xyz.x, xyz.y, gap_m);
+    for (std::size_t i = 0; i < supported.size(); ++i) {
+      supported[i] = size[i] >= min_cluster_points;
+      isolated += !supported[i];
+    }
+  }
+  return supported;
+}
+
+// The options' per-point noise inputs that match the points (the others left out); local_sd and the signal
+// variogram are set by the caller.
+CorrelatedNoise correlatedNoiseOf(const std::vector<DemPoint>& points, const KrigingOptions& o) {
+  const auto matching = [&](const auto* per_point) {
+    return per_point != nullptr && per_point->size() == points.size() ? per_point : nullptr;
+  };
+  return CorrelatedNoise{
+      o.noise_correlation_px,         matching(o.point_gsd_m),     o.bin_cell_m, VariogramModel{},
+      matching(o.point_extra_var_m2), matching(o.point_pair_sd_m), nullptr};
+}
+
+// Per point: sqrt(sigma^2 - pair_sd^2), its noise sd less the part its whole pair shares.
+std::vector<double> localNoiseSd(const std::vector<DemPoint>& points, const std::vector<float>& pair_sd) {
+  std::vector<double> local_sd(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double c = pair_sd[i];
+    local_sd[i] = std::sqrt(std::max(0.0, points[i].sigma_m * points[i].sigma_m - c * c));
+  }
+  return local_sd;
+}
+
+// What every solve reads: the points, their search structures, their support and the variogram.
+struct CellInputs {
+  const std::vector<DemPoint>& points;
+  const KdTree2& tree;
+  const PointBuckets& buckets;
+  const std::vector<uint8_t>& supported;
+  int k;
+  double gap_m;
+  const VariogramModel& model;
+  bool use_point_sigma;
+  const CorrelatedNoise& correlated;
+
+  Solver solver() const {
+    return Solver{points, KrigingSystem(points, model, use_point_sigma), correlated, PairTable()};
+  }
+};
+
+// Sigma calibration by leave-one-out cross-validation on a sample of points: the kriging variance plus the
+// point's noise should explain the squared LOO error on average; the ratio scales every sigma.
+double calibrateSigmaScale(const CellInputs& in, const PointCoordinates& xyz) {
+  Solver solver = in.solver();
+  int32_t idx[kMaxNeighbours + 1];
+  double d2[kMaxNeighbours + 1];
+  double sum_ratio = 0.0;
+  long long used = 0;
+  const std::vector<DemPoint>& points = in.points;
+  const std::size_t step = std::max<std::size_t>(1, points.size() / kCalibrationSample);
+  for (std::size_t i = 0; i < points.size(); i += step) {
+    const int f = in.tree.nearest(xyz.x[i], xyz.y[i], in.k + 1, idx, d2);
+    // Drop the point itself (and exact duplicates of its position).
+    int g = 0;
+    for (int j = 0; j < f; ++j) {
+      if (static_cast<std::size_t>(idx[j]) == i) continue;
+      idx[g] = idx[j];
+      d2[g] = d2[j];
+      ++g;
+    }
+    double z = 0.0, var = 0.0;
+    if (g == 0 || !solver.solve(g, idx, d2, z, var)) continue;
+    const double noise = solver.noise(points[i]);
+    const double e = points[i].elevation_m - z;
+    if (var + noise <= 0.0) continue;
+    sum_ratio += e * e / (var + noise);
+    ++used;
+  }
+  return used >= kMinCalibrationPoints ? std::sqrt(sum_ratio / static_cast<double>(used)) : 1.0;
+}
+
+// What one thread's rows counted.
+struct RowCounts {
+  long long kriged = 0, unsupported = 0, factorisations = 0, reuses = 0;
+};
+
+// The neighbours of the cell at (qn, qe), nearest first; `f` holds the last cell's count on entry (its
+// neighbours in idx, d2). The last cell's k neighbours lie within `bound` of this one, so its k-th distance
+// is at most that: the buckets within it give the neighbours when they are unique (else the k-d tree, which
+// also skips the nodes beyond the bound): the same neighbours, found sooner.
+int cellNeighbours(const CellInputs& in, double qn, double qe, int f, int32_t* idx, double* d2) {
+  double bound = 1e300;
+  if (f == in.k) {
+    bound = 0.0;
+    for (int i = 0; i < f; ++i) {
+      const DemPoint& p = in.points[static_cast<std::size_t>(idx[i])];
+      const double dn = p.north_m - qn, de = p.east_m - qe;
+      bound = std::max(bound, dn * dn + de * de);
+    }
+    f = in.buckets.nearestWithin(qn, qe, in.k, bound, idx, d2);
+  }
+  if (f != in.k) f = in.tree.nearest(qn, qe, in.k, idx, d2, bound);
+  return f;
+}
+
+// Rows first_row, first_row + row_step, ... of the grid into res.elevation and res.sigma.
+RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, int row_step,
+                    KrigingResult& res) {
+  Solver s = in.solver();
+  RowCounts counts;
+  int32_t idx[kMaxNeighbours + 1];
+  double d2[kMaxNeighbours + 1];
+  const double gap2 = in.gap_m * in.gap_m;
+  for (int row = first_row; row < grid.rows; row += row_step) {
+    const double qn = grid.northOfRow(row);
+    int f = 0;
+    for (int col = 0; col < grid.cols; ++col) {
+      const double qe = grid.eastOfCol(col);
+      f = cellNeighbours(in, qn, qe, f, idx, d2);
+      if (f == 0 || d2[0] > gap2) continue;
+      bool support = false;  // a neighbour within the gap in a large cluster (neighbours nearest first)
+      for (int i = 0; i < f && !support && d2[i] <= gap2; ++i) {
+        support = in.supported[static_cast<std::size_t>(idx[i])] != 0;
+      }
+      if (!support) {
+        ++counts.unsupported;
+        continue;
+      }
+      double z = 0.0, var = 0.0;
+      if (!s.solve(f, idx, d2, z, var)) continue;
+      res.elevation.at(col, row) = static_cast<float>(z);
+      res.sigma.at(col, row) = static_cast<float>(res.sigma_scale * std::sqrt(var));
+      ++counts.kriged;
+    }
+  }
+  counts.reuses = s.system.reuses();
+  counts.factorisations = s.system.factorisations();
+  return counts;
+}
+
+// The cells, rows split between threads (row r to thread r mod T). A cell's result does not depend on the
+// cells solved before it (KrigingSystem's canonical order), so the DEM is the same for any T.
+void krigeCells(const CellInputs& in, const DemGrid& grid, int threads_wanted, KrigingResult& res) {
+  const int threads =
+      std::clamp(threads_wanted > 0 ? threads_wanted : static_cast<int>(std::thread::hardware_concurrency()),
+                 1, std::max(1, std::min(grid.rows, kMaxKrigingThreads)));
+  std::vector<RowCounts> counts(static_cast<std::size_t>(threads));
+  const auto run = [&](int t) { counts[static_cast<std::size_t>(t)] = krigeRows(in, grid, t, threads, res); };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(run, t);
+  run(0);
+  for (std::thread& th : pool) th.join();
+  for (const RowCounts& c : counts) {
+    res.cells_kriged += c.kriged;
+    res.cells_unsupported += c.unsupported;
+    res.factorisations += c.factorisations;
+    res.factorisation_reuses += c.reuses;
+  }
+  res.threads = threads;
+}
+
 }  // namespace
 
 double patchVarianceFactor(double m_px, double l_px) {
@@ -186,90 +400,44 @@ DemGrid gridAround(const std::vector<DemPoint>& points, double cell_m) {
 
 KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid, const KrigingOptions& o) {
   if (points.empty()) throw std::invalid_argument("kriging: no points");
-  if (grid.cols <= 0 || grid.rows <= 0 || !(grid.cell_m > 0.0)) throw std::invalid_argument("kriging: bad grid");
+  if (grid.cols <= 0 || grid.rows <= 0 || !(grid.cell_m > 0.0))
+    throw std::invalid_argument("kriging: bad grid");
   const int k = std::clamp(o.neighbours, 1, kMaxNeighbours);
   KrigingResult res;
   const double t0 = nowS();
-  std::vector<double> xs(points.size()), ys(points.size()), zs(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    xs[i] = points[i].north_m;
-    ys[i] = points[i].east_m;
-    zs[i] = points[i].elevation_m;
-  }
-  const KdTree2 tree(xs, ys);
-  const PointBuckets buckets(xs, ys);  // the cells' neighbours near the last cell's (the k-d tree on ties)
-  // Point spacing: the median distance to the 8th and to the k-th neighbour over a sample of points.
-  double spacing8 = 0.0, spacing_k = 0.0;
-  {
-    std::vector<double> s8, sk;
-    const std::size_t step = std::max<std::size_t>(1, points.size() / kGapSample);
-    int32_t idx[kMaxNeighbours];
-    double d2[kMaxNeighbours];
-    for (std::size_t i = 0; i < points.size(); i += step) {
-      const int f = tree.nearest(xs[i], ys[i], k, idx, d2);
-      if (f > 0) {
-        s8.push_back(std::sqrt(d2[std::min(f, 8) - 1]));
-        sk.push_back(std::sqrt(d2[f - 1]));
-      }
-    }
-    std::nth_element(s8.begin(), s8.begin() + s8.size() / 2, s8.end());
-    std::nth_element(sk.begin(), sk.begin() + sk.size() / 2, sk.end());
-    spacing8 = s8[s8.size() / 2];
-    spacing_k = sk[sk.size() / 2];
-  }
+  const PointCoordinates xyz = coordinatesOf(points);
+  const KdTree2 tree(xyz.x, xyz.y);
+  // The cells' neighbours near the last cell's (the k-d tree on ties).
+  const PointBuckets buckets(xyz.x, xyz.y);
+  const PointSpacing spacing = pointSpacing(tree, xyz, k);
   double gap = o.max_gap_m;
-  if (!(gap > 0.0)) gap = std::max(3.0 * spacing8, 2.0 * grid.cell_m);
+  if (!(gap > 0.0)) gap = std::max(3.0 * spacing.to_8th_m, 2.0 * grid.cell_m);
   double max_lag = o.max_lag_m;
-  if (!(max_lag > 0.0)) {
-    const DemGrid box = gridAround(points, grid.cell_m);
-    // The variogram matters at the scale of the kriging neighbourhoods: fit it there.
-    max_lag = std::min(std::hypot(box.cols * box.cell_m, box.rows * box.cell_m) / 3.0,
-                       kLagPerNeighbourhood * std::max(spacing_k, grid.cell_m));
-  }
+  if (!(max_lag > 0.0)) max_lag = automaticMaxLag(points, grid.cell_m, spacing.to_kth_m);
   if (o.model != nullptr) {
     res.model = *o.model;
   } else {
-    res.experimental = experimentalVariogram(xs, ys, zs, max_lag);
+    res.experimental = experimentalVariogram(xyz.x, xyz.y, xyz.z, max_lag);
     res.model = fitVariogram(res.experimental);
   }
   res.max_gap_m = gap;
   res.min_cluster_points = static_cast<int>(std::min<std::size_t>(
       points.size(), static_cast<std::size_t>(std::clamp(o.min_cluster_points > 0 ? o.min_cluster_points : k,
                                                          1, kMaxNeighbours))));
-  std::vector<uint8_t> supported(points.size(), 1);
-  if (res.min_cluster_points > 1) {
-    const std::vector<int32_t> size = clusterSizes(xs, ys, gap);
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      supported[i] = size[i] >= res.min_cluster_points;
-      res.isolated_points += !supported[i];
-    }
-  }
-  CorrelatedNoise correlated{
-      o.noise_correlation_px,
-      o.point_gsd_m != nullptr && o.point_gsd_m->size() == points.size() ? o.point_gsd_m : nullptr,
-      o.bin_cell_m,
-      VariogramModel{},
-      o.point_extra_var_m2 != nullptr && o.point_extra_var_m2->size() == points.size() ? o.point_extra_var_m2
-                                                                                       : nullptr,
-      o.point_pair_sd_m != nullptr && o.point_pair_sd_m->size() == points.size() ? o.point_pair_sd_m
-                                                                                 : nullptr,
-      nullptr};
+  const std::vector<uint8_t> supported =
+      supportedPoints(xyz, gap, res.min_cluster_points, res.isolated_points);
+  CorrelatedNoise correlated = correlatedNoiseOf(points, o);
   // Each point's noise sd less its pair-wide part, once (the pair terms need it for every pair of
   // neighbours).
   std::vector<double> local_sd;
   if (correlated.pair_sd != nullptr) {
-    local_sd.resize(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      const double c = (*correlated.pair_sd)[i];
-      local_sd[i] = std::sqrt(std::max(0.0, points[i].sigma_m * points[i].sigma_m - c * c));
-    }
+    local_sd = localNoiseSd(points, *correlated.pair_sd);
     correlated.local_sd = &local_sd;
   }
   if (correlated.on()) {
-    res.signal_experimental =
-        experimentalVariogram(xs, ys, zs, max_lag, 20, 2000000, 1,
-                              [&](std::size_t i, std::size_t j) { return correlated.pairNoise(points, i, j); },
-                              true);
+    res.signal_experimental = experimentalVariogram(
+        xyz.x, xyz.y, xyz.z, max_lag, 20, 2000000, 1,
+        [&](std::size_t i, std::size_t j) { return correlated.pairNoise(points, i, j); }, true);
     res.signal_model = fitVariogram(res.signal_experimental);
     correlated.signal = res.signal_model;
   }
@@ -279,97 +447,12 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   res.elevation = grid;
   res.elevation.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
   res.sigma = res.elevation;
-  Solver solver{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated, PairTable()};
-  int32_t idx[kMaxNeighbours + 1];
-  double d2[kMaxNeighbours + 1];
-  // Sigma calibration by leave-one-out cross-validation on a sample of points: the kriging variance plus
-  // the point's noise should explain the squared LOO error on average; the ratio scales every sigma. Not
-  // with correlated point errors: that sigma is a model of its own (the calibrated point sigmas, their
-  // correlation and the signal variogram), and a point's LOO error would need its covariance with its
-  // neighbours' errors, which the independent-noise ratio leaves out.
-  if (!correlated.on()) {
-    double sum_ratio = 0.0;
-    long long used = 0;
-    const std::size_t step = std::max<std::size_t>(1, points.size() / kCalibrationSample);
-    for (std::size_t i = 0; i < points.size(); i += step) {
-      const int f = tree.nearest(xs[i], ys[i], k + 1, idx, d2);
-      // Drop the point itself (and exact duplicates of its position).
-      int g = 0;
-      for (int j = 0; j < f; ++j) {
-        if (static_cast<std::size_t>(idx[j]) == i) continue;
-        idx[g] = idx[j];
-        d2[g] = d2[j];
-        ++g;
-      }
-      double z = 0.0, var = 0.0;
-      if (g == 0 || !solver.solve(g, idx, d2, z, var)) continue;
-      const double noise = solver.noise(points[i]);
-      const double e = points[i].elevation_m - z;
-      if (var + noise <= 0.0) continue;
-      sum_ratio += e * e / (var + noise);
-      ++used;
-    }
-    res.sigma_scale = used >= kMinCalibrationPoints ? std::sqrt(sum_ratio / static_cast<double>(used)) : 1.0;
-  }
-  // The cells, rows split between threads (row r to thread r mod T). A cell's result does not depend on
-  // the cells solved before it (KrigingSystem's canonical order), so the DEM is the same for any T.
-  const int threads = std::clamp(o.threads > 0 ? o.threads : static_cast<int>(std::thread::hardware_concurrency()), 1,
-                                 std::max(1, std::min(grid.rows, kMaxKrigingThreads)));
-  std::vector<long long> kriged(static_cast<std::size_t>(threads), 0), reused(kriged), factorised(kriged),
-      unsupported(kriged);
-  const auto krigeRows = [&](int t) {
-    Solver s{points, KrigingSystem(points, res.model, o.use_point_sigma), correlated, PairTable()};
-    int32_t cell_idx[kMaxNeighbours + 1];
-    double cell_d2[kMaxNeighbours + 1];
-    for (int row = t; row < grid.rows; row += threads) {
-      const double qn = grid.northOfRow(row);
-      int f = 0;
-      for (int col = 0; col < grid.cols; ++col) {
-        const double qe = grid.eastOfCol(col);
-        // The last cell's k neighbours lie within `bound` of this one, so its k-th distance is at most that:
-        // the buckets within it give the neighbours when they are unique (else the k-d tree, which also
-        // skips the nodes beyond the bound): the same neighbours, found sooner.
-        double bound = 1e300;
-        if (f == k) {
-          bound = 0.0;
-          for (int i = 0; i < f; ++i) {
-            const DemPoint& p = points[static_cast<std::size_t>(cell_idx[i])];
-            const double dn = p.north_m - qn, de = p.east_m - qe;
-            bound = std::max(bound, dn * dn + de * de);
-          }
-          f = buckets.nearestWithin(qn, qe, k, bound, cell_idx, cell_d2);
-        }
-        if (f != k) f = tree.nearest(qn, qe, k, cell_idx, cell_d2, bound);
-        if (f == 0 || cell_d2[0] > gap * gap) continue;
-        bool support = false;  // a neighbour within the gap in a large cluster (neighbours nearest first)
-        for (int i = 0; i < f && !support && cell_d2[i] <= gap * gap; ++i) {
-          support = supported[static_cast<std::size_t>(cell_idx[i])] != 0;
-        }
-        if (!support) {
-          ++unsupported[static_cast<std::size_t>(t)];
-          continue;
-        }
-        double z = 0.0, var = 0.0;
-        if (!s.solve(f, cell_idx, cell_d2, z, var)) continue;
-        res.elevation.at(col, row) = static_cast<float>(z);
-        res.sigma.at(col, row) = static_cast<float>(res.sigma_scale * std::sqrt(var));
-        ++kriged[static_cast<std::size_t>(t)];
-      }
-    }
-    reused[static_cast<std::size_t>(t)] = s.system.reuses();
-    factorised[static_cast<std::size_t>(t)] = s.system.factorisations();
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(krigeRows, t);
-  krigeRows(0);
-  for (std::thread& th : pool) th.join();
-  for (int t = 0; t < threads; ++t) {
-    res.cells_kriged += kriged[static_cast<std::size_t>(t)];
-    res.cells_unsupported += unsupported[static_cast<std::size_t>(t)];
-    res.factorisations += factorised[static_cast<std::size_t>(t)];
-    res.factorisation_reuses += reused[static_cast<std::size_t>(t)];
-  }
-  res.threads = threads;
+  const CellInputs cells{points, tree, buckets, supported, k, gap, res.model, o.use_point_sigma, correlated};
+  // Not with correlated point errors: that sigma is a model of its own (the calibrated point sigmas, their
+  // correlation and the signal variogram), and a point's leave-one-out error would need its covariance
+  // with its neighbours' errors, which the independent-noise ratio leaves out.
+  if (!correlated.on()) res.sigma_scale = calibrateSigmaScale(cells, xyz);
+  krigeCells(cells, grid, o.threads, res);
   res.kriging_seconds = nowS() - t1;
   return res;
 }

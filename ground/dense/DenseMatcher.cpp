@@ -13,18 +13,24 @@ namespace areomap::dense {
 
 namespace {
 
-constexpr int kCensusHalfWidth = 4;   // 9 columns
-constexpr int kCensusHalfHeight = 3;  // 7 rows
+constexpr int kCensusHalfWidth = 4;                                                        // 9 columns
+constexpr int kCensusHalfHeight = 3;                                                       // 7 rows
 constexpr int kCensusBits = (2 * kCensusHalfWidth + 1) * (2 * kCensusHalfHeight + 1) - 1;  // 62
 constexpr uint16_t kNoMatchCost = kCensusBits;
 // Holes are filled from the nearest valid pixels at most this far away (pixels).
 constexpr int kMaxFillReachPx = 64;
 
-double seconds() { return static_cast<double>(cv::getTickCount()) / cv::getTickFrequency(); }
+double seconds() {
+  return static_cast<double>(cv::getTickCount()) / cv::getTickFrequency();
+}
 
-const uint64_t* censusRow(const cv::Mat& census, int y) { return census.ptr<uint64_t>(y); }
+const uint64_t* censusRow(const cv::Mat& census, int y) {
+  return census.ptr<uint64_t>(y);
+}
 
-inline uint16_t hamming(uint64_t a, uint64_t b) { return static_cast<uint16_t>(__builtin_popcountll(a ^ b)); }
+inline uint16_t hamming(uint64_t a, uint64_t b) {
+  return static_cast<uint16_t>(__builtin_popcountll(a ^ b));
+}
 
 struct Wta {
   float disparity = std::numeric_limits<float>::quiet_NaN();
@@ -124,7 +130,8 @@ cv::Mat coarsePass(const cv::Mat& left, const cv::Mat& cl, const cv::Mat& cr, co
   cv::blur(left, smooth, cv::Size(step, step));
   cv::Mat guide(gh, gw, CV_8UC1);
   for (int gy = 0; gy < gh; ++gy) {
-    for (int gx = 0; gx < gw; ++gx) guide.at<uint8_t>(gy, gx) = smooth.at<uint8_t>(off + gy * step, off + gx * step);
+    for (int gx = 0; gx < gw; ++gx)
+      guide.at<uint8_t>(gy, gx) = smooth.at<uint8_t>(off + gy * step, off + gx * step);
   }
   std::vector<uint16_t> sum;
   aggregateSemiGlobal(v, guide, o.coarse_sgm, sum);
@@ -179,36 +186,9 @@ void fillHoles(cv::Mat& disp, cv::Mat& valid, cv::Mat& filled, const cv::Mat& oc
   }
 }
 
-}  // namespace
-
-cv::Mat censusTransform(const cv::Mat& image) {
-  cv::Mat padded;
-  cv::copyMakeBorder(image, padded, kCensusHalfHeight, kCensusHalfHeight, kCensusHalfWidth, kCensusHalfWidth,
-                     cv::BORDER_REPLICATE);
-  cv::Mat out(image.rows, image.cols, CV_32SC2);
-  for (int y = 0; y < image.rows; ++y) {
-    uint64_t* o = out.ptr<uint64_t>(y);
-    for (int x = 0; x < image.cols; ++x) {
-      const uint8_t centre = padded.at<uint8_t>(y + kCensusHalfHeight, x + kCensusHalfWidth);
-      uint64_t bits = 0;
-      for (int dy = -kCensusHalfHeight; dy <= kCensusHalfHeight; ++dy) {
-        const uint8_t* row = padded.ptr<uint8_t>(y + kCensusHalfHeight + dy) + x + kCensusHalfWidth;
-        for (int dx = -kCensusHalfWidth; dx <= kCensusHalfWidth; ++dx) {
-          if (dx == 0 && dy == 0) continue;
-          bits = (bits << 1) | (row[dx] < centre ? 1u : 0u);
-        }
-      }
-      o[x] = bits;
-    }
-  }
-  return out;
-}
-
-DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const DenseOptions& o,
-                           const std::vector<RowRange>* row_ranges) {
-  checkInput(left, right, o);
-  const int rows = left.rows;
-  const int cols = left.cols;
+// The parallax range of every row: the given ones clamped to the options' disparities, else the options'.
+std::vector<RowRange> clampedRowRanges(int rows, const DenseOptions& o,
+                                       const std::vector<RowRange>* row_ranges) {
   std::vector<RowRange> ranges;
   if (row_ranges != nullptr) {
     if (static_cast<int>(row_ranges->size()) != rows) {
@@ -222,32 +202,30 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
   } else {
     ranges.assign(static_cast<std::size_t>(rows), RowRange{o.min_disparity_px, o.max_disparity_px});
   }
+  return ranges;
+}
 
-  DenseResult res;
-  double t0 = seconds();
-  const cv::Mat cl = censusTransform(left);
-  const cv::Mat cr = censusTransform(right);
-  res.coarse = coarsePass(left, cl, cr, o, ranges);
-  double t1 = seconds();
-  res.coarse_seconds = t1 - t0;
-
-  // Fine band per pixel: min..max of the coarse disparities of the 4x4 nodes around it, +- the margin.
+// Fine band per pixel: min..max of the coarse disparities of the 4x4 nodes around it, +- the margin, within
+// the options' disparities and the image. `no_band` marks the pixels where that leaves nothing (they keep a
+// band of one disparity that never matches).
+BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOptions& o,
+                    std::vector<uint8_t>& no_band) {
   const int step = o.coarse_step_px;
   const int off = step / 2;
   cv::Mat cmin, cmax;
   const cv::Mat kernel = cv::Mat::ones(4, 4, CV_8UC1);
-  cv::erode(res.coarse, cmin, kernel, cv::Point(1, 1), 1, cv::BORDER_REPLICATE);
-  cv::dilate(res.coarse, cmax, kernel, cv::Point(1, 1), 1, cv::BORDER_REPLICATE);
+  cv::erode(coarse, cmin, kernel, cv::Point(1, 1), 1, cv::BORDER_REPLICATE);
+  cv::dilate(coarse, cmax, kernel, cv::Point(1, 1), 1, cv::BORDER_REPLICATE);
   BandVolume v;
   v.rows = rows;
   v.cols = cols;
   v.lo.resize(static_cast<std::size_t>(rows) * cols);
   v.count.resize(v.lo.size());
-  std::vector<uint8_t> no_band(v.lo.size(), 0);
+  no_band.assign(v.lo.size(), 0);
   for (int y = 0; y < rows; ++y) {
-    const int gy = std::clamp((y - off) / step - (y < off ? 1 : 0), 0, res.coarse.rows - 1);
+    const int gy = std::clamp((y - off) / step - (y < off ? 1 : 0), 0, coarse.rows - 1);
     for (int x = 0; x < cols; ++x) {
-      const int gx = std::clamp((x - off) / step - (x < off ? 1 : 0), 0, res.coarse.cols - 1);
+      const int gx = std::clamp((x - off) / step - (x < off ? 1 : 0), 0, coarse.cols - 1);
       const std::size_t p = static_cast<std::size_t>(y) * cols + x;
       int lo = static_cast<int>(cmin.at<float>(gy, gx)) - o.fine_margin_px;
       int hi = static_cast<int>(cmax.at<float>(gy, gx)) + o.fine_margin_px;
@@ -262,7 +240,12 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
     }
   }
   v.finishLayout();
-  res.fine_cells = v.cells();
+  return v;
+}
+
+// The census cost of every pixel and disparity of the fine band.
+void fineCosts(const cv::Mat& cl, const cv::Mat& cr, const std::vector<uint8_t>& no_band, BandVolume& v) {
+  const int rows = v.rows, cols = v.cols;
   for (int y = 0; y < rows; ++y) {
     const uint64_t* a = censusRow(cl, y);
     const uint64_t* b = censusRow(cr, y);
@@ -275,24 +258,26 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
       }
     }
   }
-  std::vector<uint16_t> sum;
-  aggregateSemiGlobal(v, left, o.fine_sgm, sum);
-  // Texture: the grey range inside the census window. Below the threshold the census bits are noise or
-  // zero and a "match" would only be the aggregation's guess.
-  cv::Mat texture;
-  {
-    const cv::Mat window = cv::Mat::ones(2 * kCensusHalfHeight + 1, 2 * kCensusHalfWidth + 1, CV_8UC1);
-    cv::Mat hi_img, lo_img;
-    cv::dilate(left, hi_img, window, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
-    cv::erode(left, lo_img, window, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
-    texture = (hi_img - lo_img) >= o.min_texture_grey;
-  }
+}
 
-  // Winner per left pixel, and the right image's winner from the same aggregated volume.
+// Texture: the grey range inside the census window. Below the threshold the census bits are noise or zero
+// and a "match" would only be the aggregation's guess.
+cv::Mat textureMask(const cv::Mat& left, const DenseOptions& o) {
+  const cv::Mat window = cv::Mat::ones(2 * kCensusHalfHeight + 1, 2 * kCensusHalfWidth + 1, CV_8UC1);
+  cv::Mat hi_img, lo_img;
+  cv::dilate(left, hi_img, window, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  cv::erode(left, lo_img, window, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  return (hi_img - lo_img) >= o.min_texture_grey;
+}
+
+// Winner per left pixel into res.disparity and res.valid, and the right image's winner from the same
+// aggregated volume for the left-right check; `occluded` marks the pixels that check finds occluded.
+void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const std::vector<uint8_t>& no_band,
+                   const cv::Mat& texture, const DenseOptions& o, DenseResult& res, cv::Mat& occluded) {
+  const int rows = v.rows, cols = v.cols;
   res.disparity = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   res.valid = cv::Mat::zeros(rows, cols, CV_8UC1);
   res.filled = cv::Mat::zeros(rows, cols, CV_8UC1);
-  cv::Mat occluded = cv::Mat::zeros(rows, cols, CV_8UC1);
   std::vector<int> left_int(static_cast<std::size_t>(cols));
   std::vector<uint16_t> right_cost(static_cast<std::size_t>(cols));
   std::vector<int> right_disp(static_cast<std::size_t>(cols));
@@ -334,37 +319,93 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
       }
     }
   }
-  double t2 = seconds();
-  res.fine_seconds = t2 - t1;
+}
 
-  // Speckles: small connected blobs that differ from their surroundings are removed.
+// Speckles: small connected blobs that differ from their surroundings are removed.
+void removeSpeckles(const DenseOptions& o, DenseResult& res) {
+  const int rows = res.disparity.rows, cols = res.disparity.cols;
   const int speckle = o.speckle_max_area_px >= 0 ? o.speckle_max_area_px : std::max(20, rows * cols / 2000);
-  if (speckle > 0) {
-    cv::Mat d16(rows, cols, CV_16SC1);
-    const int16_t invalid = static_cast<int16_t>((o.min_disparity_px - 1) * 16);
-    for (int y = 0; y < rows; ++y) {
-      for (int x = 0; x < cols; ++x) {
-        d16.at<int16_t>(y, x) = res.valid.at<uint8_t>(y, x)
-                                    ? static_cast<int16_t>(std::lround(res.disparity.at<float>(y, x) * 16.0f))
-                                    : invalid;
-      }
+  if (speckle <= 0) return;
+  cv::Mat d16(rows, cols, CV_16SC1);
+  const int16_t invalid = static_cast<int16_t>((o.min_disparity_px - 1) * 16);
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < cols; ++x) {
+      d16.at<int16_t>(y, x) = res.valid.at<uint8_t>(y, x)
+                                  ? static_cast<int16_t>(std::lround(res.disparity.at<float>(y, x) * 16.0f))
+                                  : invalid;
     }
-    cv::filterSpeckles(d16, invalid, speckle, static_cast<int>(o.speckle_max_step_px * 16.0));
-    for (int y = 0; y < rows; ++y) {
-      for (int x = 0; x < cols; ++x) {
-        if (res.valid.at<uint8_t>(y, x) && d16.at<int16_t>(y, x) == invalid) {
-          res.valid.at<uint8_t>(y, x) = 0;
-          res.disparity.at<float>(y, x) = std::numeric_limits<float>::quiet_NaN();
-        }
+  }
+  cv::filterSpeckles(d16, invalid, speckle, static_cast<int>(o.speckle_max_step_px * 16.0));
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < cols; ++x) {
+      if (res.valid.at<uint8_t>(y, x) && d16.at<int16_t>(y, x) == invalid) {
+        res.valid.at<uint8_t>(y, x) = 0;
+        res.disparity.at<float>(y, x) = std::numeric_limits<float>::quiet_NaN();
       }
     }
   }
+}
+
+}  // namespace
+
+cv::Mat censusTransform(const cv::Mat& image) {
+  cv::Mat padded;
+  cv::copyMakeBorder(image, padded, kCensusHalfHeight, kCensusHalfHeight, kCensusHalfWidth, kCensusHalfWidth,
+                     cv::BORDER_REPLICATE);
+  cv::Mat out(image.rows, image.cols, CV_32SC2);
+  for (int y = 0; y < image.rows; ++y) {
+    uint64_t* o = out.ptr<uint64_t>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      const uint8_t centre = padded.at<uint8_t>(y + kCensusHalfHeight, x + kCensusHalfWidth);
+      uint64_t bits = 0;
+      for (int dy = -kCensusHalfHeight; dy <= kCensusHalfHeight; ++dy) {
+        const uint8_t* row = padded.ptr<uint8_t>(y + kCensusHalfHeight + dy) + x + kCensusHalfWidth;
+        for (int dx = -kCensusHalfWidth; dx <= kCensusHalfWidth; ++dx) {
+          if (dx == 0 && dy == 0) continue;
+          bits = (bits << 1) | (row[dx] < centre ? 1u : 0u);
+        }
+      }
+      o[x] = bits;
+    }
+  }
+  return out;
+}
+
+DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const DenseOptions& o,
+                           const std::vector<RowRange>* row_ranges) {
+  checkInput(left, right, o);
+  const int rows = left.rows;
+  const int cols = left.cols;
+  const std::vector<RowRange> ranges = clampedRowRanges(rows, o, row_ranges);
+
+  DenseResult res;
+  double t0 = seconds();
+  const cv::Mat cl = censusTransform(left);
+  const cv::Mat cr = censusTransform(right);
+  res.coarse = coarsePass(left, cl, cr, o, ranges);
+  double t1 = seconds();
+  res.coarse_seconds = t1 - t0;
+
+  std::vector<uint8_t> no_band;
+  BandVolume v = fineBand(res.coarse, rows, cols, o, no_band);
+  res.fine_cells = v.cells();
+  fineCosts(cl, cr, no_band, v);
+  std::vector<uint16_t> sum;
+  aggregateSemiGlobal(v, left, o.fine_sgm, sum);
+  const cv::Mat texture = textureMask(left, o);
+  cv::Mat occluded = cv::Mat::zeros(rows, cols, CV_8UC1);
+  selectWinners(v, sum, no_band, texture, o, res, occluded);
+  double t2 = seconds();
+  res.fine_seconds = t2 - t1;
+
+  removeSpeckles(o, res);
   if (o.refine_subpixel) {
     res.subpixel = refineSubpixel(left, right, res.disparity, res.valid, o.subpixel, &res.sigma_px);
   }
   if (o.fill_holes) fillHoles(res.disparity, res.valid, res.filled, occluded);
   res.post_seconds = seconds() - t2;
-  res.matched_fraction = static_cast<double>(cv::countNonZero(res.valid)) / (static_cast<double>(rows) * cols);
+  res.matched_fraction =
+      static_cast<double>(cv::countNonZero(res.valid)) / (static_cast<double>(rows) * cols);
   return res;
 }
 

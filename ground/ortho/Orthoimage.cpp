@@ -54,7 +54,11 @@ double ncc(const cv::Mat& a, double ax, double ay, const cv::Mat& b, double bx, 
     for (int dx = -half; dx <= half; ++dx) {
       const double va = bilinear(a, ax + dx, ay + dy);
       const double vb = bilinear(b, bx + dx, by + dy);
-      sa += va; sb += vb; saa += va * va; sbb += vb * vb; sab += va * vb;
+      sa += va;
+      sb += vb;
+      saa += va * va;
+      sbb += vb * vb;
+      sab += va * vb;
       ++n;
     }
   }
@@ -70,6 +74,228 @@ double parabolaOffset(double m, double c, double p) {
   return std::clamp(0.5 * (m - p) / den, -0.5, 0.5);
 }
 
+// Per source: its image centre (the nearest-centre rule) and its larger focal length in pixels (hs, vs).
+struct SourceGeometry {
+  std::vector<Vec2> centre;
+  std::vector<double> px_per_rad;
+};
+
+SourceGeometry sourceGeometry(const std::vector<OrthoSource>& sources) {
+  SourceGeometry geometry{std::vector<Vec2>(sources.size()), std::vector<double>(sources.size())};
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    const CahvInternal internal = cahvInternal(sources[i].model);
+    geometry.centre[i] = Vec2(0.5 * (sources[i].grey.cols - 1), 0.5 * (sources[i].grey.rows - 1));
+    geometry.px_per_rad[i] = std::max(internal.hs_px, internal.vs_px);
+  }
+  return geometry;
+}
+
+// Per ortho cell, for the seam check: the second-best candidate (index, -1 none) and both candidates' pixels.
+struct SeamCandidates {
+  cv::Mat second;     // CV_16S
+  cv::Mat best_px;    // CV_32FC2
+  cv::Mat second_px;  // CV_32FC2
+};
+
+// The images that see a ground point, the best and the next: the nearest to their image centre.
+struct SourceChoice {
+  int best = -1, next = -1;
+  Vec2 best_px = Vec2::Zero(), next_px = Vec2::Zero();
+};
+
+SourceChoice chooseSources(const Vec3& ground, const std::vector<OrthoSource>& sources,
+                           const SourceGeometry& geometry, const OrthoOptions& options) {
+  SourceChoice choice;
+  double best_d = 1e300, next_d = 1e300;
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    const cv::Mat& g = sources[i].grey;
+    if (g.empty()) continue;
+    Vec2 px;
+    if (project(sources[i].model, ground, px) != Status::kOk) continue;
+    if (!inside(g, px, options.border_px)) continue;
+    const double d = (px - geometry.centre[i]).squaredNorm();
+    if (d >= next_d || !pixelSeesPoint(sources[i].model, ground, px, geometry.px_per_rad[i])) continue;
+    if (d < best_d) {
+      choice.next = choice.best;
+      next_d = best_d;
+      choice.next_px = choice.best_px;
+      choice.best = static_cast<int>(i);
+      best_d = d;
+      choice.best_px = px;
+    } else {
+      choice.next = static_cast<int>(i);
+      next_d = d;
+      choice.next_px = px;
+    }
+  }
+  return choice;
+}
+
+// Every cell with a DEM elevation takes its grey value from its best source (rows in parallel).
+void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, const OrthoOptions& options,
+               OrthoResult& out, SeamCandidates& candidates) {
+  const SourceGeometry geometry = sourceGeometry(sources);
+  const int s = options.supersample;
+  const int cols = out.grid.cols;
+  cv::parallel_for_(cv::Range(0, out.grid.rows), [&](const cv::Range& range) {
+    for (int r = range.start; r < range.end; ++r) {
+      for (int c = 0; c < cols; ++c) {
+        const double north = out.grid.northOfRow(r);
+        const double east = out.grid.eastOfCol(c);
+        double elev = 0;
+        if (s == 1) {
+          const float v = dem.at(c, r);
+          if (v == dem.nodata) continue;
+          elev = v;
+        } else if (!demElevation(dem, north, east, elev)) {
+          continue;
+        }
+        const SourceChoice choice = chooseSources(Vec3(north, east, -elev), sources, geometry, options);
+        if (choice.best < 0) continue;
+        const Vec2& bp = choice.best_px;
+        out.image.at<uint8_t>(r, c) = static_cast<uint8_t>(
+            std::clamp(std::lround(bilinear(sources[choice.best].grey, bp.x(), bp.y())), 1L, 255L));
+        out.valid.at<uint8_t>(r, c) = 255;
+        out.source.at<int16_t>(r, c) = static_cast<int16_t>(choice.best);
+        candidates.best_px.at<cv::Vec2f>(r, c) =
+            cv::Vec2f(static_cast<float>(bp.x()), static_cast<float>(bp.y()));
+        if (choice.next >= 0) {
+          const Vec2& np = choice.next_px;
+          candidates.second.at<int16_t>(r, c) = static_cast<int16_t>(choice.next);
+          candidates.second_px.at<cv::Vec2f>(r, c) =
+              cv::Vec2f(static_cast<float>(np.x()), static_cast<float>(np.y()));
+        }
+      }
+    }
+  });
+}
+
+// Seam cells: the chosen image differs from a 4-neighbour's, and the cell has the neighbour's image as a
+// candidate too.
+std::vector<cv::Point> seamCells(const cv::Mat& source, const cv::Mat& second) {
+  std::vector<cv::Point> seam;
+  for (int r = 0; r + 1 < source.rows; ++r) {
+    for (int c = 0; c + 1 < source.cols; ++c) {
+      const int16_t a = source.at<int16_t>(r, c);
+      if (a < 0) continue;
+      const int16_t e = source.at<int16_t>(r, c + 1);
+      const int16_t so = source.at<int16_t>(r + 1, c);
+      if ((e >= 0 && e != a) || (so >= 0 && so != a)) {
+        if (second.at<int16_t>(r, c) >= 0) seam.push_back(cv::Point(c, r));
+      }
+    }
+  }
+  return seam;
+}
+
+// The ground distance of one pixel of `model`'s image at a ground point, from the projection of points
+// 1 cm north and east of it. False when a projection fails.
+bool groundPixelM(const CameraModel& model, double north, double east, double elevation, double& step_m) {
+  Vec2 i0, in, ie;
+  if (project(model, Vec3(north, east, -elevation), i0) != Status::kOk ||
+      project(model, Vec3(north + 0.01, east, -elevation), in) != Status::kOk ||
+      project(model, Vec3(north, east + 0.01, -elevation), ie) != Status::kOk) {
+    return false;
+  }
+  const double px_per_m = std::max((in - i0).norm(), (ie - i0).norm()) / 0.01;
+  if (!(px_per_m > 0)) return false;
+  step_m = 1.0 / px_per_m;
+  return true;
+}
+
+// Sources a and b resampled through the DEM into pa and pb: a ground grid of (2 span + 1)^2 samples step_m
+// apart centred on (north0, east0). False when a sample has no DEM elevation or falls outside an image.
+bool resampleSeamPatches(const DemGrid& dem, const OrthoSource& a, const OrthoSource& b, double north0,
+                         double east0, double step_m, int span, cv::Mat& pa, cv::Mat& pb) {
+  for (int dy = -span; dy <= span; ++dy) {
+    for (int dx = -span; dx <= span; ++dx) {
+      const double north = north0 - dy * step_m, east = east0 + dx * step_m;
+      double z = 0;
+      if (!demElevation(dem, north, east, z)) return false;
+      const Vec3 g(north, east, -z);
+      Vec2 ia, ib;
+      if (project(a.model, g, ia) != Status::kOk || project(b.model, g, ib) != Status::kOk ||
+          !inside(a.grey, ia, 0.0) || !inside(b.grey, ib, 0.0)) {
+        return false;
+      }
+      pa.at<uint8_t>(dy + span, dx + span) =
+          static_cast<uint8_t>(std::lround(bilinear(a.grey, ia.x(), ia.y())));
+      pb.at<uint8_t>(dy + span, dx + span) =
+          static_cast<uint8_t>(std::lround(bilinear(b.grey, ib.x(), ib.y())));
+    }
+  }
+  return true;
+}
+
+// The length of the best shift of pa against pb (NCC within +-search, parabola refinement), in samples.
+// False when the best NCC is below 0.7 or lies on the search edge.
+bool patchShift(const cv::Mat& pa, const cv::Mat& pb, int span, int half, int search, double& shift) {
+  double best_score = -3;
+  int bx = 0, by = 0;
+  const int n = 2 * search + 1;
+  std::vector<double> score(static_cast<std::size_t>(n * n), -3);
+  for (int dy = -search; dy <= search; ++dy) {
+    for (int dx = -search; dx <= search; ++dx) {
+      const double v = ncc(pa, span + dx, span + dy, pb, span, span, half);
+      score[static_cast<std::size_t>((dy + search) * n + dx + search)] = v;
+      if (v > best_score) {
+        best_score = v;
+        bx = dx;
+        by = dy;
+      }
+    }
+  }
+  if (best_score < 0.7 || std::abs(bx) == search || std::abs(by) == search) return false;
+  auto at = [&](int dx, int dy) { return score[static_cast<std::size_t>((dy + search) * n + dx + search)]; };
+  const double ox = bx + parabolaOffset(at(bx - 1, by), at(bx, by), at(bx + 1, by));
+  const double oy = by + parabolaOffset(at(bx, by - 1), at(bx, by), at(bx, by + 1));
+  shift = std::hypot(ox, oy);
+  return true;
+}
+
+// The seam statistics over an even subsample of the seam cells. The two candidates are compared in ortho
+// space: each image resampled through the DEM onto a local ground grid around the seam cell, spaced one
+// pixel of the chosen image (so that the comparison keeps the image's resolution however coarse the ortho
+// cell); with a right DEM and right models both patches coincide. The best shift of one against the other
+// (NCC + parabola) is in pixels of the chosen image.
+void checkSeams(const DemGrid& dem, const std::vector<OrthoSource>& sources, const OrthoOptions& options,
+                const std::vector<cv::Point>& seam, OrthoResult& out, const SeamCandidates& candidates) {
+  const std::size_t stride =
+      std::max<std::size_t>(1, seam.size() / static_cast<std::size_t>(std::max(1, options.max_seam_samples)));
+  std::vector<double> grey_diff, geo;
+  const int half = options.seam_patch_half_px;
+  const int search = options.seam_search_px;
+  const int span = half + search + 1;
+  const int w = 2 * span + 1;
+  cv::Mat pa(w, w, CV_8U), pb(w, w, CV_8U);
+  for (std::size_t k = 0; k < seam.size(); k += stride) {
+    const cv::Point p = seam[k];
+    const OrthoSource& a = sources[static_cast<std::size_t>(out.source.at<int16_t>(p))];
+    const OrthoSource& b = sources[static_cast<std::size_t>(candidates.second.at<int16_t>(p))];
+    const cv::Vec2f qa = candidates.best_px.at<cv::Vec2f>(p);
+    const cv::Vec2f qb = candidates.second_px.at<cv::Vec2f>(p);
+    grey_diff.push_back(bilinear(a.grey, qa[0], qa[1]) - bilinear(b.grey, qb[0], qb[1]));
+    const double n0 = out.grid.northOfRow(p.y), e0 = out.grid.eastOfCol(p.x);
+    double z0 = 0, step_m = 0, shift = 0;
+    if (!demElevation(dem, n0, e0, z0) || !groundPixelM(a.model, n0, e0, z0, step_m)) continue;
+    if (!resampleSeamPatches(dem, a, b, n0, e0, step_m, span, pa, pb)) continue;
+    if (!patchShift(pa, pb, span, half, search, shift)) continue;
+    geo.push_back(shift);  // one sample is one pixel of the chosen image
+  }
+  double g2 = 0;
+  for (double d : grey_diff) g2 += d * d;
+  out.seams.grey_rms = grey_diff.empty() ? 0.0 : std::sqrt(g2 / grey_diff.size());
+  out.seams.checked = static_cast<long long>(geo.size());
+  if (!geo.empty()) {
+    double s2 = 0;
+    for (double d : geo) s2 += d * d;
+    out.seams.geometric_rms_px = std::sqrt(s2 / geo.size());
+    std::sort(geo.begin(), geo.end());
+    out.seams.geometric_p95_px = geo[std::min(geo.size() - 1, static_cast<std::size_t>(0.95 * geo.size()))];
+    out.seams.geometric_median_px = geo[geo.size() / 2];
+  }
+}
+
 }  // namespace
 
 bool demElevation(const DemGrid& dem, double north_m, double east_m, double& elevation_m) {
@@ -79,13 +305,15 @@ bool demElevation(const DemGrid& dem, double north_m, double east_m, double& ele
   const int y0 = static_cast<int>(std::floor(cy));
   if (x0 < 0 || y0 < 0 || x0 + 1 >= dem.cols || y0 + 1 >= dem.rows) return false;
   const double fx = cx - x0, fy = cy - y0;
-  const float v00 = dem.at(x0, y0), v10 = dem.at(x0 + 1, y0), v01 = dem.at(x0, y0 + 1), v11 = dem.at(x0 + 1, y0 + 1);
+  const float v00 = dem.at(x0, y0), v10 = dem.at(x0 + 1, y0), v01 = dem.at(x0, y0 + 1),
+              v11 = dem.at(x0 + 1, y0 + 1);
   if (v00 == dem.nodata || v10 == dem.nodata || v01 == dem.nodata || v11 == dem.nodata) return false;
   elevation_m = (1 - fy) * ((1 - fx) * v00 + fx * v10) + fy * ((1 - fx) * v01 + fx * v11);
   return true;
 }
 
-OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& sources, const OrthoOptions& options) {
+OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& sources,
+                           const OrthoOptions& options) {
   if (dem.cols <= 0 || dem.rows <= 0 || dem.cell_m <= 0 || options.supersample < 1) {
     throw std::invalid_argument("makeOrthoimage: empty DEM grid or bad supersample");
   }
@@ -100,164 +328,15 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
   out.image = cv::Mat::zeros(rows, cols, CV_8U);
   out.valid = cv::Mat::zeros(rows, cols, CV_8U);
   out.source = cv::Mat(rows, cols, CV_16S, cv::Scalar(-1));
-  // Second-best candidate per cell (for the seam check), as an index and pixel.
-  cv::Mat second(rows, cols, CV_16S, cv::Scalar(-1));
-  cv::Mat best_px(rows, cols, CV_32FC2, cv::Scalar(0, 0));
-  cv::Mat second_px(rows, cols, CV_32FC2, cv::Scalar(0, 0));
-
-  std::vector<Vec2> centre(sources.size());
-  std::vector<double> px_per_rad(sources.size());  // the larger focal length, pixels (hs, vs)
-  for (std::size_t i = 0; i < sources.size(); ++i) {
-    const CahvInternal internal = cahvInternal(sources[i].model);
-    centre[i] = Vec2(0.5 * (sources[i].grey.cols - 1), 0.5 * (sources[i].grey.rows - 1));
-    px_per_rad[i] = std::max(internal.hs_px, internal.vs_px);
-  }
-
-  cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
-  for (int r = range.start; r < range.end; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      const double north = out.grid.northOfRow(r);
-      const double east = out.grid.eastOfCol(c);
-      double elev = 0;
-      if (s == 1) {
-        const float v = dem.at(c, r);
-        if (v == dem.nodata) continue;
-        elev = v;
-      } else if (!demElevation(dem, north, east, elev)) {
-        continue;
-      }
-      const Vec3 ground(north, east, -elev);
-      int best = -1, next = -1;
-      double best_d = 1e300, next_d = 1e300;
-      Vec2 bp = Vec2::Zero(), np = Vec2::Zero();
-      for (std::size_t i = 0; i < sources.size(); ++i) {
-        const cv::Mat& g = sources[i].grey;
-        if (g.empty()) continue;
-        Vec2 px;
-        if (project(sources[i].model, ground, px) != Status::kOk) continue;
-        if (!inside(g, px, options.border_px)) continue;
-        const double d = (px - centre[i]).squaredNorm();
-        if (d >= next_d || !pixelSeesPoint(sources[i].model, ground, px, px_per_rad[i])) continue;
-        if (d < best_d) {
-          next = best; next_d = best_d; np = bp;
-          best = static_cast<int>(i); best_d = d; bp = px;
-        } else {
-          next = static_cast<int>(i); next_d = d; np = px;
-        }
-      }
-      if (best < 0) continue;
-      out.image.at<uint8_t>(r, c) =
-          static_cast<uint8_t>(std::clamp(std::lround(bilinear(sources[best].grey, bp.x(), bp.y())), 1L, 255L));
-      out.valid.at<uint8_t>(r, c) = 255;
-      out.source.at<int16_t>(r, c) = static_cast<int16_t>(best);
-      best_px.at<cv::Vec2f>(r, c) = cv::Vec2f(static_cast<float>(bp.x()), static_cast<float>(bp.y()));
-      if (next >= 0) {
-        second.at<int16_t>(r, c) = static_cast<int16_t>(next);
-        second_px.at<cv::Vec2f>(r, c) = cv::Vec2f(static_cast<float>(np.x()), static_cast<float>(np.y()));
-      }
-    }
-  }
-  });
+  SeamCandidates candidates{cv::Mat(rows, cols, CV_16S, cv::Scalar(-1)),
+                            cv::Mat(rows, cols, CV_32FC2, cv::Scalar(0, 0)),
+                            cv::Mat(rows, cols, CV_32FC2, cv::Scalar(0, 0))};
+  fillCells(dem, sources, options, out, candidates);
   out.cells_filled = cv::countNonZero(out.valid);
-
-  // Seam cells: the chosen image differs from a 4-neighbour's, and the cell has the neighbour's image as a
-  // candidate too.
-  std::vector<cv::Point> seam;
-  for (int r = 0; r + 1 < rows; ++r) {
-    for (int c = 0; c + 1 < cols; ++c) {
-      const int16_t a = out.source.at<int16_t>(r, c);
-      if (a < 0) continue;
-      const int16_t e = out.source.at<int16_t>(r, c + 1);
-      const int16_t so = out.source.at<int16_t>(r + 1, c);
-      if ((e >= 0 && e != a) || (so >= 0 && so != a)) {
-        if (second.at<int16_t>(r, c) >= 0) seam.push_back(cv::Point(c, r));
-      }
-    }
-  }
+  const std::vector<cv::Point> seam = seamCells(out.source, candidates.second);
   out.seams.seam_cells = static_cast<long long>(seam.size());
   if (seam.empty()) return out;
-  const std::size_t stride =
-      std::max<std::size_t>(1, seam.size() / static_cast<std::size_t>(std::max(1, options.max_seam_samples)));
-  std::vector<double> grey_diff, geo;
-  const int half = options.seam_patch_half_px;
-  const int search = options.seam_search_px;
-  const int span = half + search + 1;
-  const int w = 2 * span + 1;
-  // The two candidates are compared in ortho space: each image resampled through the DEM onto a local
-  // ground grid around the seam cell, spaced one pixel of the chosen image (so that the comparison keeps
-  // the image's resolution however coarse the ortho cell); with a right DEM and right models both patches
-  // coincide. The best shift of one against the other (NCC + parabola) is in pixels of the chosen image.
-  cv::Mat pa(w, w, CV_8U), pb(w, w, CV_8U);
-  for (std::size_t k = 0; k < seam.size(); k += stride) {
-    const cv::Point p = seam[k];
-    const int a = out.source.at<int16_t>(p);
-    const int b = second.at<int16_t>(p);
-    const cv::Vec2f qa = best_px.at<cv::Vec2f>(p);
-    const cv::Vec2f qb = second_px.at<cv::Vec2f>(p);
-    const cv::Mat& ga = sources[a].grey;
-    const cv::Mat& gb = sources[b].grey;
-    grey_diff.push_back(bilinear(ga, qa[0], qa[1]) - bilinear(gb, qb[0], qb[1]));
-    const double n0 = out.grid.northOfRow(p.y), e0 = out.grid.eastOfCol(p.x);
-    double z0 = 0;
-    if (!demElevation(dem, n0, e0, z0)) continue;
-    // Pixels per metre on the ground here, from the projection of points 1 cm north and east.
-    Vec2 i0, in, ie;
-    if (project(sources[a].model, Vec3(n0, e0, -z0), i0) != Status::kOk ||
-        project(sources[a].model, Vec3(n0 + 0.01, e0, -z0), in) != Status::kOk ||
-        project(sources[a].model, Vec3(n0, e0 + 0.01, -z0), ie) != Status::kOk) {
-      continue;
-    }
-    const double px_per_m = std::max((in - i0).norm(), (ie - i0).norm()) / 0.01;
-    if (!(px_per_m > 0)) continue;
-    const double step_m = 1.0 / px_per_m;
-    bool ok = true;
-    for (int dy = -span; dy <= span && ok; ++dy) {
-      for (int dx = -span; dx <= span && ok; ++dx) {
-        const double north = n0 - dy * step_m, east = e0 + dx * step_m;
-        double z = 0;
-        if (!demElevation(dem, north, east, z)) { ok = false; break; }
-        const Vec3 g(north, east, -z);
-        Vec2 ia, ib;
-        if (project(sources[a].model, g, ia) != Status::kOk || project(sources[b].model, g, ib) != Status::kOk ||
-            !inside(ga, ia, 0.0) || !inside(gb, ib, 0.0)) {
-          ok = false;
-          break;
-        }
-        pa.at<uint8_t>(dy + span, dx + span) = static_cast<uint8_t>(std::lround(bilinear(ga, ia.x(), ia.y())));
-        pb.at<uint8_t>(dy + span, dx + span) = static_cast<uint8_t>(std::lround(bilinear(gb, ib.x(), ib.y())));
-      }
-    }
-    const double px_per_cell = 1.0;  // one sample is one pixel of the chosen image
-    if (!ok || !(px_per_cell > 0)) continue;
-    double best_score = -3;
-    int bx = 0, by = 0;
-    const int n = 2 * search + 1;
-    std::vector<double> score(static_cast<std::size_t>(n * n), -3);
-    for (int dy = -search; dy <= search; ++dy) {
-      for (int dx = -search; dx <= search; ++dx) {
-        const double v = ncc(pa, span + dx, span + dy, pb, span, span, half);
-        score[static_cast<std::size_t>((dy + search) * n + dx + search)] = v;
-        if (v > best_score) { best_score = v; bx = dx; by = dy; }
-      }
-    }
-    if (best_score < 0.7 || std::abs(bx) == search || std::abs(by) == search) continue;
-    auto at = [&](int dx, int dy) { return score[static_cast<std::size_t>((dy + search) * n + dx + search)]; };
-    const double ox = bx + parabolaOffset(at(bx - 1, by), at(bx, by), at(bx + 1, by));
-    const double oy = by + parabolaOffset(at(bx, by - 1), at(bx, by), at(bx, by + 1));
-    geo.push_back(std::hypot(ox, oy) * px_per_cell);
-  }
-  double g2 = 0;
-  for (double d : grey_diff) g2 += d * d;
-  out.seams.grey_rms = grey_diff.empty() ? 0.0 : std::sqrt(g2 / grey_diff.size());
-  out.seams.checked = static_cast<long long>(geo.size());
-  if (!geo.empty()) {
-    double s2 = 0;
-    for (double d : geo) s2 += d * d;
-    out.seams.geometric_rms_px = std::sqrt(s2 / geo.size());
-    std::sort(geo.begin(), geo.end());
-    out.seams.geometric_p95_px = geo[std::min(geo.size() - 1, static_cast<std::size_t>(0.95 * geo.size()))];
-    out.seams.geometric_median_px = geo[geo.size() / 2];
-  }
+  checkSeams(dem, sources, options, seam, out, candidates);
   return out;
 }
 
@@ -281,11 +360,17 @@ int orthoShift(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask, int tile
         for (int dx = -search_px; dx <= search_px; ++dx) {
           const double v = ncc(a, c, r, b, c + dx, r + dy, half);
           score[static_cast<std::size_t>((dy + search_px) * n + dx + search_px)] = v;
-          if (v > best) { best = v; bx = dx; by = dy; }
+          if (v > best) {
+            best = v;
+            bx = dx;
+            by = dy;
+          }
         }
       }
       if (best < 0.5 || std::abs(bx) == search_px || std::abs(by) == search_px) continue;
-      auto at = [&](int dx, int dy) { return score[static_cast<std::size_t>((dy + search_px) * n + dx + search_px)]; };
+      auto at = [&](int dx, int dy) {
+        return score[static_cast<std::size_t>((dy + search_px) * n + dx + search_px)];
+      };
       sx.push_back(bx + parabolaOffset(at(bx - 1, by), at(bx, by), at(bx + 1, by)));
       sy.push_back(by + parabolaOffset(at(bx, by - 1), at(bx, by), at(bx, by + 1)));
     }

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <random>
 #include <vector>
 
 #include <Eigen/Core>
@@ -69,14 +70,16 @@ class Terrain {
  private:
   struct GridRay;
   struct Rock;
+  struct Crater;
+  struct Relief;
   // One square height field of nodes with its albedo and maximum mip-map.
   struct Grid {
-    int n = 0;         // nodes per side (0: absent)
-    double x0 = 0.0;   // site x (north) of node row 0
-    double y0 = 0.0;   // site y (east) of node column 0
+    int n = 0;        // nodes per side (0: absent)
+    double x0 = 0.0;  // site x (north) of node row 0
+    double y0 = 0.0;  // site y (east) of node column 0
     double cell = 1.0;
-    std::vector<float> h;       // [ix * n + iy], elevation up
-    std::vector<float> albedo;  // same layout
+    std::vector<float> h;                 // [ix * n + iy], elevation up
+    std::vector<float> albedo;            // same layout
     std::vector<std::vector<float>> mip;  // mip[L - 1]: max over blocks of 2^L x 2^L cells (L >= 1)
     std::vector<int> mip_size;
     float h_min = 0.0f, h_max = 0.0f;
@@ -93,8 +96,20 @@ class Terrain {
     // The t interval of the ray over the grid square (false when it misses it).
     bool clip(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double& ta, double& tb) const;
   };
+  // The steps of build(), in the order it runs them (Terrain.cpp).
+  void layOutGrids(const SimConfig& config);
+  Relief drawRelief(const SimConfig& config, std::mt19937_64& rng) const;
+  static void fillRelief(Grid& g, const Relief& relief, int threads);
+  static bool addCrater(Grid& g, const Crater& crater, int threads);
+  void addCraters(const SimConfig& config, std::mt19937_64& rng);
+  void addOuterCraters(const SimConfig& config);
+  std::vector<Rock> drawRocks(const SimConfig& config) const;
+  void addRocks(const SimConfig& config);
   static void rasterRock(Grid& g, const Rock& rock, uint64_t seed, int i0, int i1, int j0, int j1);
-  const Grid& gridAt(double x_m, double y_m) const { return coarse_.n > 0 && !fine_.inside(x_m, y_m) ? coarse_ : fine_; }
+  void finishElevations();
+  const Grid& gridAt(double x_m, double y_m) const {
+    return coarse_.n > 0 && !fine_.inside(x_m, y_m) ? coarse_ : fine_;
+  }
 
   uint64_t seed_ = 0;
   double texture_ifov_rad_ = 0.005;  // the finest pixel angle of the cameras: texture octaves fade below it
