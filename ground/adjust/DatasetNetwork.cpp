@@ -64,8 +64,8 @@ void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& o
     const PhotogrammetricCamera& l = source.cameras[source.cameras.size() - (pr.right ? 2 : 1)];
     const PhotogrammetricCamera& r = source.cameras.back();
     int32_t index = 0;
-    const Status s = net.addPair(sol_index[pr.sol], pr.tier, l.io, l.eo.center_m, l.m, pr.right ? &r.io : nullptr,
-                                 r.eo.center_m, r.m, index);
+    const Status s = net.addPair(sol_index[pr.sol], pr.tier, l.io, l.eo.center_m, l.m,
+                                 pr.right ? &r.io : nullptr, r.eo.center_m, r.m, index);
     if (!ok(s)) throw cli::InputError(pano, field, std::string("cannot add the pair: ") + statusName(s));
   }
   std::map<std::string, int> image_of_stem;
@@ -96,7 +96,8 @@ void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& o
     }
     Vec2 ideal;
     const int img = it->second;
-    if (!ok(pixelToIdeal(source.apriori_models[img], source.cameras[img], Vec2(o.sample_px, o.line_px), ideal)) ||
+    if (!ok(pixelToIdeal(source.apriori_models[img], source.cameras[img], Vec2(o.sample_px, o.line_px),
+                         ideal)) ||
         !ok(net.addObservation(point, img, ideal, choice.sigma_px))) {
       ++source.dropped_observations;
     }
@@ -108,9 +109,10 @@ void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& o
   int32_t failed = 0;
   (void)net.triangulateAll(failed);
   if (failed > 0) {
-    source.warnings.push_back(std::to_string(failed) +
-                              " tie points could not be triangulated from the a-priori EO (fewer than two rays "
-                              "or parallel rays); they are left out.");
+    source.warnings.push_back(
+        std::to_string(failed) +
+        " tie points could not be triangulated from the a-priori EO (fewer than two rays "
+        "or parallel rays); they are left out.");
   }
   estimateRig(dataset, net, source, choice.fido);
   net.rig.use_gimbal = choice.gimbal;
@@ -120,14 +122,11 @@ void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& o
   net.rig.use_datum_prior = choice.datum_prior;
 }
 
-void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bool fido) {
-  RigConstraints& rig = net.rig;
-  const Rig& given = dataset.rig;
-  applyRigSigmas(given, rig, &source.estimated);
-  const int n_sols = static_cast<int>(source.sol_of_index.size());
-  const int n_img = net.imageCount();
+namespace {
 
-  // Base: the mean of M_L (C_R - C_L) over the pairs.
+// Eq. 4's base e: as given, else the mean of M_L (C_R - C_L) over the pairs' a-priori models.
+void estimateBase(const Rig& given, Network& net, NetworkSource& source) {
+  RigConstraints& rig = net.rig;
   if (given.base_m) {
     rig.base_m = *given.base_m;
   } else {
@@ -136,13 +135,23 @@ void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bo
     for (int p = 0; p < net.pairCount(); ++p) {
       const NetPair& pr = net.pair(p);
       if (pr.right < 0) continue;
-      sum += net.image(pr.left).m_apriori * (net.image(pr.right).center_apriori_m - net.image(pr.left).center_apriori_m);
+      sum += net.image(pr.left).m_apriori *
+             (net.image(pr.right).center_apriori_m - net.image(pr.left).center_apriori_m);
       ++n;
     }
     rig.base_m = n > 0 ? Vec3(sum / n) : Vec3::Zero();
-    source.estimated.push_back("rig.base_m: absent, estimated from the a-priori models as " + vecText(rig.base_m) +
-                               " (mean of M_L (C_R - C_L) over " + std::to_string(n) + " pairs).");
+    source.estimated.push_back("rig.base_m: absent, estimated from the a-priori models as " +
+                               vecText(rig.base_m) + " (mean of M_L (C_R - C_L) over " + std::to_string(n) +
+                               " pairs).");
   }
+}
+
+// Eq. 3's gimbal centre per sol and camera offsets c: the given ones kept, the missing ones fitted to the
+// a-priori models.
+void estimateGimbalAndOffsets(const Rig& given, Network& net, NetworkSource& source) {
+  RigConstraints& rig = net.rig;
+  const int n_sols = static_cast<int>(source.sol_of_index.size());
+  const int n_img = net.imageCount();
   // Gimbal centres and offsets: linear least squares of C_i - M_i^T c_side - XG_sol = 0 over the unknowns
   // that are missing (given ones are constants).
   std::vector<bool> gimbal_given(n_sols, false);
@@ -200,7 +209,8 @@ void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bo
       if (col_gimbal[s] < 0) continue;
       rig.gimbal_m[s] = x.segment<3>(col_gimbal[s]);
       source.estimated.push_back("rig.gimbal_m[" + std::to_string(source.sol_of_index[s]) +
-                                 "]: absent, fitted to the a-priori camera centres as " + vecText(rig.gimbal_m[s]) + ".");
+                                 "]: absent, fitted to the a-priori camera centres as " +
+                                 vecText(rig.gimbal_m[s]) + ".");
     }
     for (int side = 0; side < 2; ++side) {
       if (col_offset[side] < 0) continue;
@@ -217,7 +227,12 @@ void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bo
     s << "The rig fit leaves " << rms * 1000.0 << " mm RMS at the a-priori camera centres.";
     source.estimated.push_back(s.str());
   }
-  if (!fido) return;
+}
+
+// The FIDO-style values from the a-priori models.
+void estimateFidoVariants(Network& net, NetworkSource& source) {
+  RigConstraints& rig = net.rig;
+  const int n_img = net.imageCount();
   // FIDO variants: a virtual spin centre per tier (sphere fit |C - S|^2 = d^2 over the tier's centres, both
   // sides, linear in S and d^2 - |S|^2), camera-to-centre distances per side, left-right distance.
   double sum_d[2] = {0.0, 0.0};
@@ -253,18 +268,29 @@ void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bo
   int n_lr = 0;
   for (int p = 0; p < net.pairCount(); ++p) {
     if (net.pair(p).right < 0) continue;
-    lr += (net.image(net.pair(p).right).center_apriori_m - net.image(net.pair(p).left).center_apriori_m).norm();
+    lr +=
+        (net.image(net.pair(p).right).center_apriori_m - net.image(net.pair(p).left).center_apriori_m).norm();
     ++n_lr;
   }
   rig.lr_distance_m = n_lr > 0 ? lr / n_lr : 0.0;
   rig.sigma_distance_m = rig.sigma_base_m;
-  source.estimated.push_back("FIDO: camera-to-centre distances " + std::to_string(rig.left_distance_m) + " / " +
-                             std::to_string(rig.right_distance_m) + " m and left-right distance " +
+  source.estimated.push_back("FIDO: camera-to-centre distances " + std::to_string(rig.left_distance_m) +
+                             " / " + std::to_string(rig.right_distance_m) + " m and left-right distance " +
                              std::to_string(rig.lr_distance_m) + " m from the a-priori models.");
 }
 
+}  // namespace
+
+void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bool fido) {
+  applyRigSigmas(dataset.rig, net.rig, &source.estimated);
+  estimateBase(dataset.rig, net, source);
+  estimateGimbalAndOffsets(dataset.rig, net, source);
+  if (fido) estimateFidoVariants(net, source);
+}
+
 std::vector<ImageObservation> noisyTruthObservations(const Dataset& dataset, double noise_px, uint64_t seed) {
-  std::vector<ImageObservation> observations = readObservationsCsv(dataset.root + "/" + kTruthObservationsFile);
+  std::vector<ImageObservation> observations =
+      readObservationsCsv(dataset.root + "/" + kTruthObservationsFile);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, 1.0);
   for (ImageObservation& o : observations) {
@@ -281,7 +307,8 @@ NetworkTruth loadNetworkTruth(const Dataset& dataset, const NetworkSource& sourc
     if (!std::filesystem::exists(path)) return NetworkTruth{};
     PhotogrammetricCamera cam;
     ConversionResidual residual;
-    if (!ok(cahvorToPhotogrammetric(io::readCameraModelFile(path, dataset.width, dataset.height), cam, residual))) {
+    if (!ok(cahvorToPhotogrammetric(io::readCameraModelFile(path, dataset.width, dataset.height), cam,
+                                    residual))) {
       throw cli::InputError(path, "model", "cannot convert the true model");
     }
     truth.centers.push_back(cam.eo.center_m);
