@@ -115,6 +115,18 @@ void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& o
         "or parallel rays); they are left out.");
   }
   estimateRig(dataset, net, source, choice.fido);
+  // Pointing-derived models of a gimbal rig share one gimbal point exactly (a pointing error turns the head
+  // about it), so a fit that misses their centres by 10x the bound Eq. 3 must meet means the mast is not
+  // such a rig (e.g. a tilt axis off the pan axis): holding Eq. 3 would bend the network.
+  if (choice.gimbal && source.rig_fit_rms_m > 10.0 * kRigMisfitBound_m) {
+    std::ostringstream w;
+    w << "The fitted gimbal centre and camera offsets miss the a-priori camera centres by "
+      << source.rig_fit_rms_m * 1000.0 << " mm RMS (Eq. 3 must hold to " << kRigMisfitBound_m * 1000.0
+      << " mm): the mast does not turn the cameras about one point. For a mast whose tilt axis is off its "
+         "pan "
+         "axis use --fido --no-gimbal (a virtual spin centre per tier).";
+    source.warnings.push_back(w.str());
+  }
   net.rig.use_gimbal = choice.gimbal;
   net.rig.use_base = choice.base;
   net.rig.use_spin_centre = choice.fido;
@@ -226,6 +238,7 @@ void estimateGimbalAndOffsets(const Rig& given, Network& net, NetworkSource& sou
     std::ostringstream s;
     s << "The rig fit leaves " << rms * 1000.0 << " mm RMS at the a-priori camera centres.";
     source.estimated.push_back(s.str());
+    source.rig_fit_rms_m = rms;
   }
 }
 

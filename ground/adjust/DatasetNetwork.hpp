@@ -17,22 +17,25 @@
 namespace areomap::ground {
 
 struct NetworkSource {
-  std::vector<std::string> stems;                 // per network image
-  std::vector<CameraModel> apriori_models;        // per network image
-  std::vector<PhotogrammetricCamera> cameras;     // per network image, a-priori
-  std::vector<int64_t> point_ids;                 // per network point
-  std::vector<int> sol_of_index;                  // network sol index -> dataset sol number
-  std::vector<std::string> estimated;             // sentences: which rig values were estimated and how
-  std::vector<std::string> warnings;              // dropped observations, unknown stems, ...
+  std::vector<std::string> stems;              // per network image
+  std::vector<CameraModel> apriori_models;     // per network image
+  std::vector<PhotogrammetricCamera> cameras;  // per network image, a-priori
+  std::vector<int64_t> point_ids;              // per network point
+  std::vector<int> sol_of_index;               // network sol index -> dataset sol number
+  std::vector<std::string> estimated;          // sentences: which rig values were estimated and how
+  std::vector<std::string> warnings;           // dropped observations, unknown stems, ...
   int dropped_observations = 0;
+  // The RMS (m) by which a fitted gimbal centre and camera offsets miss the a-priori camera centres; 0 when
+  // the dataset gives them all.
+  double rig_fit_rms_m = 0.0;
 };
 
 struct RigChoice {
   bool gimbal = true;
   bool base = true;
-  bool fido = false;         // virtual spin centre per tier + camera-to-centre and left-right distances
+  bool fido = false;  // virtual spin centre per tier + camera-to-centre and left-right distances
   bool datum_prior = true;
-  double sigma_px = 0.3;     // a-priori sigma of every image observation
+  double sigma_px = 0.3;  // a-priori sigma of every image observation
 };
 
 // Loads the models and fills `net` (cleared first). Throws cli::InputError naming the file and field.

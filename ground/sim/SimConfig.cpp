@@ -32,7 +32,9 @@ TierPlan fullTier(double tilt_deg, int pairs) {
 
 }  // namespace
 
-double SimConfig::focalPx() const { return 0.5 * width / std::tan(0.5 * hfov_deg * kDeg); }
+double SimConfig::focalPx() const {
+  return 0.5 * width / std::tan(0.5 * hfov_deg * kDeg);
+}
 
 int SimConfig::pairCount() const {
   int n = 0;
@@ -95,7 +97,18 @@ SimConfig presetConfig(const std::string& name) {
     c.max_range_m = 32.0;
     return c;
   }
-  throw cli::UsageError("--preset: unknown preset '" + name + "' (navcam, imp or tiny)");
+  if (name == "fido") {
+    // FIDO-like: navcam cameras on a mast head whose tilt axis is 10 cm ahead of the pan axis, two
+    // 360-degree tiers of 12 pairs; panorama.json has no gimbal centre or camera offsets.
+    c = presetConfig("navcam");
+    c.preset = name;
+    c.tilt_axis_forward_m = 0.10;
+    c.tiers = {fullTier(-20.0, 12), fullTier(-42.0, 12)};
+    c.half_extent_m = 30.0;
+    c.max_range_m = 25.0;
+    return c;
+  }
+  throw cli::UsageError("--preset: unknown preset '" + name + "' (navcam, imp, fido or tiny)");
 }
 
 void setPairCount(SimConfig& config, int pairs) {
@@ -126,18 +139,25 @@ void setPairCount(SimConfig& config, int pairs) {
 }
 
 void validatePlan(const SimConfig& c) {
-  if (c.width < 16 || c.width > 4096) planError("--size", "width " + std::to_string(c.width) + " outside 16..4096");
-  if (c.height < 16 || c.height > 4096) planError("--size", "height " + std::to_string(c.height) + " outside 16..4096");
-  if (!(c.hfov_deg >= 5.0 && c.hfov_deg <= 120.0)) planError("--fov-deg", num(c.hfov_deg) + " outside 5..120 degrees");
+  if (c.width < 16 || c.width > 4096)
+    planError("--size", "width " + std::to_string(c.width) + " outside 16..4096");
+  if (c.height < 16 || c.height > 4096)
+    planError("--size", "height " + std::to_string(c.height) + " outside 16..4096");
+  if (!(c.hfov_deg >= 5.0 && c.hfov_deg <= 120.0))
+    planError("--fov-deg", num(c.hfov_deg) + " outside 5..120 degrees");
   if (!(std::fabs(c.rho1) <= 0.5 && std::fabs(c.rho2) <= 0.5)) planError("--distortion", "|rho| above 0.5");
   if (c.sol < 0 || c.sol > 100000) planError("--sol", "outside 0..100000");
   if (!(c.base_m > 0.0 && c.base_m <= 2.0)) planError("--base-m", num(c.base_m) + " outside (0, 2] m");
   if (!(c.mast_m >= 0.2 && c.mast_m <= 5.0)) planError("--mast-m", num(c.mast_m) + " outside 0.2..5 m");
+  if (!(c.tilt_axis_forward_m >= 0.0 && c.tilt_axis_forward_m <= 0.5)) {
+    planError("--tilt-axis-forward-m", num(c.tilt_axis_forward_m) + " outside 0..0.5 m");
+  }
   if (!(std::fabs(c.toe_in_deg) <= 10.0)) planError("--toe-in-deg", "more than 10 degrees");
   if (c.tiers.empty()) planError("--tilts", "no tiers");
   const int pairs = c.pairCount();
   if (pairs < 1 || pairs > kMaxPairs) {
-    planError("--pairs", std::to_string(pairs) + " pairs outside 1.." + std::to_string(kMaxPairs) + " (kMaxPairs)");
+    planError("--pairs",
+              std::to_string(pairs) + " pairs outside 1.." + std::to_string(kMaxPairs) + " (kMaxPairs)");
   }
   const double f = c.focalPx();
   const double vfov_deg = 2.0 * std::atan(0.5 * c.height / f) / kDeg;
@@ -146,7 +166,8 @@ void validatePlan(const SimConfig& c) {
     const TierPlan& t = c.tiers[i];
     const std::string tier = "tier " + std::to_string(i);
     if (t.pairs < 1) planError("--pairs", tier + " has no pairs");
-    if (!(t.tilt_deg > -89.0 && t.tilt_deg < 60.0)) planError("--tilts", tier + " tilt " + num(t.tilt_deg) + " outside (-89, 60)");
+    if (!(t.tilt_deg > -89.0 && t.tilt_deg < 60.0))
+      planError("--tilts", tier + " tilt " + num(t.tilt_deg) + " outside (-89, 60)");
     if (t.tilt_deg - 0.5 * vfov_deg >= -1.0) {
       planError("--tilts", tier + " at tilt " + num(t.tilt_deg) + " with a " + num(vfov_deg) +
                                "-degree vertical field sees no ground");
@@ -154,8 +175,9 @@ void validatePlan(const SimConfig& c) {
     if (t.pairs > 1) {
       if (!(t.pan_step_deg > 0.0)) planError("--pan-step-deg", tier + ": pan step must be positive");
       if (t.pan_step_deg > (1.0 - kMinOverlapFraction) * c.hfov_deg) {
-        planError("--pan-step-deg", tier + ": pan step " + num(t.pan_step_deg) + " degrees leaves less than " +
-                                        num(100 * kMinOverlapFraction) + " % overlap with a " + num(c.hfov_deg) +
+        planError("--pan-step-deg", tier + ": pan step " + num(t.pan_step_deg) +
+                                        " degrees leaves less than " + num(100 * kMinOverlapFraction) +
+                                        " % overlap with a " + num(c.hfov_deg) +
                                         "-degree field (more pairs or a wider field needed)");
       }
       if (t.pairs * t.pan_step_deg > 360.0 + t.pan_step_deg - 1e-9) {
@@ -164,7 +186,8 @@ void validatePlan(const SimConfig& c) {
       }
     }
     if (!t.left_only) {
-      if (previous != nullptr && std::fabs(previous->tilt_deg - t.tilt_deg) > (1.0 - kMinOverlapFraction) * vfov_deg) {
+      if (previous != nullptr &&
+          std::fabs(previous->tilt_deg - t.tilt_deg) > (1.0 - kMinOverlapFraction) * vfov_deg) {
         planError("--tilts", tier + ": tilt step " + num(std::fabs(previous->tilt_deg - t.tilt_deg)) +
                                  " degrees leaves a vertical gap with a " + num(vfov_deg) + "-degree field");
       }
@@ -174,10 +197,12 @@ void validatePlan(const SimConfig& c) {
   if (!(c.pointing_min_px >= 0.0 && c.pointing_max_px >= c.pointing_min_px && c.pointing_max_px <= 500.0)) {
     planError("--pointing-error-px", "need 0 <= MIN <= MAX <= 500");
   }
-  if (!(c.half_extent_m >= 5.0 && c.half_extent_m <= 500.0)) planError("--extent-m", num(c.half_extent_m) + " outside 5..500 m");
+  if (!(c.half_extent_m >= 5.0 && c.half_extent_m <= 500.0))
+    planError("--extent-m", num(c.half_extent_m) + " outside 5..500 m");
   if (!(c.cell_m >= 0.005 && c.cell_m <= 0.5)) planError("--cell-m", num(c.cell_m) + " outside 0.005..0.5 m");
   if (2.0 * c.half_extent_m / c.cell_m > 12000.0) {
-    planError("--cell-m", "terrain grid larger than 12000 x 12000 cells (" + num(2.0 * c.half_extent_m / c.cell_m) + ")");
+    planError("--cell-m",
+              "terrain grid larger than 12000 x 12000 cells (" + num(2.0 * c.half_extent_m / c.cell_m) + ")");
   }
   if (!(c.relief_m >= 0.0 && c.relief_m <= 5.0)) planError("--relief-m", "outside 0..5 m");
   if (!(c.rock_k >= 0.0 && c.rock_k <= 0.5)) planError("--rock-k", "outside 0..0.5");
@@ -185,7 +210,8 @@ void validatePlan(const SimConfig& c) {
   if (c.supersample < 1 || c.supersample > 4) planError("--supersample", "outside 1..4");
   if (!(c.noise_dn >= 0.0 && c.noise_dn <= 50.0)) planError("--noise-dn", "outside 0..50");
   if (c.jpeg_quality < 0 || c.jpeg_quality > 100) planError("--jpeg-quality", "outside 0..100 (0 = none)");
-  if (!(c.sun_elevation_deg > 0.0 && c.sun_elevation_deg <= 90.0)) planError("--sun-el-deg", "outside (0, 90]");
+  if (!(c.sun_elevation_deg > 0.0 && c.sun_elevation_deg <= 90.0))
+    planError("--sun-el-deg", "outside (0, 90]");
   if (c.check_points < 0 || c.check_points > 200000) planError("--check-points", "outside 0..200000");
   if (!(c.min_range_m > 0.0 && c.max_range_m > c.min_range_m)) planError("--range-m", "need 0 < MIN < MAX");
   if (c.threads < 0 || c.threads > 256) planError("--threads", "outside 0..256");

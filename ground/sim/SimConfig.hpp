@@ -12,11 +12,11 @@
 namespace areomap::sim {
 
 struct TierPlan {
-  double tilt_deg = -25.0;      // head elevation, up positive
-  int pairs = 8;                // stereo pairs (or single images) in this tier
-  double pan0_deg = 0.0;        // azimuth of the first pair, clockwise from north
-  double pan_step_deg = 45.0;   // azimuth step between pairs
-  bool left_only = false;       // single left images (IMP's extra frame)
+  double tilt_deg = -25.0;     // head elevation, up positive
+  int pairs = 8;               // stereo pairs (or single images) in this tier
+  double pan0_deg = 0.0;       // azimuth of the first pair, clockwise from north
+  double pan_step_deg = 45.0;  // azimuth step between pairs
+  bool left_only = false;      // single left images (IMP's extra frame)
 };
 
 struct SimConfig {
@@ -28,9 +28,9 @@ struct SimConfig {
   int width = 256;
   int height = 192;
   double hfov_deg = 60.0;
-  double rho1 = 0.004;              // CAHVOR R = (0, rho1, rho2)
+  double rho1 = 0.004;  // CAHVOR R = (0, rho1, rho2)
   double rho2 = -0.002;
-  double o_tilt_deg = 0.3;          // angle between O and A
+  double o_tilt_deg = 0.3;  // angle between O and A
 
   // Head: camera centres relative to the gimbal in the head frame (x forward, y right, z down) at pan 0,
   // tilt 0; the stereo base is their distance. Small toe-in (each camera yawed inwards).
@@ -38,36 +38,42 @@ struct SimConfig {
   double head_forward_m = 0.08;
   double head_up_m = 0.05;
   double toe_in_deg = 0.5;
-  double mast_m = 1.5;              // gimbal height above the ground at the rover
+  double mast_m = 1.5;  // gimbal height above the ground at the rover
+  // A FIDO-like mast head: the tilt axis this far ahead of the pan axis (0: the two axes meet at the
+  // gimbal centre and Eq. 3 holds). Off it, each tier's camera centres lie on a circle about the pan axis
+  // (a virtual spin centre per tier, distances fixed: the FIDO-style constraints) and no fixed camera offset
+  // from one gimbal point fits every tilt, so panorama.json gives the stereo base only, as for a rig without
+  // a calibration report.
+  double tilt_axis_forward_m = 0.0;
 
   std::vector<TierPlan> tiers;
-  double pointing_min_px = 3.0;     // a-priori pointing error per pair (pan/tilt of the head), pixels
+  double pointing_min_px = 3.0;  // a-priori pointing error per pair (pan/tilt of the head), pixels
   double pointing_max_px = 15.0;
 
   // Terrain around the rover (site origin): half extent of the square, grid cell, relief and rocks.
   double half_extent_m = 20.0;
   double cell_m = 0.03;
-  double relief_m = 0.25;           // RMS of the multi-octave relief
-  double rock_k = 0.08;             // Golombek cumulative fractional area of rocks
+  double relief_m = 0.25;  // RMS of the multi-octave relief
+  double rock_k = 0.08;    // Golombek cumulative fractional area of rocks
   double crater_density_per_km2 = 800.0;
-  double min_rock_m = 0.06;         // smallest rock diameter near the rover (grows with range)
+  double min_rock_m = 0.06;  // smallest rock diameter near the rover (grows with range)
 
   // Rendering.
-  int supersample = 2;              // s x s rays per pixel
-  double noise_dn = 1.5;            // sensor noise sigma
-  int jpeg_quality = 0;             // 0 = no JPEG round trip
+  int supersample = 2;    // s x s rays per pixel
+  double noise_dn = 1.5;  // sensor noise sigma
+  int jpeg_quality = 0;   // 0 = no JPEG round trip
   double sun_azimuth_deg = 120.0;
   double sun_elevation_deg = 40.0;
   bool shadows = true;
-  int threads = 0;                  // 0 = all cores
+  int threads = 0;  // 0 = all cores
 
   // Truth check points.
-  int check_points = 400;           // wanted points seen by two or more images
+  int check_points = 400;  // wanted points seen by two or more images
   double min_range_m = 1.5;
   double max_range_m = 15.0;
 
-  double focalPx() const;           // principal distance from width and hfov
-  int pairCount() const;            // all pairs of all tiers
+  double focalPx() const;  // principal distance from width and hfov
+  int pairCount() const;   // all pairs of all tiers
 };
 
 // The named presets; throws cli::UsageError for an unknown name.

@@ -11,11 +11,11 @@ namespace areomap::sim {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-constexpr double kCheckPointMarginPx = 0.0;         // every image that sees the point, up to its edge
-constexpr double kMaxRayMismatchRad = 1e-6;        // pixel ray vs. direction to the point
-constexpr double kMinIncidenceDeg = 8.0;            // grazing views are not check points
-constexpr int kCheckPointBatch = 2048;              // candidates per parallel batch (deterministic order)
-constexpr int kMaxCandidatesPerPoint = 60;          // bound of the candidate search
+constexpr double kCheckPointMarginPx = 0.0;  // every image that sees the point, up to its edge
+constexpr double kMaxRayMismatchRad = 1e-6;  // pixel ray vs. direction to the point
+constexpr double kMinIncidenceDeg = 8.0;     // grazing views are not check points
+constexpr int kCheckPointBatch = 2048;       // candidates per parallel batch (deterministic order)
+constexpr int kMaxCandidatesPerPoint = 60;   // bound of the candidate search
 
 Eigen::Matrix3d rotZ(double a) {
   Eigen::Matrix3d r;
@@ -30,7 +30,9 @@ Eigen::Matrix3d rotY(double a) {
 }
 
 // site_from_head for a head pan/tilt.
-Eigen::Matrix3d headRotation(double pan_rad, double tilt_rad) { return rotZ(pan_rad) * rotY(tilt_rad); }
+Eigen::Matrix3d headRotation(double pan_rad, double tilt_rad) {
+  return rotZ(pan_rad) * rotY(tilt_rad);
+}
 
 // A camera fixed on the head: centre in the head frame and rotation head -> camera (rows H', -V', -A).
 struct HeadCamera {
@@ -52,8 +54,11 @@ HeadCamera headCamera(const SimConfig& c, bool right) {
   return cam;
 }
 
+// A camera of the head at its true and a-priori pointing. `tilt_axis_*` is the site-frame offset of the tilt
+// axis from the gimbal centre (zero unless the mast is FIDO-like), turned by the pan alone.
 SimCamera placeCamera(const SimConfig& c, const Eigen::Vector3d& gimbal, const Eigen::Matrix3d& head_true,
-                      const Eigen::Matrix3d& head_apriori, bool right, const std::string& stem) {
+                      const Eigen::Matrix3d& head_apriori, const Eigen::Vector3d& tilt_axis_true,
+                      const Eigen::Vector3d& tilt_axis_apriori, bool right, const std::string& stem) {
   const HeadCamera hc = headCamera(c, right);
   const double f = c.focalPx();
   const double x0 = 0.5 * (c.width - 1) + (right ? 1.1 : 2.3);
@@ -61,10 +66,11 @@ SimCamera placeCamera(const SimConfig& c, const Eigen::Vector3d& gimbal, const E
   SimCamera cam;
   cam.stem = stem;
   cam.site_to_camera = hc.camera_from_head * head_true.transpose();
-  cam.truth = makeCahvor(gimbal + head_true * hc.position_head, cam.site_to_camera, f, x0, y0, c.o_tilt_deg, c.rho1,
-                         c.rho2, c.width, c.height);
-  cam.apriori = makeCahvor(gimbal + head_apriori * hc.position_head, hc.camera_from_head * head_apriori.transpose(), f,
-                           x0, y0, c.o_tilt_deg, c.rho1, c.rho2, c.width, c.height);
+  cam.truth = makeCahvor(gimbal + tilt_axis_true + head_true * hc.position_head, cam.site_to_camera, f, x0,
+                         y0, c.o_tilt_deg, c.rho1, c.rho2, c.width, c.height);
+  cam.apriori = makeCahvor(gimbal + tilt_axis_apriori + head_apriori * hc.position_head,
+                           hc.camera_from_head * head_apriori.transpose(), f, x0, y0, c.o_tilt_deg, c.rho1,
+                           c.rho2, c.width, c.height);
   return cam;
 }
 
@@ -77,7 +83,8 @@ std::string stemOf(int index, bool right) {
 }  // namespace
 
 CameraModel makeCahvor(const Eigen::Vector3d& center_m, const Eigen::Matrix3d& site_to_camera, double f_px,
-                       double x0_px, double y0_px, double o_tilt_deg, double rho1, double rho2, int width, int height) {
+                       double x0_px, double y0_px, double o_tilt_deg, double rho1, double rho2, int width,
+                       int height) {
   const Eigen::Vector3d h_unit = site_to_camera.row(0).transpose();
   const Eigen::Vector3d v_unit = -site_to_camera.row(1).transpose();
   const Eigen::Vector3d a = -site_to_camera.row(2).transpose();
@@ -96,8 +103,8 @@ CameraModel makeCahvor(const Eigen::Vector3d& center_m, const Eigen::Matrix3d& s
   return m;
 }
 
-bool pointVisible(const Terrain& terrain, const CameraModel& model, const Eigen::Vector3d& point_m, double margin_px,
-                  Vec2& pixel) {
+bool pointVisible(const Terrain& terrain, const CameraModel& model, const Eigen::Vector3d& point_m,
+                  double margin_px, Vec2& pixel) {
   if (project(model, point_m, pixel) != Status::kOk) return false;
   if (pixel.x() < margin_px || pixel.y() < margin_px || pixel.x() > model.width - 1 - margin_px ||
       pixel.y() > model.height - 1 - margin_px) {
@@ -109,7 +116,8 @@ bool pointVisible(const Terrain& terrain, const CameraModel& model, const Eigen:
   // CAHVOR's polynomial folds points far outside the field of view back into the image: the pixel's own
   // ray must point at the point.
   Vec3 origin, ray;
-  if (unproject(model, pixel, origin, ray) != Status::kOk || ray.dot(dir) < std::cos(kMaxRayMismatchRad)) return false;
+  if (unproject(model, pixel, origin, ray) != Status::kOk || ray.dot(dir) < std::cos(kMaxRayMismatchRad))
+    return false;
   const Eigen::Vector3d n = terrain.normal(point_m.x(), point_m.y());
   if (-n.dot(dir) < std::sin(kMinIncidenceDeg * kDeg)) return false;  // back-facing or grazing
   double t_hit = 0.0;
@@ -127,7 +135,8 @@ int camerasSeeingBeyondTerrain(const SimGeometry& g, const Terrain& terrain) {
       const Vec2 pixel((cam->truth.width - 1) * k / (kSamples - 1.0), 0.0);
       Vec3 origin, dir;
       double t = 0.0;
-      if (unproject(cam->truth, pixel, origin, dir) == Status::kOk && dir.z() > 0.0 && !terrain.castRay(origin, dir, t)) {
+      if (unproject(cam->truth, pixel, origin, dir) == Status::kOk && dir.z() > 0.0 &&
+          !terrain.castRay(origin, dir, t)) {
         beyond = true;
       }
     }
@@ -151,16 +160,19 @@ Dataset SimGeometry::dataset(const std::string& root) const {
   ds.name = "sim-" + config.preset + "-" + std::to_string(config.seed);
   ds.width = config.width;
   ds.height = config.height;
-  ds.rig.gimbal_m[config.sol] = gimbal_m;
-  ds.rig.left_offset_m = left_offset_m;
-  ds.rig.right_offset_m = right_offset_m;
+  // A FIDO-like mast has no fixed camera offset from one gimbal point: only the stereo base is given.
+  if (config.tilt_axis_forward_m == 0.0) {
+    ds.rig.gimbal_m[config.sol] = gimbal_m;
+    ds.rig.left_offset_m = left_offset_m;
+    ds.rig.right_offset_m = right_offset_m;
+  }
   ds.rig.base_m = base_m;
   // The simulated rig is exactly rigid: every true model satisfies Eq. 3 and Eq. 4 to rounding, so the
   // constraints are written as the paper's pseudo-observations with very small variances (§3.2): 10 um,
   // the starting sigma of a held constraint (firmware_core/adjust/Network.hpp), but given, so not tightened.
   // A dataset without sigmas gets the held rule instead (ground/dataset/RigSigmas.hpp).
   constexpr double kSimSigmaRig_m = 1e-5;
-  ds.rig.sigma_gimbal_m = kSimSigmaRig_m;
+  if (config.tilt_axis_forward_m == 0.0) ds.rig.sigma_gimbal_m = kSimSigmaRig_m;
   ds.rig.sigma_base_m = kSimSigmaRig_m;
   for (const SimPair& p : pairs) {
     Pair pair;
@@ -168,7 +180,9 @@ Dataset SimGeometry::dataset(const std::string& root) const {
     pair.sol = p.sol;
     pair.tier = p.tier;
     pair.left = makeImageRef(root, "images/" + p.left.stem + ".png", "models/" + p.left.stem + ".cahvor");
-    if (p.right) pair.right = makeImageRef(root, "images/" + p.right->stem + ".png", "models/" + p.right->stem + ".cahvor");
+    if (p.right)
+      pair.right =
+          makeImageRef(root, "images/" + p.right->stem + ".png", "models/" + p.right->stem + ".cahvor");
     ds.pairs.push_back(pair);
   }
   return ds;
@@ -204,15 +218,23 @@ SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain) {
       // Pointing error of the head: magnitude in [min, max] pixels at the image centre, random direction.
       std::mt19937_64 rng(hash3(config.seed, 0x9017, index));
       std::uniform_real_distribution<double> u(0.0, 1.0);
-      p.pointing_error_px = config.pointing_min_px + u(rng) * (config.pointing_max_px - config.pointing_min_px);
+      p.pointing_error_px =
+          config.pointing_min_px + u(rng) * (config.pointing_max_px - config.pointing_min_px);
       const double direction = 2.0 * M_PI * u(rng);
       p.tilt_error_rad = p.pointing_error_px / f * std::sin(direction);
       p.pan_error_rad = p.pointing_error_px / f * std::cos(direction) / std::cos(p.tilt_deg * kDeg);
       const Eigen::Matrix3d head_true = headRotation(p.pan_deg * kDeg, p.tilt_deg * kDeg);
       const Eigen::Matrix3d head_apriori =
           headRotation(p.pan_deg * kDeg + p.pan_error_rad, p.tilt_deg * kDeg + p.tilt_error_rad);
-      p.left = placeCamera(config, g.gimbal_m, head_true, head_apriori, false, stemOf(index, false));
-      if (!plan.left_only) p.right = placeCamera(config, g.gimbal_m, head_true, head_apriori, true, stemOf(index, true));
+      const Eigen::Vector3d forward(config.tilt_axis_forward_m, 0.0, 0.0);
+      const Eigen::Vector3d axis_true = rotZ(p.pan_deg * kDeg) * forward;
+      const Eigen::Vector3d axis_apriori = rotZ(p.pan_deg * kDeg + p.pan_error_rad) * forward;
+      p.left = placeCamera(config, g.gimbal_m, head_true, head_apriori, axis_true, axis_apriori, false,
+                           stemOf(index, false));
+      if (!plan.left_only) {
+        p.right = placeCamera(config, g.gimbal_m, head_true, head_apriori, axis_true, axis_apriori, true,
+                              stemOf(index, true));
+      }
       g.pairs.push_back(std::move(p));
     }
   }
@@ -228,14 +250,16 @@ SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain) {
   };
   std::vector<Candidate> batch(kCheckPointBatch);
   const double log_min = std::log(config.min_range_m), log_max = std::log(config.max_range_m);
-  for (int64_t first = 0; static_cast<int>(g.points.size()) < wanted && first < max_candidates; first += kCheckPointBatch) {
+  for (int64_t first = 0; static_cast<int>(g.points.size()) < wanted && first < max_candidates;
+       first += kCheckPointBatch) {
     parallelFor(kCheckPointBatch, config.threads, [&](int i) {
       Candidate& c = batch[static_cast<std::size_t>(i)];
       c.seen.clear();
       const uint64_t h = hash3(config.seed, 0xc4ec, first + i);
       const double range = std::exp(log_min + unit(mix64(h + 1)) * (log_max - log_min));
       const double azimuth = 2.0 * M_PI * unit(mix64(h + 2));
-      const double x = g.gimbal_m.x() + range * std::cos(azimuth), y = g.gimbal_m.y() + range * std::sin(azimuth);
+      const double x = g.gimbal_m.x() + range * std::cos(azimuth),
+                   y = g.gimbal_m.y() + range * std::sin(azimuth);
       if (!terrain.inside(x, y)) return;
       c.point = Eigen::Vector3d(x, y, -terrain.elevation(x, y));
       for (std::size_t k = 0; k < cams.size(); ++k) {

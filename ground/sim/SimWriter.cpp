@@ -20,7 +20,8 @@ void makeFolder(const std::string& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec || !std::filesystem::is_directory(dir)) {
-    throw DatasetError(dir, "", "cannot create the folder: " + (ec ? ec.message() : std::string("not a folder")));
+    throw DatasetError(dir, "",
+                       "cannot create the folder: " + (ec ? ec.message() : std::string("not a folder")));
   }
 }
 
@@ -35,24 +36,49 @@ void writeTextFile(const std::string& path, const std::string& text) {
 nlohmann::json configJson(const SimConfig& c) {
   nlohmann::json tiers = nlohmann::json::array();
   for (const TierPlan& t : c.tiers) {
-    tiers.push_back({{"tilt_deg", t.tilt_deg}, {"pairs", t.pairs}, {"pan0_deg", t.pan0_deg},
-                     {"pan_step_deg", t.pan_step_deg}, {"left_only", t.left_only}});
+    tiers.push_back({{"tilt_deg", t.tilt_deg},
+                     {"pairs", t.pairs},
+                     {"pan0_deg", t.pan0_deg},
+                     {"pan_step_deg", t.pan_step_deg},
+                     {"left_only", t.left_only}});
   }
-  return {{"preset", c.preset}, {"seed", c.seed}, {"sol", c.sol}, {"image_size", {c.width, c.height}},
-          {"hfov_deg", c.hfov_deg}, {"focal_px", c.focalPx()}, {"rho1", c.rho1}, {"rho2", c.rho2},
-          {"o_tilt_deg", c.o_tilt_deg}, {"base_m", c.base_m}, {"head_forward_m", c.head_forward_m},
-          {"head_up_m", c.head_up_m}, {"toe_in_deg", c.toe_in_deg}, {"mast_m", c.mast_m}, {"tiers", tiers},
-          {"pointing_error_px", {c.pointing_min_px, c.pointing_max_px}}, {"half_extent_m", c.half_extent_m},
-          {"cell_m", c.cell_m}, {"relief_m", c.relief_m}, {"rock_k", c.rock_k},
-          {"crater_density_per_km2", c.crater_density_per_km2}, {"min_rock_m", c.min_rock_m},
-          {"supersample", c.supersample}, {"noise_dn", c.noise_dn}, {"jpeg_quality", c.jpeg_quality},
-          {"sun_azimuth_deg", c.sun_azimuth_deg}, {"sun_elevation_deg", c.sun_elevation_deg},
-          {"shadows", c.shadows}, {"check_points", c.check_points}, {"range_m", {c.min_range_m, c.max_range_m}}};
+  return {{"preset", c.preset},
+          {"seed", c.seed},
+          {"sol", c.sol},
+          {"image_size", {c.width, c.height}},
+          {"hfov_deg", c.hfov_deg},
+          {"focal_px", c.focalPx()},
+          {"rho1", c.rho1},
+          {"rho2", c.rho2},
+          {"o_tilt_deg", c.o_tilt_deg},
+          {"base_m", c.base_m},
+          {"head_forward_m", c.head_forward_m},
+          {"head_up_m", c.head_up_m},
+          {"toe_in_deg", c.toe_in_deg},
+          {"mast_m", c.mast_m},
+          {"tilt_axis_forward_m", c.tilt_axis_forward_m},
+          {"tiers", tiers},
+          {"pointing_error_px", {c.pointing_min_px, c.pointing_max_px}},
+          {"half_extent_m", c.half_extent_m},
+          {"cell_m", c.cell_m},
+          {"relief_m", c.relief_m},
+          {"rock_k", c.rock_k},
+          {"crater_density_per_km2", c.crater_density_per_km2},
+          {"min_rock_m", c.min_rock_m},
+          {"supersample", c.supersample},
+          {"noise_dn", c.noise_dn},
+          {"jpeg_quality", c.jpeg_quality},
+          {"sun_azimuth_deg", c.sun_azimuth_deg},
+          {"sun_elevation_deg", c.sun_elevation_deg},
+          {"shadows", c.shadows},
+          {"check_points", c.check_points},
+          {"range_m", {c.min_range_m, c.max_range_m}}};
 }
 
 }  // namespace
 
-void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::string& out, const WriteOptions& options) {
+void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::string& out,
+                     const WriteOptions& options) {
   makeFolder(out);
   makeFolder(out + "/models");
   makeFolder(out + "/" + kTruthModelsFolder);
@@ -62,12 +88,21 @@ void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::st
 
   nlohmann::json pairs = nlohmann::json::array();
   for (const SimPair& p : g.pairs) {
-    pairs.push_back({{"id", p.id}, {"tier", p.tier}, {"pan_deg", p.pan_deg}, {"tilt_deg", p.tilt_deg},
-                     {"pan_error_rad", p.pan_error_rad}, {"tilt_error_rad", p.tilt_error_rad},
+    pairs.push_back({{"id", p.id},
+                     {"tier", p.tier},
+                     {"pan_deg", p.pan_deg},
+                     {"tilt_deg", p.tilt_deg},
+                     {"pan_error_rad", p.pan_error_rad},
+                     {"tilt_error_rad", p.tilt_error_rad},
                      {"pointing_error_px", p.pointing_error_px}});
   }
   const nlohmann::json sim = {{"config", configJson(g.config)},
-                              {"terrain", {{"nodes", terrain.nodes()}, {"coarse_nodes", terrain.coarseNodes()}, {"half_extent_m", terrain.halfExtentM()}, {"rocks", terrain.rockCount()}, {"craters", terrain.craterCount()}}},
+                              {"terrain",
+                               {{"nodes", terrain.nodes()},
+                                {"coarse_nodes", terrain.coarseNodes()},
+                                {"half_extent_m", terrain.halfExtentM()},
+                                {"rocks", terrain.rockCount()},
+                                {"craters", terrain.craterCount()}}},
                               {"pairs", pairs},
                               {"check_points", g.points.size()},
                               {"observations", g.observations.size()}};

@@ -13,7 +13,7 @@ namespace {
 
 const char* const kUsage = R"(areomap-sim: synthetic Mars panoramas with known truth
 
-Usage: areomap-sim --preset navcam|imp|tiny --out DIR [options]
+Usage: areomap-sim --preset navcam|imp|fido|tiny --out DIR [options]
 
 Writes DIR/panorama.json, DIR/images/<stem>.png (8-bit), DIR/models/<stem>.cahvor (a-priori models,
 pointing off by a pan/tilt error of the mast head per pair) and the truth: DIR/truth/models/<stem>.cahvor,
@@ -23,6 +23,8 @@ The same seed gives the same files, whatever the number of threads.
 
 Presets: navcam  MER Navcam-like, 1024x1024, 45 deg, 20 cm base, one 360-deg tier of 18 pairs
          imp     Pathfinder IMP-like, 256x256, 14.4 deg, 15 cm base, 2 tiers x 32 pairs + 1 single image
+         fido    FIDO-like mast: navcam cameras, tilt axis 10 cm ahead of the pan axis, 2 tiers x 12
+                 pairs; panorama.json gives the stereo base only (adjust it with --fido)
          tiny    8 small pairs (256x192, 60 deg), made in seconds, for tests
 
 Options (each overrides the preset):
@@ -37,6 +39,7 @@ Options (each overrides the preset):
   --base-m B                 stereo base
   --mast-m H                 gimbal height above the ground
   --toe-in-deg T             toe-in of each camera
+  --tilt-axis-forward-m D    FIDO-like mast: the tilt axis D metres ahead of the pan axis (0..0.5)
   --tilts T1,T2,...          tilt of each 360-degree tier (degrees, up positive)
   --pan-step-deg S           pan step between pairs of every tier
   --extent-m E               half width of the terrain square around the rover
@@ -134,6 +137,7 @@ int main(int argc, char** argv) {
     c.base_m = args.number("--base-m", c.base_m);
     c.mast_m = args.number("--mast-m", c.mast_m);
     c.toe_in_deg = args.number("--toe-in-deg", c.toe_in_deg);
+    c.tilt_axis_forward_m = args.number("--tilt-axis-forward-m", c.tilt_axis_forward_m);
     if (const auto step = args.option("--pan-step-deg")) {
       const double s = parseList("--pan-step-deg", *step).front();
       for (sim::TierPlan& tier : c.tiers) {
@@ -163,8 +167,9 @@ int main(int argc, char** argv) {
     const double t0 = cli::nowSeconds();
     cli::info("preset " + c.preset + ", seed " + std::to_string(c.seed) + ": building the terrain");
     const sim::Terrain terrain = sim::Terrain::build(c);
-    cli::info("terrain " + std::to_string(terrain.nodes()) + " x " + std::to_string(terrain.nodes()) + " nodes, " +
-              std::to_string(terrain.rockCount()) + " rocks, " + std::to_string(terrain.craterCount()) + " craters");
+    cli::info("terrain " + std::to_string(terrain.nodes()) + " x " + std::to_string(terrain.nodes()) +
+              " nodes, " + std::to_string(terrain.rockCount()) + " rocks, " +
+              std::to_string(terrain.craterCount()) + " craters");
     const sim::SimGeometry g = sim::makeGeometry(c, terrain);
     cli::info(std::to_string(g.pairs.size()) + " pairs, " + std::to_string(g.cameras().size()) + " images, " +
               std::to_string(g.points.size()) + " check points, " + std::to_string(g.observations.size()) +
@@ -174,7 +179,8 @@ int main(int argc, char** argv) {
                 " check points are seen by two or more images");
     }
     if (const int beyond = sim::camerasSeeingBeyondTerrain(g, terrain); beyond > 0) {
-      cli::warn(std::to_string(beyond) + " image(s) see ground beyond the terrain grid (rendered flat, not in "
+      cli::warn(std::to_string(beyond) +
+                " image(s) see ground beyond the terrain grid (rendered flat, not in "
                 "truth/dem.tif): raise --extent-m or tilt down");
     }
     sim::WriteOptions options;
