@@ -12,7 +12,6 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
-#include <sys/wait.h>
 #include <vector>
 
 #include "tests/support/TestData.hpp"
@@ -20,16 +19,6 @@
 #include <CppUTest/TestHarness.h>
 
 namespace {
-
-std::string binDir() {
-  const char* env = std::getenv("AREOMAP_BINARY_DIR");
-  return std::string(env != nullptr ? env : ".") + "/bin";
-}
-
-int runTool(const std::string& command) {
-  const int status = std::system((command + " > /dev/null 2>&1").c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-}
 
 nlohmann::json readJson(const std::string& path) {
   std::ifstream in(path);
@@ -75,17 +64,17 @@ TEST(FidoRig, SpinCentreConstraintsRecoverTheEoOfAMastWithAnOffsetTiltAxis) {
   const double f_px = 511.5 / std::tan(22.5 * M_PI / 180.0);  // the preset's 1024 px over 45 degrees
   for (const int seed : {1, 2, 3}) {
     const std::string data = areomap::test::scratchDir("fido-rig-" + std::to_string(seed));
-    CHECK_EQUAL(0, runTool(binDir() + "/areomap-sim --preset fido --no-images --threads 1 --seed " +
-                           std::to_string(seed) + " --out " + data));
+    CHECK_EQUAL(0, areomap::test::runTool("areomap-sim", "--preset fido --no-images --threads 1 --seed " +
+                                                             std::to_string(seed) + " --out " + data));
     const nlohmann::json pano = readJson(data + "/panorama.json");
     CHECK(!pano["rig"].contains("gimbal_m") && pano["rig"].contains("base_m"));
 
     const std::string fido = areomap::test::scratchDir("fido-rig-fido-" + std::to_string(seed));
     const std::string gimbal = areomap::test::scratchDir("fido-rig-gimbal-" + std::to_string(seed));
     const std::string common = " --truth-ties --noise-px 0.3 --seed " + std::to_string(seed);
-    CHECK_EQUAL(
-        0, runTool(binDir() + "/areomap-adjust " + data + " --out " + fido + common + " --fido --no-gimbal"));
-    CHECK_EQUAL(0, runTool(binDir() + "/areomap-adjust " + data + " --out " + gimbal + common));
+    CHECK_EQUAL(0, areomap::test::runTool("areomap-adjust",
+                                          data + " --out " + fido + common + " --fido --no-gimbal"));
+    CHECK_EQUAL(0, areomap::test::runTool("areomap-adjust", data + " --out " + gimbal + common));
     const nlohmann::json rf = readJson(fido + "/report.json");
     const nlohmann::json rg = readJson(gimbal + "/report.json");
     const double before = rf["truth"]["eo_px_before"];
