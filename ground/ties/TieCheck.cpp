@@ -69,7 +69,8 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
     const Pair& p = dataset.pairs[k];
     for (const ImageRef* ref : {&p.left, p.right ? &*p.right : nullptr}) {
       if (ref == nullptr) continue;
-      truth[ref->stem] = io::readCameraModelFile(dataset.root + "/" + kTruthModelsFolder + "/" + ref->stem + ".cahvor");
+      truth[ref->stem] =
+          io::readCameraModelFile(dataset.root + "/" + kTruthModelsFolder + "/" + ref->stem + ".cahvor");
       pair_of[ref->stem] = static_cast<int>(k);
       side_of[ref->stem] = ref == &p.left ? 0 : 1;
     }
@@ -90,7 +91,8 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
     auto it = claimed.find(o.point);
     if (it == claimed.end()) {
       Vec3 origin, dir, p;
-      if (!ok(unproject(m, Vec2(o.sample_px, o.line_px), origin, dir)) || !surfacePoint(dem, origin, dir, p)) {
+      if (!ok(unproject(m, Vec2(o.sample_px, o.line_px), origin, dir)) ||
+          !surfacePoint(dem, origin, dir, p)) {
         failed.insert(o.point);
         ++check.no_surface;
         continue;
@@ -105,6 +107,13 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
     if (o.kind != "inter" && e <= 1.0) {
       intra_sum += Vec2(o.sample_px, o.line_px) - px;
       ++intra_n;
+      const double range = (it->second - m.c).norm();
+      for (int b = 0; b < TieCheck::kRangeBands; ++b) {
+        if (range >= TieCheck::kRangeBands_m[b] && range < TieCheck::kRangeBands_m[b + 1]) {
+          check.intra_mean_dx_by_range_px[b] += o.sample_px - px.x();
+          ++check.intra_by_range[b];
+        }
+      }
     } else if (o.kind == "inter" && e <= 1.0) {
       const int side = side_of.at(o.image);
       inter_sum[side] += Vec2(o.sample_px, o.line_px) - px;
@@ -118,6 +127,9 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
     sum_sq += std::min(e, 100.0) * std::min(e, 100.0);
   }
   check.rms_px = check.checked > 0 ? std::sqrt(sum_sq / check.checked) : 0.0;
+  for (int b = 0; b < TieCheck::kRangeBands; ++b) {
+    if (check.intra_by_range[b] > 0) check.intra_mean_dx_by_range_px[b] /= check.intra_by_range[b];
+  }
   if (intra_n > 0) {
     check.intra_mean_dx_px = intra_sum.x() / intra_n;
     check.intra_mean_dy_px = intra_sum.y() / intra_n;
@@ -152,8 +164,8 @@ TieCheck checkTiesAgainstTruth(const Dataset& dataset, const TieRun& run) {
     check.links[key] = links;
     if (check.min_link < 0 || links < check.min_link) {
       check.min_link = links;
-      check.worst_link = std::to_string(key.first) + "-" + std::to_string(key.second) + ": " + std::to_string(links) +
-                         " ties (" + std::to_string(n) + " truth points shared)";
+      check.worst_link = std::to_string(key.first) + "-" + std::to_string(key.second) + ": " +
+                         std::to_string(links) + " ties (" + std::to_string(n) + " truth points shared)";
     }
   }
   if (check.min_link < 0) check.min_link = 0;
