@@ -81,6 +81,8 @@ std::atomic<bool> g_stop{false};
 std::atomic<bool> g_pipeline_done{false};  // set by the pipeline thread as its last act
 std::atomic<bool> g_finished{false};  // set by the pipeline thread after the final EO (read by the transport thread)
 uint64_t g_inbox_refused = 0;
+uint64_t g_inbox_waits = 0;          // messages that waited for room in the inbox (back-pressure)
+std::size_t g_inbox_peak_bytes = 0;  // the inbox's highest fill
 
 // The pipeline's Transport: encoded messages go into the outbox (copied, no heap).
 class OutboxTransport final : public areomap::platform::Transport {
@@ -100,6 +102,7 @@ class OutboxTransport final : public areomap::platform::Transport {
 void onStereoPair(void*, const char*, const uint8_t* data, std::size_t size) {
   // Back-pressure: wait for room rather than drop (a log replay waits; LCM keeps buffering meanwhile).
   std::unique_lock<std::mutex> lock(g_mutex);
+  bool waited = false;
   while (!g_inbox.push(0, data, size)) {
     if (g_inbox.records() == 0 || g_stop.load()) {
       g_inbox_refused += 1;  // larger than the whole inbox
@@ -108,7 +111,10 @@ void onStereoPair(void*, const char*, const uint8_t* data, std::size_t size) {
     }
     g_wake.notify_all();
     g_wake.wait_for(lock, std::chrono::milliseconds(10));
+    waited = true;
   }
+  if (waited) g_inbox_waits += 1;
+  if (g_inbox.usedBytes() > g_inbox_peak_bytes) g_inbox_peak_bytes = g_inbox.usedBytes();
   g_wake.notify_all();
 }
 
@@ -449,14 +455,16 @@ void printSummary() {
       static_cast<long long>(g_node.heapProcess()), areomap::heapCounterActive() ? "" : " (counter inactive)",
       static_cast<long long>(g_node.memoryBytes()));
   const double pairs = c.pairs_accepted > 0 ? static_cast<double>(c.pairs_accepted) : 1.0;
-  std::fprintf(stderr,
-               "areomap-rover: seconds per accepted pair: decode %.3f, ties + coarse DEM %.3f, network + adjustment "
-               "%.3f, publish %.3f; inbox refused %llu\n",
-               c.stage_seconds[static_cast<int>(areomap::RoverStage::kDecode)] / pairs,
-               c.stage_seconds[static_cast<int>(areomap::RoverStage::kMatch)] / pairs,
-               c.stage_seconds[static_cast<int>(areomap::RoverStage::kAdjust)] / pairs,
-               c.stage_seconds[static_cast<int>(areomap::RoverStage::kPublish)] / pairs,
-               static_cast<unsigned long long>(g_inbox_refused));
+  std::fprintf(
+      stderr,
+      "areomap-rover: seconds per accepted pair: decode %.3f, ties + coarse DEM %.3f, network + adjustment "
+      "%.3f, publish %.3f; inbox refused %llu, waited for room %llu, peak %zu of %zu bytes\n",
+      c.stage_seconds[static_cast<int>(areomap::RoverStage::kDecode)] / pairs,
+      c.stage_seconds[static_cast<int>(areomap::RoverStage::kMatch)] / pairs,
+      c.stage_seconds[static_cast<int>(areomap::RoverStage::kAdjust)] / pairs,
+      c.stage_seconds[static_cast<int>(areomap::RoverStage::kPublish)] / pairs,
+      static_cast<unsigned long long>(g_inbox_refused), static_cast<unsigned long long>(g_inbox_waits),
+      g_inbox_peak_bytes, kInboxBytes);
 }
 
 }  // namespace
