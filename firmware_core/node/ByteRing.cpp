@@ -5,7 +5,7 @@
 namespace areomap {
 
 bool ByteRing::push(uint8_t tag, const uint8_t* data, std::size_t size) {
-  const std::size_t need = kHeaderBytes + ((size + 7u) & ~std::size_t{7});
+  const std::size_t need = recordBytes(size);
   std::size_t at = tail_;
   if (records_ == 0) {
     head_ = tail_ = wrap_ = 0;
@@ -61,7 +61,7 @@ void ByteRing::pop() {
   }
   uint64_t s = 0;
   std::memcpy(&s, storage_ + head_, sizeof(s));
-  const std::size_t need = kHeaderBytes + ((static_cast<std::size_t>(s) + 7u) & ~std::size_t{7});
+  const std::size_t need = recordBytes(static_cast<std::size_t>(s));
   head_ += need;
   used_ -= need;
   records_ -= 1;

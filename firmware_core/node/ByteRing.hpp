@@ -23,8 +23,13 @@ class ByteRing {
   uint64_t refused() const { return refused_; }
   std::size_t capacity() const { return capacity_; }
 
- private:
   static constexpr std::size_t kHeaderBytes = 16;  // size (8), tag (1), padding
+  // Ring bytes a record of `size` bytes takes: its header and the data rounded up to 8 bytes.
+  static constexpr std::size_t recordBytes(std::size_t size) {
+    return kHeaderBytes + ((size + 7u) & ~std::size_t{7});
+  }
+
+ private:
   uint8_t* storage_;
   std::size_t capacity_;
   std::size_t head_ = 0;   // oldest record

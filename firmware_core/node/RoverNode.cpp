@@ -40,11 +40,6 @@ void RoverNode::start(platform::Transport& out, platform::JpegCodec& codec, cons
   eo_.images.resize(kMaxImages);
   for (eo_entry_t& e : eo_.images) e.stem.reserve(kMaxMessageStringChars + 1);
   status_.last_error.reserve(sizeof(last_error_));
-  reserved_bytes_ = static_cast<int64_t>(kMaxJpegBytes) * 2 +
-                    static_cast<int64_t>(kMaxImages) * (kMaxMessageStringChars + 1) * 2 +
-                    static_cast<int64_t>(kMaxTiePointsPerMessage) * (4 + 2 + 8 + 8 + 1) +
-                    static_cast<int64_t>(kCoarseDemCells) * kCoarseDemCells * 4 +
-                    static_cast<int64_t>(kMaxImages) * static_cast<int64_t>(sizeof(eo_entry_t));
   counters_ = RoverCounters{};
   sequence_count_ = 0;
   sequence_head_ = 0;

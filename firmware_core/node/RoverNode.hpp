@@ -18,6 +18,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 
 #include "areomap/coarse_dem_t.hpp"
 #include "areomap/eo_solution_t.hpp"
@@ -49,6 +50,35 @@ constexpr std::size_t kMaxOutgoingBytes = 1024u * 1024u;
 constexpr int32_t kMaxTiePointsPerMessage = kMaxTiePoints;
 // Missing sequence numbers named in last_error and on stderr per gap (the count is always exact).
 constexpr int32_t kMaxNamedGapSequences = 8;
+// Characters of RoverNode::last_error_ (and of the status's last_error, reserved to match).
+constexpr int32_t kMaxLastErrorChars = 255;
+
+// Heap that RoverNode::start() reserves for the generated message types, an upper bound of what the allocator
+// holds for it from then on (~4.4 MiB): the payload of every vector and string it reserves, plus per
+// allocation the allocator's chunk header and 16-byte rounding (< 32 B in glibc), plus a page for each of
+// the two JPEG buffers (allocations that large are mapped, in whole pages). A string reserved for n
+// characters allocates n + 1; a test measures start() against this figure.
+namespace rover_reserve {
+constexpr int64_t kStringBytes = kMaxMessageStringChars + 2;  // reserve(chars + 1), plus the NUL
+constexpr int64_t kImages = kMaxImages;
+constexpr int64_t kTies = kMaxTiePointsPerMessage;
+constexpr int64_t kStereoPair =
+    3 * kStringBytes + 2 * static_cast<int64_t>(kMaxJpegBytes);  // panorama, stems
+constexpr int64_t kTiePoints =
+    kStringBytes + kImages * static_cast<int64_t>(sizeof(std::string)) + kImages * kStringBytes +
+    kTies * static_cast<int64_t>(sizeof(int32_t) + sizeof(int16_t) + 2 * sizeof(double) + sizeof(int8_t));
+constexpr int64_t kCoarseDem = kStringBytes + static_cast<int64_t>(kCoarseDemCells) * kCoarseDemCells *
+                                                  static_cast<int64_t>(sizeof(float));
+constexpr int64_t kEo =
+    kStringBytes + kImages * static_cast<int64_t>(sizeof(eo_entry_t)) + kImages * kStringBytes;
+constexpr int64_t kStatus = kMaxLastErrorChars + 2;
+// stereo pair 5, tie points 1 + 1 + kImages + 5, coarse DEM 2, EO 1 + 1 + kImages, status 1.
+constexpr int64_t kAllocations = 5 + (7 + kImages) + 2 + (2 + kImages) + 1;
+constexpr int64_t kAllocatorBytes = 32 * kAllocations + 2 * 4096;
+}  // namespace rover_reserve
+constexpr int64_t kRoverStartupReserveBytes = rover_reserve::kStereoPair + rover_reserve::kTiePoints +
+                                              rover_reserve::kCoarseDem + rover_reserve::kEo +
+                                              rover_reserve::kStatus + rover_reserve::kAllocatorBytes;
 
 enum class RoverStage : uint8_t {
   kDecode = 0,
@@ -104,10 +134,13 @@ class RoverNode {
   int64_t heapProcess() const { return heap_process_; }
   // Static buffers of the caller (transport slots, JPEG arena) to include in staticBytes().
   void setExtraStaticBytes(int64_t bytes) { extra_static_bytes_ = bytes; }
-  // Statically allocated bytes (this object and the caller's buffers): static_bytes in the status.
+  // Statically allocated bytes (this object and the caller's buffers).
   int64_t staticBytes() const;
-  // Heap reserved once by start() for the generated message types' vectors and strings (~4.6 MiB).
-  int64_t reservedBytes() const { return reserved_bytes_; }
+  // Heap reserved once by start() for the generated message types' vectors and strings (an upper bound).
+  static constexpr int64_t reservedBytes() { return kRoverStartupReserveBytes; }
+  // The memory the rover holds from start-up on, static and start-up reserve together: what the 64 MiB
+  // budget covers, and static_bytes in AREOMAP_ROVER_STATUS.
+  int64_t memoryBytes() const { return staticBytes() + reservedBytes(); }
 
   const RoverCounters& counters() const { return counters_; }
   const Network& network() const { return net_; }
@@ -169,7 +202,6 @@ class RoverNode {
   coarse_dem_t dem_;
   eo_solution_t eo_;
   rover_status_t status_;
-  int64_t reserved_bytes_ = 0;
   int64_t extra_static_bytes_ = 0;
 
   // Panorama state.
@@ -193,10 +225,12 @@ class RoverNode {
   int64_t heap_pipeline_ = -1;
   int64_t heap_process_ = -1;
   int64_t seq_tiepoints_ = 0, seq_dem_ = 0, seq_eo_ = 0, seq_status_ = 0;
-  char last_error_[256] = {0};
+  char last_error_[kMaxLastErrorChars + 1] = {0};
 };
 
-// The rover's share of the 64 MiB static budget (DESIGN.md "Capacities and memory").
-static_assert(sizeof(RoverNode) <= kStaticMemoryBudgetBytes, "RoverNode exceeds the 64 MiB static budget");
+// The rover's share of the 64 MiB budget (DESIGN.md "Capacities and memory"); the node program checks the
+// whole, its own buffers included.
+static_assert(sizeof(RoverNode) + kRoverStartupReserveBytes <= kStaticMemoryBudgetBytes,
+              "RoverNode and its start-up reserve exceed the 64 MiB budget");
 
 }  // namespace areomap

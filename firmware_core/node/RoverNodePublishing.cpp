@@ -132,7 +132,7 @@ void RoverNode::publishStatus() {
   status_.sweeps = counters_.last_sweeps;
   status_.rms_px = counters_.last_rms_px;
   status_.heap_allocs_after_init = heap_pipeline_;
-  status_.static_bytes = staticBytes();
+  status_.static_bytes = memoryBytes();  // static and start-up reserve: the figure the budget covers
   std::size_t n = std::strlen(last_error_);
   status_.last_error.assign(last_error_, n);
   publishMessage(channels::kRoverStatus, status_);

@@ -41,9 +41,6 @@ struct Reader {
   }
 };
 
-// Encoded size of camera_model_t: type, 7 three-vectors, cahvore_kind, linearity, width, height.
-constexpr std::size_t kCameraModelBytes = 1 + 7 * 3 * 8 + 1 + 8 + 4 + 4;
-
 Status walkImage(Reader& r, const char* side, const char*& field) {
   int32_t chars = 0;
   if (!r.string(chars)) return Status::kTruncated;
@@ -57,7 +54,8 @@ Status walkImage(Reader& r, const char* side, const char*& field) {
     field = side[0] == 'l' ? "left.jpeg_bytes" : "right.jpeg_bytes";
     return Status::kCapacityExceeded;
   }
-  if (jpeg < 0 || !r.skip(static_cast<std::size_t>(jpeg)) || !r.skip(kCameraModelBytes)) return Status::kTruncated;
+  if (jpeg < 0 || !r.skip(static_cast<std::size_t>(jpeg)) || !r.skip(kEncodedCameraModelBytes))
+    return Status::kTruncated;
   return Status::kOk;
 }
 

@@ -22,6 +22,20 @@ namespace areomap {
 // PDS product id is ~30 characters; 128 is ample and keeps the reserved strings small.
 constexpr int32_t kMaxMessageStringChars = 128;
 
+// Encoded sizes (LCM: fixed fields at their declared width; a string is an int32 length, its characters and
+// a NUL; a byte array its elements), from msgs/stereo_pair_t.lcm, stereo_image_t.lcm and camera_model_t.lcm.
+// camera_model_t: type, 7 three-vectors, cahvore_kind, linearity, width, height.
+constexpr std::size_t kEncodedCameraModelBytes = 1 + 7 * 3 * 8 + 1 + 8 + 4 + 4;
+constexpr std::size_t kMaxEncodedStringBytes = 4 + static_cast<std::size_t>(kMaxMessageStringChars) + 1;
+// stereo_image_t: stem, width, height, jpeg_bytes, the JPEG, the model.
+constexpr std::size_t kMaxEncodedStereoImageBytes =
+    kMaxEncodedStringBytes + 3 * 4 + static_cast<std::size_t>(kMaxJpegBytes) + kEncodedCameraModelBytes;
+// The largest stereo_pair_t that checkStereoPairCapacity accepts (~4.0 MiB): fingerprint, utime, sequence,
+// kind, panorama, pair_id, sol, tier, pairs_planned, has_right, both images, four rig three-vectors, two
+// sigmas, four flags.
+constexpr std::size_t kMaxStereoPairMessageBytes = 8 + 8 + 8 + 1 + kMaxEncodedStringBytes + 4 * 4 + 1 +
+                                                   2 * kMaxEncodedStereoImageBytes + 4 * 3 * 8 + 2 * 8 + 4;
+
 // camera_model_t <-> CameraModel. toCameraModel: kUnsupported for an unknown type, kNotFinite for NaN or
 // infinity, kInvalidArgument for a model that validateModel refuses (`field` names the component).
 [[nodiscard]] Status toCameraModel(const camera_model_t& in, CameraModel& out, const char*& field);

@@ -36,9 +36,13 @@ namespace {
 
 using areomap::Status;
 
-// Inbox: a full-speed replay of a navcam panorama (~0.5 MiB per pair) while the pipeline takes ~1 s per
-// pair: 14 MiB holds ~28 pairs of backlog beyond the kernel's receive buffer (and fits the budget).
-constexpr std::size_t kInboxBytes = 14u * 1024u * 1024u;
+// Inbox: the largest stereo pair the rover accepts (kMaxStereoPairMessageBytes, ~4.0 MiB) in a ring record,
+// two deep: the pipeline decodes the record in hand in place while the next one is copied in. A longer
+// burst waits where the sender's transport keeps it (a file:// replay is read only when there is room; a
+// udpm stream in the socket's receive buffer, recv_buf_size in the URL), not in static memory.
+constexpr std::size_t kInboxDepth = 2;
+constexpr std::size_t kInboxBytes =
+    kInboxDepth * areomap::ByteRing::recordBytes(areomap::kMaxStereoPairMessageBytes);
 constexpr std::size_t kOutboxBytes = 2u * 1024u * 1024u;
 constexpr std::size_t kReplayBufferBytes = 2u * areomap::kMaxJpegBytes + 64u * 1024u;
 constexpr int32_t kHandleTimeoutMs = 20;
@@ -49,10 +53,11 @@ uint8_t g_outbox_storage[kOutboxBytes];
 uint8_t g_replay_buffer[kReplayBufferBytes];
 uint8_t g_jpeg_arena[areomap::platform::ArenaJpegDecoder::kArenaBytes];
 
-static_assert(sizeof(areomap::RoverNode) + kInboxBytes + kOutboxBytes + kReplayBufferBytes +
-                      areomap::platform::ArenaJpegDecoder::kArenaBytes <=
+constexpr std::size_t kStaticBytes = sizeof(areomap::RoverNode) + kInboxBytes + kOutboxBytes +
+                                     kReplayBufferBytes + areomap::platform::ArenaJpegDecoder::kArenaBytes;
+static_assert(kStaticBytes + static_cast<std::size_t>(areomap::kRoverStartupReserveBytes) <=
                   areomap::kStaticMemoryBudgetBytes,
-              "the rover's static memory exceeds its 64 MiB budget");
+              "the rover's static memory and start-up reserve exceed its 64 MiB budget");
 
 // The 1 Hz heartbeat while the pipeline is busy with a pair (a matcher call takes seconds): the transport
 // thread re-publishes the last status with a fresh utime. It numbers every AREOMAP_ROVER_STATUS it sends
@@ -76,6 +81,8 @@ std::atomic<bool> g_stop{false};
 std::atomic<bool> g_pipeline_done{false};  // set by the pipeline thread as its last act
 std::atomic<bool> g_finished{false};  // set by the pipeline thread after the final EO (read by the transport thread)
 uint64_t g_inbox_refused = 0;
+uint64_t g_inbox_waits = 0;          // messages that waited for room in the inbox (back-pressure)
+std::size_t g_inbox_peak_bytes = 0;  // the inbox's highest fill
 
 // The pipeline's Transport: encoded messages go into the outbox (copied, no heap).
 class OutboxTransport final : public areomap::platform::Transport {
@@ -95,6 +102,7 @@ class OutboxTransport final : public areomap::platform::Transport {
 void onStereoPair(void*, const char*, const uint8_t* data, std::size_t size) {
   // Back-pressure: wait for room rather than drop (a log replay waits; LCM keeps buffering meanwhile).
   std::unique_lock<std::mutex> lock(g_mutex);
+  bool waited = false;
   while (!g_inbox.push(0, data, size)) {
     if (g_inbox.records() == 0 || g_stop.load()) {
       g_inbox_refused += 1;  // larger than the whole inbox
@@ -103,7 +111,10 @@ void onStereoPair(void*, const char*, const uint8_t* data, std::size_t size) {
     }
     g_wake.notify_all();
     g_wake.wait_for(lock, std::chrono::milliseconds(10));
+    waited = true;
   }
+  if (waited) g_inbox_waits += 1;
+  if (g_inbox.usedBytes() > g_inbox_peak_bytes) g_inbox_peak_bytes = g_inbox.usedBytes();
   g_wake.notify_all();
 }
 
@@ -433,24 +444,27 @@ bool transportLoop(const Options& options, bool replay, Transports& t, const are
 // The run's figures at exit (stderr).
 void printSummary() {
   const areomap::RoverCounters& c = g_node.counters();
-  std::fprintf(stderr,
-               "areomap-rover: pairs seen %d, accepted %d, rejected %d; gaps %d, duplicates %d, reordered %d; "
-               "last adjustment %d sweeps, rms %.3f px; panorama %.2f s; heap allocations after start-up: "
-               "pipeline thread %lld (reported as heap_allocs_after_init), whole process %lld%s; static memory "
-               "%lld bytes\n",
-               c.pairs_seen, c.pairs_accepted, c.pairs_rejected, c.sequence_gaps, c.duplicates, c.reordered,
-               c.last_sweeps, c.last_rms_px, c.panorama_seconds, static_cast<long long>(g_node.heapPipeline()),
-               static_cast<long long>(g_node.heapProcess()),
-               areomap::heapCounterActive() ? "" : " (counter inactive)", static_cast<long long>(g_node.staticBytes()));
+  std::fprintf(
+      stderr,
+      "areomap-rover: pairs seen %d, accepted %d, rejected %d; gaps %d, duplicates %d, reordered %d; "
+      "last adjustment %d sweeps, rms %.3f px; panorama %.2f s; heap allocations after start-up: "
+      "pipeline thread %lld (reported as heap_allocs_after_init), whole process %lld%s; memory %lld "
+      "bytes (static and start-up reserve)\n",
+      c.pairs_seen, c.pairs_accepted, c.pairs_rejected, c.sequence_gaps, c.duplicates, c.reordered,
+      c.last_sweeps, c.last_rms_px, c.panorama_seconds, static_cast<long long>(g_node.heapPipeline()),
+      static_cast<long long>(g_node.heapProcess()), areomap::heapCounterActive() ? "" : " (counter inactive)",
+      static_cast<long long>(g_node.memoryBytes()));
   const double pairs = c.pairs_accepted > 0 ? static_cast<double>(c.pairs_accepted) : 1.0;
-  std::fprintf(stderr,
-               "areomap-rover: seconds per accepted pair: decode %.3f, ties + coarse DEM %.3f, network + adjustment "
-               "%.3f, publish %.3f; inbox refused %llu\n",
-               c.stage_seconds[static_cast<int>(areomap::RoverStage::kDecode)] / pairs,
-               c.stage_seconds[static_cast<int>(areomap::RoverStage::kMatch)] / pairs,
-               c.stage_seconds[static_cast<int>(areomap::RoverStage::kAdjust)] / pairs,
-               c.stage_seconds[static_cast<int>(areomap::RoverStage::kPublish)] / pairs,
-               static_cast<unsigned long long>(g_inbox_refused));
+  std::fprintf(
+      stderr,
+      "areomap-rover: seconds per accepted pair: decode %.3f, ties + coarse DEM %.3f, network + adjustment "
+      "%.3f, publish %.3f; inbox refused %llu, waited for room %llu, peak %zu of %zu bytes\n",
+      c.stage_seconds[static_cast<int>(areomap::RoverStage::kDecode)] / pairs,
+      c.stage_seconds[static_cast<int>(areomap::RoverStage::kMatch)] / pairs,
+      c.stage_seconds[static_cast<int>(areomap::RoverStage::kAdjust)] / pairs,
+      c.stage_seconds[static_cast<int>(areomap::RoverStage::kPublish)] / pairs,
+      static_cast<unsigned long long>(g_inbox_refused), static_cast<unsigned long long>(g_inbox_waits),
+      g_inbox_peak_bytes, kInboxBytes);
 }
 
 }  // namespace
@@ -481,11 +495,15 @@ int main(int argc, char** argv) {
   g_node.start(outbox, jpeg, clock, rover_options);
   g_node.setExtraStaticBytes(static_cast<int64_t>(sizeof(g_inbox_storage) + sizeof(g_outbox_storage) +
                                                   sizeof(g_replay_buffer) + sizeof(g_jpeg_arena)));
-  std::fprintf(stderr,
-               "areomap-rover: listening on %s (static memory %lld bytes, message buffers reserved at "
-               "start-up %lld bytes)\n",
-               options.lcm_url, static_cast<long long>(g_node.staticBytes()),
-               static_cast<long long>(g_node.reservedBytes()));
+  std::fprintf(
+      stderr,
+      "areomap-rover: listening on %s (memory: static %lld + message buffers reserved at start-up %lld "
+      "= %lld bytes, %.1f %% of the %llu-byte budget)\n",
+      options.lcm_url, static_cast<long long>(g_node.staticBytes()),
+      static_cast<long long>(g_node.reservedBytes()), static_cast<long long>(g_node.memoryBytes()),
+      100.0 * static_cast<double>(g_node.memoryBytes()) /
+          static_cast<double>(areomap::kStaticMemoryBudgetBytes),
+      static_cast<unsigned long long>(areomap::kStaticMemoryBudgetBytes));
 
   std::thread pipeline(pipelineLoop, std::cref(options), std::cref(clock), std::ref(jpeg));
   const bool input_failed = transportLoop(options, replay, transports, clock, pipeline);

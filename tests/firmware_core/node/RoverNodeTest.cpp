@@ -1,7 +1,11 @@
 // RoverNode's stream handling without images (builds for the cross targets too): sequence gaps, duplicates,
 // reordering, bad messages by cause, status publication, zero heap after start().
+#include <cstdio>
 #include <cstring>
+#include <memory>
 #include <vector>
+
+#include <malloc.h>
 
 #include "areomap/rover_status_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
@@ -108,7 +112,8 @@ TEST(RoverNodeStream, SequencesAndBadMessagesCountedWithoutHeap) {
   CHECK_EQUAL(1, last.status.sequence_gaps);
   CHECK_EQUAL(4, last.status.rejected_by_cause[rover_status_t::CAUSE_MISSING_FIELD]);
   CHECK_EQUAL(rover_status_t::STATE_FINISHED, last.status.state);
-  CHECK_TRUE(last.status.static_bytes >= static_cast<int64_t>(sizeof(RoverNode)));
+  // static_bytes is static memory and start-up reserve together (no caller's buffers here).
+  CHECK_EQUAL(static_cast<int64_t>(sizeof(RoverNode)) + RoverNode::reservedBytes(), last.status.static_bytes);
 
   // After the end marker, sequence 0 starts a new stream: not a duplicate.
   const std::vector<uint8_t> again = encodeMarker(0, stereo_pair_t::KIND_PAIR);
@@ -155,4 +160,40 @@ TEST(RoverNodeStream, SequenceAndSizesCheckedBeforeUse) {
   CHECK_EQUAL(2, c.rejected_by_cause[static_cast<int>(Status::kMissingField)]);
   CHECK_EQUAL(INT32_MAX, c.sequence_gaps);  // saturated, not wrapped negative
   CHECK_EQUAL(0, c.pairs_accepted);
+}
+
+TEST_GROUP(RoverNodeMemory){};
+
+// The heap start() takes is what RoverNode::reservedBytes() states, which the budget counts: measured as the
+// growth of the allocator's bytes in use (arena and mapped chunks, glibc's mallinfo2) across the start() of
+// a fresh node, it is at most the stated figure and not far below it (the figure is the reserved payload plus
+// the allocator's overhead per allocation, so a reserve that grew or a figure that lost a term both fail).
+TEST(RoverNodeMemory, StartReservesTheStatedHeapWithinTheBudget) {
+  if (AREOMAP_SANITIZER_BUILD) {
+    std::printf("SKIP: the sanitizer's allocator keeps its own books\n");
+    return;
+  }
+  // A node of its own (g_node's message buffers were reserved by an earlier start()), on the heap: the test
+  // takes its bytes-in-use mark after allocating it.
+  std::unique_ptr<RoverNode> node(new RoverNode);
+  uint8_t queue[4096];
+  platform::MemoryTransport out{queue, sizeof(queue)};
+  platform::ArenaJpegDecoder jpeg{g_arena, sizeof(g_arena)};
+  platform::ManualClock clock{1'700'000'000'000'000, 1'000'000};
+  RoverOptions options;
+  options.log_to_stderr = false;
+  const struct mallinfo2 before = mallinfo2();
+  node->start(out, jpeg, clock, options);
+  const struct mallinfo2 after = mallinfo2();
+  const int64_t measured = static_cast<int64_t>(after.uordblks + after.hblkhd) -
+                           static_cast<int64_t>(before.uordblks + before.hblkhd);
+  std::printf(
+      "RoverNode::start() heap: %lld bytes measured, %lld stated; static %lld + reserve = %lld of the "
+      "%lld-byte budget\n",
+      static_cast<long long>(measured), static_cast<long long>(RoverNode::reservedBytes()),
+      static_cast<long long>(sizeof(RoverNode)), static_cast<long long>(node->memoryBytes()),
+      static_cast<long long>(kStaticMemoryBudgetBytes));
+  CHECK_TRUE(measured <= RoverNode::reservedBytes());
+  CHECK_TRUE(measured >= RoverNode::reservedBytes() - RoverNode::reservedBytes() / 50);
+  CHECK_TRUE(node->memoryBytes() <= static_cast<int64_t>(kStaticMemoryBudgetBytes));
 }

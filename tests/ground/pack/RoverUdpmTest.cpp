@@ -15,6 +15,7 @@
 #include "areomap/eo_solution_t.hpp"
 #include "areomap/rover_status_t.hpp"
 #include "areomap/tiepoints_t.hpp"
+#include "firmware_core/base/Capacities.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/pack/Pack.hpp"
 #include "msgs/Channels.hpp"
@@ -123,6 +124,9 @@ std::string runRover(bool& no_network) {
   if (s.sequence_gaps != 0 || s.duplicates != 0) return "sequence gaps at the rover";
   if (s.pairs_accepted != static_cast<int>(events.size()) - 1) return "pairs lost";
   if (s.heap_allocs_after_init != 0) return "heap allocations after start-up in the pipeline";
+  // The rover program's memory as it reports it: static buffers and the start-up reserve, within 64 MiB.
+  if (s.static_bytes <= 0 || s.static_bytes > static_cast<int64_t>(kStaticMemoryBudgetBytes))
+    return "the rover's memory (static and start-up reserve) is not within the 64 MiB budget";
   // The rover's own messages: tie points 0..n-1 without a gap.
   for (std::size_t i = 0; i < listener.tiepoint_sequences.size(); ++i) {
     if (listener.tiepoint_sequences[i] != static_cast<int64_t>(i)) return "gap in the rover's tie-point messages";

@@ -105,6 +105,27 @@ TEST(MessageAdapters, CapacityWalkAndHeapFreeDecode) {
   CHECK_EQUAL(encodedFingerprint(good.data(), good.size()), static_cast<uint64_t>(stereo_pair_t::getHash()));
 }
 
+// kMaxStereoPairMessageBytes is the encoded size of the largest pair the capacity check accepts (every string
+// at kMaxMessageStringChars, both JPEGs at kMaxJpegBytes), as the generated encoder counts it; a character
+// more is refused.
+TEST(MessageAdapters, LargestAcceptedPairIsTheStatedSize) {
+  stereo_pair_t p = pairWith(kMaxMessageStringChars, kMaxJpegBytes);
+  p.panorama = std::string(kMaxMessageStringChars, 'P');
+  p.right.stem = std::string(kMaxMessageStringChars, 'R');
+  p.right.jpeg.assign(static_cast<std::size_t>(kMaxJpegBytes), 3);
+  p.right.jpeg_bytes = kMaxJpegBytes;
+  const std::vector<uint8_t> largest = encode(p);
+  CHECK_EQUAL(kMaxStereoPairMessageBytes, largest.size());
+  const char* field = "";
+  CHECK_EQUAL(static_cast<int>(Status::kOk),
+              static_cast<int>(checkStereoPairCapacity(largest.data(), largest.size(), field)));
+  p.panorama.push_back('P');
+  const std::vector<uint8_t> beyond = encode(p);
+  CHECK_EQUAL(static_cast<int>(Status::kCapacityExceeded),
+              static_cast<int>(checkStereoPairCapacity(beyond.data(), beyond.size(), field)));
+  STRCMP_EQUAL("panorama", field);
+}
+
 // Sizes read from a message are checked against the capacities before anything is decoded: the JPEG is
 // present, the image is 1..kMaxImageWidth x 1..kMaxImageHeight, the model is of the image's size.
 TEST(MessageAdapters, ImageSizesCheckedAgainstCapacities) {
