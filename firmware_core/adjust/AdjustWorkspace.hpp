@@ -28,10 +28,8 @@ struct AdjustWorkspace {
   // The observations of image i: image_obs[image_obs_start[i] .. image_obs_start[i + 1]).
   int32_t image_obs_start[kMaxImages + 1] = {};
   int32_t image_obs[kMaxObservations] = {};
-  // Per pair: its 12x12 normal block (final precision: points fixed; kSchurPcg: with constraints and
-  // damping).
+  // Per pair: its damped 12x12 normal block with constraints (kSchurPcg and the covariance's PCG columns).
   Mat12 pair_normal[kMaxPairs];
-  bool pair_normal_ok[kMaxPairs] = {};
 
   // The step of the cameras (6 per image, [dC, delta]) of the last linear solve (PCG or block Cholesky).
   double step[kMaxEoUnknowns] = {};

@@ -150,7 +150,7 @@ bool AndersonAccelerator::candidate(int32_t dim, const double* g, double* candid
 }
 
 Status Alternation::sweep(Network& net, AdjustWorkspace& ws, const FastAdjustOptions& options) {
-  return options.reduced_pair_solves ? reducedSweep(net, ws) : pairStep(net, ws, false);
+  return options.reduced_pair_solves ? reducedSweep(net, ws) : pairStep(net, ws);
 }
 
 Status Alternation::reducedSweep(Network& net, AdjustWorkspace& ws) {

@@ -7,6 +7,17 @@
 
 namespace areomap {
 
+void setPairCovariance(Network& net, int32_t pair, const Mat12& covariance) {
+  NetPair& pr = net.pair(pair);
+  pr.covariance = covariance;
+  if (pr.right < 0) {
+    pr.covariance.rightCols<6>().setZero();
+    pr.covariance.bottomRows<6>().setZero();
+  }
+  net.image(pr.left).sigma = pr.covariance.diagonal().head<6>().cwiseMax(0.0).cwiseSqrt();
+  if (pr.right >= 0) net.image(pr.right).sigma = pr.covariance.diagonal().tail<6>().cwiseMax(0.0).cwiseSqrt();
+}
+
 int32_t networkRedundancy(const Network& net, int32_t active_observations) {
   int32_t constraint_rows = 0;
   for (int32_t p = 0; p < net.pairCount(); ++p) {
@@ -22,7 +33,7 @@ int32_t networkRedundancy(const Network& net, int32_t active_observations) {
          (net.rig.use_datum_prior ? 3 : 0);
 }
 
-Status EoCovariance::pcgColumns(const Network& net, const AdjustWorkspace& ws, PcgSolver& pcg, int32_t pair) {
+void EoCovariance::pcgColumns(const Network& net, const AdjustWorkspace& ws, PcgSolver& pcg, int32_t pair) {
   const NetPair& pr = net.pair(pair);
   const int32_t dim = 6 * net.imageCount();
   const int32_t columns = pr.right >= 0 ? 12 : 6;
@@ -34,7 +45,6 @@ Status EoCovariance::pcgColumns(const Network& net, const AdjustWorkspace& ws, P
     pcg.solveReduced(net, ws, v_, kCovariancePcgTolerance, x_, iterations);
     for (int32_t j = 0; j < net.pairCount(); ++j) columns_[j].col(c) = gatherPair(net.pair(j), x_);
   }
-  return Status::kOk;
 }
 
 void EoCovariance::store(Network& net, int32_t pair, double sigma0) const {
@@ -48,14 +58,7 @@ void EoCovariance::store(Network& net, int32_t pair, double sigma0) const {
   }
   c = 0.5 * (c + c.transpose()).eval();
   c *= sigma0 * sigma0;
-  NetPair& pr = net.pair(pair);
-  if (pr.right < 0) {
-    c.rightCols<6>().setZero();
-    c.bottomRows<6>().setZero();
-  }
-  pr.covariance = c;
-  net.image(pr.left).sigma = c.diagonal().head<6>().cwiseMax(0.0).cwiseSqrt();
-  if (pr.right >= 0) net.image(pr.right).sigma = c.diagonal().tail<6>().cwiseMax(0.0).cwiseSqrt();
+  setPairCovariance(net, pair, c);
 }
 
 Status EoCovariance::compute(Network& net, AdjustWorkspace& ws, BlockCholesky& cholesky, PcgSolver& pcg,
@@ -75,8 +78,7 @@ Status EoCovariance::compute(Network& net, AdjustWorkspace& ws, BlockCholesky& c
     if (solver == CovarianceSolver::kCholesky) {
       cholesky.solvePairColumns(net, ws, p, columns_);
     } else {
-      const Status s = pcgColumns(net, ws, pcg, p);
-      if (!ok(s)) return s;
+      pcgColumns(net, ws, pcg, p);
     }
     store(net, p, sigma0);
     if (!net.pair(p).covariance.allFinite()) return Status::kNotFinite;

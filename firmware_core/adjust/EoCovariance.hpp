@@ -46,6 +46,10 @@ constexpr double kCovariancePcgTolerance = 1e-12;
 // prior's rows are not counted as observations (they fix the datum's 3 rotations).
 int32_t networkRedundancy(const Network& net, int32_t active_observations);
 
+// Stores a pair's covariance (a single image's right half zeroed) and its images' sigmas, the square roots
+// of its diagonal: what every path that computes an EO covariance writes into the network.
+void setPairCovariance(Network& net, int32_t pair, const Mat12& covariance);
+
 class EoCovariance {
  public:
   // Writes every pair's covariance (NetPair::covariance) and every image's sigmas (NetImage::sigma, the
@@ -58,8 +62,7 @@ class EoCovariance {
                                CovarianceSolver use = CovarianceSolver::kCholesky);
 
  private:
-  [[nodiscard]] Status pcgColumns(const Network& net, const AdjustWorkspace& ws, PcgSolver& pcg,
-                                  int32_t pair);
+  void pcgColumns(const Network& net, const AdjustWorkspace& ws, PcgSolver& pcg, int32_t pair);
   void store(Network& net, int32_t pair, double sigma0) const;
 
   Mat12 columns_[kMaxPairs];                  // the 12 columns of S^-1 of one pair, by pair index (rows)

@@ -111,7 +111,7 @@ void scatterPair(const NetPair& pr, const Vec12& v, double* per_image) {
   if (pr.right >= 0) Eigen::Map<Vec6>(per_image + 6 * pr.right) = v.tail<6>();
 }
 
-Status pairStep(Network& net, AdjustWorkspace& ws, bool keep_normals) {
+Status pairStep(Network& net, AdjustWorkspace& ws) {
   for (int32_t p = 0; p < net.pairCount(); ++p) {
     const NetPair& pr = net.pair(p);
     const int32_t images[2] = {pr.left, pr.right};
@@ -133,15 +133,7 @@ Status pairStep(Network& net, AdjustWorkspace& ws, bool keep_normals) {
     addPairConstraints(net, p, n, b);
     const Eigen::LDLT<Mat12> ldlt(n);
     const Vec12 d = ldlt.vectorD();
-    if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-12 * d.maxCoeff())) {
-      ws.pair_normal_ok[p] = false;
-      return Status::kDegenerate;
-    }
-    if (keep_normals) {
-      ws.pair_normal[p] = n;
-      ws.pair_normal_ok[p] = true;
-      continue;
-    }
+    if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-12 * d.maxCoeff())) return Status::kDegenerate;
     const Vec12 delta = ldlt.solve(b);
     if (!delta.allFinite()) {
       return Status::kNotFinite;

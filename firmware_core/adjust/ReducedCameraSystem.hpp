@@ -46,10 +46,9 @@ void addPairConstraints(const Network& net, int32_t pair, Mat12& n, Vec12& b);
 Vec12 gatherPair(const NetPair& pr, const double* per_image);
 void scatterPair(const NetPair& pr, const Vec12& v, double* per_image);
 
-// Every pair's 12x12 system with the points fixed, linearised at the current state: keep_normals stores
-// the normal blocks in ws.pair_normal (the EO precision), else each pair takes its step (the plain
+// Every pair's 12x12 system with the points fixed, linearised at the current state, and its step (the plain
 // alternation's pair pass). kDegenerate when a block is singular, kNotFinite for a non-finite step.
-[[nodiscard]] Status pairStep(Network& net, AdjustWorkspace& ws, bool keep_normals);
+[[nodiscard]] Status pairStep(Network& net, AdjustWorkspace& ws);
 
 // Whitened residual and Jacobians of every usable observation at the current state, into ws.obs_*.
 void linearize(const Network& net, AdjustWorkspace& ws);

@@ -398,19 +398,15 @@ void svdCovariance(Network& net, double sigma0) {
   const Eigen::MatrixXd middle = n - prior;
   const Eigen::MatrixXd cov = sigma0 * sigma0 * (g_cameras * middle * g_cameras.transpose());
   for (int p = 0; p < net.pairCount(); ++p) {
-    NetPair& pr = net.pair(p);
-    const int idx[2] = {pr.left, pr.right};
-    pr.covariance.setZero();
+    const int idx[2] = {net.pair(p).left, net.pair(p).right};
+    Mat12 pair_cov = Mat12::Zero();
     for (int a = 0; a < 2; ++a) {
       for (int c = 0; c < 2; ++c) {
         if (idx[a] >= 0 && idx[c] >= 0)
-          pr.covariance.block<6, 6>(6 * a, 6 * c) = cov.block<6, 6>(6 * idx[a], 6 * idx[c]);
+          pair_cov.block<6, 6>(6 * a, 6 * c) = cov.block<6, 6>(6 * idx[a], 6 * idx[c]);
       }
     }
-    for (int a = 0; a < 2; ++a) {
-      if (idx[a] >= 0)
-        net.image(idx[a]).sigma = pr.covariance.diagonal().segment<6>(6 * a).cwiseMax(0.0).cwiseSqrt();
-    }
+    setPairCovariance(net, p, pair_cov);
   }
 }
 
@@ -419,11 +415,11 @@ void svdCovariance(Network& net, double sigma0) {
 // at the solution (ceres; EoCovariance.hpp: Ceres' own covariance would count the datum prior as a
 // measurement).
 void solutionPrecision(Network& net, IntegratedResult& result) {
-  int32_t active = 0;
-  result.cost = fastAdjuster().evaluateCost(net, &result.rms_px, &active);
-  result.redundancy = networkRedundancy(net, active);
-  result.sigma0 = result.redundancy > 0 ? std::sqrt(result.cost / result.redundancy) : 0.0;
   if (result.method == "svd") {
+    int32_t active = 0;
+    (void)fastAdjuster().evaluateCost(net, nullptr, &active);
+    result.redundancy = networkRedundancy(net, active);
+    result.sigma0 = result.redundancy > 0 ? std::sqrt(result.cost / result.redundancy) : 0.0;
     svdCovariance(net, result.sigma0);
     return;
   }
@@ -432,11 +428,9 @@ void solutionPrecision(Network& net, IntegratedResult& result) {
     throw std::runtime_error(std::string("integrated adjustment: the solution's network is not usable: ") +
                              statusName(fast.status));
   }
-  if (!ok(fast.covariance_status)) {
-    result.covariance_note = std::string("no EO covariance: the reduced camera system is ") +
-                             statusName(fast.covariance_status) +
-                             " (the constraints do not make the network rigid)";
-  }
+  result.redundancy = fast.redundancy;
+  result.sigma0 = fast.sigma0;
+  result.covariance_note = covarianceWarning(fast.covariance_status);
 }
 
 // Held rig sigmas (Network.hpp), as the fast adjuster applies them: solved again from where the solver
@@ -456,6 +450,12 @@ IntegratedResult withHeldRig(Network& net, SolveOnce solve_once) {
 }
 
 }  // namespace
+
+std::string covarianceWarning(Status status) {
+  if (ok(status)) return "";
+  return std::string("eo.csv sigmas are zero: the reduced camera system is ") + statusName(status) +
+         " (the constraints do not make the network rigid).";
+}
 
 IntegratedResult adjustSvd(Network& net, const IntegratedOptions& options) {
   return withHeldRig(net, [&] { return svdOnce(net, options); });

@@ -35,12 +35,17 @@ struct IntegratedResult {
   double cost = 0.0;  // total weighted cost (same definition as FastAdjustResult::cost)
   double rms_px = 0.0;
   double seconds = 0.0;
-  std::string message;          // the solver's own summary line (of the last solve)
-  int rig_tightenings = 0;      // re-solves with tighter held rig sigmas (Network.hpp)
-  int redundancy = 0;           // of the solution (EoCovariance.hpp networkRedundancy)
-  double sigma0 = 0.0;          // sqrt(cost / redundancy)
-  std::string covariance_note;  // why the EO sigmas are zero, when they are
+  std::string message;      // the solver's own summary line (of the last solve)
+  int rig_tightenings = 0;  // re-solves with tighter held rig sigmas (Network.hpp)
+  int redundancy = 0;       // of the solution (EoCovariance.hpp networkRedundancy)
+  double sigma0 = 0.0;      // sqrt(cost / redundancy)
+  std::string
+      covariance_note;  // covarianceWarning() of the solution: why its EO sigmas are zero, if they are
 };
+
+// The report's warning when an EO covariance was refused with `status` (EoCovariance.hpp; its sigmas are
+// then zero); empty for kOk.
+std::string covarianceWarning(Status status);
 
 // Both throw std::runtime_error on a network they cannot solve (no unknowns, non-finite values).
 IntegratedResult adjustSvd(Network& net, const IntegratedOptions& options = {});

@@ -247,9 +247,7 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   report.seconds.emplace_back("adjust_integrated", cli::nowSeconds() - t0);
   if (!integrated.converged)
     report.warnings.push_back("The integrated adjustment did not report convergence.");
-  if (!integrated.covariance_note.empty()) {
-    report.warnings.push_back("eo.csv sigmas are zero: " + integrated.covariance_note + ".");
-  }
+  if (!integrated.covariance_note.empty()) report.warnings.push_back(integrated.covariance_note);
   report.solver = "ceres (integrated reference; outliers rejected by the fast adjustment first)";
   report.stop_rule = integrated.converged ? "converged" : "not_converged";
   report.iterations = integrated.iterations;

@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 namespace areomap::test {
 
@@ -23,7 +25,8 @@ std::string sharedDataDir() {
 
 std::string scratchDir(const std::string& name) {
   const char* env = std::getenv("AREOMAP_BINARY_DIR");
-  const std::string root = (env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR)) + "/test-scratch";
+  const std::string root =
+      (env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR)) + "/test-scratch";
   const std::string dir = root + "/" + name;
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
@@ -54,10 +57,29 @@ int runTool(const std::string& tool, const std::string& args) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }
 
+std::vector<std::array<double, 6>> readEoSigmas(const std::string& eo_csv) {
+  std::ifstream in(eo_csv);
+  std::string line;
+  std::getline(in, line);  // header
+  std::vector<std::array<double, 6>> rows;
+  while (std::getline(in, line)) {
+    std::vector<std::string> fields;
+    std::stringstream ss(line);
+    std::string field;
+    while (std::getline(ss, field, ',')) fields.push_back(field);
+    if (fields.size() < 6) continue;
+    std::array<double, 6> sigma{};
+    for (int c = 0; c < 6; ++c) sigma[c] = std::atof(fields[fields.size() - 6 + c].c_str());
+    rows.push_back(sigma);
+  }
+  return rows;
+}
+
 std::string makeTinyDataset(const std::string& name, int seed) {
   // One folder per process: CTest runs a test executable's groups as separate, concurrent processes.
   const std::string dir = scratchDir(name + "-" + std::to_string(::getpid())) + "/sim";
-  if (runTool("areomap-sim", "--preset tiny --seed " + std::to_string(seed) + " --out " + dir) != 0) return "";
+  if (runTool("areomap-sim", "--preset tiny --seed " + std::to_string(seed) + " --out " + dir) != 0)
+    return "";
   return dir;
 }
 

@@ -3,12 +3,14 @@
 // returns false when it is absent; the test then returns early.
 #pragma once
 
+#include <array>
 #include <string>
+#include <vector>
 
 namespace areomap::test {
 
-std::string sourceDir();         // the repository root
-std::string sharedDataDir();     // ../shared/data (or $AREOMAP_SHARED_DATA)
+std::string sourceDir();                          // the repository root
+std::string sharedDataDir();                      // ../shared/data (or $AREOMAP_SHARED_DATA)
 std::string scratchDir(const std::string& name);  // an empty folder under the build tree for this test
 bool requireSharedData(const std::string& folder);
 bool fileExists(const std::string& path);
@@ -18,6 +20,8 @@ std::string toolPath(const std::string& tool);
 // Runs build/bin/<tool> with `args` (a shell word list), output discarded; returns its exit code, 128 when
 // it did not exit normally.
 int runTool(const std::string& tool, const std::string& args);
+// The six sigma columns of every row of an eo.csv (sigma_x_m .. sigma_rot_z_rad, its last six columns).
+std::vector<std::array<double, 6>> readEoSigmas(const std::string& eo_csv);
 // The `tiny` simulated panorama (areomap-sim --preset tiny --seed N) in scratchDir(name-PID)/sim; "" when the
 // simulator failed. Tests keep the result in a function-local static to make it once per process.
 std::string makeTinyDataset(const std::string& name, int seed = 3);

@@ -146,11 +146,8 @@ FastAdjustResult fastAdjustment(const Options& o, const Dataset& dataset, const 
   report.iterations = fr.sweeps;
   report.sigma0 = fr.sigma0;
   report.rms_px = fr.rms_px;
-  if (o.solver == "fast" && !ok(fr.covariance_status)) {
-    report.warnings.push_back(std::string("eo.csv sigmas are zero: the reduced camera system is ") +
-                              statusName(fr.covariance_status) +
-                              " (the constraints do not make the network rigid).");
-  }
+  if (o.solver == "fast" && !ok(fr.covariance_status))
+    report.warnings.push_back(ground::covarianceWarning(fr.covariance_status));
   if (fr.stop_rule == StopRule::kMaxSweeps) {
     report.warnings.push_back("The fast adjustment reached its sweep bound (" + std::to_string(o.max_sweeps) +
                               ") before its stop rule held.");
@@ -180,8 +177,7 @@ void integratedAdjustment(const std::string& solver, ground::AdjustReport& repor
     ir = ground::adjustCeres(g_net);
   }
   if (!ir.converged) report.warnings.push_back("The " + solver + " adjustment did not report convergence.");
-  if (!ir.covariance_note.empty())
-    report.warnings.push_back("eo.csv sigmas are zero: " + ir.covariance_note + ".");
+  if (!ir.covariance_note.empty()) report.warnings.push_back(ir.covariance_note);
   report.iterations = ir.iterations;
   report.rms_px = ir.rms_px;
   report.sigma0 = ir.sigma0;

@@ -23,21 +23,6 @@ BlockCholesky g_ccholesky;
 PcgSolver g_cpcg_solver;
 EoCovariance g_ccovariance;
 
-// The largest |a - b| of two pairs' covariances relative to sqrt(b_rr b_cc).
-double largestRelativeDifference(const Network& a, const Network& b) {
-  double worst = 0.0;
-  for (int32_t p = 0; p < a.pairCount(); ++p) {
-    const Mat12& x = a.pair(p).covariance;
-    const Mat12& y = b.pair(p).covariance;
-    for (int r = 0; r < 12; ++r) {
-      for (int c = 0; c < 12; ++c) {
-        const double scale = std::sqrt(std::fabs(y(r, r) * y(c, c)));
-        if (scale > 0.0) worst = std::fmax(worst, std::fabs(x(r, c) - y(r, c)) / scale);
-      }
-    }
-  }
-  return worst;
-}
 }  // namespace
 
 TEST_GROUP(EoCovariance){};
@@ -63,7 +48,7 @@ TEST(EoCovariance, FactorAndConjugateGradientsGiveTheSameCovariance) {
                                       CovarianceSolver::kPcg)));
   CHECK_EQUAL(0u, scope.allocations());
   CHECK_TRUE(used == CovarianceSolver::kPcg);
-  const double worst = largestRelativeDifference(g_cpcg, g_cnet);
+  const double worst = test::largestCovarianceDifference(g_cpcg, g_cnet);
   std::printf(
       "\n  %d pairs (the last a single image), sigma0 %.3f, left image 0 sigmas %.2e %.2e %.2e m %.2e %.2e "
       "%.2e rad; largest factor - PCG difference %.2e\n",

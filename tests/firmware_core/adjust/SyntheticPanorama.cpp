@@ -50,7 +50,9 @@ bool intersectTerrain(const Vec3& origin, const Vec3& dir, double max_range, Vec
 
 }  // namespace
 
-PanoramaConfig navcamConfig() { return PanoramaConfig{}; }
+PanoramaConfig navcamConfig() {
+  return PanoramaConfig{};
+}
 
 PanoramaConfig impConfig() {
   PanoramaConfig c;
@@ -162,7 +164,8 @@ void makePanorama(const PanoramaConfig& cfg, Network& net, PanoramaTruth& truth)
             obs += (10.0 + 40.0 * uni(rng)) * Vec2(std::cos(a), std::sin(a));
             outlier = true;
           }
-          if (ok(net.addObservation(point, seen[k], obs, cfg.noise_px > 0.0 ? cfg.noise_px : 0.3))) truth.outlier.push_back(outlier);
+          if (ok(net.addObservation(point, seen[k], obs, cfg.noise_px > 0.0 ? cfg.noise_px : 0.3)))
+            truth.outlier.push_back(outlier);
         }
       }
     }
@@ -184,6 +187,21 @@ double largestEoDifferencePx(const Network& a, const Network& b, double range_m)
                                        rotationAngle(a.image(i).m, b.image(i).m), range_m));
   }
   return d;
+}
+
+double largestCovarianceDifference(const Network& a, const Network& b) {
+  double worst = 0.0;
+  for (int32_t p = 0; p < a.pairCount(); ++p) {
+    const Mat12& x = a.pair(p).covariance;
+    const Mat12& y = b.pair(p).covariance;
+    for (int r = 0; r < 12; ++r) {
+      for (int c = 0; c < 12; ++c) {
+        const double scale = std::sqrt(std::fabs(y(r, r) * y(c, c)));
+        if (scale > 0.0) worst = std::fmax(worst, std::fabs(x(r, c) - y(r, c)) / scale);
+      }
+    }
+  }
+  return worst;
 }
 
 void restartFromApriori(const Network& from, Network& to) {

@@ -1,10 +1,10 @@
 // Test-only generator of a synthetic panoramic stereo network with truth (its own generator, independent of
-// the simulator's makeGeometry, so the adjuster is checked against geometry the simulator does not share). A rig of two cameras on a mast spins about a
-// gimbal centre (Eq. 3 holds exactly in truth); pairs are taken at `azimuths` x `tiers` pointings; tie
-// points are terrain points seen from the left camera on a pixel grid and observed in every image that
-// sees them; observations = true ideal pixels + Gaussian noise (+ optional gross outliers). The a-priori
-// EO rotates each pair rigidly about the gimbal centre by a random 3-15 px pointing error (so it satisfies
-// the constraints, as pointing-derived models do).
+// the simulator's makeGeometry, so the adjuster is checked against geometry the simulator does not share). A
+// rig of two cameras on a mast spins about a gimbal centre (Eq. 3 holds exactly in truth); pairs are taken at
+// `azimuths` x `tiers` pointings; tie points are terrain points seen from the left camera on a pixel grid and
+// observed in every image that sees them; observations = true ideal pixels + Gaussian noise (+ optional gross
+// outliers). The a-priori EO rotates each pair rigidly about the gimbal centre by a random 3-15 px pointing
+// error (so it satisfies the constraints, as pointing-derived models do).
 #pragma once
 
 #include <cstdint>
@@ -25,13 +25,13 @@ struct PanoramaConfig {
   double f_px = 1236.0;
   double baseline_m = 0.2;
   double mast_height_m = 1.5;
-  int32_t grid = 8;                 // tie-point grid per left image (grid x grid)
+  int32_t grid = 8;  // tie-point grid per left image (grid x grid)
   double max_range_m = 40.0;
   double noise_px = 0.3;
   double pointing_min_px = 3.0;
   double pointing_max_px = 15.0;
-  double outlier_fraction = 0.0;    // gross errors of 10-50 px
-  bool single_image = false;        // an extra left-only image (the paper's 64 pairs + 1)
+  double outlier_fraction = 0.0;  // gross errors of 10-50 px
+  bool single_image = false;      // an extra left-only image (the paper's 64 pairs + 1)
   uint32_t seed = 1;
 };
 
@@ -59,6 +59,9 @@ TruthError truthError(const Network& net, const PanoramaTruth& truth, bool align
 
 // The largest EO difference between two networks of the same images, pixel equivalent at `range_m`.
 double largestEoDifferencePx(const Network& a, const Network& b, double range_m = 5.0);
+
+// The largest difference of two networks' pair covariances, |a_rc - b_rc| / sqrt(b_rr b_cc).
+double largestCovarianceDifference(const Network& a, const Network& b);
 
 // `to` = `from` restarted from the a-priori EO with the same rejection flags, points re-triangulated (the
 // start of the integrated adjusters after the fast adjuster's rejection).

@@ -1,3 +1,4 @@
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -44,39 +45,19 @@ int countLines(const std::string& path) {
   return n;
 }
 
-// The six sigma columns of every eo.csv row (sigma_x_m .. sigma_rot_z_rad, the last six).
-std::vector<std::vector<double>> eoSigmas(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);  // header
-  std::vector<std::vector<double>> rows;
-  while (std::getline(in, line)) {
-    std::vector<double> fields;
-    std::size_t start = line.find(',') + 1;  // past the image stem
-    while (start != 0 && start <= line.size()) {
-      const std::size_t end = line.find(',', start);
-      const std::string f = line.substr(start, end == std::string::npos ? std::string::npos : end - start);
-      fields.push_back(f == "L" || f == "R" ? 0.0 : std::atof(f.c_str()));
-      start = end == std::string::npos ? 0 : end + 1;
-    }
-    if (fields.size() >= 6) rows.emplace_back(fields.end() - 6, fields.end());
-  }
-  return rows;
-}
-
 }  // namespace
 
 TEST_GROUP(AdjustTool){};
 
 TEST(AdjustTool, EverySolverWritesTheEoSigmasOfItsSolution) {
   const std::string data = tinyDataset();
-  std::vector<std::vector<double>> sigmas[3];
+  std::vector<std::array<double, 6>> sigmas[3];
   const char* solvers[3] = {"fast", "svd", "ceres"};
   for (int k = 0; k < 3; ++k) {
     const std::string out = areomap::test::scratchDir(std::string("adjust-tool-sigma-") + solvers[k]);
     CHECK_EQUAL(0, runTool(binDir() + "/areomap-adjust " + data + " --out " + out +
                            " --truth-ties --noise-px 0.3 --seed 5 --max-sweeps 2000 --solver " + solvers[k]));
-    sigmas[k] = eoSigmas(out + "/eo.csv");
+    sigmas[k] = areomap::test::readEoSigmas(out + "/eo.csv");
   }
   CHECK(sigmas[0].size() >= 16);
   double worst = 0.0;

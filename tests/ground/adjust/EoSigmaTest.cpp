@@ -166,17 +166,7 @@ TEST(EoSigmas, FullNormalMatrixAgreesWithTheReducedCameraSystem) {
   g_solution = g_net;
   FastAdjustResult fr;
   CHECK_TRUE(ok(g_fast.precisionOf(g_solution, fr)));  // the reduced camera system at the same solution
-  double worst = 0.0;
-  for (int32_t p = 0; p < g_net.pairCount(); ++p) {
-    const Mat12& a = g_net.pair(p).covariance;
-    const Mat12& b = g_solution.pair(p).covariance;
-    for (int r = 0; r < 12; ++r) {
-      for (int c = 0; c < 12; ++c) {
-        const double scale = std::sqrt(std::fabs(b(r, r) * b(c, c)));
-        if (scale > 0.0) worst = std::fmax(worst, std::fabs(a(r, c) - b(r, c)) / scale);
-      }
-    }
-  }
+  const double worst = test::largestCovarianceDifference(g_net, g_solution);
   std::printf(
       "\n  largest covariance difference svd - reduced camera system: %.2e (relative to sigma_r sigma_c)\n",
       worst);

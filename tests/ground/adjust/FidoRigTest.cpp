@@ -5,12 +5,12 @@
 // left-right distances) the adjustment recovers the EO as precisely as its own covariance says; with the
 // paper's Eq. 3 fitted to the a-priori models (the default) the model is wrong, the tool says so, and the
 // residuals show it.
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -28,21 +28,12 @@ nlohmann::json readJson(const std::string& path) {
 // The RMS over eo.csv's images of f (|sigma_rot| + |sigma_C| / 5 m): the EO error in pixels that the
 // adjustment's covariance predicts, in the report's own measure (truth.eo_px: f (angle + |dC| / 5 m)).
 double predictedEoPx(const std::string& eo_csv, double f_px) {
-  std::ifstream in(eo_csv);
-  std::string line;
-  std::getline(in, line);
   double sum = 0.0;
   int n = 0;
-  while (std::getline(in, line)) {
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    std::string field;
-    while (std::getline(ss, field, ',')) f.push_back(field);
-    if (f.size() < 15) continue;
-    double c2 = 0.0, r2 = 0.0;
-    for (int k = 9; k < 12; ++k) c2 += std::pow(std::atof(f[k].c_str()), 2);
-    for (int k = 12; k < 15; ++k) r2 += std::pow(std::atof(f[k].c_str()), 2);
-    const double px = f_px * (std::sqrt(r2) + std::sqrt(c2) / 5.0);
+  for (const std::array<double, 6>& s : areomap::test::readEoSigmas(eo_csv)) {
+    const double centre = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    const double rotation = std::sqrt(s[3] * s[3] + s[4] * s[4] + s[5] * s[5]);
+    const double px = f_px * (rotation + centre / 5.0);
     sum += px * px;
     ++n;
   }
