@@ -62,7 +62,8 @@ void EoCovariance::store(Network& net, int32_t pair, double sigma0) const {
 }
 
 Status EoCovariance::compute(Network& net, AdjustWorkspace& ws, BlockCholesky& cholesky, PcgSolver& pcg,
-                             double sigma0, CovarianceSolver& solver, CovarianceSolver use) {
+                             double sigma0, CovarianceSolver& solver, CovarianceSolver use,
+                             CovarianceColumnSink* sink) {
   solver = CovarianceSolver::kNone;
   linearize(net, ws);
   if (use != CovarianceSolver::kPcg && cholesky.order(net)) {
@@ -80,6 +81,7 @@ Status EoCovariance::compute(Network& net, AdjustWorkspace& ws, BlockCholesky& c
     } else {
       pcgColumns(net, ws, pcg, p);
     }
+    if (sink != nullptr) sink->pairColumns(p, columns_, net.pairCount());
     store(net, p, sigma0);
     if (!net.pair(p).covariance.allFinite()) return Status::kNotFinite;
   }

@@ -37,6 +37,18 @@ namespace areomap {
 
 enum class CovarianceSolver : uint8_t { kNone = 0, kCholesky = 1, kPcg = 2 };
 
+// Receives, pair after pair, the 12 columns of S^-1 that belong to that pair (every pair's rows, by pair
+// index, unscaled), as EoCovariance::compute takes them: what a caller needs for the covariance between
+// pairs, which the per-pair blocks do not keep (the ground assembles the whole matrix from them:
+// ground/adjust/FullEoCovariance.hpp). Nothing is kept after the call.
+class CovarianceColumnSink {
+ public:
+  virtual void pairColumns(int32_t pair, const Mat12* columns, int32_t pair_count) = 0;
+
+ protected:
+  ~CovarianceColumnSink() = default;
+};
+
 // Relative residual of the conjugate-gradient columns (the fallback): far below the 1e-8 that an LM step
 // needs, so that the sigmas agree with the factor's to ~1e-6.
 constexpr double kCovariancePcgTolerance = 1e-12;
@@ -56,10 +68,11 @@ class EoCovariance {
   // square roots of its diagonal) at the network's current state, scaled by sigma0^2. The workspace's image
   // index must be built (FastAdjuster::checkNetwork). kDegenerate when S is not positive definite,
   // kNotFinite when a covariance is not finite; `solver` says which solver gave the columns (the factor
-  // when it fits its pool, unless `use` is kPcg).
+  // when it fits its pool, unless `use` is kPcg). `sink` (optional) is handed each pair's columns.
   [[nodiscard]] Status compute(Network& net, AdjustWorkspace& ws, BlockCholesky& cholesky, PcgSolver& pcg,
                                double sigma0, CovarianceSolver& solver,
-                               CovarianceSolver use = CovarianceSolver::kCholesky);
+                               CovarianceSolver use = CovarianceSolver::kCholesky,
+                               CovarianceColumnSink* sink = nullptr);
 
  private:
   void pcgColumns(const Network& net, const AdjustWorkspace& ws, PcgSolver& pcg, int32_t pair);

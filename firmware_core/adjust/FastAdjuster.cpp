@@ -228,7 +228,8 @@ Status FastAdjuster::precision(Network& net, FastAdjustResult& result, bool eo_c
   // A network the constraints do not make rigid (e.g. both switched off: scale and translation free) has a
   // singular S: the adjustment stands, its sigmas stay zero and the result says why.
   result.covariance_status =
-      covariance_.compute(net, ws_, cholesky_, pcg_, result.sigma0, result.covariance_solver);
+      covariance_.compute(net, ws_, cholesky_, pcg_, result.sigma0, result.covariance_solver,
+                          CovarianceSolver::kCholesky, covariance_sink_);
   if (!ok(result.covariance_status)) {
     result.covariance_solver = CovarianceSolver::kNone;
     for (int32_t i = 0; i < net.imageCount(); ++i) net.image(i).sigma.setZero();

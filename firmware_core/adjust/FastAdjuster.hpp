@@ -75,6 +75,9 @@ class FastAdjuster {
   // had is said in result.covariance_status, not as a failure). Checks the network first.
   [[nodiscard]] Status precisionOf(Network& net, FastAdjustResult& result);
 
+  // A caller's sink for the columns of S^-1 of every EO covariance computed from now on (nullptr: none).
+  void setCovarianceSink(CovarianceColumnSink* sink) { covariance_sink_ = sink; }
+
   // Total weighted cost and image RMS of the current state, no update.
   double evaluateCost(const Network& net, double* rms_px = nullptr, int32_t* active = nullptr) const;
 
@@ -97,6 +100,7 @@ class FastAdjuster {
   PcgSolver pcg_;
   Alternation alternation_;
   EoCovariance covariance_;
+  CovarianceColumnSink* covariance_sink_ = nullptr;
   // The LM methods' state before a step, restored when the step does not lower the cost.
   Vec3 saved_center_[kMaxImages];
   Mat3 saved_m_[kMaxImages];

@@ -53,6 +53,27 @@ constexpr long long kMinOverlapBlocks = 50;
 constexpr double kChiSquare1Median = 0.454936;  // median of chi-square with one degree of freedom
 constexpr long long kCellKeyStride = 1000003LL;  // cell key = row * stride + column (binPoints)
 
+// A pair's points in a bin (count n, in its `fraction` slot until normaliseShares): kept when among the
+// kMaxPointPairs largest.
+void addShare(PointPairs& s, int32_t pair, double n) {
+  int k = 0;
+  while (k < kMaxPointPairs && s.pair[k] >= 0 && s.fraction[k] >= n) ++k;
+  if (k == kMaxPointPairs) return;
+  for (int j = kMaxPointPairs - 1; j > k; --j) {
+    s.pair[j] = s.pair[j - 1];
+    s.fraction[j] = s.fraction[j - 1];
+  }
+  s.pair[k] = pair;
+  s.fraction[k] = static_cast<float>(n);
+}
+
+// Counts to fractions of the kept pairs' points.
+void normaliseShares(PointPairs& s) {
+  float total = 0.f;
+  for (int k = 0; k < kMaxPointPairs && s.pair[k] >= 0; ++k) total += s.fraction[k];
+  for (int k = 0; k < kMaxPointPairs && s.pair[k] >= 0; ++k) s.fraction[k] /= total;
+}
+
 // A bin that two pairs see with at least kMinOverlapPoints points each (the two with the most; p the lower
 // slot, so that d has one sign per pair of pairs): d = their mean heights' difference, moved along the
 // bin's plane to one position (the two pairs' points sample different parts of a sloping bin); per pair
@@ -257,6 +278,7 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
   struct Binned {
     DemPoint point;
     float gsd_m, rep_var_m2, pair_sd_m;
+    PointPairs pairs;
   };
   std::vector<Binned> out;
   for (std::size_t i = 0; i < by_cell.size();) {
@@ -267,9 +289,12 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
     double sum_sd_n = 0.0;             // sum_p n_p sd(pair's mean), for the pairs' common error
     double noise_spread = 0.0;         // sum_p s_p^2 n_p (1 - patch factor): the noise about the mean
     long long pair_max = 0;
+    PointPairs shares;  // the largest kMaxPointPairs pairs by points, fractions of those kept
     for (; i < by_cell.size() && by_cell[i].first / kPairSlots == cell; ++i) {
       const Acc& a = by_cell[i].second;
       all.addCell(a);
+      const long long slot = by_cell[i].first % kPairSlots;
+      if (slot > 0) addShare(shares, static_cast<int32_t>(slot - 1), a.n);
       const double factor = patchVarianceFactor(std::sqrt(a.n), l_px);
       var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
       shared_n2 += a.n * a.n * (a.s2 / a.n) * shared;
@@ -289,9 +314,10 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
     p.elevation_m = all.z / all.n;
     p.sigma_m = std::sqrt(var_n2) / all.n;
     p.line = pair_max > 0 ? dense::lineId(pair_max - 1, 0) : -1;  // the pair of most of its points (row 0)
+    normaliseShares(shares);
     out.push_back({p, static_cast<float>(grid.cell_m / std::sqrt(n_max)),
                    static_cast<float>(representationVariance(all, noise_spread)),
-                   static_cast<float>(std::sqrt(shared_n2) / all.n)});
+                   static_cast<float>(std::sqrt(shared_n2) / all.n), shares});
   }
   std::sort(out.begin(), out.end(), [](const Binned& a, const Binned& b) {
     return a.point.north_m != b.point.north_m ? a.point.north_m < b.point.north_m
@@ -302,6 +328,7 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
   binned.gsd_m.reserve(out.size());
   binned.rep_var_m2.reserve(out.size());
   binned.pair_sd_m.reserve(out.size());
+  binned.pairs.reserve(out.size());
   binned.shared_noise_fraction = shared;
   binned.common_error_correlation = common;
   binned.overlap_bins = overlap_bins;
@@ -310,18 +337,24 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
     binned.gsd_m.push_back(b.gsd_m);
     binned.rep_var_m2.push_back(b.rep_var_m2);
     binned.pair_sd_m.push_back(b.pair_sd_m);
+    binned.pairs.push_back(b.pairs);
   }
   return binned;
 }
 
 // Kriging of a binned cloud with the matcher's error correlation (the DEM sigma of Kriging.hpp).
-KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGrid& grid, double correlation_px) {
+KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGrid& grid, double correlation_px,
+                                    const SharedHeightError* shared) {
   KrigingOptions o;
   o.noise_correlation_px = correlation_px;
   o.point_gsd_m = &binned.gsd_m;
   o.bin_cell_m = grid.cell_m;
   o.point_extra_var_m2 = &binned.rep_var_m2;
   o.point_pair_sd_m = &binned.pair_sd_m;
+  if (shared != nullptr) {
+    o.point_pairs = &binned.pairs;
+    o.shared_error = shared;
+  }
   return o;
 }
 

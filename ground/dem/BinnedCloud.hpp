@@ -10,6 +10,7 @@
 
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/dem/Kriging.hpp"
+#include "ground/dem/SharedHeightError.hpp"
 
 namespace areomap::dem {
 
@@ -34,6 +35,7 @@ struct BinnedCloud {
   std::vector<float> gsd_m;            // per point
   std::vector<float> rep_var_m2;       // per point
   std::vector<float> pair_sd_m;        // per point: the part of sigma its pair shares (KrigingOptions)
+  std::vector<PointPairs> pairs;       // per point: its pairs and their shares of its points
   double shared_noise_fraction = 0.0;  // phi of sharedNoiseFraction
   long long overlap_bins = 0;          // the bins it was measured on
   double common_error_correlation = 0.0;  // rho of commonErrorCorrelation: two pairs' errors in one bin
@@ -44,7 +46,9 @@ struct BinnedCloud {
 BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
                       const std::function<bool(const DemPoint&)>& keep, double correlation_px);
 
-// Kriging of a binned cloud with the matcher's error correlation (the DEM sigma of Kriging.hpp).
-KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGrid& grid, double correlation_px);
+// Kriging of a binned cloud with the matcher's error correlation (the DEM sigma of Kriging.hpp), and the
+// cameras' shared error when `shared` is given.
+KrigingOptions binnedKrigingOptions(const BinnedCloud& binned, const DemGrid& grid, double correlation_px,
+                                    const SharedHeightError* shared = nullptr);
 
 }  // namespace areomap::dem

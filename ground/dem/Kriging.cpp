@@ -117,9 +117,10 @@ struct Solver {
 
   double noise(const DemPoint& p) const { return system.noise(p); }
 
+  double w[kMaxNeighbours + 1];  // the last solve's weights, then the Lagrange multiplier w[f]
+
   bool solve(int f, const int32_t* idx, const double* d2, double& z, double& var) {
-    double w[kMaxNeighbours + 1];  // weights, then the Lagrange multiplier w[f]
-    double c[kMaxNeighbours];      // covariances with the query
+    double c[kMaxNeighbours];  // covariances with the query
     if (!system.solve(f, idx, d2, w, c)) return false;
     z = 0.0;
     double lc = 0.0;
@@ -238,9 +239,11 @@ struct CellInputs {
   const VariogramModel& model;
   bool use_point_sigma;
   const CorrelatedNoise& correlated;
+  const std::vector<PointPairs>* point_pairs;  // with shared_error: KrigingOptions'
+  const SharedHeightError* shared_error;
 
   Solver solver() const {
-    return Solver{points, KrigingSystem(points, model, use_point_sigma), correlated, PairTable()};
+    return Solver{points, KrigingSystem(points, model, use_point_sigma), correlated, PairTable(), {}};
   }
 };
 
@@ -325,7 +328,11 @@ RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, in
       double z = 0.0, var = 0.0;
       if (!s.solve(f, idx, d2, z, var)) continue;
       res.elevation.at(col, row) = static_cast<float>(z);
-      res.sigma.at(col, row) = static_cast<float>(res.sigma_scale * std::sqrt(var));
+      double shared = 0.0;  // the cameras' error (SharedHeightError.hpp), unscaled
+      if (in.shared_error != nullptr)
+        shared = in.shared_error->cellVariance(*in.point_pairs, f, idx, s.w, qn, qe, z);
+      res.sigma.at(col, row) =
+          static_cast<float>(std::sqrt(res.sigma_scale * res.sigma_scale * var + shared));
       ++counts.kriged;
     }
   }
@@ -447,7 +454,9 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   res.elevation = grid;
   res.elevation.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
   res.sigma = res.elevation;
-  const CellInputs cells{points, tree, buckets, supported, k, gap, res.model, o.use_point_sigma, correlated};
+  const bool shared = o.shared_error != nullptr && o.point_pairs != nullptr && o.point_pairs->size() == points.size();
+  const CellInputs cells{points,     tree, buckets, supported, k, gap, res.model, o.use_point_sigma, correlated,
+                         o.point_pairs, shared ? o.shared_error : nullptr};
   // Not with correlated point errors: that sigma is a model of its own (the calibrated point sigmas, their
   // correlation and the signal variogram), and a point's leave-one-out error would need its covariance
   // with its neighbours' errors, which the independent-noise ratio leaves out.

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "ground/dataset/DemRaster.hpp"
+#include "ground/dem/SharedHeightError.hpp"
 #include "ground/dem/Variogram.hpp"
 
 namespace areomap::dem {
@@ -67,6 +68,10 @@ struct KrigingOptions {
   // on smooth ground. Cov(e_i, e_j) = s_i s_j rho_ij + c_i c_j for points of one pair, so no neighbourhood
   // averages it down. The binned points' c_i: BinnedCloud::pair_sd_m.
   const std::vector<float>* point_pair_sd_m = nullptr;
+  // The cameras' error that every point of a pair shares, correlated between pairs (SharedHeightError.hpp;
+  // with point_pairs, each point's pairs): the sigma adds its variance at each cell, unscaled.
+  const std::vector<PointPairs>* point_pairs = nullptr;
+  const SharedHeightError* shared_error = nullptr;
   int threads = 0;  // threads for the cells (0: one per core); the result is the same for any number
 };
 

@@ -124,7 +124,7 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
   }
   std::vector<DemPoint>().swap(pts);
   try {
-    KrigingResult kr = krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid, o.correlation_px));
+    KrigingResult kr = krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid, o.correlation_px, o.shared_error));
     supportInfo("dem.tif", kr);
     if (!far.empty()) {
       DemGrid far_sigma;
@@ -146,7 +146,7 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
   if (out.dem && near_grid) {
     try {
       KrigingResult nk = krigeDem(near_binned.points, *near_grid,
-                                  binnedKrigingOptions(near_binned, *near_grid, o.correlation_px));
+                                  binnedKrigingOptions(near_binned, *near_grid, o.correlation_px, o.shared_error));
       supportInfo("dem_near.tif", nk);
       out.near = std::move(nk);
     } catch (const std::exception& e) {

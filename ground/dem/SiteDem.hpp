@@ -23,6 +23,9 @@ struct SiteDemOptions {
   double max_range_m = 60.0;    // cells farther from the gimbal centre stay nodata
   double seam_m = 20.0;         // kriging inside, equi-parallax interpolation outside
   double correlation_px = 0.0;  // the matcher's error correlation length (pixels, exp(-lag / L))
+  // The cameras' error, shared by each pair's points and correlated between pairs (SharedHeightError.hpp;
+  // nullptr: the sigma leaves it out).
+  const SharedHeightError* shared_error = nullptr;
 };
 
 struct SiteDem {

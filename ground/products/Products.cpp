@@ -9,6 +9,7 @@
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/dem/SiteDem.hpp"
+#include "ground/products/CameraHeightError.hpp"
 #include "ground/dense/DenseMatcher.hpp"
 #include "ground/products/ProductStages.hpp"
 #include "ground/raster/RasterFiles.hpp"
@@ -112,6 +113,8 @@ void demStage(Context& ctx, Cloud& cloud) {
     so.max_range_m = ctx.options.max_range_m;
     so.seam_m = ctx.options.seam_m;
     so.correlation_px = dense::kMatchErrorCorrelationPx;
+    const std::optional<dem::SharedHeightError> cameras = cameraHeightError(ctx.in);
+    if (cameras) so.shared_error = &*cameras;
     dem::SiteDem dems = dem::makeSiteDem(std::move(cloud.dem), so);
     for (const std::string& w : dems.warnings) ctx.result.warnings.push_back(w);
     if (dems.dem) {

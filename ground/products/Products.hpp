@@ -31,6 +31,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "firmware_core/adjust/Network.hpp"
 #include "firmware_core/base/EigenTypes.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/adjust/AdjustProducts.hpp"
@@ -60,6 +61,15 @@ struct ProductTie {
                             // (the point intersected again with the adjusted models)
 };
 
+// The adjusted cameras' exterior orientation with its whole covariance, pairs' cross blocks included
+// (ground/adjust/FullEoCovariance.hpp): with it the DEM sigma carries the cameras' error, which every point
+// of a pair shares and which is correlated between pairs (ground/dem/SharedHeightError.hpp).
+struct EoUncertainty {
+  std::vector<NetImage> cameras;   // per ProductInputs::images: the adjusted network's io, center_m, m
+  std::vector<int> block_of_pair;  // per ProductInputs::pairs: its 12 x 12 block in `covariance` (-1: none)
+  Eigen::MatrixXd covariance;      // [left dC, delta, right dC, delta] per block (Constraints.hpp)
+};
+
 struct ProductInputs {
   std::string site;                 // panorama name (raster metadata, report title)
   std::vector<ProductImage> images;
@@ -68,6 +78,7 @@ struct ProductInputs {
   Vec3 gimbal_site_m = Vec3::Zero();  // centre of the panorama (ranges, finer grid near the rover)
   // Optional truth (synthetic datasets): the true DEM (truth/dem.tif) -> truth.dem_rmse_m.
   std::optional<DemGrid> truth_dem;
+  std::optional<EoUncertainty> eo_uncertainty;  // absent: the DEM sigma leaves the cameras' error out
 };
 
 struct ProductOptions {

@@ -16,6 +16,9 @@
 #ifdef AREOMAP_HAVE_PRODUCTS
 #include <map>
 
+#include "firmware_core/adjust/Network.hpp"
+#include "ground/adjust/CommonVergence.hpp"
+#include "ground/adjust/FullEoCovariance.hpp"
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/products/Products.hpp"
 #endif
@@ -84,6 +87,41 @@ void printSummary(const areomap::ground::GroundPassResult& p, const std::string&
 }
 
 #ifdef AREOMAP_HAVE_PRODUCTS
+// The adjusted cameras and their whole EO covariance for the DEM sigma (products::EoUncertainty); the
+// product images are the network's images in its order. Absent (with a warning) when the network has none.
+std::optional<areomap::products::EoUncertainty> eoUncertainty(const areomap::Network& solved,
+                                                               const std::vector<areomap::products::ProductPair>& pairs) {
+  using namespace areomap;
+  const auto net = std::make_unique<Network>(solved);  // fullEoCovariance writes its per-pair blocks
+  ground::FullEoCovariance full = ground::fullEoCovariance(*net);
+  if (!ok(full.status)) {
+    cli::warn(std::string("dem_sigma.tif leaves the cameras' error out: no EO covariance (") +
+              statusName(full.status) + ")");
+    return std::nullopt;
+  }
+  const ground::CommonVergenceCheck check = ground::addCommonVergenceSystematic(*net, full);
+  if (check.done) {
+    char b[320];
+    std::snprintf(b, sizeof b,
+                  "common vergence of the pairs: sigma %.1f urad; near half of the points (to %.2f m) differs by "
+                  "%+.1f urad, noise explains %.1f: systematic part %.1f urad (in the DEM sigma)",
+                  check.sigma_rad * 1e6, check.split_range_m, check.difference_rad * 1e6,
+                  check.expected_sd_rad * 1e6, check.systematic_rad * 1e6);
+    cli::info(b);
+  }
+  products::EoUncertainty eo;
+  for (int32_t i = 0; i < net->imageCount(); ++i) eo.cameras.push_back(net->image(i));
+  for (const products::ProductPair& pp : pairs) {
+    int block = -1;
+    for (int32_t q = 0; q < net->pairCount() && block < 0; ++q) {
+      if (net->pair(q).left == pp.left && net->pair(q).right == pp.right && pp.right >= 0) block = q;
+    }
+    eo.block_of_pair.push_back(block);
+  }
+  eo.covariance = full.covariance;
+  return eo;
+}
+
 // The products of ground/products (dense matching, DEM, ortho, previews, report.html) from the pass.
 void makeGroundProducts(const areomap::ground::ProductContext& c) {
   using namespace areomap;
@@ -125,6 +163,7 @@ void makeGroundProducts(const areomap::ground::ProductContext& c) {
     in.ties.push_back(t);
   }
   in.gimbal_site_m = c.net->rig.gimbal_m[0];
+  in.eo_uncertainty = eoUncertainty(*c.net, in.pairs);
   if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
     in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
   }

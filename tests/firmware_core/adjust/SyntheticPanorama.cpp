@@ -213,4 +213,25 @@ void restartFromApriori(const Network& from, Network& to) {
   (void)to.triangulateAll(failed);
 }
 
+FastAdjustOptions plainFastOptions() {
+  FastAdjustOptions o;
+  o.robust = false;
+  o.eo_step_tolerance_px = 1e-6;
+  o.relative_cost_tolerance = 1e-12;
+  return o;
+}
+
+void drawImageNoise(const Network& exact, uint32_t seed, Network& net) {
+  net = exact;
+  std::mt19937 rng(seed * 7919u + 17u);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  for (int32_t k = 0; k < net.observationCount(); ++k) {
+    NetObservation& o = net.observation(k);
+    o.ideal_px += o.sigma_px * Vec2(gauss(rng), gauss(rng));
+  }
+  net.resetToApriori();
+  int32_t failed = 0;
+  (void)net.triangulateAll(failed);
+}
+
 }  // namespace areomap::test

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "firmware_core/adjust/FastAdjustOptions.hpp"
 #include "firmware_core/adjust/Network.hpp"
 
 namespace areomap::test {
@@ -66,5 +67,13 @@ double largestCovarianceDifference(const Network& a, const Network& b);
 // `to` = `from` restarted from the a-priori EO with the same rejection flags, points re-triangulated (the
 // start of the integrated adjusters after the fast adjuster's rejection).
 void restartFromApriori(const Network& from, Network& to);
+
+// Options for comparing solutions over noise seeds: no robust rejection (the same observations on every
+// path and seed), converged far below the noise.
+FastAdjustOptions plainFastOptions();
+
+// `net` = `exact` (noise-free observations) with Gaussian noise of each observation's sigma (seeded),
+// restarted from the a-priori EO with its points triangulated.
+void drawImageNoise(const Network& exact, uint32_t seed, Network& net);
 
 }  // namespace areomap::test

@@ -3,7 +3,6 @@
 // anew), and the SVD path's own covariance from its full normal matrix against the reduced camera system's.
 #include <cmath>
 #include <cstdio>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -48,18 +47,7 @@ void makeExactScene(test::PanoramaConfig cfg, test::PanoramaTruth& truth) {
 }
 
 // g_net = the exact scene with Gaussian noise of each observation's sigma, from the a-priori EO.
-void drawNoise(uint32_t seed) {
-  g_net = g_exact;
-  std::mt19937 rng(seed * 7919u + 17u);
-  std::normal_distribution<double> gauss(0.0, 1.0);
-  for (int32_t k = 0; k < g_net.observationCount(); ++k) {
-    NetObservation& o = g_net.observation(k);
-    o.ideal_px += o.sigma_px * Vec2(gauss(rng), gauss(rng));
-  }
-  g_net.resetToApriori();
-  int32_t failed = 0;
-  (void)g_net.triangulateAll(failed);
-}
+void drawNoise(uint32_t seed) { test::drawImageNoise(g_exact, seed, g_net); }
 
 // Per path: every seed's EO (centre, rotation vector about the truth in the camera frame) and its sigmas.
 struct Samples {
@@ -107,14 +95,6 @@ void checkRatios(const Samples& s) {
   }
 }
 
-FastAdjustOptions plainFast() {
-  FastAdjustOptions o;
-  o.robust = false;  // the same observations on every path and seed
-  o.eo_step_tolerance_px = 1e-6;
-  o.relative_cost_tolerance = 1e-12;
-  return o;
-}
-
 void monteCarlo(const test::PanoramaConfig& cfg, bool with_svd) {
   test::PanoramaTruth truth;
   makeExactScene(cfg, truth);
@@ -123,7 +103,7 @@ void monteCarlo(const test::PanoramaConfig& cfg, bool with_svd) {
     drawNoise(static_cast<uint32_t>(seed));
     g_solution = g_net;
     FastAdjustResult fr;
-    CHECK_TRUE(ok(g_fast.adjust(g_net, plainFast(), fr)));
+    CHECK_TRUE(ok(g_fast.adjust(g_net, test::plainFastOptions(), fr)));
     CHECK_TRUE(fr.covariance_solver == CovarianceSolver::kCholesky);
     record(g_net, truth, fast);
     if (with_svd) {
