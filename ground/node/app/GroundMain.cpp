@@ -1,4 +1,5 @@
 // areomap-ground: the ground node. See kUsage.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -89,14 +90,16 @@ void printSummary(const areomap::ground::GroundPassResult& p, const std::string&
 #ifdef AREOMAP_HAVE_PRODUCTS
 // The adjusted cameras and their whole EO covariance for the DEM sigma (products::EoUncertainty); the
 // product images are the network's images in its order. Absent (with a warning) when the network has none.
-std::optional<areomap::products::EoUncertainty> eoUncertainty(const areomap::Network& solved,
-                                                               const std::vector<areomap::products::ProductPair>& pairs) {
+std::optional<areomap::products::EoUncertainty> eoUncertainty(
+    const areomap::Network& solved, std::vector<std::string>& warnings,
+    const std::vector<areomap::products::ProductPair>& pairs) {
   using namespace areomap;
   const auto net = std::make_unique<Network>(solved);  // fullEoCovariance writes its per-pair blocks
   ground::FullEoCovariance full = ground::fullEoCovariance(*net);
   if (!ok(full.status)) {
-    cli::warn(std::string("dem_sigma.tif leaves the cameras' error out: no EO covariance (") +
-              statusName(full.status) + ")");
+    warnings.push_back(std::string("dem_sigma.tif leaves the cameras' error out: no EO covariance (") +
+                       statusName(full.status) + ").");
+    cli::warn(warnings.back());
     return std::nullopt;
   }
   const ground::CommonVergenceCheck check = ground::addCommonVergenceSystematic(*net, full);
@@ -108,6 +111,14 @@ std::optional<areomap::products::EoUncertainty> eoUncertainty(const areomap::Net
                   check.sigma_rad * 1e6, check.split_range_m, check.difference_rad * 1e6,
                   check.expected_sd_rad * 1e6, check.systematic_rad * 1e6);
     cli::info(b);
+    // Said when it is significant (|t| beyond twice its noise: p < 5 %); the sigma takes any excess.
+    if (std::fabs(check.difference_rad) > 2.0 * check.expected_sd_rad) {
+      std::snprintf(b, sizeof b,
+                    "The tie points beyond %.2f m move the pairs' common vergence by %.1f urad more than their "
+                    "noise explains (a systematic parallax error of far matches); dem_sigma.tif includes it.",
+                    check.split_range_m, check.systematic_rad * 1e6);
+      warnings.push_back(b);
+    }
   }
   products::EoUncertainty eo;
   for (int32_t i = 0; i < net->imageCount(); ++i) eo.cameras.push_back(net->image(i));
@@ -163,7 +174,7 @@ void makeGroundProducts(const areomap::ground::ProductContext& c) {
     in.ties.push_back(t);
   }
   in.gimbal_site_m = c.net->rig.gimbal_m[0];
-  in.eo_uncertainty = eoUncertainty(*c.net, in.pairs);
+  in.eo_uncertainty = eoUncertainty(*c.net, c.report->warnings, in.pairs);
   if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
     in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
   }
