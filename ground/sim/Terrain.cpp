@@ -445,7 +445,7 @@ DemGrid Terrain::demInFrame(const SitePose& terrain_from_frame, const Eigen::Vec
       const Eigen::Vector3d p = rotation * Eigen::Vector3d(g.northOfRow(row), g.eastOfCol(col), 0.0) +
                                 terrain_from_frame.position_m;
       g.values[static_cast<std::size_t>(row) * n + col] =
-          static_cast<float>(elevation(p.x(), p.y()) - origin_height_m);
+          inside(p.x(), p.y()) ? static_cast<float>(elevation(p.x(), p.y()) - origin_height_m) : g.nodata;
     }
   });
   return g;

@@ -62,7 +62,7 @@ class Terrain {
   // The surface as a DEM in another levelled frame F placed by `terrain_from_frame` (p_terrain =
   // Rz(heading) p_F + position): a square of half side `half_extent_m` about F's (x, y) = `center_m`, cell
   // `cell_m`, elevations up in F (the terrain's minus the frame origin's height), sampled bilinearly at the
-  // cell centres.
+  // cell centres; nodata beyond the terrain.
   DemGrid demInFrame(const SitePose& terrain_from_frame, const Eigen::Vector2d& center_m,
                      double half_extent_m, double cell_m) const;
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/dataset/TruthFiles.hpp"
@@ -54,11 +55,15 @@ TraversePlan writeTraverseDataset(const TraverseSimConfig& config, const std::st
   validateTraverse(config.traverse);
   validatePlan(config.site);
   // The horizontal path does not depend on the ground: the terrain is laid out from it, then the heights.
-  const SimConfig terrain_config = traverseTerrainConfig(config, planTraverse(config.traverse, config.seed));
+  const TraversePlan flat = planTraverse(config.traverse, config.seed);
+  const SimConfig terrain_config = traverseTerrainConfig(config, flat);
   validatePlan(terrain_config);
-  stage("building the terrain: " +
-        std::to_string(static_cast<int>(std::lround(2.0 * terrain_config.half_extent_m))) + " m square of " +
-        std::to_string(terrain_config.cell_m) + " m cells");
+  std::ostringstream what;
+  what << "building the terrain: a " << std::lround(2.0 * terrain_config.half_extent_m) << " m square of "
+       << terrain_config.cell_m << " m cells about (" << std::lround(terrain_config.terrain_center_m.x())
+       << ", " << std::lround(terrain_config.terrain_center_m.y()) << ") m; path "
+       << std::lround(flat.distanceM()) << " m";
+  stage(what.str());
   const Terrain terrain = Terrain::build(terrain_config);
   stage("terrain " + std::to_string(terrain.nodes()) + " x " + std::to_string(terrain.nodes()) + " nodes, " +
         std::to_string(terrain.rockCount()) + " rocks, " + std::to_string(terrain.craterCount()) +

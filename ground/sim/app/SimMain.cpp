@@ -143,6 +143,16 @@ int main(int argc, char** argv) {
     const bool traverse = preset == "traverse";
     const std::optional<std::string> camera = args.option("--camera");
     if (camera && !traverse) throw cli::UsageError("--camera: only with --preset traverse");
+    auto isSitePreset = [](const std::string& name) {
+      return name == "navcam" || name == "imp" || name == "fido" || name == "tiny";
+    };
+    if (!traverse && !isSitePreset(preset)) {
+      throw cli::UsageError("--preset: unknown preset '" + preset +
+                            "' (navcam, imp, fido, tiny or traverse)");
+    }
+    if (camera && !isSitePreset(*camera)) {
+      throw cli::UsageError("--camera: unknown camera preset '" + *camera + "' (navcam, imp, fido or tiny)");
+    }
     sim::TraverseSimConfig tc = sim::traversePreset(traverse ? camera.value_or("navcam") : preset);
     sim::SimConfig& c = tc.site;
     if (traverse) {

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -280,4 +281,13 @@ TEST(TraverseSim, TheToolWritesATraverseAndRejectsBadOptions) {
   CHECK_EQUAL(2, test::runTool("areomap-sim", "--preset tiny --camera navcam --out " + dir + "/bad"));
   CHECK_EQUAL(2, test::runTool("areomap-sim", "--preset traverse --camera nosuch --out " + dir + "/bad"));
   CHECK(!test::fileExists(dir + "/bad/traverse.json"));
+  // --help documents the traverse options.
+  const std::string help = dir + "/help.txt";
+  CHECK_EQUAL(0, std::system((test::toolPath("areomap-sim") + " --help > " + help).c_str()));
+  const std::string text = readBytes(help);
+  for (const char* option :
+       {"--preset traverse", "--camera", "--sites", "--leg-min-m", "--leg-max-m", "--max-turn-deg",
+        "--odometry-drift-pct", "--vertical-drift-pct", "--heading-drift-deg"}) {
+    CHECK_TEXT(text.find(option) != std::string::npos, option);
+  }
 }
