@@ -178,6 +178,18 @@ Traverse readTraverse(const std::string& dir) {
   return t;
 }
 
+void checkTraverseSites(const Traverse& t) {
+  const std::string file = joinPath(t.root, kTraverseFileName);
+  for (std::size_t i = 0; i < t.sites.size(); ++i) {
+    std::error_code ec;
+    const std::string panorama = joinPath(t.sites[i].dir, kPanoramaFileName);
+    if (!std::filesystem::is_regular_file(panorama, ec)) {
+      throw DatasetError(file, "sites[" + std::to_string(i) + "].path",
+                         "'" + t.sites[i].path + "' holds no " + kPanoramaFileName + " (" + panorama + ")");
+    }
+  }
+}
+
 void writeTraverse(const Traverse& t, const std::string& dir) {
   OrderedJson root = OrderedJson::object();
   root["version"] = t.version;

@@ -81,6 +81,8 @@ constexpr int kTraverseVersion = 1;
 // field: version, unique safe ids and paths, at least one site, the first site's pose the identity and no
 // odometry there, every later site's odometry from the site before it, positive sigmas and distances.
 Traverse readTraverse(const std::string& dir);
+// Throws DatasetError naming traverse.json and sites[i].path when a site's folder holds no panorama.json.
+void checkTraverseSites(const Traverse& traverse);
 // Writes DIR/traverse.json (creating DIR); throws DatasetError when it cannot.
 void writeTraverse(const Traverse& traverse, const std::string& dir);
 

@@ -1,4 +1,5 @@
 #include <cmath>
+#include <filesystem>
 #include <string>
 
 #include "ground/dataset/Traverse.hpp"
@@ -81,6 +82,24 @@ TEST(Traverse, ReadsEveryFieldAndRoundTrips) {
   CHECK((pose.toTraverse(Eigen::Vector3d(1.0, 0.0, 0.0)) - Eigen::Vector3d(1.0, 3.0, 3.0)).norm() < 1e-12);
   CHECK((pose.toSite(pose.toTraverse(Eigen::Vector3d(0.3, -4.0, 0.5))) - Eigen::Vector3d(0.3, -4.0, 0.5))
             .norm() < 1e-12);
+}
+
+TEST(Traverse, EverySiteFolderMustHoldADataset) {
+  const std::string dir = test::scratchDir("traverse-sites");
+  writeText(dir + "/traverse.json", traverseJson());
+  const Traverse t = readTraverse(dir);
+  std::filesystem::create_directories(dir + "/sites/site01");
+  std::filesystem::create_directories(dir + "/sites/site02");
+  writeText(dir + "/sites/site01/panorama.json", "{}");
+  try {
+    checkTraverseSites(t);
+    FAIL("a traverse without site02's dataset passed");
+  } catch (const DatasetError& e) {
+    CHECK_TEXT(contains(e.what(), "traverse.json: sites[1].path: 'sites/site02' holds no panorama.json"),
+               e.what());
+  }
+  writeText(dir + "/sites/site02/panorama.json", "{}");
+  checkTraverseSites(t);
 }
 
 TEST(Traverse, TruthRoundTripsAndMustNameTheSameSites) {

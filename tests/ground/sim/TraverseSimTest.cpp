@@ -100,6 +100,7 @@ TEST_GROUP(TraverseSim){};
 TEST(TraverseSim, TheLayoutIsCompleteAndEverySiteLoadsAsADataset) {
   const std::string& dir = tinyTraverseDir();
   const Traverse t = readTraverse(dir);
+  checkTraverseSites(t);
   CHECK_EQUAL(3, static_cast<int>(t.sites.size()));
   DOUBLES_EQUAL(0.05, t.drift_fraction, 1e-15);
   const std::optional<TraverseTruth> truth = readTraverseTruth(dir, t);
