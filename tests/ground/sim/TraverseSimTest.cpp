@@ -263,6 +263,7 @@ TEST(TraverseSim, SameSeedSameFiles) {
   }
   TraverseSimConfig other = tinyTraverse();
   other.seed = kSeed + 1;
+  other.traverse.sites = 2;
   const std::string third = test::scratchDir("traverse-sim-other") + "/traverse";
   (void)writeTraverseDataset(other, third, options);
   CHECK(readBytes(dir + "/" + kTraverseFileName) != readBytes(third + "/" + kTraverseFileName));
