@@ -57,6 +57,14 @@ struct SimConfig {
   double rock_k = 0.08;    // Golombek cumulative fractional area of rocks
   double crater_density_per_km2 = 800.0;
   double min_rock_m = 0.06;  // smallest rock diameter near the rover (grows with range)
+  // Where the terrain lies (a traverse sets these; one site keeps the defaults): the fine square is centred
+  // on terrain_center_m; the rovers' positions (empty: one rover at the origin) keep rocks and crater walls
+  // off the rovers' footprints, and the smallest rock and the fine texture grow with the range from the
+  // nearest rover; the coarse grid covers +-cover_half_extent_m about the centre (0:
+  // Terrain::kMinCoverHalfM).
+  Eigen::Vector2d terrain_center_m = Eigen::Vector2d::Zero();
+  std::vector<Eigen::Vector2d> rover_xy_m;
+  double cover_half_extent_m = 0.0;
 
   // Rendering.
   int supersample = 2;    // s x s rays per pixel

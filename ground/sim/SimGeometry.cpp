@@ -130,12 +130,13 @@ int camerasSeeingBeyondTerrain(const SimGeometry& g, const Terrain& terrain) {
   constexpr int kSamples = 9;  // along the top row and the upper corners of each image
   int count = 0;
   for (const SimCamera* cam : g.cameras()) {
+    const CameraModel truth = g.inTerrain(cam->truth);
     bool beyond = false;
     for (int k = 0; k < kSamples && !beyond; ++k) {
-      const Vec2 pixel((cam->truth.width - 1) * k / (kSamples - 1.0), 0.0);
+      const Vec2 pixel((truth.width - 1) * k / (kSamples - 1.0), 0.0);
       Vec3 origin, dir;
       double t = 0.0;
-      if (unproject(cam->truth, pixel, origin, dir) == Status::kOk && dir.z() > 0.0 &&
+      if (unproject(truth, pixel, origin, dir) == Status::kOk && dir.z() > 0.0 &&
           !terrain.castRay(origin, dir, t)) {
         beyond = true;
       }
@@ -154,10 +155,16 @@ std::vector<const SimCamera*> SimGeometry::cameras() const {
   return all;
 }
 
+CameraModel SimGeometry::inTerrain(const CameraModel& model) const {
+  if (!terrain_from_site) return model;
+  const Eigen::Matrix3d rotation = terrain_from_site->rotation();
+  return movedModel(model, rotation, terrain_from_site->toTraverse(model.c));
+}
+
 Dataset SimGeometry::dataset(const std::string& root) const {
   Dataset ds;
   ds.root = root;
-  ds.name = "sim-" + config.preset + "-" + std::to_string(config.seed);
+  ds.name = name.empty() ? "sim-" + config.preset + "-" + std::to_string(config.seed) : name;
   ds.width = config.width;
   ds.height = config.height;
   // A FIDO-like mast has no fixed camera offset from one gimbal point: only the stereo base is given.
@@ -194,11 +201,20 @@ SimGeometry makeGeometry(const SimConfig& config) {
   return makeGeometry(config, terrain);
 }
 
-SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain) {
+SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain,
+                         const std::optional<SitePose>& terrain_from_site) {
   validatePlan(config);
   SimGeometry g;
   g.config = config;
-  g.gimbal_m = Eigen::Vector3d(0.0, 0.0, -(terrain.elevation(0.0, 0.0) + config.mast_m));
+  g.terrain_from_site = terrain_from_site;
+  // The gimbal stands mast_m above the ground under the site origin (the rover).
+  if (terrain_from_site) {
+    const Eigen::Vector3d& site = terrain_from_site->position_m;
+    g.gimbal_m =
+        Eigen::Vector3d(0.0, 0.0, -(terrain.elevation(site.x(), site.y()) + config.mast_m) - site.z());
+  } else {
+    g.gimbal_m = Eigen::Vector3d(0.0, 0.0, -(terrain.elevation(0.0, 0.0) + config.mast_m));
+  }
   const HeadCamera left = headCamera(config, false), right = headCamera(config, true);
   g.left_offset_m = left.camera_from_head * left.position_head;
   g.right_offset_m = right.camera_from_head * right.position_head;
@@ -241,7 +257,12 @@ SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain) {
 
   // Check points: candidates on the surface, log-uniform in range about the gimbal, uniform in azimuth;
   // kept when two or more images see them. Batches run in parallel, results are taken in candidate order.
+  // The search runs on the terrain (the true models there); the points are kept in the site frame.
   const std::vector<const SimCamera*> cams = g.cameras();
+  std::vector<CameraModel> truth_on_terrain;
+  for (const SimCamera* cam : cams) truth_on_terrain.push_back(g.inTerrain(cam->truth));
+  const Eigen::Vector3d gimbal_on_terrain =
+      terrain_from_site ? terrain_from_site->toTraverse(g.gimbal_m) : g.gimbal_m;
   const int wanted = config.check_points;
   const int64_t max_candidates = static_cast<int64_t>(kMaxCandidatesPerPoint) * std::max(wanted, 100);
   struct Candidate {
@@ -258,13 +279,13 @@ SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain) {
       const uint64_t h = hash3(config.seed, 0xc4ec, first + i);
       const double range = std::exp(log_min + unit(mix64(h + 1)) * (log_max - log_min));
       const double azimuth = 2.0 * M_PI * unit(mix64(h + 2));
-      const double x = g.gimbal_m.x() + range * std::cos(azimuth),
-                   y = g.gimbal_m.y() + range * std::sin(azimuth);
+      const double x = gimbal_on_terrain.x() + range * std::cos(azimuth),
+                   y = gimbal_on_terrain.y() + range * std::sin(azimuth);
       if (!terrain.inside(x, y)) return;
       c.point = Eigen::Vector3d(x, y, -terrain.elevation(x, y));
       for (std::size_t k = 0; k < cams.size(); ++k) {
         Vec2 pixel;
-        if (pointVisible(terrain, cams[k]->truth, c.point, kCheckPointMarginPx, pixel)) {
+        if (pointVisible(terrain, truth_on_terrain[k], c.point, kCheckPointMarginPx, pixel)) {
           c.seen.emplace_back(static_cast<int>(k), pixel);
         }
       }
@@ -274,7 +295,7 @@ SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain) {
       if (c.seen.size() < 2) continue;
       CheckPoint cp;
       cp.point = static_cast<int64_t>(g.points.size());
-      cp.site_m = c.point;
+      cp.site_m = terrain_from_site ? terrain_from_site->toSite(c.point) : c.point;
       g.points.push_back(cp);
       for (const auto& [k, pixel] : c.seen) {
         ImageObservation o;

@@ -8,6 +8,11 @@
 // from north, tilt up positive). Camera frames are the photogrammetric ones (rows of M = [H'; -V'; -A]).
 // The a-priori pointing error is a pan/tilt error of the whole head per pair (like the mast's encoders),
 // so the a-priori models satisfy Eq. 3 and Eq. 4 with the same rig constants as the true ones.
+//
+// One site of a traverse (ground/sim/TraverseSim.hpp): the geometry is made in that site's own frame (the
+// rover at its origin, as above) and `terrain_from_site` places it on the shared terrain (the site's true
+// pose); check points are found and images rendered on the terrain, and everything written is in the site
+// frame.
 #pragma once
 
 #include <optional>
@@ -25,9 +30,9 @@
 namespace areomap::sim {
 
 struct SimCamera {
-  std::string stem;       // "p007_L"
-  CameraModel truth;      // CAHVOR, with width/height
-  CameraModel apriori;    // pointing-derived model (head pan/tilt error)
+  std::string stem;     // "p007_L"
+  CameraModel truth;    // CAHVOR, with width/height
+  CameraModel apriori;  // pointing-derived model (head pan/tilt error)
   Eigen::Matrix3d site_to_camera = Eigen::Matrix3d::Identity();  // true M = [H'; -V'; -A]
 };
 
@@ -37,8 +42,8 @@ struct SimPair {
   int tier = 0;
   double pan_deg = 0.0;
   double tilt_deg = 0.0;
-  double pan_error_rad = 0.0;   // a-priori minus true head pan
-  double tilt_error_rad = 0.0;  // a-priori minus true head tilt
+  double pan_error_rad = 0.0;      // a-priori minus true head pan
+  double tilt_error_rad = 0.0;     // a-priori minus true head tilt
   double pointing_error_px = 0.0;  // the requested image-centre error of this pair
   SimCamera left;
   std::optional<SimCamera> right;
@@ -53,9 +58,17 @@ struct SimGeometry {
   std::vector<SimPair> pairs;
   std::vector<CheckPoint> points;              // true 3-D check points on the surface
   std::vector<ImageObservation> observations;  // their true (distorted) pixels, image = stem
+  // A site of a traverse: where the site frame lies on the terrain (its true pose), the half side of its
+  // truth/dem.tif (site frame, about the site origin) and the dataset's name. Absent: the site frame is the
+  // terrain's own and truth/dem.tif is the whole terrain (Terrain::dem).
+  std::optional<SitePose> terrain_from_site;
+  double dem_half_extent_m = 0.0;
+  std::string name;  // empty: "sim-<preset>-<seed>"
 
   // Every camera in pair order (left, then right).
   std::vector<const SimCamera*> cameras() const;
+  // A site-frame model in the terrain's frame (itself when the site frame is the terrain's).
+  CameraModel inTerrain(const CameraModel& model) const;
   // panorama.json content for a dataset folder `root`: images/<stem>.png, models/<stem>.cahvor.
   Dataset dataset(const std::string& root) const;
 };
@@ -63,12 +76,14 @@ struct SimGeometry {
 // Makes the plan, the models and the check points. Builds the terrain when none is given (check points and
 // visibility need it); validatePlan() first (throws cli::UsageError for an impossible plan).
 SimGeometry makeGeometry(const SimConfig& config);
-SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain);
+SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain,
+                         const std::optional<SitePose>& terrain_from_site = std::nullopt);
 
 // The CAHVOR model of a camera with centre `center_m`, rotation `site_to_camera` (rows H', -V', -A),
 // principal distance `f_px`, principal point (x0, y0) and distortion (O tilted from A, R = 0 rho1 rho2).
 CameraModel makeCahvor(const Eigen::Vector3d& center_m, const Eigen::Matrix3d& site_to_camera, double f_px,
-                       double x0_px, double y0_px, double o_tilt_deg, double rho1, double rho2, int width, int height);
+                       double x0_px, double y0_px, double o_tilt_deg, double rho1, double rho2, int width,
+                       int height);
 
 // Is a site point seen by a camera (in front, inside the image with `margin_px`, not occluded by the
 // terrain, not at grazing incidence)? On success `pixel` holds its true (distorted) image coordinates.

@@ -75,6 +75,20 @@ nlohmann::json configJson(const SimConfig& c) {
           {"range_m", {c.min_range_m, c.max_range_m}}};
 }
 
+// A site of a traverse: where its frame and the terrain lie (ground/sim/TraverseSim.hpp).
+nlohmann::json traverseJson(const SimGeometry& g) {
+  const SimConfig& c = g.config;
+  nlohmann::json rovers = nlohmann::json::array();
+  for (const Eigen::Vector2d& xy : c.rover_xy_m) rovers.push_back({xy.x(), xy.y()});
+  const SitePose& pose = *g.terrain_from_site;
+  return {{"terrain_center_m", {c.terrain_center_m.x(), c.terrain_center_m.y()}},
+          {"cover_half_extent_m", c.cover_half_extent_m},
+          {"rover_xy_m", rovers},
+          {"true_pose",
+           {{"position_m", {pose.position_m.x(), pose.position_m.y(), pose.position_m.z()}},
+            {"heading_deg", pose.heading_rad * 180.0 / M_PI}}}};
+}
+
 }  // namespace
 
 void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::string& out,
@@ -96,16 +110,17 @@ void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::st
                      {"tilt_error_rad", p.tilt_error_rad},
                      {"pointing_error_px", p.pointing_error_px}});
   }
-  const nlohmann::json sim = {{"config", configJson(g.config)},
-                              {"terrain",
-                               {{"nodes", terrain.nodes()},
-                                {"coarse_nodes", terrain.coarseNodes()},
-                                {"half_extent_m", terrain.halfExtentM()},
-                                {"rocks", terrain.rockCount()},
-                                {"craters", terrain.craterCount()}}},
-                              {"pairs", pairs},
-                              {"check_points", g.points.size()},
-                              {"observations", g.observations.size()}};
+  nlohmann::json sim = {{"config", configJson(g.config)},
+                        {"terrain",
+                         {{"nodes", terrain.nodes()},
+                          {"coarse_nodes", terrain.coarseNodes()},
+                          {"half_extent_m", terrain.halfExtentM()},
+                          {"rocks", terrain.rockCount()},
+                          {"craters", terrain.craterCount()}}},
+                        {"pairs", pairs},
+                        {"check_points", g.points.size()},
+                        {"observations", g.observations.size()}};
+  if (g.terrain_from_site) sim["traverse"] = traverseJson(g);
   writeTextFile(out + "/" + kTruthFolder + "/sim.json", sim.dump(2) + "\n");
 
   const std::vector<const SimCamera*> cams = g.cameras();
@@ -115,13 +130,17 @@ void writeSimDataset(const SimGeometry& g, const Terrain& terrain, const std::st
   }
   writePointsCsv(out + "/" + kTruthPointsFile, g.points);
   writeObservationsCsv(out + "/" + kTruthObservationsFile, g.observations);
-  writeDemGeoTiff(out + "/" + kTruthDemFile, terrain.dem());
+  writeDemGeoTiff(out + "/" + kTruthDemFile,
+                  g.terrain_from_site ? terrain.demInFrame(*g.terrain_from_site, Eigen::Vector2d::Zero(),
+                                                           g.dem_half_extent_m, terrain.cellM())
+                                      : terrain.dem());
 
   if (!options.images) return;
   const std::vector<int> png_params = {cv::IMWRITE_PNG_COMPRESSION, 6, cv::IMWRITE_PNG_STRATEGY,
                                        cv::IMWRITE_PNG_STRATEGY_DEFAULT};
   for (std::size_t i = 0; i < cams.size(); ++i) {
-    const RenderedImage image = renderImage(terrain, g.config, cams[i]->truth, static_cast<int>(i));
+    const RenderedImage image =
+        renderImage(terrain, g.config, g.inTerrain(cams[i]->truth), static_cast<int>(i));
     const cv::Mat view(image.height, image.width, CV_8UC1, const_cast<uint8_t*>(image.pixels.data()));
     const std::string path = out + "/images/" + cams[i]->stem + ".png";
     try {

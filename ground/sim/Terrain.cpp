@@ -95,13 +95,17 @@ struct Terrain::Rock {
 
 double Terrain::coverHalfExtentM(const SimConfig& config) {
   const int n = static_cast<int>(std::lround(2.0 * config.half_extent_m / config.cell_m)) + 1;
-  return std::max(0.5 * (n - 1) * config.cell_m, kMinCoverHalfM);
+  return std::max(0.5 * (n - 1) * config.cell_m,
+                  config.cover_half_extent_m > 0.0 ? config.cover_half_extent_m : kMinCoverHalfM);
 }
 
 Terrain Terrain::build(const SimConfig& config) {
   Terrain t;
   t.seed_ = mix64(config.seed ^ 0x7e88a1dULL);
   t.texture_ifov_rad_ = 1.0 / config.focalPx();
+  t.center_ = config.terrain_center_m;
+  t.rovers_ = config.rover_xy_m;
+  if (t.rovers_.empty()) t.rovers_.push_back(Eigen::Vector2d::Zero());
   t.layOutGrids(config);
   // The relief's random draws come first from the terrain's stream, the inner craters' next.
   std::mt19937_64 rng(t.seed_);
@@ -119,16 +123,16 @@ void Terrain::layOutGrids(const SimConfig& config) {
   Grid& f = fine_;
   f.cell = config.cell_m;
   f.n = static_cast<int>(std::lround(2.0 * config.half_extent_m / config.cell_m)) + 1;
-  f.x0 = -0.5 * (f.n - 1) * f.cell;
-  f.y0 = f.x0;
+  f.x0 = center_.x() - 0.5 * (f.n - 1) * f.cell;
+  f.y0 = center_.y() - 0.5 * (f.n - 1) * f.cell;
   const double fine_half = 0.5 * (f.n - 1) * f.cell;
   const double cover_half = coverHalfExtentM(config);
   if (cover_half > fine_half + 1e-9) {
     Grid& c = coarse_;
     c.cell = kCoarseCellM;
     c.n = static_cast<int>(std::lround(2.0 * cover_half / c.cell)) + 1;
-    c.x0 = -0.5 * (c.n - 1) * c.cell;
-    c.y0 = c.x0;
+    c.x0 = center_.x() - 0.5 * (c.n - 1) * c.cell;
+    c.y0 = center_.y() - 0.5 * (c.n - 1) * c.cell;
   }
 }
 
@@ -203,9 +207,9 @@ void Terrain::addCraters(const SimConfig& config, std::mt19937_64& rng) {
   for (int c = 0; c < crater_count; ++c) {
     Crater crater;
     crater.radius = drawCraterRadius(rng);
-    crater.cx = (2.0 * uni(rng) - 1.0) * config.half_extent_m;
-    crater.cy = (2.0 * uni(rng) - 1.0) * config.half_extent_m;
-    if (std::hypot(crater.cx, crater.cy) < crater.radius * 3.0 + 2.0)
+    crater.cx = center_.x() + (2.0 * uni(rng) - 1.0) * config.half_extent_m;
+    crater.cy = center_.y() + (2.0 * uni(rng) - 1.0) * config.half_extent_m;
+    if (rangeToNearestRover(crater.cx, crater.cy) < crater.radius * 3.0 + 2.0)
       continue;                                               // keep the rover off crater walls
     crater.depth = crater.radius * (0.06 + 0.08 * uni(rng));  // degraded craters
     crater.rim = crater.radius * (0.015 + 0.02 * uni(rng));
@@ -227,12 +231,12 @@ void Terrain::addOuterCraters(const SimConfig& config) {
   for (int c = 0; c < outer_count; ++c) {
     Crater crater;
     crater.radius = drawCraterRadius(outer_rng);
-    crater.cx = (2.0 * uni(outer_rng) - 1.0) * cover_half;
-    crater.cy = (2.0 * uni(outer_rng) - 1.0) * cover_half;
+    crater.cx = center_.x() + (2.0 * uni(outer_rng) - 1.0) * cover_half;
+    crater.cy = center_.y() + (2.0 * uni(outer_rng) - 1.0) * cover_half;
     crater.depth = crater.radius * (0.06 + 0.08 * uni(outer_rng));
     crater.rim = crater.radius * (0.015 + 0.02 * uni(outer_rng));
     const double reach = fine_half + 3.0 * crater.radius;
-    if (std::fabs(crater.cx) < reach && std::fabs(crater.cy) < reach) continue;
+    if (std::fabs(crater.cx - center_.x()) < reach && std::fabs(crater.cy - center_.y()) < reach) continue;
     if (addCrater(coarse_, crater, config.threads)) ++craters_;
   }
 }
@@ -244,8 +248,9 @@ std::vector<Terrain::Rock> Terrain::drawRocks(const SimConfig& config) const {
   const int tiles = static_cast<int>(std::ceil(2.0 * config.half_extent_m / kRockTileM));
   for (int tx = 0; tx < tiles; ++tx) {
     for (int ty = 0; ty < tiles; ++ty) {
-      const double ax = -config.half_extent_m + tx * kRockTileM, ay = -config.half_extent_m + ty * kRockTileM;
-      const double range = std::hypot(ax + 0.5 * kRockTileM, ay + 0.5 * kRockTileM);
+      const double ax = center_.x() - config.half_extent_m + tx * kRockTileM,
+                   ay = center_.y() - config.half_extent_m + ty * kRockTileM;
+      const double range = rangeToNearestRover(ax + 0.5 * kRockTileM, ay + 0.5 * kRockTileM);
       const double d_min = std::max({config.min_rock_m, 3.0 * fine_.cell, 0.006 * range});
       std::mt19937_64 tile_rng(hash3(seed_ + 5, tx, ty));
       const int count = drawPoisson(
@@ -263,7 +268,7 @@ std::vector<Terrain::Rock> Terrain::drawRocks(const SimConfig& config) const {
         rock.phase1 = 2.0 * M_PI * u(tile_rng);
         rock.phase2 = 2.0 * M_PI * u(tile_rng);
         rock.squash = 0.7 + 0.3 * u(tile_rng);
-        if (std::hypot(rock.x, rock.y) < kRockFreeRadiusM + rock.radius) continue;
+        if (rangeToNearestRover(rock.x, rock.y) < kRockFreeRadiusM + rock.radius) continue;
         rocks.push_back(rock);
       }
     }
@@ -420,6 +425,29 @@ DemGrid Terrain::dem() const {
               : static_cast<float>(coarse_.elevation(x0 + ix * f.cell, y0 + col * f.cell));
     }
   }
+  return g;
+}
+
+DemGrid Terrain::demInFrame(const SitePose& terrain_from_frame, const Eigen::Vector2d& center_m,
+                            double half_extent_m, double cell_m) const {
+  const int n = static_cast<int>(std::ceil(2.0 * half_extent_m / cell_m - 1e-9));
+  DemGrid g;
+  g.cols = n;
+  g.rows = n;
+  g.cell_m = cell_m;
+  g.east0_m = center_m.y() - 0.5 * n * cell_m;
+  g.north0_m = center_m.x() + 0.5 * n * cell_m;
+  g.values.resize(static_cast<std::size_t>(n) * n);
+  const Eigen::Matrix3d rotation = terrain_from_frame.rotation();
+  const double origin_height_m = -terrain_from_frame.position_m.z();  // the frame origin's elevation, up
+  parallelFor(n, 0, [&](int row) {
+    for (int col = 0; col < n; ++col) {
+      const Eigen::Vector3d p = rotation * Eigen::Vector3d(g.northOfRow(row), g.eastOfCol(col), 0.0) +
+                                terrain_from_frame.position_m;
+      g.values[static_cast<std::size_t>(row) * n + col] =
+          inside(p.x(), p.y()) ? static_cast<float>(elevation(p.x(), p.y()) - origin_height_m) : g.nodata;
+    }
+  });
   return g;
 }
 

@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 
 #include "ground/dataset/DemRaster.hpp"
+#include "ground/dataset/Traverse.hpp"
 #include "ground/sim/SimConfig.hpp"
 
 namespace areomap::sim {
@@ -24,8 +25,8 @@ double golombekRockDensity(double k, double d_min_m, double d_max_m);
 
 class Terrain {
  public:
-  // Half-side (m) of the square the terrain covers around the site origin for `config`: the fine grid,
-  // extended by the coarse outer grid to at least kMinCoverHalfM.
+  // Half-side (m) of the square the terrain covers around its centre for `config`: the fine grid, extended
+  // by the coarse outer grid to at least kMinCoverHalfM (or config.cover_half_extent_m when set).
   static constexpr double kMinCoverHalfM = 50.0;
   static constexpr double kCoarseCellM = 0.1;
   static double coverHalfExtentM(const SimConfig& config);
@@ -44,8 +45,10 @@ class Terrain {
   double albedo(double x_m, double y_m) const;
   // Inside the terrain (fine or coarse grid).
   bool inside(double x_m, double y_m) const;
-  // Half-side (m) of the square covered around the site origin (the smallest of the four sides).
+  // Half-side (m) of the square covered around the terrain's centre (the smallest of the four sides).
   double halfExtentM() const;
+  // Distance (m) in x, y from a point to the nearest rover position of the configuration.
+  double rangeToNearestRover(double x_m, double y_m) const;
 
   // First intersection of origin + t * direction (site frame, t > 0) with the surface inside the terrain.
   // False when the ray leaves the terrain (or rises above every node) without hitting.
@@ -56,6 +59,12 @@ class Terrain {
   // the fine nodes where the fine grid is, the coarse surface (bilinear) sampled beyond. Cell centres
   // on the fine nodes.
   DemGrid dem() const;
+  // The surface as a DEM in another levelled frame F placed by `terrain_from_frame` (p_terrain =
+  // Rz(heading) p_F + position): a square of half side `half_extent_m` about F's (x, y) = `center_m`, cell
+  // `cell_m`, elevations up in F (the terrain's minus the frame origin's height), sampled bilinearly at the
+  // cell centres; nodata beyond the terrain.
+  DemGrid demInFrame(const SitePose& terrain_from_frame, const Eigen::Vector2d& center_m,
+                     double half_extent_m, double cell_m) const;
 
   int nodes() const { return fine_.n; }
   int coarseNodes() const { return coarse_.n; }
@@ -112,6 +121,8 @@ class Terrain {
   }
 
   uint64_t seed_ = 0;
+  Eigen::Vector2d center_ = Eigen::Vector2d::Zero();
+  std::vector<Eigen::Vector2d> rovers_;  // at least one (the origin by default)
   double texture_ifov_rad_ = 0.005;  // the finest pixel angle of the cameras: texture octaves fade below it
   Grid fine_;
   Grid coarse_;

@@ -66,7 +66,23 @@ bool Terrain::inside(double x_m, double y_m) const {
 double Terrain::halfExtentM() const {
   const Grid& g = coarse_.n > 0 ? coarse_ : fine_;
   const double far = (g.n - 1) * g.cell;
-  return std::min({-g.x0, g.x0 + far, -g.y0, g.y0 + far});
+  return std::min(
+      {center_.x() - g.x0, g.x0 + far - center_.x(), center_.y() - g.y0, g.y0 + far - center_.y()});
+}
+
+double Terrain::rangeToNearestRover(double x_m, double y_m) const {
+  // The nearest by squared distance, then its hypot (one rover at the origin: exactly hypot(x, y)).
+  std::size_t nearest = 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < rovers_.size(); ++k) {
+    const double dx = x_m - rovers_[k].x(), dy = y_m - rovers_[k].y();
+    const double d2 = dx * dx + dy * dy;
+    if (d2 < best) {
+      best = d2;
+      nearest = k;
+    }
+  }
+  return std::hypot(x_m - rovers_[nearest].x(), y_m - rovers_[nearest].y());
 }
 
 double Terrain::elevation(double x_m, double y_m) const {
@@ -81,7 +97,7 @@ double Terrain::albedo(double x_m, double y_m) const {
   double value = gridAt(x_m, y_m).albedoAt(x_m, y_m);
   // Fine texture (grain and pebbles below the grid cell), band-limited like a mip-map: an octave of
   // wavelength L fades out where L < 3 pixel footprints at that range (so views alias it alike).
-  const double footprint_m = std::max(1e-3, std::hypot(x_m, y_m) * texture_ifov_rad_);
+  const double footprint_m = std::max(1e-3, rangeToNearestRover(x_m, y_m) * texture_ifov_rad_);
   double fine = 0.0;
   double wavelength = 0.012;
   for (int octave = 0; octave < 5; ++octave, wavelength *= 2.0) {

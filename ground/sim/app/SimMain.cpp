@@ -8,12 +8,14 @@
 #include "ground/sim/SimGeometry.hpp"
 #include "ground/sim/SimWriter.hpp"
 #include "ground/sim/Terrain.hpp"
+#include "ground/sim/TraverseSim.hpp"
 
 namespace {
 
 const char* const kUsage = R"(areomap-sim: synthetic Mars panoramas with known truth
 
 Usage: areomap-sim --preset navcam|imp|fido|tiny --out DIR [options]
+       areomap-sim --preset traverse [--camera navcam|imp|fido|tiny] [--sites N] --out DIR [options]
 
 Writes DIR/panorama.json, DIR/images/<stem>.png (8-bit), DIR/models/<stem>.cahvor (a-priori models,
 pointing off by a pan/tilt error of the mast head per pair) and the truth: DIR/truth/models/<stem>.cahvor,
@@ -26,6 +28,8 @@ Presets: navcam  MER Navcam-like, 1024x1024, 45 deg, 20 cm base, one 360-deg tie
          fido    FIDO-like mast: navcam cameras, tilt axis 10 cm ahead of the pan axis, 2 tiers x 12
                  pairs; panorama.json gives the stereo base only (adjust it with --fido)
          tiny    8 small pairs (256x192, 60 deg), made in seconds, for tests
+         traverse  a multi-site traverse over one continuous terrain: a panorama of the --camera preset
+                 at each of --sites sites 10-30 m apart along a winding path (below)
 
 Options (each overrides the preset):
   --seed N                   random seed (default 1)
@@ -55,6 +59,21 @@ Options (each overrides the preset):
   --range-m MIN MAX          range of the check points from the rover
   --threads N                worker threads (default: all cores)
   --no-images                geometry and truth only (no rendering)
+
+Traverse (--preset traverse; README "traverse.json"): writes DIR/traverse.json (the sites in driving
+order, their a-priori poses in the traverse frame = the first site's frame, the odometry of each leg and
+its sigmas), DIR/sites/<id>/ (one complete dataset per site, as the --camera preset writes it, in that
+site's own frame: every single-site tool runs on it), DIR/truth/traverse.json (the true poses) and
+DIR/truth/dem.tif (the terrain in the traverse frame, 10 cm). The options above set each site's panorama;
+--extent-m is the fine terrain's margin beyond the outermost site (default 30 m, 20 m for tiny).
+  --camera P                 the panorama of every site: navcam (default), imp, fido or tiny
+  --sites N                  number of sites (default 5, 1..99)
+  --leg-min-m A --leg-max-m B  distance between consecutive sites (default 10 and 30)
+  --max-turn-deg T           heading change before each leg, uniform in +-T (default 40)
+  --odometry-drift-pct P     odometry sigma per horizontal axis, % of the leg's distance (default 5)
+  --vertical-drift-pct P     odometry sigma vertically, % of the leg's distance (default 1)
+  --heading-drift-deg D      odometry heading sigma per leg (default 2); the a-priori poses chain the
+                             odometry, so their errors grow as a random walk
   --help                     this text
 
 Exit codes: 0 done, 2 usage error or impossible plan, 1 other error (e.g. an unwritable folder).
@@ -83,16 +102,76 @@ int integerOption(areomap::cli::Args& args, const std::string& name, int fallbac
   return static_cast<int>(v);
 }
 
+// --preset traverse: the whole layout, a progress line per site.
+int simulateTraverse(const areomap::sim::TraverseSimConfig& config, const std::string& out, bool images) {
+  using namespace areomap;
+  const double t0 = cli::nowSeconds();
+  cli::info("preset traverse (" + config.site.preset + " panoramas), " +
+            std::to_string(config.traverse.sites) + " sites, seed " + std::to_string(config.seed));
+  sim::TraverseSimOptions options;
+  options.images = images;
+  double site_start = t0;
+  options.on_stage = [&](const std::string& text) {
+    if (text.rfind("warning: ", 0) == 0) {
+      cli::warn(text.substr(9));
+    } else {
+      cli::info(text);
+    }
+    site_start = cli::nowSeconds();
+  };
+  options.on_image = [&](int site, int done, int total) {
+    if (done != total) return;
+    char line[160];
+    std::snprintf(line, sizeof(line), "%s: %d images rendered in %.1f s", sim::traverseSiteId(site).c_str(),
+                  total, cli::nowSeconds() - site_start);
+    cli::info(line);
+  };
+  const sim::TraversePlan plan = sim::writeTraverseDataset(config, out, options);
+  char line[200];
+  std::snprintf(line, sizeof(line), "wrote %s: %zu sites, %.1f m driven, in %.1f s", out.c_str(),
+                plan.truth.size(), plan.distanceM(), cli::nowSeconds() - t0);
+  cli::info(line);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace areomap;
   return cli::runTool("areomap-sim", argc, argv, kUsage, [](cli::Args& args) {
-    sim::SimConfig c = sim::presetConfig(args.required("--preset"));
+    const std::string preset = args.required("--preset");
+    const bool traverse = preset == "traverse";
+    const std::optional<std::string> camera = args.option("--camera");
+    if (camera && !traverse) throw cli::UsageError("--camera: only with --preset traverse");
+    auto isSitePreset = [](const std::string& name) {
+      return name == "navcam" || name == "imp" || name == "fido" || name == "tiny";
+    };
+    if (!traverse && !isSitePreset(preset)) {
+      throw cli::UsageError("--preset: unknown preset '" + preset +
+                            "' (navcam, imp, fido, tiny or traverse)");
+    }
+    if (camera && !isSitePreset(*camera)) {
+      throw cli::UsageError("--camera: unknown camera preset '" + *camera + "' (navcam, imp, fido or tiny)");
+    }
+    sim::TraverseSimConfig tc = sim::traversePreset(traverse ? camera.value_or("navcam") : preset);
+    sim::SimConfig& c = tc.site;
+    if (traverse) {
+      tc.traverse.sites = integerOption(args, "--sites", tc.traverse.sites);
+      tc.traverse.leg_min_m = args.number("--leg-min-m", tc.traverse.leg_min_m);
+      tc.traverse.leg_max_m = args.number("--leg-max-m", tc.traverse.leg_max_m);
+      tc.traverse.max_turn_deg = args.number("--max-turn-deg", tc.traverse.max_turn_deg);
+      tc.traverse.drift_fraction =
+          args.number("--odometry-drift-pct", 100.0 * tc.traverse.drift_fraction) / 100.0;
+      tc.traverse.vertical_drift_fraction =
+          args.number("--vertical-drift-pct", 100.0 * tc.traverse.vertical_drift_fraction) / 100.0;
+      tc.traverse.heading_drift_deg = args.number("--heading-drift-deg", tc.traverse.heading_drift_deg);
+      tc.terrain_margin_m = args.number("--extent-m", tc.terrain_margin_m);
+    }
     const std::string out = args.required("--out");
     const int64_t seed = args.integer("--seed", 1);
     if (seed < 0) throw cli::UsageError("--seed: must be >= 0");
     c.seed = static_cast<uint64_t>(seed);
+    tc.seed = c.seed;
     const std::optional<std::string> pairs = args.option("--pairs");
     if (const auto tilts = args.option("--tilts")) {
       // One 360-degree tier per tilt, each like the preset's tier of the same index (or its last one);
@@ -144,7 +223,7 @@ int main(int argc, char** argv) {
         if (!tier.left_only) tier.pan_step_deg = s;
       }
     }
-    c.half_extent_m = args.number("--extent-m", c.half_extent_m);
+    if (!traverse) c.half_extent_m = args.number("--extent-m", c.half_extent_m);
     c.cell_m = args.number("--cell-m", c.cell_m);
     c.relief_m = args.number("--relief-m", c.relief_m);
     c.rock_k = args.number("--rock-k", c.rock_k);
@@ -163,6 +242,7 @@ int main(int argc, char** argv) {
     const bool images = !args.flag("--no-images");
     args.finish();
     sim::validatePlan(c);
+    if (traverse) return simulateTraverse(tc, out, images);
 
     const double t0 = cli::nowSeconds();
     cli::info("preset " + c.preset + ", seed " + std::to_string(c.seed) + ": building the terrain");

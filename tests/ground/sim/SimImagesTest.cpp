@@ -17,12 +17,14 @@
 #include "ground/sim/SimGeometry.hpp"
 #include "ground/sim/SimWriter.hpp"
 #include "ground/sim/Terrain.hpp"
+#include "tests/ground/sim/ImagePatches.hpp"
 #include "tests/support/TestData.hpp"
 
 #include <CppUTest/TestHarness.h>
 
 using namespace areomap;
 using namespace areomap::sim;
+using namespace areomap::sim::patches;
 
 namespace {
 
@@ -42,68 +44,6 @@ struct TinyScene {
 const TinyScene& tinyScene() {
   static const TinyScene scene;
   return scene;
-}
-
-double bilinear(const RenderedImage& im, double x, double y) {
-  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-  const double fx = x - x0, fy = y - y0;
-  auto at = [&](int c, int r) {
-    c = std::clamp(c, 0, im.width - 1);
-    r = std::clamp(r, 0, im.height - 1);
-    return static_cast<double>(im.pixels[static_cast<std::size_t>(r) * im.width + c]);
-  };
-  return at(x0, y0) * (1 - fx) * (1 - fy) + at(x0 + 1, y0) * fx * (1 - fy) + at(x0, y0 + 1) * (1 - fx) * fy +
-         at(x0 + 1, y0 + 1) * fx * fy;
-}
-
-double nccOf(const std::vector<double>& va, const std::vector<double>& vb) {
-  const double n = static_cast<double>(va.size());
-  double ma = 0, mb = 0;
-  for (std::size_t i = 0; i < va.size(); ++i) {
-    ma += va[i] / n;
-    mb += vb[i] / n;
-  }
-  double sab = 0, saa = 0, sbb = 0;
-  for (std::size_t i = 0; i < va.size(); ++i) {
-    sab += (va[i] - ma) * (vb[i] - mb);
-    saa += (va[i] - ma) * (va[i] - ma);
-    sbb += (vb[i] - mb) * (vb[i] - mb);
-  }
-  return sab / std::sqrt(std::max(1e-12, saa * sbb));
-}
-
-// NCC of (2 half + 1)^2 patches centred on sub-pixel positions.
-double ncc(const RenderedImage& a, const Vec2& pa, const RenderedImage& b, const Vec2& pb, int half) {
-  std::vector<double> va, vb;
-  for (int dy = -half; dy <= half; ++dy) {
-    for (int dx = -half; dx <= half; ++dx) {
-      va.push_back(bilinear(a, pa.x() + dx, pa.y() + dy));
-      vb.push_back(bilinear(b, pb.x() + dx, pb.y() + dy));
-    }
-  }
-  return nccOf(va, vb);
-}
-
-// NCC of the patch around `pa` in image A with the same surface seen in image B: every pixel of A's patch
-// is cast onto the terrain and the hit projected into B (so perspective differences do not count).
-bool warpedNcc(const Terrain& terrain, const CameraModel& ma, const RenderedImage& a, const Vec2& pa,
-               const CameraModel& mb, const RenderedImage& b, int half, double& value) {
-  std::vector<double> va, vb;
-  for (int dy = -half; dy <= half; ++dy) {
-    for (int dx = -half; dx <= half; ++dx) {
-      Vec3 origin, dir;
-      double t = 0.0;
-      Vec2 pb;
-      if (unproject(ma, Vec2(pa.x() + dx, pa.y() + dy), origin, dir) != Status::kOk || !terrain.castRay(origin, dir, t) ||
-          project(mb, origin + t * dir, pb) != Status::kOk) {
-        return false;
-      }
-      va.push_back(bilinear(a, pa.x() + dx, pa.y() + dy));
-      vb.push_back(bilinear(b, pb.x(), pb.y()));
-    }
-  }
-  value = nccOf(va, vb);
-  return true;
 }
 
 std::string readBytes(const std::string& path) {
@@ -148,7 +88,8 @@ TEST(SimImages, TrueProjectionsOfAPointMarkTheSameSurface) {
         const double v = ncc(ii, pi, ij, pj, 5);
         (obs[i]->image.substr(0, 4) == obs[j]->image.substr(0, 4) ? stereo : inter).push_back(v);
         double w = 0.0;
-        if (warpedNcc(scene.terrain, *models.at(obs[i]->image), ii, pi, *models.at(obs[j]->image), ij, 5, w)) {
+        if (warpedNcc(scene.terrain, *models.at(obs[i]->image), ii, pi, *models.at(obs[j]->image), ij, 5,
+                      w)) {
           warped.push_back(w);
         }
       }
@@ -156,7 +97,8 @@ TEST(SimImages, TrueProjectionsOfAPointMarkTheSameSurface) {
   }
   auto summary = [](std::vector<double> v, const char* what) {
     std::sort(v.begin(), v.end());
-    const double above = static_cast<double>(std::count_if(v.begin(), v.end(), [](double x) { return x >= 0.9; })) / v.size();
+    const double above =
+        static_cast<double>(std::count_if(v.begin(), v.end(), [](double x) { return x >= 0.9; })) / v.size();
     printf("%s: %zu patch pairs, NCC median %.3f, 10th percentile %.3f, %.1f %% >= 0.9\n", what, v.size(),
            v[v.size() / 2], v[v.size() / 10], 100.0 * above);
     return std::make_pair(v[v.size() / 2], above);
@@ -164,7 +106,8 @@ TEST(SimImages, TrueProjectionsOfAPointMarkTheSameSurface) {
   printf("\n11x11 patches around the true projections of %zu check points:\n", by_point.size());
   const auto [stereo_median, stereo_above] = summary(stereo, "plain windows, stereo (same pair)");
   const auto [inter_median, inter_above] = summary(inter, "plain windows, inter-stereo (other pairs)");
-  const auto [warped_median, warped_above] = summary(warped, "same surface (B sampled where A's pixels land)");
+  const auto [warped_median, warped_above] =
+      summary(warped, "same surface (B sampled where A's pixels land)");
   CHECK(stereo.size() >= 200u);
   CHECK(inter.size() >= 50u);
   CHECK(warped.size() >= 300u);
@@ -197,7 +140,8 @@ TEST(SimImages, SameSeedSameBytesWhateverTheThreadCount) {
   c.half_extent_m = 12.0;
   c.check_points = 50;
   c.jpeg_quality = 90;
-  const std::string a = test::scratchDir("sim-same-a"), b = test::scratchDir("sim-same-b"), d = test::scratchDir("sim-same-c");
+  const std::string a = test::scratchDir("sim-same-a"), b = test::scratchDir("sim-same-b"),
+                    d = test::scratchDir("sim-same-c");
   c.threads = 1;
   writeSimDataset(makeGeometry(c), Terrain::build(c), a, WriteOptions{});
   c.threads = 3;
@@ -214,8 +158,9 @@ TEST(SimImages, SameSeedSameBytesWhateverTheThreadCount) {
     if (rel.rfind("images/", 0) == 0 && bytes != readBytes(d + "/" + rel)) ++differ_other_seed;
     ++files;
   }
-  printf("\n%d files byte-identical for the same seed (1 and 3 threads); %d images differ with another seed\n", files,
-         differ_other_seed);
+  printf(
+      "\n%d files byte-identical for the same seed (1 and 3 threads); %d images differ with another seed\n",
+      files, differ_other_seed);
   CHECK_EQUAL(4, differ_other_seed);
   // The dataset reads back through the contract reader.
   const Dataset ds = readDataset(a);
@@ -250,18 +195,22 @@ TEST(SimImages, ToolRejectsImpossiblePlansAndUnwritableFolders) {
   CHECK_EQUAL(2, runSim("--preset tiny --pairs many --out " + out + "/x", err));
   CHECK_EQUAL(2, runSim("--preset tiny", err));
   std::ofstream(out + "/file") << "x";
-  CHECK_EQUAL(1, runSim("--preset tiny --pairs 1 --no-images --check-points 10 --out " + out + "/file/sub", err));
+  CHECK_EQUAL(
+      1, runSim("--preset tiny --pairs 1 --no-images --check-points 10 --out " + out + "/file/sub", err));
   printf("%s", err.c_str());
   CHECK(err.find(out + "/file/sub") != std::string::npos);
   CHECK_EQUAL(0, runSim("--help", err));
-  CHECK_EQUAL(0, runSim("--preset tiny --pairs 2 --size 96 64 --no-images --check-points 20 --out " + out + "/ok", err));
+  CHECK_EQUAL(
+      0,
+      runSim("--preset tiny --pairs 2 --size 96 64 --no-images --check-points 20 --out " + out + "/ok", err));
   CHECK(test::fileExists(out + "/ok/panorama.json"));
   CHECK(test::fileExists(out + "/ok/truth/observations.csv"));
   CHECK_FALSE(test::fileExists(out + "/ok/images"));
   // Overrides combine: two tiers by --tilts, four pairs by --pairs (two per tier).
-  CHECK_EQUAL(0, runSim("--preset tiny --tilts=-30,-50 --pairs 4 --size 96 64 --no-images --check-points 20 --out " +
-                            out + "/tiers",
-                        err));
+  CHECK_EQUAL(
+      0, runSim("--preset tiny --tilts=-30,-50 --pairs 4 --size 96 64 --no-images --check-points 20 --out " +
+                    out + "/tiers",
+                err));
   const Dataset ds = readDataset(out + "/tiers");
   CHECK_EQUAL(4u, ds.pairs.size());
   CHECK_EQUAL(0, ds.pairs[1].tier);

@@ -1,0 +1,61 @@
+// The poses of a simulated multi-site traverse (issue 21): the true path, the rover's odometry over each
+// leg and the a-priori site poses dead-reckoned from it. No terrain and no images: the heights come from a
+// ground-elevation function, so the statistics can be tested on thousands of seeds in milliseconds.
+//
+// True path: site 1 at the origin heading north (the traverse frame is site 1's frame); before each leg
+// the rover turns by a heading change uniform in +-max_turn_deg, then drives straight for a distance
+// uniform in [leg_min_m, leg_max_m] and stops facing the way it drove. Every site origin stands at the same
+// height above the ground under it as site 1's (z_k = e(0, 0) - e(x_k, y_k), Z down, e the elevation up),
+// so every site has the same rig in its own frame.
+// Odometry: each leg's measured displacement (in the previous site's frame) and heading change are the
+// true ones plus independent Gaussian errors: sigma drift_fraction * d per horizontal axis,
+// vertical_drift_fraction * d vertically (d the leg's distance) and heading_drift_deg in heading. The
+// a-priori poses are these measurements chained from site 1 (a random walk: errors accumulate).
+// Every random number is a hash of the seed and the leg (ground/sim/Noise.hpp): deterministic and portable.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "ground/dataset/Traverse.hpp"
+
+namespace areomap::sim {
+
+struct TraverseSettings {
+  int sites = 5;
+  double leg_min_m = 10.0;
+  double leg_max_m = 30.0;
+  double max_turn_deg = 40.0;
+  double drift_fraction = 0.05;           // --odometry-drift-pct / 100
+  double vertical_drift_fraction = 0.01;  // --vertical-drift-pct / 100
+  double heading_drift_deg = 2.0;         // --heading-drift-deg
+};
+
+struct TraversePlan {
+  std::vector<std::string> ids;   // "site01", "site02", ... in driving order
+  std::vector<SitePose> truth;    // true poses in the traverse frame
+  std::vector<SitePose> apriori;  // dead-reckoned from the odometry
+  std::vector<OdometryLeg> legs;  // legs[k - 1]: from site k - 1 to site k (0-based sites)
+  double distanceM() const;
+};
+
+// Up to 99 sites (two-digit ids).
+constexpr int kMaxTraverseSites = 99;
+
+// The id of the site at 0-based `index`: "site01" for 0.
+std::string traverseSiteId(int index);
+
+// Checks the settings; throws cli::UsageError naming the option.
+void validateTraverse(const TraverseSettings& settings);
+
+// The plan for `seed`. `ground_elevation_up_m(x, y)` gives the ground's elevation (up) at a traverse point;
+// empty: flat ground (every z 0). The horizontal path does not depend on it.
+TraversePlan planTraverse(const TraverseSettings& settings, uint64_t seed,
+                          const std::function<double(double, double)>& ground_elevation_up_m = {});
+
+// The pose reached from `from` by the displacement `delta_m` (in from's frame) and heading change.
+SitePose composePose(const SitePose& from, const Eigen::Vector3d& delta_m, double delta_heading_rad);
+
+}  // namespace areomap::sim
