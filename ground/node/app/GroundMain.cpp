@@ -15,13 +15,7 @@
 #include "platform/posix/LcmLogReplay.hpp"
 #include "platform/posix/LcmTransport.hpp"
 #ifdef AREOMAP_HAVE_PRODUCTS
-#include <map>
-
-#include "firmware_core/adjust/Network.hpp"
-#include "ground/adjust/CommonVergence.hpp"
-#include "ground/adjust/FullEoCovariance.hpp"
-#include "ground/dataset/DemRaster.hpp"
-#include "ground/products/Products.hpp"
+#include "ground/pass/PassProducts.hpp"
 #endif
 
 namespace {
@@ -87,103 +81,6 @@ void printSummary(const areomap::ground::GroundPassResult& p, const std::string&
   std::printf("ground: %zu product files in %s\n", p.files.size(), out.c_str());
 }
 
-#ifdef AREOMAP_HAVE_PRODUCTS
-// The adjusted cameras and their whole EO covariance for the DEM sigma (products::EoUncertainty); the
-// product images are the network's images in its order. Absent (with a warning) when the network has none.
-std::optional<areomap::products::EoUncertainty> eoUncertainty(
-    const areomap::Network& solved, std::vector<std::string>& warnings,
-    const std::vector<areomap::products::ProductPair>& pairs) {
-  using namespace areomap;
-  const auto net = std::make_unique<Network>(solved);  // fullEoCovariance writes its per-pair blocks
-  ground::FullEoCovariance full = ground::fullEoCovariance(*net);
-  if (!ok(full.status)) {
-    warnings.push_back(std::string("dem_sigma.tif leaves the cameras' error out: no EO covariance (") +
-                       statusName(full.status) + ").");
-    cli::warn(warnings.back());
-    return std::nullopt;
-  }
-  const ground::CommonVergenceCheck check = ground::addCommonVergenceSystematic(*net, full);
-  if (check.done) {
-    char b[320];
-    std::snprintf(b, sizeof b,
-                  "common vergence of the pairs: sigma %.1f urad; near half of the points (to %.2f m) differs by "
-                  "%+.1f urad, noise explains %.1f: systematic part %.1f urad (in the DEM sigma)",
-                  check.sigma_rad * 1e6, check.split_range_m, check.difference_rad * 1e6,
-                  check.expected_sd_rad * 1e6, check.systematic_rad * 1e6);
-    cli::info(b);
-    // Said when it is significant (|t| beyond twice its noise: p < 5 %); the sigma takes any excess.
-    if (std::fabs(check.difference_rad) > 2.0 * check.expected_sd_rad) {
-      std::snprintf(b, sizeof b,
-                    "The tie points beyond %.2f m move the pairs' common vergence by %.1f urad more than their "
-                    "noise explains (a systematic parallax error of far matches); dem_sigma.tif includes it.",
-                    check.split_range_m, check.systematic_rad * 1e6);
-      warnings.push_back(b);
-    }
-  }
-  products::EoUncertainty eo;
-  for (int32_t i = 0; i < net->imageCount(); ++i) eo.cameras.push_back(net->image(i));
-  for (const products::ProductPair& pp : pairs) {
-    int block = -1;
-    for (int32_t q = 0; q < net->pairCount() && block < 0; ++q) {
-      if (net->pair(q).left == pp.left && net->pair(q).right == pp.right && pp.right >= 0) block = q;
-    }
-    eo.block_of_pair.push_back(block);
-  }
-  eo.covariance = full.covariance;
-  return eo;
-}
-
-// The products of ground/products (dense matching, DEM, ortho, previews, report.html) from the pass.
-void makeGroundProducts(const areomap::ground::ProductContext& c) {
-  using namespace areomap;
-  products::ProductInputs in;
-  const Dataset& dataset = c.panorama->dataset;
-  in.site = dataset.name;
-  std::map<std::string, int> index_of_stem;
-  for (std::size_t i = 0; i < c.stems->size(); ++i) {
-    const std::string& stem = (*c.stems)[i];
-    products::ProductImage image;
-    image.stem = stem;
-    if (const io::PanoramaImage* loaded = c.panorama->find(stem))
-      image.grey = loaded->grey;  // shared, not copied
-    image.model = ground::adjustedModelOf(*c.net, static_cast<int>(i), (*c.apriori)[i]);
-    index_of_stem[stem] = static_cast<int>(in.images.size());
-    in.images.push_back(image);
-  }
-  for (const Pair& pair : dataset.pairs) {
-    products::ProductPair p;
-    p.id = pair.id;
-    p.sol = pair.sol;
-    const auto left = index_of_stem.find(pair.left.stem);
-    if (left == index_of_stem.end()) continue;
-    p.left = left->second;
-    if (pair.right) {
-      const auto right = index_of_stem.find(pair.right->stem);
-      p.right = right == index_of_stem.end() ? -1 : right->second;
-    }
-    in.pairs.push_back(p);
-  }
-  for (const ImageObservation& o : *c.ties) {
-    const auto it = index_of_stem.find(o.image);
-    if (it == index_of_stem.end()) continue;
-    products::ProductTie t;
-    t.point = static_cast<int>(o.point);
-    t.image = it->second;
-    t.pixel_px = Vec2(o.sample_px, o.line_px);
-    t.inter = o.kind == "inter";
-    in.ties.push_back(t);
-  }
-  in.gimbal_site_m = c.net->rig.gimbal_m[0];
-  in.eo_uncertainty = eoUncertainty(*c.net, c.report->warnings, in.pairs);
-  if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
-    in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
-  }
-  const products::ProductsResult made =
-      products::makeProducts(in, products::ProductOptions{}, c.out_dir, c.report);
-  products::mergeIntoReport(made, *c.report);
-  if (c.write_errors != nullptr) c.write_errors->insert(c.write_errors->end(), made.write_errors.begin(), made.write_errors.end());
-}
-#endif
 
 // DESIGN.md exit codes: a product that could not be written (full disk, folder not writable) is an error,
 // reported once every other product is made: each file named on stderr, then exit 1.
@@ -216,7 +113,7 @@ int main(int argc, char** argv) {
     options.pass.use_rover_ties = !args.flag("--no-rover-ties");
     options.stream_only = args.flag("--stream-only");
 #ifdef AREOMAP_HAVE_PRODUCTS
-    if (!no_products) options.pass.products_hook = makeGroundProducts;
+    if (!no_products) options.pass.products_hook = ground::makePassProducts;
 #else
     (void)no_products;
 #endif

@@ -1,0 +1,27 @@
+// The products of a ground pass (ground/products: dense matching, DEM, ortho, previews, report.html) from
+// its solved network: the hook that areomap-ground and areomap-traverse set (GroundPassOptions::
+// products_hook). The DEM sigma gets the adjusted cameras' error (ground/adjust/FullEoCovariance.hpp,
+// CommonVergence.hpp).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "firmware_core/adjust/Network.hpp"
+#include "ground/node/GroundPass.hpp"
+#include "ground/products/Products.hpp"
+
+namespace areomap::ground {
+
+// Makes the products of the pass in c.out_dir and merges their part into c.report.
+void makePassProducts(const ProductContext& c);
+
+// The adjusted cameras and their whole EO covariance for the DEM sigma (products::EoUncertainty), for
+// product images in the network's image order; absent (with a warning into `warnings`) when the network
+// has none.
+std::optional<products::EoUncertainty> eoUncertainty(const Network& solved,
+                                                     std::vector<std::string>& warnings,
+                                                     const std::vector<products::ProductPair>& pairs);
+
+}  // namespace areomap::ground

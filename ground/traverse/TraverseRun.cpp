@@ -1,0 +1,240 @@
+#include "ground/traverse/TraverseRun.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "ground/cli/AtomicFile.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/DemRaster.hpp"
+#include "ground/node/GroundPass.hpp"
+#include "ground/pass/PassProducts.hpp"
+#include "ground/raster/RasterFiles.hpp"
+#include "ground/traverse/TraverseMosaic.hpp"
+
+namespace areomap::traverse {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// `key`.after.dist (or .after.z for method 2) of a site's report.json, -1 when absent.
+double figure(const json& report, const char* key, const char* field) {
+  if (!report.contains(key) || !report[key].is_object() || !report[key].contains("after")) return -1.0;
+  const json& after = report[key]["after"];
+  return after.contains(field) && after[field].is_number() ? after[field].get<double>() : -1.0;
+}
+
+// One site mapped alone into OUT/sites/<id>.
+SiteOutcome runSite(const TraverseSite& site, const TraverseRunOptions& o, std::size_t k, std::size_t n) {
+  SiteOutcome s;
+  s.id = site.id;
+  s.out_dir = o.out_dir + "/sites/" + site.id;
+  if (o.progress) cli::info("site " + std::to_string(k + 1) + "/" + std::to_string(n) + ": " + site.id);
+  try {
+    const Dataset dataset = readDataset(site.dir);
+    ground::GroundPassOptions pass;
+    pass.out_dir = s.out_dir;
+    pass.progress = o.progress;
+    if (o.products) pass.products_hook = ground::makePassProducts;
+    const ground::GroundPassResult r = ground::runGroundPass(dataset, pass, nullptr, nullptr);
+    s.ok = true;
+    std::ifstream in(s.out_dir + "/report.json");
+    const json report = json::parse(in, nullptr, false);
+    if (!report.is_discarded()) {
+      s.method1_px = figure(report, "method1_px", "dist");
+      s.method2_m = figure(report, "method2_m", "z");
+      s.method3_px = figure(report, "method3_px", "dist");
+    }
+    if (r.truth_eo_after_px) s.truth_eo_px = *r.truth_eo_after_px;
+  } catch (const std::exception& e) {
+    s.error = e.what();
+    cli::warn("site " + site.id + " not mapped: " + s.error);
+  }
+  return s;
+}
+
+void writePoses(const SitePoseSolution& poses, const std::string& path) {
+  std::ostringstream csv;
+  csv << "site,x_m,y_m,z_m,heading_deg,sigma_x_m,sigma_y_m,sigma_z_m,sigma_heading_deg,source,distance_m\n";
+  char b[400];
+  for (const SitePoseEstimate& e : poses.sites) {
+    const Eigen::Vector4d sd = e.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+    std::snprintf(b, sizeof b, "%s,%.4f,%.4f,%.4f,%.5f,%.4f,%.4f,%.4f,%.5f,%s,%.3f\n", e.id.c_str(),
+                  e.pose.position_m.x(), e.pose.position_m.y(), e.pose.position_m.z(),
+                  e.pose.heading_rad * 180.0 / M_PI, sd(0), sd(1), sd(2), sd(3) * 180.0 / M_PI,
+                  poseSourceName(e.source), e.distance_m);
+    csv << b;
+  }
+  cli::writeFileAtomic(path, csv.str());
+}
+
+raster::Geometry geometryOf(const DemGrid& g) {
+  return {g.cols, g.rows, g.east0_m, g.north0_m, g.cell_m};
+}
+
+// The merged dem.tif, dem_sigma.tif and ortho.tif from the sites that have them.
+void writeMergedMap(const Traverse& traverse, const std::vector<SiteOutcome>& sites,
+                    const SitePoseSolution& poses, const TraverseRunOptions& o, TraverseResult& result) {
+  std::vector<DemGrid> dem(sites.size()), sigma(sites.size()), ortho(sites.size());
+  std::vector<MosaicInput> dem_in, sigma_in, ortho_in;
+  double cell = o.cell_m;
+  for (std::size_t k = 0; k < sites.size(); ++k) {
+    const std::string dir = sites[k].out_dir;
+    if (!sites[k].ok || !fs::exists(dir + "/dem.tif")) continue;
+    dem[k] = readDemGeoTiff(dir + "/dem.tif");
+    if (fs::exists(dir + "/dem_sigma.tif")) sigma[k] = readDemGeoTiff(dir + "/dem_sigma.tif");
+    if (fs::exists(dir + "/ortho.tif")) ortho[k] = readDemGeoTiff(dir + "/ortho.tif");
+    if (o.cell_m <= 0.0) cell = std::max(cell, dem[k].cell_m);
+    const SitePoseEstimate& p = poses.sites[k];
+    dem_in.push_back({p.pose, &dem[k], 0.0});
+    // The pose's vertical sigma is common to all of the site's cells.
+    if (sigma[k].cols > 0) sigma_in.push_back({p.pose, &sigma[k], p.covariance(2, 2)});
+    if (ortho[k].cols > 0) ortho_in.push_back({p.pose, &ortho[k], 0.0});
+  }
+  if (dem_in.empty()) {
+    result.warnings.push_back("No site has a dem.tif: no merged map.");
+    return;
+  }
+  const DemGrid grid = traverseGrid(dem_in, cell);
+  raster::SiteTags tags;
+  tags.site = traverse.name;
+  const auto write_float = [&](const std::string& name, const Mosaic& m, const std::string& values) {
+    const std::string path = o.out_dir + "/" + name;
+    try {
+      cli::writeViaTemporary(path, [&](const std::string& tmp) {
+        raster::writeGeoTiff(tmp, geometryOf(m.grid), m.grid.values.data(), m.grid.nodata);
+        raster::tagSiteRaster(tmp, tags, values);
+      });
+      result.files.push_back(path);
+    } catch (const std::exception& e) {
+      result.write_errors.push_back(path + ": " + e.what());
+    }
+  };
+  if (o.progress)
+    cli::info("merged map: " + std::to_string(grid.cols) + " x " + std::to_string(grid.rows) + " cells");
+  write_float("dem.tif", mosaic(dem_in, grid, MosaicKind::kElevation),
+              "elevation up (-Z) in the traverse frame, metres; nearest site");
+  if (!sigma_in.empty())
+    write_float("dem_sigma.tif", mosaic(sigma_in, grid, MosaicKind::kSigma),
+                "standard deviation of dem.tif, metres, with the site pose's vertical sigma");
+  if (!ortho_in.empty()) {
+    const Mosaic m = mosaic(ortho_in, grid, MosaicKind::kGrey);
+    std::vector<uint8_t> grey(m.grid.values.size(), 0);
+    for (std::size_t i = 0; i < grey.size(); ++i) {
+      const float v = m.grid.values[i];
+      grey[i] = v == m.grid.nodata ? 0 : static_cast<uint8_t>(std::clamp(v, 1.0f, 255.0f));
+    }
+    const std::string path = o.out_dir + "/ortho.tif";
+    try {
+      cli::writeViaTemporary(path, [&](const std::string& tmp) {
+        raster::writeGeoTiff(tmp, geometryOf(m.grid), grey.data(), 0);
+        raster::tagSiteRaster(tmp, tags, "grey value (8-bit), 0 = no data; nearest site");
+      });
+      result.files.push_back(path);
+    } catch (const std::exception& e) {
+      result.write_errors.push_back(path + ": " + e.what());
+    }
+  }
+}
+
+json poseJson(const SitePoseEstimate& e) {
+  const Eigen::Vector4d sd = e.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  return {{"id", e.id},
+          {"position_m", {e.pose.position_m.x(), e.pose.position_m.y(), e.pose.position_m.z()}},
+          {"heading_deg", e.pose.heading_rad * 180.0 / M_PI},
+          {"sigma_m", {sd(0), sd(1), sd(2)}},
+          {"sigma_heading_deg", sd(3) * 180.0 / M_PI},
+          {"source", poseSourceName(e.source)},
+          {"distance_m", e.distance_m}};
+}
+
+void writeReport(const Traverse& traverse, const TraverseResult& r, const TraverseRunOptions& o) {
+  json sites = json::array();
+  double m1 = 0, m2 = 0, m3 = 0;
+  int mapped = 0;
+  for (std::size_t k = 0; k < r.sites.size(); ++k) {
+    const SiteOutcome& s = r.sites[k];
+    json j = poseJson(r.poses.sites[k]);
+    j["mapped"] = s.ok;
+    if (!s.ok) j["error"] = s.error;
+    j["method1_px"] = s.method1_px;
+    j["method2_m"] = s.method2_m;
+    j["method3_px"] = s.method3_px;
+    if (s.truth_eo_px >= 0) j["truth_eo_px"] = s.truth_eo_px;
+    sites.push_back(j);
+    if (s.ok && s.method1_px >= 0) {
+      m1 += s.method1_px;
+      m2 += s.method2_m;
+      m3 += s.method3_px;
+      ++mapped;
+    }
+  }
+  json t = {{"sites", static_cast<int>(traverse.sites.size())},
+            {"distance_m", traverse.distanceDrivenM()},
+            {"cross_site_ties", 0},
+            {"site", sites}};
+  std::vector<SitePose> apriori, estimated;
+  std::vector<double> distance;
+  for (std::size_t k = 0; k < traverse.sites.size(); ++k) {
+    apriori.push_back(traverse.sites[k].apriori);
+    estimated.push_back(r.poses.sites[k].pose);
+    distance.push_back(r.poses.sites[k].distance_m);
+  }
+  const std::optional<TraverseTruth> truth = readTraverseTruth(traverse.root, traverse);
+  if (truth) {
+    const PositionErrors after = positionErrors(estimated, distance, *truth);
+    const PositionErrors before = positionErrors(apriori, distance, *truth);
+    t["position_error_m"] = after.rms_m;
+    t["position_error_pct"] = after.rms_pct;
+    t["position_error_apriori_m"] = before.rms_m;
+    t["position_error_apriori_pct"] = before.rms_pct;
+  } else {
+    t["position_error_m"] = nullptr;
+    t["position_error_pct"] = nullptr;
+    t["position_error_apriori_pct"] = nullptr;
+  }
+  json report = {{"traverse", t},
+                 {"method1_px", mapped > 0 ? json(m1 / mapped) : json(nullptr)},
+                 {"method2_m", mapped > 0 ? json(m2 / mapped) : json(nullptr)},
+                 {"method3_px", mapped > 0 ? json(m3 / mapped) : json(nullptr)},
+                 {"figures",
+                  "traverse.position_error_m: RMS over the sites of |p - p_true|; _pct: RMS over the "
+                  "sites after the first of that error / distance driven to the site x 100; method1..3: "
+                  "mean over the mapped sites of each site's own (report.json of sites/<id>)"},
+                 {"notes", r.poses.notes},
+                 {"warnings", r.warnings}};
+  cli::writeFileAtomic(o.out_dir + "/report.json", report.dump(1) + "\n");
+}
+
+}  // namespace
+
+TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o) {
+  TraverseResult result;
+  std::error_code ec;
+  fs::create_directories(o.out_dir + "/sites", ec);
+  if (ec) throw cli::InputError(o.out_dir, "--out", "cannot create the folder: " + ec.message());
+  for (std::size_t k = 0; k < traverse.sites.size(); ++k) {
+    result.sites.push_back(runSite(traverse.sites[k], o, k, traverse.sites.size()));
+    if (!result.sites.back().ok)
+      result.warnings.push_back("site " + traverse.sites[k].id + " not mapped: " + result.sites.back().error);
+  }
+  result.poses = odometryPoses(traverse);
+  writePoses(result.poses, o.out_dir + "/poses.csv");
+  result.files.push_back(o.out_dir + "/poses.csv");
+  if (o.products) writeMergedMap(traverse, result.sites, result.poses, o, result);
+  writeReport(traverse, result, o);
+  result.files.push_back(o.out_dir + "/report.json");
+  return result;
+}
+
+}  // namespace areomap::traverse

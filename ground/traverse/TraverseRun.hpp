@@ -1,0 +1,46 @@
+// areomap-traverse's work (issue 21): every site of a traverse mapped alone by the ground pass (tie points,
+// fast + integrated adjustment, products with the DEM sigma of its cameras: ground/node, ground/pass),
+// each site placed in the traverse frame (SitePoses.hpp), and one map over the whole traverse: the
+// sites' DEM, DEM sigma and orthoimage merged by the nearest-site rule (TraverseMosaic.hpp), poses.csv
+// and report.json. A site whose pass fails keeps the others going: its status says why, and the map
+// is made of the rest.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ground/dataset/Traverse.hpp"
+#include "ground/traverse/SitePoses.hpp"
+
+namespace areomap::traverse {
+
+struct TraverseRunOptions {
+  std::string out_dir;
+  bool products = true;  // per-site dense matching, DEM and ortho, and the merged map
+  double cell_m = -1.0;  // merged map cell (-1: the coarsest of the sites' dem.tif cells)
+  bool progress = true;
+};
+
+struct SiteOutcome {
+  std::string id;
+  std::string out_dir;       // OUT/sites/<id>
+  bool ok = false;           // the site's pass ran
+  std::string error;         // why not
+  double method1_px = -1.0;  // the site's own figures (report.json method1_px.after.dist, ...), -1: none
+  double method2_m = -1.0;
+  double method3_px = -1.0;
+  double truth_eo_px = -1.0;  // the site's EO against its truth (synthetic sites), -1: none
+};
+
+struct TraverseResult {
+  std::vector<SiteOutcome> sites;
+  SitePoseSolution poses;
+  std::vector<std::string> files;     // written (paths)
+  std::vector<std::string> warnings;  // also in report.json
+  std::vector<std::string> write_errors;
+};
+
+// Runs everything into options.out_dir. Throws cli::InputError for an out_dir that cannot be made.
+TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& options);
+
+}  // namespace areomap::traverse
