@@ -50,6 +50,9 @@ SitePoseSolution odometryPoses(const Traverse& traverse) {
     e.distance_m = driven;
     out.sites.push_back(e);
   }
+  if (traverse.sites.size() > 1)
+    out.notes.push_back("Site poses from the odometry alone (no cross-site tie fixed them): their sigmas are the "
+                        "odometry's, chained leg by leg.");
   return out;
 }
 
@@ -71,6 +74,17 @@ PositionErrors positionErrors(const std::vector<SitePose>& poses, const std::vec
   if (!e.per_site_m.empty()) e.rms_m = std::sqrt(sum / static_cast<double>(e.per_site_m.size()));
   if (with_distance > 0) e.rms_pct = std::sqrt(sum_pct / with_distance);
   return e;
+}
+
+CameraModel toTraverseFrame(const CameraModel& model, const SitePose& pose) {
+  const Eigen::Matrix3d r = pose.rotation();
+  CameraModel m = model;
+  m.c = pose.toTraverse(model.c);
+  m.a = r * model.a;
+  m.h = r * model.h;
+  m.v = r * model.v;
+  m.o = r * model.o;
+  return m;
 }
 
 }  // namespace areomap::traverse

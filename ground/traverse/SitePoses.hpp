@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "firmware_core/camera/CameraModel.hpp"
 #include "ground/dataset/Traverse.hpp"
 
 namespace areomap::traverse {
@@ -44,5 +45,9 @@ struct PositionErrors {
 };
 PositionErrors positionErrors(const std::vector<SitePose>& poses, const std::vector<double>& distance_m,
                               const TraverseTruth& truth);
+
+// A site-frame camera model in the traverse frame: C' = R C + p, and A, H, V, O turned by R (H and V are
+// linear in the frame's axes, so a rotation carries them); R, E and the image size unchanged.
+CameraModel toTraverseFrame(const CameraModel& model, const SitePose& pose);
 
 }  // namespace areomap::traverse

@@ -15,6 +15,7 @@
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/DemRaster.hpp"
+#include "ground/io/CameraFile.hpp"
 #include "ground/node/GroundPass.hpp"
 #include "ground/pass/PassProducts.hpp"
 #include "ground/raster/RasterFiles.hpp"
@@ -76,6 +77,28 @@ void writePoses(const SitePoseSolution& poses, const std::string& path) {
     csv << b;
   }
   cli::writeFileAtomic(path, csv.str());
+}
+
+// Every mapped site's adjusted models (OUT/sites/<id>/models, site frame) in the traverse frame:
+// OUT/models/<id>/<stem>.cahvor.
+void writeTraverseModels(const std::vector<SiteOutcome>& sites, const SitePoseSolution& poses,
+                         const std::string& out_dir, TraverseResult& result) {
+  for (std::size_t k = 0; k < sites.size(); ++k) {
+    const std::string from = sites[k].out_dir + "/models";
+    if (!sites[k].ok || !fs::is_directory(from)) continue;
+    const std::string to = out_dir + "/models/" + sites[k].id;
+    fs::create_directories(to);
+    for (const fs::directory_entry& f : fs::directory_iterator(from)) {
+      if (f.path().extension() != ".cahvor") continue;
+      const std::string path = to + "/" + f.path().filename().string();
+      try {
+        io::writeCameraModelFile(path, toTraverseFrame(io::readCameraModelFile(f.path().string()),
+                                                       poses.sites[k].pose));
+      } catch (const std::exception& e) {
+        result.write_errors.push_back(path + ": " + e.what());
+      }
+    }
+  }
 }
 
 raster::Geometry geometryOf(const DemGrid& g) {
@@ -230,6 +253,7 @@ TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o
   }
   result.poses = odometryPoses(traverse);
   writePoses(result.poses, o.out_dir + "/poses.csv");
+  writeTraverseModels(result.sites, result.poses, o.out_dir, result);
   result.files.push_back(o.out_dir + "/poses.csv");
   if (o.products) writeMergedMap(traverse, result.sites, result.poses, o, result);
   writeReport(traverse, result, o);
