@@ -1,0 +1,103 @@
+// areomap-traverse on a rendered tiny traverse of two sites (areomap-sim --preset traverse --camera tiny):
+// both sites mapped, poses.csv and report.json with the contract's keys, the models in the traverse frame;
+// a site whose dataset is broken is reported and the other still mapped; bad usage exits 2.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <sys/wait.h>
+
+#include <nlohmann/json.hpp>
+
+#include "ground/dataset/Traverse.hpp"
+#include "tests/support/TestData.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// A 2-site tiny traverse, rendered once.
+std::string traverseDataset() {
+  static std::string dir;
+  if (dir.empty()) {
+    dir = areomap::test::scratchDir("traverse-tool") + "/ds";
+    if (areomap::test::runTool("areomap-sim",
+                               "--preset traverse --camera tiny --sites 2 --seed 3 --out " + dir) != 0)
+      dir = "";
+  }
+  return dir;
+}
+
+json readJson(const std::string& path) {
+  std::ifstream in(path);
+  return json::parse(in, nullptr, false);
+}
+
+int lines(const std::string& path) {
+  std::ifstream in(path);
+  int n = 0;
+  for (std::string l; std::getline(in, l);) ++n;
+  return n;
+}
+
+}  // namespace
+
+TEST_GROUP(TraverseTool){};
+
+TEST(TraverseTool, MapsEverySiteAndWritesThePosesAndTheReport) {
+  const std::string ds = traverseDataset();
+  CHECK_FALSE(ds.empty());
+  const std::string out = areomap::test::scratchDir("traverse-tool-out");
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", ds + " --out " + out + " --no-products --quiet"));
+  CHECK_EQUAL(3, lines(out + "/poses.csv"));  // header + 2 sites
+  const json r = readJson(out + "/report.json");
+  CHECK_FALSE(r.is_discarded());
+  const json& t = r["traverse"];
+  CHECK_EQUAL(2, t["sites"].get<int>());
+  for (const char* key : {"distance_m", "position_error_m", "position_error_pct",
+                          "position_error_apriori_pct", "cross_site_ties"}) {
+    CHECK_TEXT(t.contains(key), key);
+  }
+  CHECK_TRUE(t["distance_m"].get<double>() >= 10.0 && t["distance_m"].get<double>() <= 30.0);
+  CHECK_TRUE(t["position_error_apriori_pct"].get<double>() > 0.0);  // odometry drift against the truth
+  for (const json& s : t["site"]) CHECK_TRUE(s["mapped"].get<bool>());
+  CHECK_TRUE(r["method1_px"].get<double>() < 0.5);
+  CHECK_TRUE(fs::exists(out + "/sites/site01/models") && fs::exists(out + "/models/site02"));
+}
+
+TEST(TraverseTool, ABrokenSiteIsReportedAndTheOtherMapped) {
+  const std::string ds = traverseDataset();
+  CHECK_FALSE(ds.empty());
+  const std::string copy = areomap::test::scratchDir("traverse-tool-broken") + "/ds";
+  fs::copy(ds, copy, fs::copy_options::recursive);
+  {
+    std::ofstream bad(copy + "/sites/site02/panorama.json");
+    bad << "{ \"version\": 1, \"pairs\": [";  // truncated
+  }
+  const std::string out = copy + "-out";
+  CHECK_EQUAL(0,
+              areomap::test::runTool("areomap-traverse", copy + " --out " + out + " --no-products --quiet"));
+  const json r = readJson(out + "/report.json");
+  CHECK_TRUE(r["traverse"]["site"][0]["mapped"].get<bool>());
+  CHECK_FALSE(r["traverse"]["site"][1]["mapped"].get<bool>());
+  CHECK_TRUE(r["traverse"]["site"][1]["error"].get<std::string>().find("panorama.json") != std::string::npos);
+}
+
+TEST(TraverseTool, BadUsageAndMissingTraverse) {
+  const std::string dir = areomap::test::scratchDir("traverse-tool-usage");
+  CHECK_EQUAL(2, areomap::test::runTool("areomap-traverse", dir));  // no --out
+  // No traverse.json there: exit 1, the message naming the file (runTool discards the output).
+  const int status = std::system(
+      (areomap::test::toolPath("areomap-traverse") + " " + dir + " --out " + dir + "/o 2> " + dir + "/err")
+          .c_str());
+  CHECK_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1);
+  std::ifstream err(dir + "/err");
+  const std::string text((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
+  CHECK_TRUE(text.find("traverse.json") != std::string::npos);
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", "--help"));
+}
