@@ -51,8 +51,9 @@ SitePoseSolution odometryPoses(const Traverse& traverse) {
     out.sites.push_back(e);
   }
   if (traverse.sites.size() > 1)
-    out.notes.push_back("Site poses from the odometry alone (no cross-site tie fixed them): their sigmas are the "
-                        "odometry's, chained leg by leg.");
+    out.notes.push_back(
+        "Site poses from the odometry alone (no cross-site tie fixed them): their sigmas are the "
+        "odometry's, chained leg by leg.");
   return out;
 }
 

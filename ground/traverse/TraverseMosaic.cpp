@@ -8,11 +8,7 @@
 
 namespace areomap::traverse {
 
-namespace {
-
-// The raster's value at site coordinates (north, east): bilinear between the four cell centres around it
-// when all hold data, else the nearest cell's (nodata outside or where it is nodata).
-bool sample(const DemGrid& g, double north_m, double east_m, bool interpolate, double& value) {
+bool sampleRaster(const DemGrid& g, double north_m, double east_m, bool interpolate, double& value) {
   const double fc = (east_m - g.east0_m) / g.cell_m - 0.5;  // column coordinate of cell centres
   const double fr = (g.north0_m - north_m) / g.cell_m - 0.5;
   const int nc = static_cast<int>(std::lround(fc)), nr = static_cast<int>(std::lround(fr));
@@ -35,7 +31,26 @@ bool sample(const DemGrid& g, double north_m, double east_m, bool interpolate, d
   return true;
 }
 
-}  // namespace
+RasterDifference differenceNear(const DemGrid& dem, const DemGrid& truth,
+                                const std::vector<Eigen::Vector3d>& centres, double radius_m) {
+  RasterDifference d;
+  double sum = 0.0;
+  for (int r = 0; r < dem.rows; ++r) {
+    for (int c = 0; c < dem.cols; ++c) {
+      const float v = dem.at(c, r);
+      if (v == dem.nodata) continue;
+      const double n = dem.northOfRow(r), e = dem.eastOfCol(c);
+      bool near = false;
+      for (const Eigen::Vector3d& p : centres) near = near || std::hypot(n - p.x(), e - p.y()) <= radius_m;
+      double t = 0.0;
+      if (!near || !sampleRaster(truth, n, e, true, t)) continue;
+      sum += (v - t) * (v - t);
+      ++d.cells;
+    }
+  }
+  if (d.cells > 0) d.rms_m = std::sqrt(sum / static_cast<double>(d.cells));
+  return d;
+}
 
 DemGrid traverseGrid(const std::vector<MosaicInput>& inputs, double cell_m) {
   if (!(cell_m > 0.0)) throw std::invalid_argument("traverse mosaic: the cell must be positive");
@@ -87,7 +102,7 @@ Mosaic mosaic(const std::vector<MosaicInput>& inputs, const DemGrid& grid, Mosai
         if (in.raster == nullptr) continue;
         const Eigen::Vector3d s = in.pose.toSite(Eigen::Vector3d(north, east, in.pose.position_m.z()));
         double v = 0.0;
-        if (!sample(*in.raster, s.x(), s.y(), kind != MosaicKind::kGrey, v)) continue;
+        if (!sampleRaster(*in.raster, s.x(), s.y(), kind != MosaicKind::kGrey, v)) continue;
         if (kind == MosaicKind::kElevation) v -= in.pose.position_m.z();
         if (kind == MosaicKind::kSigma) v = std::sqrt(v * v + in.extra_variance);
         m.grid.at(c, r) = static_cast<float>(v);

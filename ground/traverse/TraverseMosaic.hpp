@@ -32,6 +32,19 @@ struct Mosaic {
 // The traverse grid (cell `cell_m`) covering every input raster's footprint.
 DemGrid traverseGrid(const std::vector<MosaicInput>& inputs, double cell_m);
 
+// The raster's value at (north, east) of its own frame: bilinear between the four cell centres around it
+// when all hold data (`interpolate`), else the nearest cell's; false outside or on nodata.
+bool sampleRaster(const DemGrid& g, double north_m, double east_m, bool interpolate, double& value);
+
+// RMS and count of `dem` - `truth` (both in one frame) over the cells of `dem` within `radius_m` of one of
+// `centres` (north, east) where both hold data.
+struct RasterDifference {
+  double rms_m = 0.0;
+  long long cells = 0;
+};
+RasterDifference differenceNear(const DemGrid& dem, const DemGrid& truth,
+                                const std::vector<Eigen::Vector3d>& centres, double radius_m);
+
 // Fills `grid`'s geometry with the inputs' values by the nearest-site rule. Elevations and sigmas are
 // interpolated bilinearly inside a site raster (the nearest cell where a neighbour is nodata).
 Mosaic mosaic(const std::vector<MosaicInput>& inputs, const DemGrid& grid, MosaicKind kind);

@@ -92,8 +92,8 @@ void writeTraverseModels(const std::vector<SiteOutcome>& sites, const SitePoseSo
       if (f.path().extension() != ".cahvor") continue;
       const std::string path = to + "/" + f.path().filename().string();
       try {
-        io::writeCameraModelFile(path, toTraverseFrame(io::readCameraModelFile(f.path().string()),
-                                                       poses.sites[k].pose));
+        io::writeCameraModelFile(
+            path, toTraverseFrame(io::readCameraModelFile(f.path().string()), poses.sites[k].pose));
       } catch (const std::exception& e) {
         result.write_errors.push_back(path + ": " + e.what());
       }
@@ -145,8 +145,18 @@ void writeMergedMap(const Traverse& traverse, const std::vector<SiteOutcome>& si
   };
   if (o.progress)
     cli::info("merged map: " + std::to_string(grid.cols) + " x " + std::to_string(grid.rows) + " cells");
-  write_float("dem.tif", mosaic(dem_in, grid, MosaicKind::kElevation),
-              "elevation up (-Z) in the traverse frame, metres; nearest site");
+  const Mosaic merged = mosaic(dem_in, grid, MosaicKind::kElevation);
+  write_float("dem.tif", merged, "elevation up (-Z) in the traverse frame, metres; nearest site");
+  const std::string truth_dem = traverse.root + "/truth/dem.tif";
+  const std::optional<TraverseTruth> truth = readTraverseTruth(traverse.root, traverse);
+  if (truth && fs::exists(truth_dem)) {
+    std::vector<Eigen::Vector3d> centres;
+    for (const SitePose& p : truth->poses) centres.push_back(p.position_m);
+    const RasterDifference d =
+        differenceNear(merged.grid, readDemGeoTiff(truth_dem), centres, kTruthDemRadiusM);
+    result.truth_dem_rms_m = d.rms_m;
+    result.truth_dem_cells = d.cells;
+  }
   if (!sigma_in.empty())
     write_float("dem_sigma.tif", mosaic(sigma_in, grid, MosaicKind::kSigma),
                 "standard deviation of dem.tif, metres, with the site pose's vertical sigma");
@@ -226,7 +236,14 @@ void writeReport(const Traverse& traverse, const TraverseResult& r, const Traver
     t["position_error_pct"] = nullptr;
     t["position_error_apriori_pct"] = nullptr;
   }
+  json truth_json = json::object();
+  if (r.truth_dem_cells >= 0) {
+    truth_json["dem_rmse_m"] = r.truth_dem_rms_m;
+    truth_json["dem_cells"] = r.truth_dem_cells;
+    truth_json["dem_radius_m"] = kTruthDemRadiusM;
+  }
   json report = {{"traverse", t},
+                 {"truth", truth_json},
                  {"method1_px", mapped > 0 ? json(m1 / mapped) : json(nullptr)},
                  {"method2_m", mapped > 0 ? json(m2 / mapped) : json(nullptr)},
                  {"method3_px", mapped > 0 ? json(m3 / mapped) : json(nullptr)},

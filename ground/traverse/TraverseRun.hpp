@@ -38,7 +38,13 @@ struct TraverseResult {
   std::vector<std::string> files;     // written (paths)
   std::vector<std::string> warnings;  // also in report.json
   std::vector<std::string> write_errors;
+  // The merged dem.tif against DATASET/truth/dem.tif within kTruthDemRadiusM of a site's true position
+  // (cells < 0: no truth).
+  double truth_dem_rms_m = -1.0;
+  long long truth_dem_cells = -1;
 };
+
+inline constexpr double kTruthDemRadiusM = 10.0;  // issue 21: the merged DEM within 10 m of any site
 
 // Runs everything into options.out_dir. Throws cli::InputError for an out_dir that cannot be made.
 TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& options);

@@ -82,6 +82,28 @@ TEST(TraverseMosaic, NearestSiteOfOneSurface) {
   CHECK_TRUE(rms < 2e-4);
   CHECK_TRUE(worst < 2.5e-3);
   CHECK_EQUAL(0, wrong_site);
+  // Against the surface rasterised at 10 cm in the traverse frame, within 4 m of either site: the same to
+  // the truth raster's own interpolation; a pose 5 cm off shows.
+  const SitePose identity;
+  DemGrid truth = siteRaster(identity);
+  truth.cell_m = 0.1;
+  truth.cols = truth.rows = 200;
+  truth.east0_m = -10.0;
+  truth.north0_m = 10.0;
+  truth.values.resize(40000);
+  for (int r = 0; r < truth.rows; ++r)
+    for (int c = 0; c < truth.cols; ++c)
+      truth.at(c, r) = static_cast<float>(surface(truth.northOfRow(r), truth.eastOfCol(c)));
+  const RasterDifference same = differenceNear(m.grid, truth, {a.position_m, b.position_m}, 4.0);
+  SitePose off = b;
+  off.position_m.z() += 0.05;
+  const Mosaic shifted = mosaic({{a, &ra, 0.0}, {off, &rb, 0.0}}, grid, MosaicKind::kElevation);
+  const RasterDifference moved = differenceNear(shifted.grid, truth, {a.position_m, b.position_m}, 4.0);
+  std::printf("  against truth within 4 m: RMS %.2e m (%lld cells); second site 5 cm low: %.3f m\n",
+              same.rms_m, same.cells, moved.rms_m);
+  CHECK_TRUE(same.cells > 20000);
+  CHECK_TRUE(same.rms_m < 1e-3);
+  CHECK_TRUE(moved.rms_m > 0.02);
   // The hole (site a's, nearer to a there) is filled from b.
   const int hr = static_cast<int>((grid.north0_m - 3.5) / 0.05),
             hc = static_cast<int>((3.0 - grid.east0_m) / 0.05);
