@@ -191,7 +191,7 @@ void SitePoseAdjuster::resetToApriori() {
 }
 
 bool SitePoseAdjuster::usable(const CrossSiteObservation& o) const {
-  return !o.rejected && points_[o.point].solvable;
+  return !o.rejected && inSolve(points_[o.point]);
 }
 
 Status SitePoseAdjuster::observationError(int32_t o, Vec2& error) const {
@@ -312,6 +312,11 @@ void SitePoseAdjuster::preparePoints() {
     for (int32_t k = 0; k < pt.obs_count; ++k) active += observations_[pt.obs[k]].rejected ? 0 : 1;
     if (active >= 2 && (!pt.placed || !pt.xyz_m.allFinite())) pt.placed = placePoint(p);
     pt.solvable = active >= 2 && pt.placed && pt.xyz_m.allFinite();
+    pt.in_window = false;
+    for (int32_t k = 0; k < pt.obs_count; ++k) {
+      const CrossSiteObservation& o = observations_[pt.obs[k]];
+      pt.in_window = pt.in_window || (!o.rejected && freeSite(cameras_[o.camera].site));
+    }
   }
 }
 
@@ -337,7 +342,7 @@ void SitePoseAdjuster::assemble(double damping) {
   for (int32_t p = 0; p < point_count_; ++p) {
     CrossSitePoint& pt = points_[p];
     point_eliminated_[p] = false;
-    if (!pt.solvable) continue;
+    if (!inSolve(pt)) continue;
     Mat3 n = Mat3::Zero();
     Vec3 b = Vec3::Zero();
     int32_t slot_site[kMaxObsPerCrossSitePoint];
@@ -536,7 +541,7 @@ int32_t SitePoseAdjuster::rejectOutliers(const SitePoseOptions& options) {
   int32_t rejected = 0;
   for (int32_t p = 0; p < point_count_; ++p) {
     const CrossSitePoint& pt = points_[p];
-    if (!pt.solvable) continue;
+    if (!inSolve(pt)) continue;
     int32_t worst = -1;
     double worst_norm = threshold;
     for (int32_t k = 0; k < pt.obs_count; ++k) {
@@ -560,7 +565,7 @@ void SitePoseAdjuster::linkStatus(SitePoseResult& result) {
   for (int32_t k = 0; k < site_count_; ++k) sites_[k].tie_observations = 0;
   for (int32_t p = 0; p < point_count_; ++p) {
     const CrossSitePoint& pt = points_[p];
-    if (!pt.solvable) continue;
+    if (!inSolve(pt)) continue;
     int32_t first_site = -1;
     bool cross = false;
     for (int32_t k = 0; k < pt.obs_count; ++k) {
@@ -594,9 +599,12 @@ Status SitePoseAdjuster::precision(SitePoseResult& result, bool covariance) {
   result.cost = cost(&result.rms_px, &result.active_observations);
   result.solvable_points = 0;
   result.unsolvable_points = 0;
+  result.points_outside_window = 0;
   for (int32_t p = 0; p < point_count_; ++p) {
-    if (points_[p].solvable) {
+    if (inSolve(points_[p])) {
       ++result.solvable_points;
+    } else if (points_[p].solvable) {
+      ++result.points_outside_window;
     } else {
       ++result.unsolvable_points;
     }

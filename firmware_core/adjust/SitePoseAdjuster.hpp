@@ -21,7 +21,8 @@
 // residual norm exceeds max(reject_k x 1.4826 MAD, reject_floor_sigma) is rejected and the network solved
 // again, at most kMaxRejectionRounds times.
 // Sliding window: options.window_sites = K > 0 solves the last K sites (never site 0), the earlier ones
-// held where they are (their points and odometry legs still tie the window to them).
+// held where they are (the points they share with the window and the leg into it still tie the window to
+// them; points that only held sites see are constants and left out of the solve, its cost and sigma0).
 // Warm start: adjust() starts from the current poses and points; a site added later starts at the previous
 // site's current pose composed with its odometry leg, and points not yet placed are intersected from the
 // rays of one site (its relative EO is exact; a solved site preferred) at the start of adjust(). A site
@@ -75,7 +76,8 @@ struct CrossSitePoint {
   int32_t obs_count = 0;
   bool placed = false;     // has a position (given, or intersected at the start of adjust())
   int32_t placed_by = -1;  // the site whose rays placed it (-1: given, or all rays)
-  bool solvable = false;   // >= 2 usable rays, placed, and its 3x3 block invertible
+  bool solvable = false;   // >= 2 rays not rejected, and placed
+  bool in_window = false;  // a free site sees it: part of the last solve (else a constant, left out)
 };
 
 struct CrossSiteObservation {
@@ -112,8 +114,9 @@ struct SitePoseResult {
   int32_t free_sites = 0;
   int32_t no_overlap_sites = 0;
   int32_t active_observations = 0;
-  int32_t solvable_points = 0;
-  int32_t unsolvable_points = 0;
+  int32_t solvable_points = 0;        // in the solve
+  int32_t unsolvable_points = 0;      // fewer than 2 rays, or not placeable
+  int32_t points_outside_window = 0;  // seen by held sites only: left out of the solve
   int32_t redundancy = 0;
   double initial_cost = 0.0;
   double cost = 0.0;    // sum of whitened squares (image rows + odometry rows)
@@ -170,6 +173,7 @@ class SitePoseAdjuster {
   [[nodiscard]] Status observationRows(const CrossSiteObservation& o, Vec2& error, Mat2x6* d_pose,
                                        Mat2x3* d_point) const;
   bool usable(const CrossSiteObservation& o) const;
+  static bool inSolve(const CrossSitePoint& pt) { return pt.solvable && pt.in_window; }
   bool freeSite(int32_t site) const { return site >= first_free_ && site > 0; }
   bool legActive(int32_t site) const { return site > 0 && (freeSite(site) || freeSite(site - 1)); }
   // Points: place the unplaced ones, mark solvability.

@@ -25,7 +25,7 @@ SitePoseAdjuster g_adjuster;
 // The problem as the dense solver sees it: site k >= 1 free, pose (p_k, exp([w_k]x) Q_ref_k), and points.
 struct DenseProblem {
   const SitePoseAdjuster* adj = nullptr;
-  std::vector<Mat3> q_ref;  // per site
+  std::vector<Mat3> q_ref;      // per site
   std::vector<int32_t> points;  // adjuster point index per dense point (solvable ones)
   int32_t sites = 0;
   int32_t unknowns() const { return 6 * (sites - 1) + 3 * static_cast<int32_t>(points.size()); }
@@ -173,12 +173,13 @@ TEST(SitePoseDenseCheck, DenseGaussNewtonReachesTheSameMinimumAndCovariance) {
         cov_rel = std::max(cov_rel, std::fabs(c(a, b) - s.covariance(a, b)) / std::sqrt(c(a, a) * c(b, b)));
     }
   }
-  std::printf("\n  dense check: %lld unknowns %lld residuals, %d Gauss-Newton steps; cost dense %.9g rover %.9g; "
-              "redundancy %lld / %d, sigma0 %.4f / %.4f; pose difference %.2e m %.2e rad; sigma difference "
-              "%.2e relative, covariance %.2e of sigma_a sigma_b\n",
-              static_cast<long long>(x.size()), static_cast<long long>(e.size()), iterations + 1, e.squaredNorm(),
-              r.cost, static_cast<long long>(redundancy), r.redundancy, sigma0, r.sigma0, pose_m, pose_rad, sigma_rel,
-              cov_rel);
+  std::printf(
+      "\n  dense check: %lld unknowns %lld residuals, %d Gauss-Newton steps; cost dense %.9g rover %.9g; "
+      "redundancy %lld / %d, sigma0 %.4f / %.4f; pose difference %.2e m %.2e rad; sigma difference "
+      "%.2e relative, covariance %.2e of sigma_a sigma_b\n",
+      static_cast<long long>(x.size()), static_cast<long long>(e.size()), iterations + 1, e.squaredNorm(),
+      r.cost, static_cast<long long>(redundancy), r.redundancy, sigma0, r.sigma0, pose_m, pose_rad, sigma_rel,
+      cov_rel);
   CHECK(std::fabs(e.squaredNorm() - r.cost) < 1e-6 * r.cost);
   CHECK_EQUAL(static_cast<int32_t>(redundancy), r.redundancy);
   CHECK(pose_m < 1e-6);
