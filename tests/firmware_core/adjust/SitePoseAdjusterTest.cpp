@@ -367,6 +367,53 @@ TEST(SitePoseAdjuster, SlidingWindowKeepsEarlierSitesAndAgreesWithTheFullSolve) 
   CHECK(same < 1e-9);
 }
 
+TEST(SitePoseAdjuster, RoverSlidingWindowSiteBySiteStaysCloseToTheGroundSolve) {
+  // The rover: sites arrive one by one, each followed by a warm solve of the last 4; the ground: the whole
+  // traverse at once. The windowed poses freeze with the information of the next 3 sites only, so they
+  // differ from the ground's by a fraction of their sigma.
+  TraverseConfig cfg;
+  cfg.sites = 12;
+  cfg.seed = 35;
+  const TraversePlan plan = test::makeTraversePlan(cfg);
+  constexpr int32_t kWindow = 4;
+  TraverseLoad load;
+  CHECK(test::loadTraverse(plan, 0, 2, true, g_adjuster, load));
+  SitePoseOptions window;
+  window.window_sites = kWindow;
+  SitePoseResult r;
+  CHECK(ok(g_adjuster.adjust(window, r)));
+  int32_t most_iterations = r.iterations_total;
+  for (int32_t k = 2; k < cfg.sites; ++k) {
+    CHECK(test::loadTraverse(plan, k, k + 1, false, g_adjuster, load));
+    CHECK(ok(g_adjuster.adjust(window, r)));
+    CHECK(r.converged);
+    CHECK_EQUAL(1, r.resected_sites);
+    most_iterations = std::max(most_iterations, r.iterations_total);
+  }
+  TraverseLoad full_load;
+  SitePoseResult full;
+  solveTraverse(cfg, g_reference, full_load, full);
+  double worst_sigma = 0.0, worst_m = 0.0, worst_truth_z = 0.0;
+  for (int32_t k = 1; k < cfg.sites; ++k) {
+    const Vec6 d = test::poseError(g_adjuster.site(k).pose, g_reference.site(k).pose);
+    const Vec6 e = test::poseError(g_adjuster.site(k).pose, plan.truth[k]);
+    worst_m = std::max(worst_m, d.head<3>().norm());
+    for (int32_t i = 0; i < 6; ++i) {
+      worst_sigma = std::max(worst_sigma, std::fabs(d(i)) / g_reference.site(k).sigma(i));
+      worst_truth_z = std::max(worst_truth_z, std::fabs(e(i)) / g_reference.site(k).sigma(i));
+    }
+  }
+  const TraverseFigures rover = figuresOf(g_adjuster, plan);
+  const TraverseFigures ground = figuresOf(g_reference, plan);
+  std::printf(
+      "\n  rover window of %d over %d sites: at most %d iterations a site; rover vs ground: %.4f m, %.3f "
+      "ground sigma; rover vs truth: worst %.3f ground sigma, position error/driven %.2e (ground %.2e)\n",
+      kWindow, cfg.sites, most_iterations, worst_m, worst_sigma, worst_truth_z, rover.max_relative_position,
+      ground.max_relative_position);
+  CHECK(worst_sigma < 1.0);
+  CHECK(worst_truth_z < 4.0);
+}
+
 TEST(SitePoseAdjuster, AddingASiteWarmStartsFromTheLastSolution) {
   TraverseConfig cfg;
   cfg.sites = 9;
