@@ -33,9 +33,11 @@
 // diagonal block of S^-1, S the undamped reduced system at the solution (points eliminated, their
 // uncertainty carried), scaled by max(1, sigma0)^2: sigma0 < 1 from the redundancy of a few ties is no
 // evidence that the a-priori sigmas (pixels, odometry) were pessimistic, and a noise-free solve keeps the
-// odometry's precision. Held sites have zero covariance (the datum). A free site that no usable cross-site
-// observation ties to another site gets SiteLink::kNoOverlap: its pose comes from odometry alone, and its
-// sigma says so.
+// odometry's precision. Held sites have zero covariance (the datum); with a window the covariance is
+// conditional on the held sites (their own uncertainty is not carried: on the rover it is the precision
+// relative to the last held site, the ground's whole-traverse solve gives the absolute one). A free site that
+// no usable cross-site observation ties to another site gets SiteLink::kNoOverlap: its pose comes from
+// odometry alone, and its sigma says so.
 //
 // Bad input (non-finite values, bad indices, a second ray of a point in one camera, sigmas <= 0, full
 // capacity) is refused with a Status and counted per status (inputErrors), never a crash.

@@ -351,8 +351,14 @@ TEST(SitePoseAdjuster, SlidingWindowKeepsEarlierSitesAndAgreesWithTheFullSolve) 
     for (int32_t i = 0; i < 6; ++i)
       worst_sigma = std::max(worst_sigma, std::fabs(d(i)) / g_reference.site(k).sigma(i));
   }
-  std::printf("  window vs full solve over sites %d-%d: largest difference %.4f m, %.3f sigma\n",
-              cfg.sites - kWindow, cfg.sites - 1, worst_m, worst_sigma);
+  const int32_t last = cfg.sites - 1;
+  std::printf(
+      "  window vs full solve over sites %d-%d: largest difference %.4f m, %.3f sigma; last site's "
+      "position sigma %.4f m in the window (conditional on the held sites), %.4f m in the full solve\n",
+      cfg.sites - kWindow, last, worst_m, worst_sigma,
+      std::sqrt(g_adjuster.site(last).covariance.topLeftCorner<3, 3>().trace()),
+      std::sqrt(g_reference.site(last).covariance.topLeftCorner<3, 3>().trace()));
+  CHECK(g_adjuster.site(last).sigma.head<3>().norm() < g_reference.site(last).sigma.head<3>().norm());
   CHECK(worst_sigma < 0.5);
   // A window that covers every free site is the full solve.
   window.window_sites = cfg.sites - 1;
