@@ -25,6 +25,9 @@ constexpr double kMaxDamping = 1e12;
 constexpr double kMinDamping = 1e-12;
 // Damping at or below which a step counts as a Gauss-Newton step for the stop rule.
 constexpr double kGaussNewtonDamping = 1e-2;
+// The Huber solve before the rejection rounds: bounded, and stopped at a millimetre step.
+constexpr int32_t kMaxHuberIterations = 15;
+constexpr double kHuberStepTolerance_m = 1e-3;
 // Resection of a new site (warm start): Gauss-Newton steps on its 6 unknowns, until its step is below this
 // (metres at the nominal range), and the fewest observations it takes (3 points' worth).
 constexpr int32_t kMaxResectionIterations = 10;
@@ -218,8 +221,10 @@ double SitePoseAdjuster::cost(double* rms_px, int32_t* active) const {
       total += kBehindCameraCost;
       continue;
     }
-    total += e.squaredNorm();
-    pixel_sq += e.squaredNorm() * ob.sigma_px * ob.sigma_px;
+    const double sq = e.squaredNorm();
+    const double norm = std::sqrt(sq);
+    total += huber_ > 0.0 && norm > huber_ ? 2.0 * huber_ * norm - huber_ * huber_ : sq;
+    pixel_sq += sq * ob.sigma_px * ob.sigma_px;
     ++n;
   }
   for (int32_t k = 1; k < site_count_; ++k) {
@@ -320,6 +325,16 @@ void SitePoseAdjuster::preparePoints() {
   }
 }
 
+void SitePoseAdjuster::weightRows(Vec2& error, Mat2x6& d_pose, Mat2x3& d_point) const {
+  const double norm = error.norm();
+  if (!(huber_ > 0.0) || !(norm > huber_)) return;
+  // Huber: rho(s) = 2 c s - c^2 beyond c, i.e. the rows scaled by sqrt(c / s) (iteratively reweighted).
+  const double w = std::sqrt(huber_ / norm);
+  error *= w;
+  d_pose *= w;
+  d_point *= w;
+}
+
 void SitePoseAdjuster::assemble(double damping) {
   system_.reset(site_count_ - first_free_);
   for (int32_t k = 1; k < site_count_; ++k) {
@@ -356,6 +371,7 @@ void SitePoseAdjuster::assemble(double damping) {
       Mat2x6 jpose;
       Mat2x3 jpoint;
       if (!ok(observationRows(o, e, &jpose, &jpoint))) continue;
+      weightRows(e, jpose, jpoint);
       n.noalias() += jpoint.transpose() * jpoint;
       b.noalias() -= jpoint.transpose() * e;
       if (!freeSite(c.site)) continue;
@@ -408,6 +424,7 @@ double SitePoseAdjuster::applyStep(const SitePoseOptions& options) {
       Mat2x6 jpose;
       Mat2x3 jpoint;
       if (!ok(observationRows(o, e, &jpose, &jpoint))) continue;
+      weightRows(e, jpose, jpoint);
       Vec2 jx;
       jx.noalias() = jpose * site_step_[c.site - first_free_];
       r.noalias() -= jpoint.transpose() * jx;
@@ -655,9 +672,27 @@ Status SitePoseAdjuster::adjust(const SitePoseOptions& options, SitePoseResult& 
   for (bool& r : resected_) r = false;
   preparePoints();
   resectNewSites(result);
+  preparePoints();
+  result.initial_cost = cost();
+  if (options.robust && options.huber_sigma > 0.0) {
+    // A first solve under the Huber loss, so that gross errors do not drag the points and poses that the
+    // rejection then judges them by.
+    // Its reweighted steps converge linearly; it only has to bring the state near the inliers' minimum.
+    SitePoseOptions rough = options;
+    rough.max_iterations = std::min(options.max_iterations, kMaxHuberIterations);
+    rough.step_tolerance_m = std::max(options.step_tolerance_m, kHuberStepTolerance_m);
+    huber_ = options.huber_sigma;
+    const Status s = solve(rough, result);
+    huber_ = 0.0;
+    if (!ok(s)) {
+      result.status = s;
+      return s;
+    }
+    result.rejected_observations += rejectOutliers(options);
+    result.rejection_rounds += result.rejected_observations > 0 ? 1 : 0;
+  }
   for (int32_t round = 0; round <= kMaxRejectionRounds; ++round) {
     preparePoints();
-    if (round == 0) result.initial_cost = cost();
     const Status s = solve(options, result);
     if (!ok(s)) {
       result.status = s;

@@ -19,7 +19,10 @@
 // blocks, block Cholesky), then back-substitutes the points.
 // Robust rejection as FastAdjuster: after a converged solve, per point the worst observation whose whitened
 // residual norm exceeds max(reject_k x 1.4826 MAD, reject_floor_sigma) is rejected and the network solved
-// again, at most kMaxRejectionRounds times.
+// again, at most kMaxRejectionRounds times. Before them a first solve under the Huber loss (huber_sigma,
+// iteratively reweighted rows) keeps gross errors from dragging points and poses, which would otherwise
+// make good rays of a point look worst (10 % gross errors of 10-50 px over 29 synthetic traverses: false
+// rejections 10.2 -> 6.7 per traverse of ~2000 observations, worst pose error 5.4 -> 3.5 sigma).
 // Sliding window: options.window_sites = K > 0 solves the last K sites (never site 0), the earlier ones
 // held where they are (the points they share with the window and the leg into it still tie the window to
 // them; points that only held sites see are constants and left out of the solve, its cost and sigma0).
@@ -98,6 +101,9 @@ struct SitePoseOptions {
   double step_tolerance_m = 1e-7;
   double nominal_range_m = 10.0;
   bool robust = true;
+  // Robust: a first solve under the Huber loss with this threshold (whitened residual norm; 0: none)
+  // before the rejection rounds.
+  double huber_sigma = 3.0;
   double reject_k = 5.0;
   double reject_floor_sigma = 4.5;
   bool covariance = true;
@@ -191,6 +197,8 @@ class SitePoseAdjuster {
   [[nodiscard]] bool resect(int32_t site, int32_t& iterations);
   // One solve from the current state.
   [[nodiscard]] Status solve(const SitePoseOptions& options, SitePoseResult& result);
+  // Scales an observation's rows for the Huber loss of the current solve (no-op under least squares).
+  void weightRows(Vec2& error, Mat2x6& d_pose, Mat2x3& d_point) const;
   // Builds the damped reduced system at the current state (points eliminated with damping `damping`).
   void assemble(double damping);
   // The points' steps from the last assembly and the sites' step; then applies both.
@@ -208,6 +216,7 @@ class SitePoseAdjuster {
   int32_t point_count_ = 0;
   int32_t observation_count_ = 0;
   int32_t first_free_ = 1;
+  double huber_ = 0.0;  // Huber threshold of the current solve (0: least squares)
   bool resected_[kMaxSites] = {};
   int32_t input_errors_[static_cast<int32_t>(Status::kCount)] = {};
 

@@ -220,7 +220,7 @@ TEST(SitePoseAdjuster, NoisyPoseErrorsAgreeWithTheirCovariance) {
     const TraversePlan plan = solveTraverse(cfg, g_adjuster, load, r);
     CHECK(r.converged);
     CHECK(ok(r.covariance_status));
-    max_iterations = std::max(max_iterations, r.iterations);
+    max_iterations = std::max(max_iterations, r.iterations_total);
     sum_sigma0 += r.sigma0;
     for (int32_t k = 1; k < cfg.sites; ++k) {
       const SiteState& s = g_adjuster.site(k);
