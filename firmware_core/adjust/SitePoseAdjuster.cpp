@@ -28,6 +28,7 @@ constexpr double kGaussNewtonDamping = 1e-2;
 // The Huber solve before the rejection rounds: bounded, and stopped at a millimetre step.
 constexpr int32_t kMaxHuberIterations = 15;
 constexpr double kHuberStepTolerance_m = 1e-3;
+static_assert(kMaxHuberIterations <= kMaxSitePoseIterations, "the Huber solve is one of the bounded solves");
 // Resection of a new site (warm start): Gauss-Newton steps on its 6 unknowns, until its step is below this
 // (metres at the nominal range), and the fewest observations it takes (3 points' worth).
 constexpr int32_t kMaxResectionIterations = 10;

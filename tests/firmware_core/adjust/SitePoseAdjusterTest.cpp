@@ -485,9 +485,10 @@ TEST(SitePoseAdjuster, GrossOutliersAreRejected) {
   CHECK(worst_z < 4.0);
 }
 
-TEST(SitePoseAdjuster, AdjustMakesNoHeapAllocation) {
+TEST(SitePoseAdjuster, AdjustOfAFullTraverseMakesNoHeapAllocation) {
+  // kMaxSites sites (the largest reduced system), gross errors (the Huber solve and the rejection rounds).
   TraverseConfig cfg;
-  cfg.sites = 10;
+  cfg.sites = kMaxSites;
   cfg.outlier_fraction = 0.05;
   cfg.seed = 61;
   const TraversePlan plan = test::makeTraversePlan(cfg);
@@ -504,7 +505,14 @@ TEST(SitePoseAdjuster, AdjustMakesNoHeapAllocation) {
   CHECK(heapCounterActive());
 #endif
   CHECK(ok(s));
+  CHECK(r.converged);
   CHECK(r.rejected_observations > 0);  // the rejection rounds ran too
+  printResult("full traverse", r);
+  const TraverseFigures f = figuresOf(g_adjuster, plan);
+  std::printf(
+      "  %d sites, %d points, %.0f m driven: worst position error %.3f m (%.2e of the distance driven)\n",
+      cfg.sites, g_adjuster.pointCount(), drivenTo(plan, cfg.sites - 1), f.max_position_m,
+      f.max_relative_position);
   std::printf("\n  sizeof(SitePoseAdjuster) = %zu bytes (%.2f MiB), of which PoseSystem %zu bytes\n",
               sizeof(SitePoseAdjuster), sizeof(SitePoseAdjuster) / 1048576.0, sizeof(PoseSystem));
 }
