@@ -18,8 +18,8 @@ namespace {
 // An observation whose point lies behind its camera is charged far above any real residual, so that an LM
 // step that puts a point behind a camera is rejected.
 constexpr double kBehindCameraCost = 1e10;
-// Marquardt damping on diag(S): the reduced system is far from diagonally dominant (heading and lateral
-// position of a site are strongly correlated), so a larger start (1e-4) only slows the first steps.
+// Marquardt damping on diag(S), started small: the first steps from odometry are good Gauss-Newton steps,
+// and the fast adjuster's 1e-4 only held them back (one more linearisation on the test traverses).
 constexpr double kInitialDamping = 1e-8;
 constexpr double kMaxDamping = 1e12;
 constexpr double kMinDamping = 1e-12;
@@ -33,6 +33,7 @@ static_assert(kMaxHuberIterations <= kMaxSitePoseIterations, "the Huber solve is
 // (metres at the nominal range), and the fewest observations it takes (3 points' worth).
 constexpr int32_t kMaxResectionIterations = 10;
 constexpr double kResectionStepTolerance_m = 1e-4;
+constexpr double kResectionRange_m = 10.0;  // the range at which its rotation step is taken as metres
 constexpr int32_t kMinResectionObservations = 6;
 // An orthonormal rotation to this tolerance (input check).
 constexpr double kRotationTolerance = 1e-6;
@@ -473,7 +474,7 @@ bool SitePoseAdjuster::resect(int32_t site, int32_t& iterations) {
     if (!step.allFinite()) return false;
     applySiteUpdate(step, sites_[site].pose);
     ++iterations;
-    if (step.head<3>().norm() + 10.0 * step.tail<3>().norm() < kResectionStepTolerance_m) break;
+    if (step.head<3>().norm() + kResectionRange_m * step.tail<3>().norm() < kResectionStepTolerance_m) break;
   }
   return true;
 }
