@@ -38,7 +38,7 @@ constexpr int32_t kMinResectionObservations = 6;
 // An orthonormal rotation to this tolerance (input check).
 constexpr double kRotationTolerance = 1e-6;
 
-bool finitePose(const SitePose& pose) {
+bool finitePose(const TraverseFromSite& pose) {
   return pose.position_m.allFinite() && pose.rotation.allFinite();
 }
 
@@ -88,7 +88,7 @@ int32_t SitePoseAdjuster::inputErrorTotal() const {
   return total;
 }
 
-Status SitePoseAdjuster::addFirstSite(const SitePose& datum, int32_t& site) {
+Status SitePoseAdjuster::addFirstSite(const TraverseFromSite& datum, int32_t& site) {
   site = -1;
   if (site_count_ != 0) return refuse(Status::kInvalidArgument);
   if (!finitePose(datum)) return refuse(Status::kNotFinite);
@@ -101,7 +101,7 @@ Status SitePoseAdjuster::addFirstSite(const SitePose& datum, int32_t& site) {
   return Status::kOk;
 }
 
-Status SitePoseAdjuster::addSite(const OdometryLeg& leg, const SitePose* apriori, int32_t& site) {
+Status SitePoseAdjuster::addSite(const LegMeasurement& leg, const TraverseFromSite* apriori, int32_t& site) {
   site = -1;
   if (site_count_ == 0) return refuse(Status::kMissingField);
   if (site_count_ >= kMaxSites) return refuse(Status::kCapacityExceeded);
@@ -119,7 +119,7 @@ Status SitePoseAdjuster::addSite(const OdometryLeg& leg, const SitePose* apriori
   if (apriori != nullptr) {
     s.apriori = *apriori;
   } else {
-    const SitePose& prev = sites_[site_count_ - 1].pose;
+    const TraverseFromSite& prev = sites_[site_count_ - 1].pose;
     s.apriori.position_m = prev.position_m;
     s.apriori.position_m.noalias() += prev.rotation * leg.delta_position_m;
     s.apriori.rotation.noalias() = prev.rotation * leg.delta_rotation;
@@ -482,7 +482,7 @@ bool SitePoseAdjuster::resect(int32_t site, int32_t& iterations) {
 void SitePoseAdjuster::resectNewSites(SitePoseResult& result) {
   for (int32_t k = first_free_; k < site_count_; ++k) {
     if (sites_[k].solved || !(sites_[k - 1].solved || resected_[k - 1])) continue;
-    const SitePose start = sites_[k].pose;
+    const TraverseFromSite start = sites_[k].pose;
     if (!resect(k, result.resection_iterations)) {
       sites_[k].pose = start;  // no ties to solved sites: it stays where odometry put it
       continue;

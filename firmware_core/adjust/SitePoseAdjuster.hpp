@@ -65,9 +65,9 @@ enum class SiteLink : uint8_t { kHeld = 0, kTied = 1, kNoOverlap = 2 };
 const char* siteLinkName(SiteLink link);
 
 struct SiteState {
-  SitePose pose;                   // current (adjusted) traverse_from_site
-  SitePose apriori;                // where it started (odometry chain)
-  OdometryLeg leg;                 // from the previous site (unused for site 0)
+  TraverseFromSite pose;           // current (adjusted) traverse_from_site
+  TraverseFromSite apriori;        // where it started (odometry chain)
+  LegMeasurement leg;              // from the previous site (unused for site 0)
   Mat6 covariance = Mat6::Zero();  // [dp (m), dtheta (rad)], traverse frame; zero when held
   Vec6 sigma = Vec6::Zero();       // square roots of its diagonal
   SiteLink link = SiteLink::kHeld;
@@ -139,10 +139,10 @@ class SitePoseAdjuster {
   void clear();
 
   // Site 0, the datum, at `datum` (the traverse frame is its frame: normally the identity pose).
-  [[nodiscard]] Status addFirstSite(const SitePose& datum, int32_t& site);
+  [[nodiscard]] Status addFirstSite(const TraverseFromSite& datum, int32_t& site);
   // The next site, tied to the previous one by `leg`; it starts at `apriori` when given, else at the previous
   // site's current pose composed with the leg (the warm start).
-  [[nodiscard]] Status addSite(const OdometryLeg& leg, const SitePose* apriori, int32_t& site);
+  [[nodiscard]] Status addSite(const LegMeasurement& leg, const TraverseFromSite* apriori, int32_t& site);
   // A camera of `site` with its EO in the site frame.
   [[nodiscard]] Status addCamera(int32_t site, const InteriorOrientation& io, const Vec3& center_in_site_m,
                                  const Mat3& m_site, int32_t& camera);
@@ -228,7 +228,7 @@ class SitePoseAdjuster {
   bool point_eliminated_[kMaxCrossSitePoints] = {};
   Vec3 point_step_[kMaxCrossSitePoints];
   Vec6 site_step_[kMaxSites];
-  SitePose saved_pose_[kMaxSites];
+  TraverseFromSite saved_pose_[kMaxSites];
   Vec3 saved_xyz_[kMaxCrossSitePoints];
   double scratch_[2 * kMaxCrossSiteObservations];
 };

@@ -20,13 +20,13 @@ Vec3 rotationLog(const Mat3& r) {
 
 }  // namespace
 
-void cameraInTraverse(const SitePose& pose, const SiteCamera& camera, Vec3& center_m, Mat3& m) {
+void cameraInTraverse(const TraverseFromSite& pose, const SiteCamera& camera, Vec3& center_m, Mat3& m) {
   center_m = pose.position_m;
   center_m.noalias() += pose.rotation * camera.center_in_site_m;
   m.noalias() = camera.m_site * pose.rotation.transpose();
 }
 
-void applySiteUpdate(const Vec6& update, SitePose& pose) {
+void applySiteUpdate(const Vec6& update, TraverseFromSite& pose) {
   pose.position_m += update.head<3>();
   const Mat3 r = rotationFromVector(update.tail<3>());
   const Mat3 old = pose.rotation;
@@ -35,7 +35,8 @@ void applySiteUpdate(const Vec6& update, SitePose& pose) {
   pose.rotation = q.normalized().toRotationMatrix();
 }
 
-void relativePose(const SitePose& a, const SitePose& b, Vec3& delta_position_m, Mat3& delta_rotation) {
+void relativePose(const TraverseFromSite& a, const TraverseFromSite& b, Vec3& delta_position_m,
+                  Mat3& delta_rotation) {
   const Vec3 v = b.position_m - a.position_m;
   delta_position_m.noalias() = a.rotation.transpose() * v;
   delta_rotation.noalias() = a.rotation.transpose() * b.rotation;
@@ -54,7 +55,7 @@ Mat3 rightJacobianInverse(const Vec3& phi) {
   return j;
 }
 
-Status crossSiteObservationRow(const SitePose& pose, const SiteCamera& camera, const Vec3& point_m,
+Status crossSiteObservationRow(const TraverseFromSite& pose, const SiteCamera& camera, const Vec3& point_m,
                                const Vec2& ideal_px, double sigma_px, Vec2& error, Mat2x6* d_pose,
                                Mat2x3* d_point) {
   Vec3 center;
@@ -82,8 +83,8 @@ Status crossSiteObservationRow(const SitePose& pose, const SiteCamera& camera, c
   return Status::kOk;
 }
 
-void odometryRows(const SitePose& a, const SitePose& b, const OdometryLeg& leg, Vec6& error, Mat6* d_a,
-                  Mat6* d_b) {
+void odometryRows(const TraverseFromSite& a, const TraverseFromSite& b, const LegMeasurement& leg,
+                  Vec6& error, Mat6* d_a, Mat6* d_b) {
   Vec3 d;
   Mat3 q_ab;
   relativePose(a, b, d, q_ab);

@@ -36,8 +36,10 @@
 
 namespace areomap {
 
-// traverse_from_site: X_traverse = position_m + rotation X_site.
-struct SitePose {
+// A site's full 6-DOF pose, traverse_from_site: X_traverse = position_m + rotation X_site. (Not the
+// levelled, heading-only SitePose of ground/dataset/Traverse.hpp that traverse.json carries: that one is
+// rotation = Rz(heading_rad).)
+struct TraverseFromSite {
   Vec3 position_m = Vec3::Zero();
   Mat3 rotation = Mat3::Identity();
 };
@@ -50,8 +52,11 @@ struct SiteCamera {
   Mat3 m_site = Mat3::Identity();  // site -> camera
 };
 
-// The measured pose of site `to` in the site frame of site `to - 1`, with its sigmas (see the top).
-struct OdometryLeg {
+// The measured pose of site `to` in the site frame of site `to - 1`, with its sigmas (see the top). From
+// traverse.json's OdometryLeg (ground/dataset/Traverse.hpp): delta_position_m = delta_m, delta_rotation =
+// Rz(delta_heading_rad), sigma_position_m = sigma_m, sigma_rotation_rad = (tilt, tilt, sigma_heading_rad)
+// with the tilt sigma of the rover's levelling.
+struct LegMeasurement {
   Vec3 delta_position_m = Vec3::Zero();    // in the frame of the previous site
   Mat3 delta_rotation = Mat3::Identity();  // site `to` -> previous site
   Vec3 sigma_position_m = Vec3::Constant(1.0);
@@ -59,13 +64,14 @@ struct OdometryLeg {
 };
 
 // The camera in the traverse frame: C = p + Q C_s, M = M_s Q^T.
-void cameraInTraverse(const SitePose& pose, const SiteCamera& camera, Vec3& center_m, Mat3& m);
+void cameraInTraverse(const TraverseFromSite& pose, const SiteCamera& camera, Vec3& center_m, Mat3& m);
 
 // Applies the local update [dp, dtheta] to a pose (rotation re-orthonormalised).
-void applySiteUpdate(const Vec6& update, SitePose& pose);
+void applySiteUpdate(const Vec6& update, TraverseFromSite& pose);
 
 // The pose `b` relative to `a` in a's frame: d = Q_a^T (p_b - p_a), Q_ab = Q_a^T Q_b.
-void relativePose(const SitePose& a, const SitePose& b, Vec3& delta_position_m, Mat3& delta_rotation);
+void relativePose(const TraverseFromSite& a, const TraverseFromSite& b, Vec3& delta_position_m,
+                  Mat3& delta_rotation);
 
 // Inverse of the right Jacobian of SO(3) at phi: log(exp(phi) exp(eps)) = phi + jrInverse(phi) eps +
 // O(eps^2).
@@ -74,13 +80,13 @@ Mat3 rightJacobianInverse(const Vec3& phi);
 // Whitened error (predicted - observed) / sigma_px of an ideal-pixel observation of `point` (traverse frame)
 // by `camera` of a site at `pose`, and its Jacobians over the site's [dp, dtheta] (2x6) and the point
 // (2x3). kBehindCamera when the point is not in front of the camera.
-[[nodiscard]] Status crossSiteObservationRow(const SitePose& pose, const SiteCamera& camera,
+[[nodiscard]] Status crossSiteObservationRow(const TraverseFromSite& pose, const SiteCamera& camera,
                                              const Vec3& point_m, const Vec2& ideal_px, double sigma_px,
                                              Vec2& error, Mat2x6* d_pose, Mat2x3* d_point);
 
 // Whitened error rows [position 3, rotation 3] of an odometry leg from pose `a` to pose `b`, and their
 // Jacobians over a's and b's [dp, dtheta] (exact: the rotation rows use the right-Jacobian inverse).
-void odometryRows(const SitePose& a, const SitePose& b, const OdometryLeg& leg, Vec6& error, Mat6* d_a,
-                  Mat6* d_b);
+void odometryRows(const TraverseFromSite& a, const TraverseFromSite& b, const LegMeasurement& leg,
+                  Vec6& error, Mat6* d_a, Mat6* d_b);
 
 }  // namespace areomap

@@ -25,18 +25,18 @@ SitePoseAdjuster g_reference;
 
 constexpr double kPi = 3.14159265358979323846;
 
-SitePose randomPose(std::mt19937& rng) {
+TraverseFromSite randomPose(std::mt19937& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  SitePose p;
+  TraverseFromSite p;
   p.position_m = Vec3(20.0 * u(rng), 20.0 * u(rng), u(rng));
   p.rotation = rotationFromVector(Vec3(0.1 * u(rng), 0.1 * u(rng), kPi * u(rng)));
   return p;
 }
 
-SitePose perturbed(const SitePose& pose, int32_t index, double h) {
+TraverseFromSite perturbed(const TraverseFromSite& pose, int32_t index, double h) {
   Vec6 d = Vec6::Zero();
   d(index) = h;
-  SitePose p = pose;
+  TraverseFromSite p = pose;
   applySiteUpdate(d, p);
   return p;
 }
@@ -93,7 +93,7 @@ TEST(SitePoseRows, ObservationJacobiansMatchNumericDifferences) {
   std::mt19937 rng(7);
   double worst = 0.0;
   for (int32_t trial = 0; trial < 20; ++trial) {
-    const SitePose pose = randomPose(rng);
+    const TraverseFromSite pose = randomPose(rng);
     SiteCamera cam;
     cam.site = 0;
     cam.io.f_px = 1236.0;
@@ -139,9 +139,9 @@ TEST(SitePoseRows, OdometryJacobiansMatchNumericDifferences) {
   std::mt19937 rng(11);
   double worst = 0.0;
   for (int32_t trial = 0; trial < 20; ++trial) {
-    const SitePose a = randomPose(rng);
-    const SitePose b = randomPose(rng);
-    OdometryLeg leg;
+    const TraverseFromSite a = randomPose(rng);
+    const TraverseFromSite b = randomPose(rng);
+    LegMeasurement leg;
     Vec3 d;
     Mat3 r;
     relativePose(a, b, d, r);
@@ -267,8 +267,8 @@ TEST(SitePoseAdjuster, LastSiteWithoutTiesFollowsItsOdometry) {
   CHECK_EQUAL(0, s.tie_observations);
   CHECK_EQUAL(1, r.no_overlap_sites);
   // Its pose is the previous (adjusted) site composed with the leg.
-  const SitePose& prev = g_adjuster.site(k - 1).pose;
-  SitePose chained;
+  const TraverseFromSite& prev = g_adjuster.site(k - 1).pose;
+  TraverseFromSite chained;
   chained.position_m = prev.position_m + prev.rotation * s.leg.delta_position_m;
   chained.rotation = prev.rotation * s.leg.delta_rotation;
   const Vec6 d = test::poseError(s.pose, chained);
@@ -323,7 +323,7 @@ TEST(SitePoseAdjuster, SlidingWindowKeepsEarlierSitesAndAgreesWithTheFullSolve) 
   CHECK(test::loadTraverse(plan, 0, kFirstPart, true, g_adjuster, load));
   SitePoseResult r;
   CHECK(ok(g_adjuster.adjust(SitePoseOptions{}, r)));
-  SitePose before[kFirstPart];
+  TraverseFromSite before[kFirstPart];
   for (int32_t k = 0; k < kFirstPart; ++k) before[k] = g_adjuster.site(k).pose;
   CHECK(test::loadTraverse(plan, kFirstPart, cfg.sites, false, g_adjuster, load));
   SitePoseOptions window;
@@ -365,7 +365,7 @@ TEST(SitePoseAdjuster, SlidingWindowKeepsEarlierSitesAndAgreesWithTheFullSolve) 
   CHECK(ok(g_reference.adjust(window, full)));
   double same = 0.0;
   SitePoseResult again;
-  SitePose full_pose[10];
+  TraverseFromSite full_pose[10];
   for (int32_t k = 0; k < cfg.sites; ++k) full_pose[k] = g_reference.site(k).pose;
   CHECK(ok(g_reference.adjust(SitePoseOptions{}, again)));
   for (int32_t k = 0; k < cfg.sites; ++k)
@@ -523,15 +523,15 @@ TEST(SitePoseAdjuster, BadInputIsRefusedAndCounted) {
   int32_t site = -1, cam = -1, pt = -1;
   SitePoseResult r;
   CHECK(a.adjust(SitePoseOptions{}, r) == Status::kMissingField);
-  OdometryLeg leg;
+  LegMeasurement leg;
   leg.delta_position_m = Vec3(10.0, 0.0, 0.0);
   CHECK(a.addSite(leg, nullptr, site) == Status::kMissingField);  // no datum yet
-  SitePose bad;
+  TraverseFromSite bad;
   bad.position_m.x() = std::nan("");
   CHECK(a.addFirstSite(bad, site) == Status::kNotFinite);
-  CHECK(ok(a.addFirstSite(SitePose{}, site)));
-  CHECK(a.addFirstSite(SitePose{}, site) == Status::kInvalidArgument);
-  OdometryLeg bad_leg = leg;
+  CHECK(ok(a.addFirstSite(TraverseFromSite{}, site)));
+  CHECK(a.addFirstSite(TraverseFromSite{}, site) == Status::kInvalidArgument);
+  LegMeasurement bad_leg = leg;
   bad_leg.sigma_position_m.y() = 0.0;
   CHECK(a.addSite(bad_leg, nullptr, site) == Status::kInvalidArgument);
   bad_leg = leg;

@@ -31,8 +31,8 @@ struct DenseProblem {
   int32_t unknowns() const { return 6 * (sites - 1) + 3 * static_cast<int32_t>(points.size()); }
 };
 
-SitePose poseOf(const DenseProblem& pb, const Eigen::VectorXd& x, int32_t k) {
-  SitePose p;
+TraverseFromSite poseOf(const DenseProblem& pb, const Eigen::VectorXd& x, int32_t k) {
+  TraverseFromSite p;
   if (k == 0) return pb.adj->site(0).pose;
   p.position_m = x.segment<3>(6 * (k - 1));
   p.rotation = rotationFromVector(x.segment<3>(6 * (k - 1) + 3)) * pb.q_ref[k];
@@ -55,7 +55,7 @@ Eigen::VectorXd residuals(const DenseProblem& pb, const Eigen::VectorXd& x) {
       const CrossSiteObservation& o = pb.adj->observation(pt.obs[k]);
       if (o.rejected) continue;
       const SiteCamera& c = pb.adj->camera(o.camera);
-      const SitePose pose = poseOf(pb, x, c.site);
+      const TraverseFromSite pose = poseOf(pb, x, c.site);
       const Vec3 center = pose.position_m + pose.rotation * c.center_in_site_m;
       const Mat3 m = c.m_site * pose.rotation.transpose();
       const Vec3 d = m * (xyz - center);
@@ -64,9 +64,9 @@ Eigen::VectorXd residuals(const DenseProblem& pb, const Eigen::VectorXd& x) {
     }
   }
   for (int32_t k = 1; k < pb.sites; ++k) {
-    const SitePose a = poseOf(pb, x, k - 1);
-    const SitePose b = poseOf(pb, x, k);
-    const OdometryLeg& leg = pb.adj->site(k).leg;
+    const TraverseFromSite a = poseOf(pb, x, k - 1);
+    const TraverseFromSite b = poseOf(pb, x, k);
+    const LegMeasurement& leg = pb.adj->site(k).leg;
     const Vec3 dp = a.rotation.transpose() * (b.position_m - a.position_m) - leg.delta_position_m;
     const Vec3 dr = logOf(leg.delta_rotation.transpose() * a.rotation.transpose() * b.rotation);
     for (int32_t i = 0; i < 3; ++i) r.push_back(dp(i) / leg.sigma_position_m(i));
@@ -163,7 +163,7 @@ TEST(SitePoseDenseCheck, DenseGaussNewtonReachesTheSameMinimumAndCovariance) {
   double pose_m = 0.0, pose_rad = 0.0, sigma_rel = 0.0, cov_rel = 0.0;
   for (int32_t k = 1; k < pb.sites; ++k) {
     const SiteState& s = g_adjuster.site(k);
-    const SitePose dense = poseOf(pb, x, k);
+    const TraverseFromSite dense = poseOf(pb, x, k);
     pose_m = std::max(pose_m, (dense.position_m - s.pose.position_m).norm());
     pose_rad = std::max(pose_rad, logOf(dense.rotation * s.pose.rotation.transpose()).norm());
     const Mat6 c = cov_unscaled.block<6, 6>(6 * (k - 1), 6 * (k - 1)) * (scale * scale);

@@ -13,7 +13,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kImageMarginPx = 10.0;
 
-double groundZ(const std::vector<SitePose>& truth, int32_t a, int32_t b, double t) {
+double groundZ(const std::vector<TraverseFromSite>& truth, int32_t a, int32_t b, double t) {
   return (1.0 - t) * truth[a].position_m.z() + t * truth[b].position_m.z();
 }
 
@@ -39,7 +39,7 @@ TraversePlan makeTraversePlan(const TraverseConfig& cfg) {
   for (int32_t k = 1; k < cfg.sites; ++k) {
     const double step = uniform(cfg.min_step_m, cfg.max_step_m);
     heading += uniform(-cfg.max_turn_deg, cfg.max_turn_deg) * kDeg;
-    SitePose& p = plan.truth[k];
+    TraverseFromSite& p = plan.truth[k];
     p.position_m = plan.truth[k - 1].position_m +
                    Vec3(step * std::cos(heading), step * std::sin(heading), uniform(-0.05, 0.05) * step);
     const Vec3 tilt(uniform(-1.0, 1.0) * cfg.max_tilt_deg * kDeg,
@@ -49,14 +49,14 @@ TraversePlan makeTraversePlan(const TraverseConfig& cfg) {
   // Odometry legs and the a-priori chain.
   plan.apriori[0] = plan.truth[0];
   for (int32_t k = 1; k < cfg.sites; ++k) {
-    OdometryLeg leg;
+    LegMeasurement leg;
     relativePose(plan.truth[k - 1], plan.truth[k], leg.delta_position_m, leg.delta_rotation);
     const double length = leg.delta_position_m.norm();
     leg.sigma_position_m = Vec3(cfg.odo_horizontal_fraction * length, cfg.odo_horizontal_fraction * length,
                                 cfg.odo_vertical_fraction * length);
     leg.sigma_rotation_rad =
         Vec3(cfg.odo_tilt_deg * kDeg, cfg.odo_tilt_deg * kDeg, cfg.odo_heading_deg * kDeg);
-    OdometryLeg noisy = leg;
+    LegMeasurement noisy = leg;
     const Vec3 dp(gauss(rng) * leg.sigma_position_m.x(), gauss(rng) * leg.sigma_position_m.y(),
                   gauss(rng) * leg.sigma_position_m.z());
     const Vec3 dr(gauss(rng) * leg.sigma_rotation_rad.x(), gauss(rng) * leg.sigma_rotation_rad.y(),
@@ -64,7 +64,7 @@ TraversePlan makeTraversePlan(const TraverseConfig& cfg) {
     noisy.delta_position_m += dp;
     noisy.delta_rotation = leg.delta_rotation * rotationFromVector(dr);
     plan.legs[k] = cfg.odometry_noise ? noisy : leg;
-    SitePose& a = plan.apriori[k];
+    TraverseFromSite& a = plan.apriori[k];
     a.position_m = plan.apriori[k - 1].position_m + plan.apriori[k - 1].rotation * noisy.delta_position_m;
     a.rotation = plan.apriori[k - 1].rotation * noisy.delta_rotation;
   }
@@ -171,7 +171,7 @@ bool loadTraverse(const TraversePlan& plan, int32_t first, int32_t last, bool ap
   return all;
 }
 
-Vec6 poseError(const SitePose& estimate, const SitePose& truth) {
+Vec6 poseError(const TraverseFromSite& estimate, const TraverseFromSite& truth) {
   Vec6 e;
   e.head<3>() = estimate.position_m - truth.position_m;
   e.tail<3>() = rotationLogOf(estimate.rotation * truth.rotation.transpose());

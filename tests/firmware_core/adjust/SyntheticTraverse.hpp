@@ -51,11 +51,11 @@ struct TraverseObservation {
 };
 
 struct TraversePlan {
-  std::vector<SitePose> truth;      // per site
-  std::vector<SitePose> apriori;    // odometry chain
-  std::vector<OdometryLeg> legs;    // [k]: from site k-1 to k (legs[0] unused)
-  std::vector<SiteCamera> cameras;  // all sites' cameras (site set)
-  std::vector<Vec3> points;         // truth, traverse frame
+  std::vector<TraverseFromSite> truth;    // per site
+  std::vector<TraverseFromSite> apriori;  // odometry chain
+  std::vector<LegMeasurement> legs;       // [k]: from site k-1 to k (legs[0] unused)
+  std::vector<SiteCamera> cameras;        // all sites' cameras (site set)
+  std::vector<Vec3> points;               // truth, traverse frame
   std::vector<TraverseObservation> observations;
 };
 
@@ -76,6 +76,6 @@ bool loadTraverse(const TraversePlan& plan, int32_t first, int32_t last, bool ap
                   SitePoseAdjuster& adjuster, TraverseLoad& load);
 
 // Pose error [p_est - p_true, log(Q_est Q_true^T)] (traverse frame), the form of SiteState::covariance.
-Vec6 poseError(const SitePose& estimate, const SitePose& truth);
+Vec6 poseError(const TraverseFromSite& estimate, const TraverseFromSite& truth);
 
 }  // namespace areomap::test
