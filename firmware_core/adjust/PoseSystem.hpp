@@ -12,9 +12,14 @@
 
 namespace areomap {
 
+// kSites: the most blocks (kMaxSites on the rover, kMaxGroundSites on the ground; both instantiated in
+// PoseSystem.cpp).
+template <int32_t kSites>
 class PoseSystem {
  public:
-  // Zeroes an n x n block system (n <= kMaxSites) and its right-hand side.
+  static_assert(kSites >= 1, "a system of at least one block");
+
+  // Zeroes an n x n block system (n <= kSites) and its right-hand side.
   void reset(int32_t n);
   int32_t size() const { return n_; }
 
@@ -32,11 +37,14 @@ class PoseSystem {
   Mat6 inverseDiagonalBlock(int32_t k);
 
  private:
-  Mat6 s_[kMaxSites][kMaxSites];  // lower triangle (i >= j)
-  Mat6 l_[kMaxSites][kMaxSites];  // Cholesky factor, lower triangle
-  Vec6 rhs_[kMaxSites];
-  Mat6 work_[kMaxSites];
+  Mat6 s_[kSites][kSites];  // lower triangle (i >= j)
+  Mat6 l_[kSites][kSites];  // Cholesky factor, lower triangle
+  Vec6 rhs_[kSites];
+  Mat6 work_[kSites];
   int32_t n_ = 0;
 };
+
+extern template class PoseSystem<kMaxSites>;
+extern template class PoseSystem<kMaxGroundSites>;
 
 }  // namespace areomap

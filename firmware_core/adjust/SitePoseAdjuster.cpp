@@ -68,7 +68,8 @@ const char* siteLinkName(SiteLink link) {
   return "unknown";
 }
 
-void SitePoseAdjuster::clear() {
+template <typename C>
+void BasicSitePoseAdjuster<C>::clear() {
   site_count_ = 0;
   camera_count_ = 0;
   point_count_ = 0;
@@ -77,18 +78,21 @@ void SitePoseAdjuster::clear() {
   for (int32_t& e : input_errors_) e = 0;
 }
 
-Status SitePoseAdjuster::refuse(Status status) {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::refuse(Status status) {
   ++input_errors_[static_cast<int32_t>(status)];
   return status;
 }
 
-int32_t SitePoseAdjuster::inputErrorTotal() const {
+template <typename C>
+int32_t BasicSitePoseAdjuster<C>::inputErrorTotal() const {
   int32_t total = 0;
   for (const int32_t e : input_errors_) total += e;
   return total;
 }
 
-Status SitePoseAdjuster::addFirstSite(const TraverseFromSite& datum, int32_t& site) {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::addFirstSite(const TraverseFromSite& datum, int32_t& site) {
   site = -1;
   if (site_count_ != 0) return refuse(Status::kInvalidArgument);
   if (!finitePose(datum)) return refuse(Status::kNotFinite);
@@ -101,10 +105,12 @@ Status SitePoseAdjuster::addFirstSite(const TraverseFromSite& datum, int32_t& si
   return Status::kOk;
 }
 
-Status SitePoseAdjuster::addSite(const LegMeasurement& leg, const TraverseFromSite* apriori, int32_t& site) {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::addSite(const LegMeasurement& leg, const TraverseFromSite* apriori,
+                                         int32_t& site) {
   site = -1;
   if (site_count_ == 0) return refuse(Status::kMissingField);
-  if (site_count_ >= kMaxSites) return refuse(Status::kCapacityExceeded);
+  if (site_count_ >= C::kSites) return refuse(Status::kCapacityExceeded);
   if (!leg.delta_position_m.allFinite() || !leg.delta_rotation.allFinite() ||
       !leg.sigma_position_m.allFinite() || !leg.sigma_rotation_rad.allFinite())
     return refuse(Status::kNotFinite);
@@ -129,11 +135,13 @@ Status SitePoseAdjuster::addSite(const LegMeasurement& leg, const TraverseFromSi
   return Status::kOk;
 }
 
-Status SitePoseAdjuster::addCamera(int32_t site, const InteriorOrientation& io, const Vec3& center_in_site_m,
-                                   const Mat3& m_site, int32_t& camera) {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::addCamera(int32_t site, const InteriorOrientation& io,
+                                           const Vec3& center_in_site_m, const Mat3& m_site,
+                                           int32_t& camera) {
   camera = -1;
   if (site < 0 || site >= site_count_) return refuse(Status::kInvalidArgument);
-  if (camera_count_ >= kMaxSiteCameras) return refuse(Status::kCapacityExceeded);
+  if (camera_count_ >= C::kCameras) return refuse(Status::kCapacityExceeded);
   if (!std::isfinite(io.f_px) || !std::isfinite(io.x0_px) || !std::isfinite(io.y0_px) ||
       !center_in_site_m.allFinite() || !m_site.allFinite())
     return refuse(Status::kNotFinite);
@@ -147,9 +155,10 @@ Status SitePoseAdjuster::addCamera(int32_t site, const InteriorOrientation& io, 
   return Status::kOk;
 }
 
-Status SitePoseAdjuster::addPoint(const Vec3* xyz_m, int32_t& point) {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::addPoint(const Vec3* xyz_m, int32_t& point) {
   point = -1;
-  if (point_count_ >= kMaxCrossSitePoints) return refuse(Status::kCapacityExceeded);
+  if (point_count_ >= C::kPoints) return refuse(Status::kCapacityExceeded);
   if (xyz_m != nullptr && !xyz_m->allFinite()) return refuse(Status::kNotFinite);
   CrossSitePoint& p = points_[point_count_];
   p = CrossSitePoint{};
@@ -162,8 +171,9 @@ Status SitePoseAdjuster::addPoint(const Vec3* xyz_m, int32_t& point) {
   return Status::kOk;
 }
 
-Status SitePoseAdjuster::addObservation(int32_t point, int32_t camera, const Vec2& ideal_px,
-                                        double sigma_px) {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::addObservation(int32_t point, int32_t camera, const Vec2& ideal_px,
+                                                double sigma_px) {
   if (point < 0 || point >= point_count_ || camera < 0 || camera >= camera_count_)
     return refuse(Status::kInvalidArgument);
   if (!ideal_px.allFinite() || !std::isfinite(sigma_px)) return refuse(Status::kNotFinite);
@@ -172,7 +182,7 @@ Status SitePoseAdjuster::addObservation(int32_t point, int32_t camera, const Vec
   for (int32_t k = 0; k < p.obs_count; ++k) {
     if (observations_[p.obs[k]].camera == camera) return refuse(Status::kInvalidArgument);
   }
-  if (p.obs_count >= kMaxObsPerCrossSitePoint || observation_count_ >= kMaxCrossSiteObservations)
+  if (p.obs_count >= kMaxObsPerCrossSitePoint || observation_count_ >= C::kObservations)
     return refuse(Status::kCapacityExceeded);
   CrossSiteObservation& o = observations_[observation_count_];
   o.point = point;
@@ -184,7 +194,8 @@ Status SitePoseAdjuster::addObservation(int32_t point, int32_t camera, const Vec
   return Status::kOk;
 }
 
-void SitePoseAdjuster::resetToApriori() {
+template <typename C>
+void BasicSitePoseAdjuster<C>::resetToApriori() {
   for (int32_t k = 0; k < site_count_; ++k) {
     sites_[k].pose = sites_[k].apriori;
     sites_[k].covariance.setZero();
@@ -195,23 +206,27 @@ void SitePoseAdjuster::resetToApriori() {
   for (int32_t o = 0; o < observation_count_; ++o) observations_[o].rejected = false;
 }
 
-bool SitePoseAdjuster::usable(const CrossSiteObservation& o) const {
+template <typename C>
+bool BasicSitePoseAdjuster<C>::usable(const CrossSiteObservation& o) const {
   return !o.rejected && inSolve(points_[o.point]);
 }
 
-Status SitePoseAdjuster::observationError(int32_t o, Vec2& error) const {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::observationError(int32_t o, Vec2& error) const {
   if (o < 0 || o >= observation_count_) return Status::kInvalidArgument;
   return observationRows(observations_[o], error, nullptr, nullptr);
 }
 
-Status SitePoseAdjuster::observationRows(const CrossSiteObservation& o, Vec2& error, Mat2x6* d_pose,
-                                         Mat2x3* d_point) const {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::observationRows(const CrossSiteObservation& o, Vec2& error, Mat2x6* d_pose,
+                                                 Mat2x3* d_point) const {
   const SiteCamera& c = cameras_[o.camera];
   return crossSiteObservationRow(sites_[c.site].pose, c, points_[o.point].xyz_m, o.ideal_px, o.sigma_px,
                                  error, d_pose, d_point);
 }
 
-double SitePoseAdjuster::cost(double* rms_px, int32_t* active) const {
+template <typename C>
+double BasicSitePoseAdjuster<C>::cost(double* rms_px, int32_t* active) const {
   double total = 0.0;
   double pixel_sq = 0.0;
   int32_t n = 0;
@@ -240,7 +255,8 @@ double SitePoseAdjuster::cost(double* rms_px, int32_t* active) const {
   return total;
 }
 
-int32_t SitePoseAdjuster::raysInFront(const CrossSitePoint& pt, const Vec3& xyz) const {
+template <typename C>
+int32_t BasicSitePoseAdjuster<C>::raysInFront(const CrossSitePoint& pt, const Vec3& xyz) const {
   int32_t front = 0;
   for (int32_t k = 0; k < pt.obs_count; ++k) {
     const CrossSiteObservation& o = observations_[pt.obs[k]];
@@ -255,7 +271,8 @@ int32_t SitePoseAdjuster::raysInFront(const CrossSitePoint& pt, const Vec3& xyz)
   return front;
 }
 
-bool SitePoseAdjuster::placePoint(int32_t p) {
+template <typename C>
+bool BasicSitePoseAdjuster<C>::placePoint(int32_t p) {
   CrossSitePoint& pt = points_[p];
   // Candidates: the intersection of the rays of each site with two or more (its cameras' relative EO is
   // exact, the single-site adjustment, so they meet where the point is in that site's frame), and of all
@@ -263,7 +280,7 @@ bool SitePoseAdjuster::placePoint(int32_t p) {
   // two-ray point behind the cameras), then the one of a site whose pose is better than odometry (a site
   // added to a solved traverse starts from points placed by its solved neighbours: the warm start), then
   // the most rays.
-  int32_t site_rays[kMaxSites] = {};
+  int32_t site_rays[C::kSites] = {};
   int32_t total = 0;
   for (int32_t k = 0; k < pt.obs_count; ++k) {
     const CrossSiteObservation& o = observations_[pt.obs[k]];
@@ -312,7 +329,8 @@ bool SitePoseAdjuster::placePoint(int32_t p) {
   return true;
 }
 
-void SitePoseAdjuster::preparePoints() {
+template <typename C>
+void BasicSitePoseAdjuster<C>::preparePoints() {
   for (int32_t p = 0; p < point_count_; ++p) {
     CrossSitePoint& pt = points_[p];
     int32_t active = 0;
@@ -327,7 +345,8 @@ void SitePoseAdjuster::preparePoints() {
   }
 }
 
-void SitePoseAdjuster::weightRows(Vec2& error, Mat2x6& d_pose, Mat2x3& d_point) const {
+template <typename C>
+void BasicSitePoseAdjuster<C>::weightRows(Vec2& error, Mat2x6& d_pose, Mat2x3& d_point) const {
   const double norm = error.norm();
   if (!(huber_ > 0.0) || !(norm > huber_)) return;
   // Huber: rho(s) = 2 c s - c^2 beyond c, i.e. the rows scaled by sqrt(c / s) (iteratively reweighted).
@@ -337,7 +356,8 @@ void SitePoseAdjuster::weightRows(Vec2& error, Mat2x6& d_pose, Mat2x3& d_point) 
   d_point *= w;
 }
 
-void SitePoseAdjuster::assemble(double damping) {
+template <typename C>
+void BasicSitePoseAdjuster<C>::assemble(double damping) {
   system_.reset(site_count_ - first_free_);
   for (int32_t k = 1; k < site_count_; ++k) {
     if (!legActive(k)) continue;
@@ -411,7 +431,8 @@ void SitePoseAdjuster::assemble(double damping) {
   }
 }
 
-double SitePoseAdjuster::applyStep(const SitePoseOptions& options) {
+template <typename C>
+double BasicSitePoseAdjuster<C>::applyStep(const SitePoseOptions& options) {
   // Points first, from the rows at the state the system was assembled at: dx = N^-1 (b - W^T x).
   for (int32_t p = 0; p < point_count_; ++p) {
     point_step_[p].setZero();
@@ -443,7 +464,8 @@ double SitePoseAdjuster::applyStep(const SitePoseOptions& options) {
   return step_m;
 }
 
-bool SitePoseAdjuster::resect(int32_t site, int32_t& iterations) {
+template <typename C>
+bool BasicSitePoseAdjuster<C>::resect(int32_t site, int32_t& iterations) {
   for (int32_t it = 0; it < kMaxResectionIterations; ++it) {
     Mat6 n = Mat6::Zero();
     Vec6 g = Vec6::Zero();
@@ -479,7 +501,8 @@ bool SitePoseAdjuster::resect(int32_t site, int32_t& iterations) {
   return true;
 }
 
-void SitePoseAdjuster::resectNewSites(SitePoseResult& result) {
+template <typename C>
+void BasicSitePoseAdjuster<C>::resectNewSites(SitePoseResult& result) {
   for (int32_t k = first_free_; k < site_count_; ++k) {
     if (sites_[k].solved || !(sites_[k - 1].solved || resected_[k - 1])) continue;
     const TraverseFromSite start = sites_[k].pose;
@@ -496,7 +519,8 @@ void SitePoseAdjuster::resectNewSites(SitePoseResult& result) {
   }
 }
 
-Status SitePoseAdjuster::solve(const SitePoseOptions& options, SitePoseResult& result) {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::solve(const SitePoseOptions& options, SitePoseResult& result) {
   double current = cost();
   if (!std::isfinite(current)) return Status::kNotFinite;
   double damping = kInitialDamping;
@@ -545,7 +569,8 @@ Status SitePoseAdjuster::solve(const SitePoseOptions& options, SitePoseResult& r
   return Status::kOk;
 }
 
-int32_t SitePoseAdjuster::rejectOutliers(const SitePoseOptions& options) {
+template <typename C>
+int32_t BasicSitePoseAdjuster<C>::rejectOutliers(const SitePoseOptions& options) {
   int32_t n = 0;
   for (int32_t o = 0; o < observation_count_; ++o) {
     if (!usable(observations_[o])) continue;
@@ -580,7 +605,8 @@ int32_t SitePoseAdjuster::rejectOutliers(const SitePoseOptions& options) {
   return rejected;
 }
 
-void SitePoseAdjuster::linkStatus(SitePoseResult& result) {
+template <typename C>
+void BasicSitePoseAdjuster<C>::linkStatus(SitePoseResult& result) {
   for (int32_t k = 0; k < site_count_; ++k) sites_[k].tie_observations = 0;
   for (int32_t p = 0; p < point_count_; ++p) {
     const CrossSitePoint& pt = points_[p];
@@ -614,7 +640,8 @@ void SitePoseAdjuster::linkStatus(SitePoseResult& result) {
   }
 }
 
-Status SitePoseAdjuster::precision(SitePoseResult& result, bool covariance) {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::precision(SitePoseResult& result, bool covariance) {
   result.cost = cost(&result.rms_px, &result.active_observations);
   result.solvable_points = 0;
   result.unsolvable_points = 0;
@@ -656,7 +683,8 @@ Status SitePoseAdjuster::precision(SitePoseResult& result, bool covariance) {
   return Status::kOk;
 }
 
-Status SitePoseAdjuster::adjust(const SitePoseOptions& options, SitePoseResult& result) {
+template <typename C>
+Status BasicSitePoseAdjuster<C>::adjust(const SitePoseOptions& options, SitePoseResult& result) {
   result = SitePoseResult{};
   if (site_count_ == 0) {
     result.status = refuse(Status::kMissingField);
@@ -712,5 +740,8 @@ Status SitePoseAdjuster::adjust(const SitePoseOptions& options, SitePoseResult& 
   result.status = precision(result, options.covariance);
   return result.status;
 }
+
+template class BasicSitePoseAdjuster<TraverseCapacity<kMaxSites>>;
+template class BasicSitePoseAdjuster<TraverseCapacity<kMaxGroundSites>>;
 
 }  // namespace areomap

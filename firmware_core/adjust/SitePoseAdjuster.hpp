@@ -45,8 +45,10 @@
 // Bad input (non-finite values, bad indices, a second ray of a point in one camera, sigmas <= 0, full
 // capacity) is refused with a Status and counted per status (inputErrors), never a crash.
 //
-// Memory: all fixed arrays (Capacities.hpp kMaxSites ...), ~3 MiB at full capacity (sizeof(SitePoseAdjuster),
-// printed by its test): allocate it once (static). adjust() makes no heap allocation; every loop is bounded.
+// Memory: all fixed arrays sized by a TraverseCapacity (Capacities.hpp): the rover's SitePoseAdjuster
+// (kMaxSites sites, 2.7 MiB, sizeof printed by its test; allocate it once, static) and the ground's
+// GroundSitePoseAdjuster (kMaxGroundSites sites, the whole traverse). adjust() makes no heap allocation;
+// every loop is bounded.
 #pragma once
 
 #include <cstdint>
@@ -133,8 +135,22 @@ struct SitePoseResult {
   Status covariance_status = Status::kOk;
 };
 
-class SitePoseAdjuster {
+// The capacities of one traverse adjuster, from its number of sites (Capacities.hpp gives the reasons of
+// the per-site figures).
+template <int32_t kSitesT>
+struct TraverseCapacity {
+  static constexpr int32_t kSites = kSitesT;
+  static constexpr int32_t kCameras = kSitesT * kMaxCamerasPerSite;
+  static constexpr int32_t kPoints = kSitesT * kMaxCrossSitePointsPerSite;
+  static constexpr int32_t kObservations = kPoints * kMeanObsPerCrossSitePoint;
+};
+
+// The adjuster for a capacity; the rover's (SitePoseAdjuster) and the ground's (GroundSitePoseAdjuster)
+// are instantiated in SitePoseAdjuster.cpp.
+template <typename Capacity>
+class BasicSitePoseAdjuster {
  public:
+  static constexpr int32_t kSites = Capacity::kSites;
   // Empties the traverse and the input-error counts.
   void clear();
 
@@ -207,30 +223,37 @@ class SitePoseAdjuster {
   void linkStatus(SitePoseResult& result);
   [[nodiscard]] Status precision(SitePoseResult& result, bool covariance);
 
-  SiteState sites_[kMaxSites];
-  SiteCamera cameras_[kMaxSiteCameras];
-  CrossSitePoint points_[kMaxCrossSitePoints];
-  CrossSiteObservation observations_[kMaxCrossSiteObservations];
+  SiteState sites_[Capacity::kSites];
+  SiteCamera cameras_[Capacity::kCameras];
+  CrossSitePoint points_[Capacity::kPoints];
+  CrossSiteObservation observations_[Capacity::kObservations];
   int32_t site_count_ = 0;
   int32_t camera_count_ = 0;
   int32_t point_count_ = 0;
   int32_t observation_count_ = 0;
   int32_t first_free_ = 1;
   double huber_ = 0.0;  // Huber threshold of the current solve (0: least squares)
-  bool resected_[kMaxSites] = {};
+  bool resected_[Capacity::kSites] = {};
   int32_t input_errors_[static_cast<int32_t>(Status::kCount)] = {};
 
   // Solve scratch: the reduced system, each point's damped inverse block and right-hand side from the
   // last assembly, the steps, and the state before a step (restored when it does not lower the cost).
-  PoseSystem system_;
-  Mat3 point_inverse_[kMaxCrossSitePoints];
-  Vec3 point_rhs_[kMaxCrossSitePoints];
-  bool point_eliminated_[kMaxCrossSitePoints] = {};
-  Vec3 point_step_[kMaxCrossSitePoints];
-  Vec6 site_step_[kMaxSites];
-  TraverseFromSite saved_pose_[kMaxSites];
-  Vec3 saved_xyz_[kMaxCrossSitePoints];
-  double scratch_[2 * kMaxCrossSiteObservations];
+  PoseSystem<Capacity::kSites> system_;
+  Mat3 point_inverse_[Capacity::kPoints];
+  Vec3 point_rhs_[Capacity::kPoints];
+  bool point_eliminated_[Capacity::kPoints] = {};
+  Vec3 point_step_[Capacity::kPoints];
+  Vec6 site_step_[Capacity::kSites];
+  TraverseFromSite saved_pose_[Capacity::kSites];
+  Vec3 saved_xyz_[Capacity::kPoints];
+  double scratch_[2 * Capacity::kObservations];
 };
+
+// The rover's: kMaxSites sites (~2.7 MiB, a static object).
+using SitePoseAdjuster = BasicSitePoseAdjuster<TraverseCapacity<kMaxSites>>;
+// The ground's: a whole traverse of up to kMaxGroundSites sites (17.7 MiB: allocate it on the heap).
+using GroundSitePoseAdjuster = BasicSitePoseAdjuster<TraverseCapacity<kMaxGroundSites>>;
+extern template class BasicSitePoseAdjuster<TraverseCapacity<kMaxSites>>;
+extern template class BasicSitePoseAdjuster<TraverseCapacity<kMaxGroundSites>>;
 
 }  // namespace areomap

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -514,7 +515,7 @@ TEST(SitePoseAdjuster, AdjustOfAFullTraverseMakesNoHeapAllocation) {
       cfg.sites, g_adjuster.pointCount(), drivenTo(plan, cfg.sites - 1), f.max_position_m,
       f.max_relative_position);
   std::printf("\n  sizeof(SitePoseAdjuster) = %zu bytes (%.2f MiB), of which PoseSystem %zu bytes\n",
-              sizeof(SitePoseAdjuster), sizeof(SitePoseAdjuster) / 1048576.0, sizeof(PoseSystem));
+              sizeof(SitePoseAdjuster), sizeof(SitePoseAdjuster) / 1048576.0, sizeof(PoseSystem<kMaxSites>));
 }
 
 TEST(SitePoseAdjuster, BadInputIsRefusedAndCounted) {
@@ -584,4 +585,41 @@ TEST(SitePoseAdjuster, BadInputIsRefusedAndCounted) {
   // A traverse whose points cannot be placed (one camera, one ray) still adjusts: odometry only.
   CHECK(ok(a.adjust(SitePoseOptions{}, r)));
   CHECK_EQUAL(kMaxSites - 1, r.no_overlap_sites);
+}
+
+TEST(SitePoseAdjuster, GroundAdjusterTakesAWholeTraverseBeyondTheRoversCapacity) {
+  // The ground's instance of the same code: 48 sites (the rover holds 32) in one solve.
+  auto ground = std::make_unique<GroundSitePoseAdjuster>();
+  TraverseConfig cfg;
+  cfg.sites = 48;
+  cfg.seed = 81;
+  const TraversePlan plan = test::makeTraversePlan(cfg);
+  TraverseLoad load;
+  CHECK(test::loadTraverse(plan, 0, cfg.sites, true, *ground, load));
+  SitePoseResult r;
+  Status s = Status::kOk;
+  {
+    HeapAllocationScope scope;
+    s = ground->adjust(SitePoseOptions{}, r);
+    CHECK_EQUAL(0u, scope.allocations());
+  }
+  CHECK(ok(s));
+  CHECK(r.converged);
+  CHECK_EQUAL(cfg.sites - 1, r.free_sites);
+  printResult("ground, 48 sites", r);
+  double sum_sq = 0.0, worst_relative = 0.0, driven = 0.0;
+  for (int32_t k = 1; k < cfg.sites; ++k) {
+    driven += (plan.truth[k].position_m - plan.truth[k - 1].position_m).norm();
+    const Vec6 e = test::poseError(ground->site(k).pose, plan.truth[k]);
+    for (int32_t i = 0; i < 6; ++i)
+      sum_sq += (e(i) / ground->site(k).sigma(i)) * (e(i) / ground->site(k).sigma(i));
+    worst_relative = std::max(worst_relative, e.head<3>().norm() / driven);
+  }
+  const double rms = std::sqrt(sum_sq / (6.0 * (cfg.sites - 1)));
+  std::printf(
+      "  %.0f m driven: RMS of error/sigma %.3f, worst position error/driven %.2e; "
+      "sizeof(GroundSitePoseAdjuster) = %zu bytes (%.1f MiB)\n",
+      driven, rms, worst_relative, sizeof(GroundSitePoseAdjuster),
+      sizeof(GroundSitePoseAdjuster) / 1048576.0);
+  CHECK(rms > 0.6 && rms < 1.5);
 }

@@ -139,8 +139,9 @@ TraversePlan makeTraversePlan(const TraverseConfig& cfg) {
   return plan;
 }
 
+template <typename Adjuster>
 bool loadTraverse(const TraversePlan& plan, int32_t first, int32_t last, bool apriori_start,
-                  SitePoseAdjuster& adjuster, TraverseLoad& load) {
+                  Adjuster& adjuster, TraverseLoad& load) {
   bool all = true;
   if (first == 0) {
     adjuster.clear();
@@ -170,6 +171,10 @@ bool loadTraverse(const TraversePlan& plan, int32_t first, int32_t last, bool ap
   }
   return all;
 }
+
+template bool loadTraverse(const TraversePlan&, int32_t, int32_t, bool, SitePoseAdjuster&, TraverseLoad&);
+template bool loadTraverse(const TraversePlan&, int32_t, int32_t, bool, GroundSitePoseAdjuster&,
+                           TraverseLoad&);
 
 Vec6 poseError(const TraverseFromSite& estimate, const TraverseFromSite& truth) {
   Vec6 e;

@@ -72,8 +72,10 @@ struct TraverseLoad {
 // added on first sight, unplaced). Site 0 is the datum at its true pose; site k starts at `apriori` of the
 // plan when `apriori_start`, else at the previous site's current pose composed with the leg (warm start).
 // Clears the adjuster when first == 0. Returns false when the adjuster refused anything.
+// Instantiated for SitePoseAdjuster and GroundSitePoseAdjuster.
+template <typename Adjuster>
 bool loadTraverse(const TraversePlan& plan, int32_t first, int32_t last, bool apriori_start,
-                  SitePoseAdjuster& adjuster, TraverseLoad& load);
+                  Adjuster& adjuster, TraverseLoad& load);
 
 // Pose error [p_est - p_true, log(Q_est Q_true^T)] (traverse frame), the form of SiteState::covariance.
 Vec6 poseError(const TraverseFromSite& estimate, const TraverseFromSite& truth);
