@@ -115,7 +115,7 @@ struct SitePoseResult {
   Status status = Status::kOk;
   bool converged = false;
   int32_t iterations = 0;        // linearisations of the final solve
-  int32_t iterations_total = 0;  // over all rejection rounds
+  int32_t iterations_total = 0;  // over the Huber solve and all rejection rounds
   int32_t resected_sites = 0;    // warm start: new sites first resected on their solved neighbours' points
   int32_t resection_iterations = 0;  // their 6x6 Gauss-Newton steps (points fixed), over all of them
   int32_t rejection_rounds = 0;
