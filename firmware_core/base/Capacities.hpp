@@ -43,7 +43,6 @@ static_assert(kMaxObservations >= 2 * kMaxTiePoints, "every tie point needs two 
 constexpr std::size_t kMaxModelTextLineChars = 512;
 constexpr std::size_t kModelTextBytes = 1024;
 
-
 // --- Tie points and coarse DEM (firmware_core/match, firmware_core/dem) ---
 // Förstner interest points per image: a 32-px spreading grid with at most 2 points per cell on a 1024^2
 // frame (32 x 32 cells x 2).
@@ -81,5 +80,37 @@ static_assert(kMaxTiesPerPair * 2 * kMaxPairs <= kMaxObservations, "intra ties o
 // measure that common offset before the +-kInterSearchRadiusPx search around the corrected prediction.
 constexpr int32_t kInterOffsetSearchRadiusPx = 48;
 constexpr int32_t kMaxInterOffsetProbes = 24;
+
+// --- Multi-site traverse (issue 21; firmware_core/adjust/SitePoseAdjuster.hpp) ---
+// Sites of one traverse adjustment: the rover stops every 10-30 m, a sol's drive (~100 m) is 4-10 sites;
+// 32 sites hold several sols, and the rover's sliding window of the last K sites is a fraction of it. The
+// reduced system is dense over the sites (6 x 6 blocks): (6 x 32)^2 doubles = 288 KiB per copy.
+constexpr int32_t kMaxSites = 32;
+// The ground adjusts a whole traverse at once: areomap-sim writes up to 99 sites (site01..site99), a
+// traverse folder holds what the rover sent over several weeks; 128 sites. (The same code, another
+// capacity: SitePoseAdjuster.hpp GroundSitePoseAdjuster, 17.7 MiB against the rover's 2.7, ground heap.)
+constexpr int32_t kMaxGroundSites = 128;
+// Cameras of all sites that see cross-site tie points: a Navcam ring of 10-20 pairs looks forward and
+// back with about a third of its images, ~16 cameras per neighbour site; 32 per site leaves room.
+constexpr int32_t kMaxCamerasPerSite = 32;
+constexpr int32_t kMaxSiteCameras = kMaxSites * kMaxCamerasPerSite;
+// Cross-site tie points: ~64 per pair of neighbouring sites already fix a 6-DOF pose to well below the
+// odometry; 128 per site pair over the whole window.
+constexpr int32_t kMaxCrossSitePointsPerSite = 128;
+constexpr int32_t kMaxCrossSitePoints = kMaxSites * kMaxCrossSitePointsPerSite;
+// Rays of one cross-site point: a stereo pair at each of up to three sites (6), plus two more images where
+// a ring's neighbouring pairs overlap.
+constexpr int32_t kMaxObsPerCrossSitePoint = 8;
+// Observations: 4 per point on average (a stereo pair at two sites); a point may take 8.
+constexpr int32_t kMeanObsPerCrossSitePoint = 4;
+constexpr int32_t kMaxCrossSiteObservations = kMaxCrossSitePoints * kMeanObsPerCrossSitePoint;
+// Levenberg-Marquardt linearisations of one traverse solve (quadratic convergence: 4-8 from odometry).
+constexpr int32_t kMaxSitePoseIterations = 50;
+
+static_assert(kMaxSites >= 2, "a traverse needs two sites to tie");
+static_assert(kMaxGroundSites >= kMaxSites, "the ground adjusts at least what the rover holds");
+static_assert(kMaxSiteCameras >= 2 * kMaxSites, "every site needs at least a stereo pair");
+static_assert(kMaxObsPerCrossSitePoint >= 4, "a point seen by the stereo pairs of two sites has 4 rays");
+static_assert(kMaxCrossSiteObservations >= 2 * kMaxCrossSitePoints, "every point needs two observations");
 
 }  // namespace areomap

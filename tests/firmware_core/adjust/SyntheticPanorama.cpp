@@ -17,19 +17,6 @@ double terrainZ(double x, double y) {
   return 0.15 * std::sin(0.7 * x) * std::cos(0.5 * y) + 0.05 * std::sin(2.3 * x + 1.1 * y);
 }
 
-Mat3 lookRotation(double azimuth_rad, double elevation_down_rad) {
-  const Vec3 d(std::cos(elevation_down_rad) * std::cos(azimuth_rad),
-               std::cos(elevation_down_rad) * std::sin(azimuth_rad), std::sin(elevation_down_rad));
-  const Vec3 z = -d;
-  const Vec3 x(-std::sin(azimuth_rad), std::cos(azimuth_rad), 0.0);
-  const Vec3 y = z.cross(x);
-  Mat3 m;
-  m.row(0) = x.transpose();
-  m.row(1) = y.transpose();
-  m.row(2) = z.transpose();
-  return m;
-}
-
 bool intersectTerrain(const Vec3& origin, const Vec3& dir, double max_range, Vec3& hit) {
   if (dir.z() <= 1e-3) return false;
   double t = (0.0 - origin.z()) / dir.z();
@@ -49,6 +36,29 @@ bool intersectTerrain(const Vec3& origin, const Vec3& dir, double max_range, Vec
 }
 
 }  // namespace
+
+Mat3 lookRotation(double azimuth_rad, double elevation_down_rad) {
+  const Vec3 d(std::cos(elevation_down_rad) * std::cos(azimuth_rad),
+               std::cos(elevation_down_rad) * std::sin(azimuth_rad), std::sin(elevation_down_rad));
+  const Vec3 z = -d;
+  const Vec3 x(-std::sin(azimuth_rad), std::cos(azimuth_rad), 0.0);
+  const Vec3 y = z.cross(x);
+  Mat3 m;
+  m.row(0) = x.transpose();
+  m.row(1) = y.transpose();
+  m.row(2) = z.transpose();
+  return m;
+}
+
+InteriorOrientation centredPinhole(double f_px, int32_t width, int32_t height) {
+  InteriorOrientation io;
+  io.f_px = f_px;
+  io.x0_px = 0.5 * (width - 1);
+  io.y0_px = 0.5 * (height - 1);
+  io.width = width;
+  io.height = height;
+  return io;
+}
 
 PanoramaConfig navcamConfig() {
   return PanoramaConfig{};
@@ -93,12 +103,7 @@ void makePanorama(const PanoramaConfig& cfg, Network& net, PanoramaTruth& truth)
   rig.left_offset_m = left_offset;
   rig.right_offset_m = right_offset;
 
-  InteriorOrientation io;
-  io.f_px = cfg.f_px;
-  io.x0_px = 0.5 * (cfg.width - 1);
-  io.y0_px = 0.5 * (cfg.height - 1);
-  io.width = cfg.width;
-  io.height = cfg.height;
+  const InteriorOrientation io = centredPinhole(cfg.f_px, cfg.width, cfg.height);
 
   const int32_t n_pairs = cfg.tiers * cfg.azimuths + (cfg.single_image ? 1 : 0);
   for (int32_t p = 0; p < n_pairs; ++p) {

@@ -36,6 +36,12 @@ struct PanoramaConfig {
   uint32_t seed = 1;
 };
 
+// The rotation (site -> camera, Photogrammetric.hpp axes) of a camera looking at `azimuth_rad` (from +X
+// towards +Y) and `elevation_down_rad` below the horizon, image right horizontal.
+Mat3 lookRotation(double azimuth_rad, double elevation_down_rad);
+// A distortion-free camera of `f_px` with the principal point at the image centre.
+InteriorOrientation centredPinhole(double f_px, int32_t width, int32_t height);
+
 PanoramaConfig navcamConfig();
 PanoramaConfig impConfig();  // IMP-like: 64 pairs + 1 single image, 256x256, narrow field
 
