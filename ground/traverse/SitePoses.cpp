@@ -10,6 +10,8 @@ const char* poseSourceName(PoseSource s) {
       return "first_site";
     case PoseSource::kOdometry:
       return "odometry";
+    case PoseSource::kCrossSiteTies:
+      return "cross_site_ties";
   }
   return "unknown";
 }

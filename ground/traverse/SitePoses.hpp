@@ -15,8 +15,9 @@
 namespace areomap::traverse {
 
 enum class PoseSource {
-  kFirstSite,  // the traverse frame's origin
-  kOdometry,   // the odometry chained (no cross-site tie fixed it)
+  kFirstSite,      // the traverse frame's origin
+  kOdometry,       // the odometry chained (no cross-site tie fixed it)
+  kCrossSiteTies,  // the multi-site adjustment: cross-site ties and the odometry (CrossSiteAdjustment.hpp)
 };
 const char* poseSourceName(PoseSource s);
 

@@ -19,6 +19,7 @@
 #include "ground/node/GroundPass.hpp"
 #include "ground/pass/PassProducts.hpp"
 #include "ground/raster/RasterFiles.hpp"
+#include "ground/traverse/CrossSiteAdjustment.hpp"
 #include "ground/traverse/TraverseMosaic.hpp"
 
 namespace areomap::traverse {
@@ -214,7 +215,10 @@ void writeReport(const Traverse& traverse, const TraverseResult& r, const Traver
   }
   json t = {{"sites", static_cast<int>(traverse.sites.size())},
             {"distance_m", traverse.distanceDrivenM()},
-            {"cross_site_ties", 0},
+            {"cross_site_ties", r.cross_site_ties},
+            {"cross_site_ties_rejected", r.cross_site_ties_rejected},
+            {"cross_site_method1_px", r.cross_method1_px >= 0 ? json(r.cross_method1_px) : json(nullptr)},
+            {"cross_site_sigma0", r.cross_sigma0},
             {"site", sites}};
   std::vector<SitePose> apriori, estimated;
   std::vector<double> distance;
@@ -269,6 +273,28 @@ TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o
       result.warnings.push_back("site " + traverse.sites[k].id + " not mapped: " + result.sites.back().error);
   }
   result.poses = odometryPoses(traverse);
+  std::vector<CrossSiteTie> ties;
+  if (!o.cross_ties_csv.empty()) ties = readCrossSiteTies(o.cross_ties_csv);
+  if (o.truth_cross_ties) ties = truthCrossSiteTies(traverse, o.truth_noise_px, 1);
+  if (!ties.empty()) {
+    std::vector<std::string> models;
+    for (const SiteOutcome& s : result.sites) models.push_back(s.ok ? s.out_dir + "/models" : "");
+    if (o.progress)
+      cli::info("multi-site adjustment: " + std::to_string(ties.size()) + " cross-site observations");
+    const CrossSiteAdjustment a = adjustSitePoses(traverse, models, ties, o.cross_sigma_px);
+    result.poses = a.poses;
+    result.cross_site_ties = a.ties_used;
+    result.cross_site_ties_rejected = a.ties_rejected;
+    result.cross_method1_px = a.method1_px;
+    result.cross_sigma0 = a.sigma0;
+    if (a.ties_dropped > 0)
+      result.warnings.push_back(
+          std::to_string(a.ties_dropped) +
+          " cross-site observations name an unknown site or image, or could not be mapped; "
+          "left out.");
+    writeCrossSiteTies(o.out_dir + "/cross_ties.csv", ties);
+    result.files.push_back(o.out_dir + "/cross_ties.csv");
+  }
   writePoses(result.poses, o.out_dir + "/poses.csv");
   writeTraverseModels(result.sites, result.poses, o.out_dir, result);
   result.files.push_back(o.out_dir + "/poses.csv");

@@ -19,6 +19,12 @@ struct TraverseRunOptions {
   bool products = true;  // per-site dense matching, DEM and ortho, and the merged map
   double cell_m = -1.0;  // merged map cell (-1: the coarsest of the sites' dem.tif cells)
   bool progress = true;
+  // Cross-site tie points: from a file (point,site,image,sample_px,line_px; "" none), or from the truth of
+  // a synthetic traverse (CrossSiteAdjustment.hpp truthCrossSiteTies) with this noise.
+  std::string cross_ties_csv;
+  bool truth_cross_ties = false;
+  double truth_noise_px = 0.3;
+  double cross_sigma_px = 0.3;  // a-priori sigma of a cross-site observation
 };
 
 struct SiteOutcome {
@@ -35,6 +41,10 @@ struct SiteOutcome {
 struct TraverseResult {
   std::vector<SiteOutcome> sites;
   SitePoseSolution poses;
+  int32_t cross_site_ties = 0;  // observations in the multi-site adjustment
+  int32_t cross_site_ties_rejected = 0;
+  double cross_method1_px = -1.0;  // mean residual of the cross-site observations
+  double cross_sigma0 = 0.0;
   std::vector<std::string> files;     // written (paths)
   std::vector<std::string> warnings;  // also in report.json
   std::vector<std::string> write_errors;

@@ -10,7 +10,8 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: areomap-traverse DATASET --out DIR [--no-products] [--cell-m C] [--quiet]\n"
+    "usage: areomap-traverse DATASET --out DIR [--cross-ties FILE | --truth-cross-ties [--noise-px S]]\n"
+    "                        [--no-products] [--cell-m C] [--quiet]\n"
     "\n"
     "Maps a multi-site traverse: DATASET/traverse.json names the sites in driving order (README "
     "\"Multi-site\n"
@@ -30,6 +31,11 @@ constexpr const char* kUsage =
     "  --out DIR        output folder (created)\n"
     "  --no-products    adjustment only: no dense matching, DEM, ortho or merged map\n"
     "  --cell-m C       merged map cell (default: the coarsest site dem.tif cell)\n"
+    "  --cross-ties FILE  cross-site tie points, CSV point,site,image,sample_px,line_px (measured pixels):\n"
+    "                   the sites' poses then come from the multi-site adjustment (cross-site ties and the\n"
+    "                   odometry; firmware_core/adjust/SitePoseAdjuster.hpp), written to DIR/cross_ties.csv\n"
+    "  --truth-cross-ties  cross-site ties from a synthetic traverse's truth (each site's check points\n"
+    "                   projected into the previous site's true models) with --noise-px S (default 0.3)\n"
     "  --quiet          no progress lines\n"
     "\n"
     "A site whose pass fails (a bad dataset, an unsolvable network) is reported in report.json and skipped;\n"
@@ -46,6 +52,11 @@ int main(int argc, char** argv) {
     o.products = !args.flag("--no-products");
     o.cell_m = args.number("--cell-m", -1.0);
     o.progress = !args.flag("--quiet");
+    o.cross_ties_csv = args.option("--cross-ties", "");
+    o.truth_cross_ties = args.flag("--truth-cross-ties");
+    o.truth_noise_px = args.number("--noise-px", 0.3);
+    if (o.truth_cross_ties && !o.cross_ties_csv.empty())
+      throw cli::UsageError("give at most one of --cross-ties FILE and --truth-cross-ties");
     const std::string dataset = args.positional(0, "DATASET");
     const Traverse t = readTraverse(dataset);
     checkTraverseSites(t);

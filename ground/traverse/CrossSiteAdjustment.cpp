@@ -1,0 +1,253 @@
+#include "ground/traverse/CrossSiteAdjustment.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <random>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include "firmware_core/adjust/SitePoseAdjuster.hpp"
+#include "firmware_core/camera/CameraConversion.hpp"
+#include "ground/cli/AtomicFile.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/dataset/TruthFiles.hpp"
+#include "ground/io/CameraFile.hpp"
+
+namespace areomap::traverse {
+
+namespace fs = std::filesystem;
+
+std::vector<CrossSiteTie> readCrossSiteTies(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw cli::InputError(path, "", "cannot open");
+  std::vector<CrossSiteTie> ties;
+  std::string line;
+  std::getline(in, line);
+  if (line.rfind("point,site,image,sample_px,line_px", 0) != 0)
+    throw cli::InputError(path, "header", "expected point,site,image,sample_px,line_px");
+  for (int row = 2; std::getline(in, line); ++row) {
+    if (line.empty()) continue;
+    std::stringstream s(line);
+    std::string f[5];
+    for (std::string& field : f) std::getline(s, field, ',');
+    CrossSiteTie t;
+    try {
+      t.point = std::stoll(f[0]);
+      t.site = f[1];
+      t.image = f[2];
+      t.pixel_px = Vec2(std::stod(f[3]), std::stod(f[4]));
+    } catch (const std::exception&) {
+      throw cli::InputError(path, "line " + std::to_string(row),
+                            "expected point,site,image,sample_px,line_px");
+    }
+    if (!t.pixel_px.allFinite() || t.site.empty() || t.image.empty())
+      throw cli::InputError(path, "line " + std::to_string(row), "empty or non-finite field");
+    ties.push_back(t);
+  }
+  return ties;
+}
+
+void writeCrossSiteTies(const std::string& path, const std::vector<CrossSiteTie>& ties) {
+  std::ostringstream out;
+  out.precision(10);
+  out << "point,site,image,sample_px,line_px\n";
+  for (const CrossSiteTie& t : ties)
+    out << t.point << ',' << t.site << ',' << t.image << ',' << t.pixel_px.x() << ',' << t.pixel_px.y()
+        << '\n';
+  cli::writeFileAtomic(path, out.str());
+}
+
+namespace {
+
+// sites/<id>/truth/points.csv: point id -> position (site frame).
+std::map<int64_t, Vec3> readTruthPoints(const std::string& path) {
+  std::map<int64_t, Vec3> points;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    std::stringstream s(line);
+    std::string f[4];
+    for (std::string& field : f) std::getline(s, field, ',');
+    try {
+      points[std::stoll(f[0])] = Vec3(std::stod(f[1]), std::stod(f[2]), std::stod(f[3]));
+    } catch (const std::exception&) {
+      throw cli::InputError(path, "point", "expected point,x_m,y_m,z_m");
+    }
+  }
+  return points;
+}
+
+}  // namespace
+
+std::vector<CrossSiteTie> truthCrossSiteTies(const Traverse& traverse, double noise_px, uint64_t seed) {
+  std::vector<CrossSiteTie> ties;
+  const std::optional<TraverseTruth> truth = readTraverseTruth(traverse.root, traverse);
+  if (!truth) return ties;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const auto noisy = [&](const Vec2& p) {
+    return noise_px > 0 ? Vec2(p + noise_px * Vec2(gauss(rng), gauss(rng))) : p;
+  };
+  for (std::size_t k = 1; k < traverse.sites.size(); ++k) {
+    const TraverseSite& here = traverse.sites[k];
+    const TraverseSite& before = traverse.sites[k - 1];
+    const std::map<int64_t, Vec3> points = readTruthPoints(here.dir + "/truth/points.csv");
+    std::map<int64_t, std::vector<ImageObservation>> seen_here;
+    for (const ImageObservation& o : readObservationsCsv(here.dir + "/truth/observations.csv"))
+      seen_here[o.point].push_back(o);
+    std::vector<std::pair<std::string, CameraModel>> models;
+    for (const fs::directory_entry& f : fs::directory_iterator(before.dir + "/truth/models")) {
+      if (f.path().extension() == ".cahvor")
+        models.emplace_back(f.path().stem().string(), io::readCameraModelFile(f.path().string()));
+    }
+    std::sort(models.begin(), models.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [id, xyz] : points) {
+      const auto obs = seen_here.find(id);
+      if (obs == seen_here.end()) continue;
+      const Vec3 there = truth->poses[k - 1].toSite(truth->poses[k].toTraverse(xyz));
+      std::vector<CrossSiteTie> in_before;
+      const int64_t tie_id = static_cast<int64_t>(k) * 100000000LL + id;
+      for (const auto& [stem, model] : models) {
+        Vec2 px;
+        if (!ok(project(model, there, px)) || px.x() < 0 || px.y() < 0 || px.x() > model.width - 1 ||
+            px.y() > model.height - 1)
+          continue;
+        in_before.push_back({tie_id, before.id, stem, noisy(px)});
+      }
+      if (in_before.empty()) continue;
+      ties.insert(ties.end(), in_before.begin(), in_before.end());
+      for (const ImageObservation& o : obs->second)
+        ties.push_back({tie_id, here.id, o.image, noisy(Vec2(o.sample_px, o.line_px))});
+    }
+  }
+  return ties;
+}
+
+namespace {
+
+TraverseFromSite fromSitePose(const SitePose& p) {
+  return {p.position_m, p.rotation()};
+}
+
+LegMeasurement legOf(const OdometryLeg& leg) {
+  LegMeasurement m;
+  m.delta_position_m = leg.delta_m;
+  m.delta_rotation = SitePose{Eigen::Vector3d::Zero(), leg.delta_heading_rad}.rotation();
+  m.sigma_position_m = leg.sigma_m;
+  m.sigma_rotation_rad = Vec3(kLevelSigmaRad, kLevelSigmaRad, leg.sigma_heading_rad);
+  return m;
+}
+
+struct CameraRef {
+  int32_t index = -1;
+  CameraModel model;
+  PhotogrammetricCamera camera;
+};
+
+}  // namespace
+
+CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<std::string>& models_dir,
+                                    const std::vector<CrossSiteTie>& ties, double sigma_px) {
+  CrossSiteAdjustment out;
+  const auto adjuster = std::make_unique<GroundSitePoseAdjuster>();  // 17.7 MiB of fixed arrays
+  adjuster->clear();
+  const SitePoseSolution odometry = odometryPoses(traverse);
+  const std::size_t n = traverse.sites.size();
+  int32_t site = 0;
+  if (!ok(adjuster->addFirstSite(fromSitePose(traverse.sites[0].apriori), site)))
+    throw std::runtime_error("traverse adjustment: cannot add the first site");
+  for (std::size_t k = 1; k < n; ++k) {
+    const TraverseFromSite apriori = fromSitePose(traverse.sites[k].apriori);
+    const Status s = adjuster->addSite(legOf(*traverse.sites[k].odometry), &apriori, site);
+    if (!ok(s))
+      throw std::runtime_error(std::string("traverse adjustment: site ") + traverse.sites[k].id + ": " +
+                               statusName(s));
+  }
+  // Cameras: each mapped site's adjusted models, in its own frame.
+  std::map<std::pair<std::string, std::string>, CameraRef> cameras;
+  for (std::size_t k = 0; k < n && k < models_dir.size(); ++k) {
+    if (models_dir[k].empty() || !fs::is_directory(models_dir[k])) continue;
+    for (const fs::directory_entry& f : fs::directory_iterator(models_dir[k])) {
+      if (f.path().extension() != ".cahvor") continue;
+      CameraRef ref;
+      ref.model = io::readCameraModelFile(f.path().string());
+      ConversionResidual residual;
+      if (!ok(cahvorToPhotogrammetric(ref.model, ref.camera, residual))) continue;
+      if (!ok(adjuster->addCamera(static_cast<int32_t>(k), ref.camera.io, ref.camera.eo.center_m,
+                                  ref.camera.m, ref.index)))
+        continue;
+      cameras[{traverse.sites[k].id, f.path().stem().string()}] = ref;
+    }
+  }
+  // Points and observations.
+  std::map<int64_t, int32_t> point_of_id;
+  for (const CrossSiteTie& t : ties) {
+    const auto cam = cameras.find({t.site, t.image});
+    Vec2 ideal;
+    if (cam == cameras.end() || !ok(pixelToIdeal(cam->second.model, cam->second.camera, t.pixel_px, ideal))) {
+      ++out.ties_dropped;
+      continue;
+    }
+    auto it = point_of_id.find(t.point);
+    if (it == point_of_id.end()) {
+      int32_t p = 0;
+      if (!ok(adjuster->addPoint(nullptr, p))) {
+        ++out.ties_dropped;
+        continue;
+      }
+      it = point_of_id.emplace(t.point, p).first;
+    }
+    if (!ok(adjuster->addObservation(it->second, cam->second.index, ideal, sigma_px))) ++out.ties_dropped;
+  }
+  SitePoseOptions options;
+  SitePoseResult result;
+  const Status s = adjuster->adjust(options, result);
+  out.sigma0 = result.sigma0;
+  out.converged = ok(s) && result.converged;
+  out.ties_used = result.active_observations;
+  out.ties_rejected = result.rejected_observations;
+  out.poses = odometry;
+  out.poses.notes.clear();
+  if (!ok(s)) {
+    out.poses.notes.push_back(std::string("The cross-site adjustment failed (") + statusName(s) +
+                              "): the poses are the odometry's.");
+    return out;
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    const SiteState& st = adjuster->site(static_cast<int32_t>(k));
+    SitePoseEstimate& e = out.poses.sites[k];
+    e.pose.position_m = st.pose.position_m;
+    e.pose.heading_rad = std::atan2(st.pose.rotation(1, 0), st.pose.rotation(0, 0));
+    e.covariance.setZero();
+    e.covariance.topLeftCorner<3, 3>() = st.covariance.topLeftCorner<3, 3>();
+    e.covariance.block<3, 1>(0, 3) = st.covariance.block<3, 1>(0, 5);
+    e.covariance.block<1, 3>(3, 0) = st.covariance.block<1, 3>(5, 0);
+    e.covariance(3, 3) = st.covariance(5, 5);
+    e.source = st.link == SiteLink::kHeld   ? PoseSource::kFirstSite
+               : st.link == SiteLink::kTied ? PoseSource::kCrossSiteTies
+                                            : PoseSource::kOdometry;
+    if (st.link == SiteLink::kNoOverlap)
+      out.poses.notes.push_back("Site " + traverse.sites[k].id +
+                                " has no cross-site tie to another site: its pose is the odometry's alone.");
+  }
+  // Method 1 of the cross-site observations: the mean residual distance.
+  double sum = 0.0;
+  int count = 0;
+  for (int32_t o = 0; o < adjuster->observationCount(); ++o) {
+    Vec2 error;
+    const CrossSiteObservation& obs = adjuster->observation(o);
+    if (obs.rejected || !adjuster->point(obs.point).solvable || !ok(adjuster->observationError(o, error)))
+      continue;
+    sum += (error * obs.sigma_px).norm();
+    ++count;
+  }
+  if (count > 0) out.method1_px = sum / count;
+  return out;
+}
+
+}  // namespace areomap::traverse

@@ -1,0 +1,58 @@
+// The sites' poses from cross-site tie points and the odometry (issue 21 point 3 on the ground): every
+// site a rigid body carrying its cameras as its own pass adjusted them (OUT/sites/<id>/models, site frame),
+// its pose and the cross-site points unknown, the odometry legs weighted observations, site 1 the datum
+// (firmware_core/adjust/SitePoseAdjuster.hpp, the ground's capacity: the whole traverse at once). A site
+// that no cross-site tie links keeps its odometry pose, and its sigma and source say so.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "firmware_core/base/EigenTypes.hpp"
+#include "ground/dataset/Traverse.hpp"
+#include "ground/traverse/SitePoses.hpp"
+
+namespace areomap::traverse {
+
+// The tilt sigma of an odometry leg (rad): a site frame is levelled by the rover's accelerometers, far
+// better than wheel odometry measures heading (0.06 deg, a tenth of a typical MER tilt sensor's 0.5 deg...
+// the levelled frames of traverse.json have no tilt unknown of their own).
+inline constexpr double kLevelSigmaRad = 1e-3;
+
+// A cross-site tie observation: a point id shared by observations of images of different sites, the
+// measured (distorted) pixel.
+struct CrossSiteTie {
+  int64_t point = 0;
+  std::string site;   // site id
+  std::string image;  // image stem in that site
+  Vec2 pixel_px = Vec2::Zero();
+};
+
+// Reads `cross_ties.csv` (point,site,image,sample_px,line_px); throws cli::InputError naming the file.
+std::vector<CrossSiteTie> readCrossSiteTies(const std::string& path);
+void writeCrossSiteTies(const std::string& path, const std::vector<CrossSiteTie>& ties);
+
+// Cross-site ties from a synthetic traverse's truth (as areomap-adjust --truth-ties does within a site):
+// every check point of site k (sites/<id>/truth/points.csv, observations.csv) carried by the true poses
+// into site k-1's frame and projected by its true models where it falls inside an image, with Gaussian
+// noise of `noise_px` per coordinate (seeded). Geometric only (occlusion is not checked): for testing the
+// adjustment apart from the matching. Empty when the traverse has no truth.
+std::vector<CrossSiteTie> truthCrossSiteTies(const Traverse& traverse, double noise_px, uint64_t seed);
+
+struct CrossSiteAdjustment {
+  SitePoseSolution poses;
+  int32_t ties_used = 0;      // observations in the adjustment
+  int32_t ties_rejected = 0;  // by its robust rejection
+  int32_t ties_dropped = 0;   // naming an unknown site or image, or not mappable to ideal pixels
+  double method1_px = -1.0;   // mean |residual| of the cross-site observations (pixel distance)
+  double sigma0 = 0.0;
+  bool converged = false;
+};
+
+// `models_dir[k]`: the folder of site k's adjusted models (site frame; "" when the site was not mapped).
+// sigma_px: the a-priori sigma of a cross-site observation.
+CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<std::string>& models_dir,
+                                    const std::vector<CrossSiteTie>& ties, double sigma_px);
+
+}  // namespace areomap::traverse
