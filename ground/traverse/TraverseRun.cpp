@@ -42,6 +42,21 @@ SiteOutcome runSite(const TraverseSite& site, const TraverseRunOptions& o, std::
   s.id = site.id;
   s.out_dir = o.out_dir + "/sites/" + site.id;
   if (o.progress) cli::info("site " + std::to_string(k + 1) + "/" + std::to_string(n) + ": " + site.id);
+  if (o.reuse_sites && fs::exists(s.out_dir + "/report.json") && fs::is_directory(s.out_dir + "/models")) {
+    std::ifstream in(s.out_dir + "/report.json");
+    const json report = json::parse(in, nullptr, false);
+    if (!report.is_discarded()) {
+      if (o.progress) cli::info("site " + site.id + ": its pass is there (--reuse-sites)");
+      s.ok = true;
+      s.method1_px = figure(report, "method1_px", "dist");
+      s.method2_m = figure(report, "method2_m", "z");
+      s.method3_px = figure(report, "method3_px", "dist");
+      if (report.contains("truth") && report["truth"].contains("eo_px") &&
+          report["truth"]["eo_px"].is_number())
+        s.truth_eo_px = report["truth"]["eo_px"].get<double>();
+      return s;
+    }
+  }
   try {
     const Dataset dataset = readDataset(site.dir);
     ground::GroundPassOptions pass;

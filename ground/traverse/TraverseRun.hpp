@@ -19,6 +19,8 @@ struct TraverseRunOptions {
   bool products = true;  // per-site dense matching, DEM and ortho, and the merged map
   double cell_m = -1.0;  // merged map cell (-1: the coarsest of the sites' dem.tif cells)
   bool progress = true;
+  // A site whose OUT/sites/<id> already holds a finished pass (report.json and models/) is not mapped again.
+  bool reuse_sites = false;
   // Cross-site tie points: from a file (point,site,image,sample_px,line_px; "" none), or from the truth of
   // a synthetic traverse (CrossSiteAdjustment.hpp truthCrossSiteTies) with this noise.
   std::string cross_ties_csv;

@@ -11,7 +11,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: areomap-traverse DATASET --out DIR [--cross-ties FILE | --truth-cross-ties [--noise-px S]]\n"
-    "                        [--no-products] [--cell-m C] [--quiet]\n"
+    "                        [--no-products] [--reuse-sites] [--cell-m C] [--quiet]\n"
     "\n"
     "Maps a multi-site traverse: DATASET/traverse.json names the sites in driving order (README "
     "\"Multi-site\n"
@@ -36,6 +36,8 @@ constexpr const char* kUsage =
     "                   odometry; firmware_core/adjust/SitePoseAdjuster.hpp), written to DIR/cross_ties.csv\n"
     "  --truth-cross-ties  cross-site ties from a synthetic traverse's truth (each site's check points\n"
     "                   projected into the previous site's true models) with --noise-px S (default 0.3)\n"
+    "  --reuse-sites    a site whose DIR/sites/<id> holds a finished pass (report.json, models/) is not\n"
+    "                   mapped again (e.g. to adjust the traverse again with other cross-site ties)\n"
     "  --quiet          no progress lines\n"
     "\n"
     "A site whose pass fails (a bad dataset, an unsolvable network) is reported in report.json and skipped;\n"
@@ -52,6 +54,7 @@ int main(int argc, char** argv) {
     o.products = !args.flag("--no-products");
     o.cell_m = args.number("--cell-m", -1.0);
     o.progress = !args.flag("--quiet");
+    o.reuse_sites = args.flag("--reuse-sites");
     o.cross_ties_csv = args.option("--cross-ties", "");
     o.truth_cross_ties = args.flag("--truth-cross-ties");
     o.truth_noise_px = args.number("--noise-px", 0.3);
