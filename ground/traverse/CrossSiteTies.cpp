@@ -132,22 +132,12 @@ int CrossTieResult::observationCount() const {
   return n;
 }
 
-CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
-                                 const CrossTieParams& params, int64_t first_point) {
-  CrossTieResult out;
-  out.site_a = a.id;
-  out.site_b = b.id;
-  out.registration = registerDems(a, b, apriori, params.registration);
-  out.a_from_b = out.registration.a_from_b;
-  if (out.registration.status != RegistrationStatus::kOk) {
-    out.status = out.registration.status == RegistrationStatus::kNoOverlap
-                     ? CrossTieStatus::kNoOverlap
-                     : CrossTieStatus::kRegistrationFailed;
-    out.message = out.registration.message;
-    return out;
-  }
-  const RelativePose pose = out.registration.a_from_b;
+namespace {
 
+// Steps 2 and 3: candidates from B's images matched into A's (and B's other) images under `pose`.
+void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& pose,
+               const CrossTieParams& params, int64_t first_point, CrossTieResult& out) {
+  out.ties.clear();
   // 2 + 3: candidates from B's images, matched into A's (and B's other) images.
   auto workspace = std::make_unique<ForstnerWorkspace>();
   const int border = params.patch.half + 2;
@@ -232,8 +222,11 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
       ++next_point;
     }
   }
-  out.counts.ties_before_check = static_cast<int>(out.ties.size());
+}
 
+// Step 4: the geometric check; `pose` is the prior (and the start), the result goes into `out`.
+void checkTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& pose,
+               const CrossTieParams& params, CrossTieResult& out) {
   // 4: geometric check, a bundle of the pose and the points with trimming.
   std::vector<GeoObservation> geo;
   std::vector<std::vector<int>> of_tie(out.ties.size());
@@ -365,6 +358,28 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
   out.a_from_b = current;
   out.rms_px = rms;
 
+  // Parallax discipline against the DEMs: the point triangulated from all the views must lie on both sites'
+  // surfaces within their height sigmas (a match that slid along the other site's rays moves it off).
+  for (std::size_t i = 0; i < out.ties.size(); ++i) {
+    if (!tie_alive[i]) continue;
+    const Eigen::Vector3d xa = current.toA(x[i]);
+    bool on_both = true;
+    for (const auto& [site, p] : {std::pair<const SiteProducts*, Eigen::Vector3d>{&b, x[i]}, {&a, xa}}) {
+      const double e = demElevation(site->dem, p.x(), p.y());
+      double sigma = 0.0;
+      if (site->dem_sigma) {
+        sigma = demElevation(*site->dem_sigma, p.x(), p.y());
+        if (!std::isfinite(sigma)) sigma = 0.0;
+      }
+      const double limit = std::max(params.height_floor_m, params.height_sigmas * sigma);
+      if (!std::isfinite(e) || std::fabs(e + p.z()) > limit) on_both = false;
+    }
+    if (!on_both) {
+      tie_alive[i] = false;
+      ++out.counts.off_dem_ties;
+    }
+  }
+
   // Kept ties with their kept observations.
   std::vector<CrossTie> kept;
   for (std::size_t i = 0; i < out.ties.size(); ++i) {
@@ -378,6 +393,40 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
     kept.push_back(std::move(t));
   }
   out.ties = std::move(kept);
+}
+
+}  // namespace
+
+CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
+                                 const CrossTieParams& params, int64_t first_point) {
+  CrossTieResult out;
+  out.site_a = a.id;
+  out.site_b = b.id;
+  out.registration = registerDems(a, b, apriori, params.registration);
+  out.a_from_b = out.registration.a_from_b;
+  if (out.registration.status != RegistrationStatus::kOk) {
+    out.status = out.registration.status == RegistrationStatus::kNoOverlap
+                     ? CrossTieStatus::kNoOverlap
+                     : CrossTieStatus::kRegistrationFailed;
+    out.message = out.registration.message;
+    return out;
+  }
+  // A first pass under the registered pose, a second one under the pose of the first pass's ties with a
+  // narrower search (the registration's error no longer widens the windows).
+  const RelativePose registered = out.registration.a_from_b;
+  matchTies(a, b, registered, params, first_point, out);
+  out.counts.ties_before_check = static_cast<int>(out.ties.size());
+  checkTies(a, b, registered, params, out);
+  out.first_pass_ties = static_cast<int>(out.ties.size());
+  if (params.second_pass && static_cast<int>(out.ties.size()) >= params.min_ties) {
+    const RelativePose first = out.a_from_b;
+    CrossTieParams narrow = params;
+    narrow.patch.radius_px = params.second_radius_px;
+    out.counts = CrossTieCounts{};
+    matchTies(a, b, first, narrow, first_point, out);
+    out.counts.ties_before_check = static_cast<int>(out.ties.size());
+    checkTies(a, b, first, narrow, out);
+  }
   if (static_cast<int>(out.ties.size()) < params.min_ties) {
     out.status = CrossTieStatus::kTooFewTies;
     out.message = "sites " + a.id + " and " + b.id + ": " + std::to_string(out.ties.size()) +

@@ -46,7 +46,11 @@ struct CrossTieParams {
   int max_check_rounds = 8;
   double prior_sigma_m = 0.2;  // weak prior of the geometric check on the registered pose
   double prior_sigma_deg = 0.5;
-  int min_ties = 8;  // fewer: kTooFewTies (the ties found are still returned)
+  int min_ties = 8;               // fewer: kTooFewTies (the ties found are still returned)
+  double height_floor_m = 0.05;   // the triangulated point within this of both DEMs ...
+  double height_sigmas = 3.0;     // ... or this many dem_sigma
+  bool second_pass = true;        // match again under the first pass's pose ...
+  double second_radius_px = 4.0;  // ... with this search radius
 };
 
 struct CrossTieObservation {
@@ -76,6 +80,7 @@ struct CrossTieCounts {
   int ties_before_check = 0;
   int rejected_observations = 0;  // by the geometric check
   int rejected_ties = 0;
+  int off_dem_ties = 0;  // triangulated off either DEM
 };
 
 struct CrossTieResult {
@@ -86,7 +91,8 @@ struct CrossTieResult {
   RelativePose a_from_b;  // the geometric check's pose (the registration's when it did not run)
   Eigen::Vector4d a_from_b_sigma = Eigen::Vector4d::Zero();  // x, y, z (m), heading (rad)
   double rms_px = 0.0;                                       // RMS residual of the kept observations
-  CrossTieCounts counts;
+  CrossTieCounts counts;                                     // of the last pass
+  int first_pass_ties = 0;                                   // kept by the first pass's check
   std::vector<CrossTie> ties;
   int observationCount() const;
 };

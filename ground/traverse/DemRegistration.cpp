@@ -16,7 +16,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegToRad = kPi / 180.0;
 constexpr double kFloorSigmaM = 0.02;  // added to every cell's sigma: no cell weighs more than 2 cm's worth
-constexpr int kMaxGaussNewtonIterations = 25;
+constexpr int kMaxGaussNewtonIterations = 40;
 
 struct Sample {
   Eigen::Vector3d b_m;  // cell centre on the surface, B's frame
@@ -133,11 +133,15 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   const std::string pair = "sites " + a.id + " and " + b.id;
 
   // Coarse: both DEMs averaged to ~0.2 m, steps of 0.2 m and 1 degree.
-  const int fa = std::max(1, static_cast<int>(std::lround(0.2 / a.dem.cell_m)));
-  const int fb = std::max(1, static_cast<int>(std::lround(0.2 / b.dem.cell_m)));
+  // The coarse steps grow with the search window (about 10 steps each side, at least 0.2 m and 1 degree);
+  // the DEMs are averaged to the step.
+  const double step_m = std::max(0.2, params.search_m / 10.0);
+  const double step_rad = std::max(1.0, params.search_deg / 5.0) * kDegToRad;
+  const int fa = std::max(1, static_cast<int>(std::lround(step_m / a.dem.cell_m)));
+  const int fb = std::max(1, static_cast<int>(std::lround(step_m / b.dem.cell_m)));
   const DemGrid coarse_a = fa > 1 ? coarsenDem(a.dem, fa) : a.dem;
   const DemGrid coarse_b = fb > 1 ? coarsenDem(b.dem, fb) : b.dem;
-  const std::vector<Sample> coarse_samples = samplesOf(b, coarse_b, 0.25, params);
+  const std::vector<Sample> coarse_samples = samplesOf(b, coarse_b, std::max(0.25, step_m), params);
   const std::vector<Sample> samples = samplesOf(b, b.dem, params.sample_spacing_m, params);
 
   const Moments at_apriori = moments(a, a.dem, samples, apriori, params);
@@ -151,7 +155,6 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
     return out;
   }
 
-  const double step_m = 0.2, step_rad = 1.0 * kDegToRad;
   const int nxy = static_cast<int>(std::lround(params.search_m / step_m));
   const int nh = static_cast<int>(std::lround(params.search_deg * kDegToRad / step_rad));
   const int sx = 2 * nxy + 1, sh = 2 * nh + 1;
@@ -213,7 +216,7 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   }
   out.cost_ratio = std::isfinite(second) && second > 0.0 ? best.cost / second : 0.0;
 
-  // Fine: +-0.3 m in steps of 5 cm, +-1.2 degrees in steps of 0.2 degrees, on the full DEMs.
+  // Fine: +-1.5 coarse steps in quarter steps, +-1.2 coarse heading steps in fifths, on the full DEMs.
   Candidate fine = best;
   fine.cost = std::numeric_limits<double>::infinity();
   const std::vector<Sample> fine_samples =
@@ -221,7 +224,8 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   for (int k = -6; k <= 6; ++k) {
     for (int j = -6; j <= 6; ++j) {
       for (int i = -6; i <= 6; ++i) {
-        const double dx = best.dx + 0.05 * i, dy = best.dy + 0.05 * j, dh = best.dh + 0.2 * kDegToRad * k;
+        const double dx = best.dx + step_m / 4.0 * i, dy = best.dy + step_m / 4.0 * j;
+        const double dh = best.dh + step_rad / 5.0 * k;
         const Moments m = moments(a, a.dem, fine_samples, shifted(apriori, dx, dy, dh), params);
         if (m.n >= min_samples / 2 && m.variance() < fine.cost) fine = {dx, dy, dh, m.variance()};
       }
@@ -235,69 +239,70 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   }
   pose.translation_m.z() -= start.mean();  // d = e_a + z: moving B down by d zeroes the mean
 
-  // Gauss-Newton on the elevation differences, reweighted and trimmed at 3 robust sigmas.
-  const double h = a.dem.cell_m;
-  double trim = std::numeric_limits<double>::infinity();
+  // Gauss-Newton on the elevation differences, reweighted and trimmed at 3 robust sigmas: on the coarse DEMs
+  // (gradients over 0.2 m, a wide basin), then on the full ones (gradients over two cells).
   Eigen::Matrix4d normal = Eigen::Matrix4d::Identity();
   double s0 = 0.0;
+  auto gaussNewton = [&](const DemGrid& dem_a, const std::vector<Sample>& used, double h, int min_used,
+                         bool& converged) {
+    double trim = std::numeric_limits<double>::infinity();
+    converged = false;
+    for (int it = 0; it < kMaxGaussNewtonIterations; ++it) {
+      normal.setZero();
+      Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+      std::vector<double> abs_d;
+      double wrr = 0.0;
+      int n = 0, total = 0;
+      const Eigen::Matrix3d r = pose.rotation();
+      for (const Sample& s : used) {
+        const Eigen::Vector3d rb = r * s.b_m;
+        const Eigen::Vector3d p = rb + pose.translation_m;
+        if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
+        const double e = demElevation(dem_a, p.x(), p.y());
+        const double ex =
+            (demElevation(dem_a, p.x() + h, p.y()) - demElevation(dem_a, p.x() - h, p.y())) / (2 * h);
+        const double ey =
+            (demElevation(dem_a, p.x(), p.y() + h) - demElevation(dem_a, p.x(), p.y() - h)) / (2 * h);
+        if (!std::isfinite(e) || !std::isfinite(ex) || !std::isfinite(ey)) continue;
+        const double sa = sigmaAt(a.dem_sigma, p.x(), p.y());
+        if (sa > params.max_sigma_m) continue;
+        const double d = e + p.z();
+        ++total;
+        abs_d.push_back(std::fabs(d));
+        if (std::fabs(d) > trim) continue;
+        const double w = 1.0 / (kFloorSigmaM * kFloorSigmaM + sa * sa + s.sigma2);
+        const Eigen::Vector4d j(ex, ey, 1.0, ex * -rb.y() + ey * rb.x());
+        normal.noalias() += w * j * j.transpose();
+        rhs += w * j * d;
+        wrr += w * d * d;
+        ++n;
+      }
+      if (n < min_used) return false;
+      out.overlap_cells = total;
+      out.used_cells = n;
+      s0 = std::sqrt(wrr / std::max(1, n - 4));
+      const Eigen::Vector4d delta = -normal.ldlt().solve(rhs);
+      if (!delta.allFinite()) return false;
+      pose.translation_m += delta.head<3>();
+      pose.heading_rad += delta[3];
+      // The trimming threshold settles after a few steps (so that the set of samples stops changing).
+      if (it < 4) {
+        std::nth_element(abs_d.begin(), abs_d.begin() + abs_d.size() / 2, abs_d.end());
+        trim = std::max(3.0 * 1.4826 * abs_d[abs_d.size() / 2], 0.01);
+      }
+      if (it >= 4 && delta.head<3>().norm() < 5e-4 && std::fabs(delta[3]) < 1e-5) {
+        converged = true;
+        return true;
+      }
+    }
+    return true;
+  };
   bool converged = false;
-  for (int it = 0; it < kMaxGaussNewtonIterations; ++it) {
-    normal.setZero();
-    Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
-    std::vector<double> abs_d;
-    double wrr = 0.0;
-    int n = 0, total = 0;
-    const Eigen::Matrix3d r = pose.rotation();
-    for (const Sample& s : samples) {
-      const Eigen::Vector3d rb = r * s.b_m;
-      const Eigen::Vector3d p = rb + pose.translation_m;
-      if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
-      const double e = demElevation(a.dem, p.x(), p.y());
-      const double ex =
-          (demElevation(a.dem, p.x() + h, p.y()) - demElevation(a.dem, p.x() - h, p.y())) / (2 * h);
-      const double ey =
-          (demElevation(a.dem, p.x(), p.y() + h) - demElevation(a.dem, p.x(), p.y() - h)) / (2 * h);
-      if (!std::isfinite(e) || !std::isfinite(ex) || !std::isfinite(ey)) continue;
-      const double sa = sigmaAt(a.dem_sigma, p.x(), p.y());
-      if (sa > params.max_sigma_m) continue;
-      const double d = e + p.z();
-      ++total;
-      abs_d.push_back(std::fabs(d));
-      if (std::fabs(d) > trim) continue;
-      const double w = 1.0 / (kFloorSigmaM * kFloorSigmaM + sa * sa + s.sigma2);
-      const Eigen::Vector4d j(ex, ey, 1.0, ex * -rb.y() + ey * rb.x());
-      normal.noalias() += w * j * j.transpose();
-      rhs += w * j * d;
-      wrr += w * d * d;
-      ++n;
-    }
-    if (n < min_samples) {
-      out.message = pair + ": too few common DEM samples after trimming";
-      out.status = RegistrationStatus::kNotConverged;
-      return out;
-    }
-    out.overlap_cells = total;
-    out.used_cells = n;
-    s0 = std::sqrt(wrr / std::max(1, n - 4));
-    const Eigen::Vector4d delta = -normal.ldlt().solve(rhs);
-    if (!delta.allFinite()) break;
-    if (std::getenv("AREOMAP_CROSS_DEBUG")) {
-      std::fprintf(stderr,
-                   "reg it %d n %d s0 %.4f trim %.4f delta %.5f %.5f %.5f %.6f pose %.4f %.4f %.4f %.4f\n",
-                   it, n, s0, trim, delta[0], delta[1], delta[2], delta[3], pose.translation_m.x(),
-                   pose.translation_m.y(), pose.translation_m.z(), pose.heading_rad * 57.29578);
-    }
-    pose.translation_m += delta.head<3>();
-    pose.heading_rad += delta[3];
-    // The trimming threshold settles after a few steps (so that the set of samples stops changing).
-    if (it < 4) {
-      std::nth_element(abs_d.begin(), abs_d.begin() + abs_d.size() / 2, abs_d.end());
-      trim = std::max(3.0 * 1.4826 * abs_d[abs_d.size() / 2], 0.01);
-    }
-    if (it >= 4 && delta.head<3>().norm() < 5e-4 && std::fabs(delta[3]) < 1e-5) {
-      converged = true;
-      break;
-    }
+  if (!gaussNewton(coarse_a, coarse_samples, coarse_a.cell_m, min_coarse, converged) ||
+      !gaussNewton(a.dem, samples, 2.0 * a.dem.cell_m, min_samples, converged)) {
+    out.message = pair + ": too few common DEM samples after trimming";
+    out.status = RegistrationStatus::kNotConverged;
+    return out;
   }
   // Weighted RMS elevation difference at the solution (every common sample, untrimmed).
   const Moments at_solution = moments(a, a.dem, samples, pose, params);

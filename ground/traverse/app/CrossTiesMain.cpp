@@ -1,6 +1,7 @@
 // areomap-cross-ties TRAVERSE --products DIR --out DIR: cross-site tie points between neighbouring sites of
 // a traverse (issue 21), from each site's ground products.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iterator>
@@ -32,7 +33,8 @@ constexpr const char* kUsage =
     "Cross-site tie points between the sites of a traverse (README \"Multi-site traverse\"): for each pair "
     "of\n"
     "neighbouring sites (driving order), their DEMs are registered to refine the a-priori relative pose\n"
-    "(traverse.json), then Förstner points of the later site's images are cast onto its DEM, predicted into\n"
+    "(traverse.json; searched over 3 odometry sigmas), then Förstner points of the later site's images are "
+    "cast onto its DEM, predicted into\n"
     "the earlier site's images and matched by NCC on DEM-warped patches (second-peak ratio, least-squares\n"
     "sub-pixel, back-match), and checked by a bundle of the relative pose and the points with trimming.\n"
     "\n"
@@ -133,7 +135,18 @@ int main(int argc, char** argv) {
       const TraverseSite& sb = traverse.sites[j];
       cli::info("sites " + sa.id + " and " + sb.id);
       const RelativePose apriori = relativePose(sa.apriori, sb.apriori);
-      const CrossTieResult r = findCrossSiteTies(*site(i), *site(j), apriori, params, next_point);
+      // The DEM search window: 3 sigmas of the odometry between the two sites (the legs' sigmas added in
+      // quadrature), within 2-6 m and 5-12 degrees.
+      double var_m = 0.0, var_rad = 0.0;
+      for (int k = i + 1; k <= j; ++k) {
+        const OdometryLeg& leg = *traverse.sites[k].odometry;
+        var_m += std::pow(std::max(leg.sigma_m.x(), leg.sigma_m.y()), 2);
+        var_rad += std::pow(leg.sigma_heading_rad, 2);
+      }
+      CrossTieParams pair_params = params;
+      pair_params.registration.search_m = std::clamp(3.0 * std::sqrt(var_m), 2.0, 6.0);
+      pair_params.registration.search_deg = std::clamp(3.0 * std::sqrt(var_rad) * kRadToDeg, 5.0, 12.0);
+      const CrossTieResult r = findCrossSiteTies(*site(i), *site(j), apriori, pair_params, next_point);
       json pj;
       pj["site_a"] = sa.id;
       pj["site_b"] = sb.id;
@@ -152,6 +165,8 @@ int main(int argc, char** argv) {
       pj["a_from_b_sigma"] = {r.a_from_b_sigma[0], r.a_from_b_sigma[1], r.a_from_b_sigma[2],
                               r.a_from_b_sigma[3] * kRadToDeg};
       pj["rms_px"] = r.rms_px;
+      pj["search"] = {{"m", pair_params.registration.search_m}, {"deg", pair_params.registration.search_deg}};
+      pj["first_pass_ties"] = r.first_pass_ties;
       pj["ties"] = r.ties.size();
       pj["observations"] = r.observationCount();
       const CrossTieCounts& c = r.counts;
@@ -162,7 +177,8 @@ int main(int argc, char** argv) {
                       {"back_matched", c.back_matched},
                       {"ties_before_check", c.ties_before_check},
                       {"rejected_observations", c.rejected_observations},
-                      {"rejected_ties", c.rejected_ties}};
+                      {"rejected_ties", c.rejected_ties},
+                      {"off_dem_ties", c.off_dem_ties}};
       std::string line = sa.id + "-" + sb.id + ": " + crossTieStatusName(r.status) + ", " +
                          std::to_string(r.ties.size()) + " ties, " + std::to_string(r.observationCount()) +
                          " observations, rms " + std::to_string(r.rms_px) + " px";

@@ -22,14 +22,16 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Three tiny sites 10-12 m apart, rendered once per process (~15 s).
+// Three tiny sites 7-9 m apart, rendered once per process (~20-50 s). The tiny camera (256 x 192 px, 60
+// degrees: 4 mrad a pixel, 3-4 cm on the ground between the sites) is the coarsest that the cross-site
+// matcher is tested on; the navcam figures are in the report of issue 21.
 const std::string& tinyTraverseDir() {
   static const std::string dir = [] {
     sim::TraverseSimConfig c = sim::traversePreset("tiny");
     c.seed = 7;
     c.traverse.sites = 3;
-    c.traverse.leg_min_m = 10.0;
-    c.traverse.leg_max_m = 12.0;
+    c.traverse.leg_min_m = 7.0;
+    c.traverse.leg_max_m = 9.0;
     const std::string d = test::scratchDir("cross-site-ties") + "/traverse";
     (void)sim::writeTraverseDataset(c, d, sim::TraverseSimOptions{});
     return d;
@@ -55,10 +57,20 @@ const Fixture& fixture() {
   return f;
 }
 
-CrossTieResult tiesOf(int i, int j, const CrossTieParams& params = {}) {
+CrossTieResult tiesOf(int i, int j) {
   const Fixture& f = fixture();
   return findCrossSiteTies(f.sites[i], f.sites[j],
-                           relativePose(f.traverse.sites[i].apriori, f.traverse.sites[j].apriori), params);
+                           relativePose(f.traverse.sites[i].apriori, f.traverse.sites[j].apriori));
+}
+
+// The ties of the neighbours (k-1, k), found once per process.
+const CrossTieResult& neighbourTies(int k) {
+  static const std::vector<CrossTieResult> results = [] {
+    std::vector<CrossTieResult> r;
+    for (int j = 1; j < 3; ++j) r.push_back(tiesOf(j - 1, j));
+    return r;
+  }();
+  return results[k - 1];
 }
 
 // A smooth random texture (blurred noise), 8-bit range, as float.
@@ -173,7 +185,7 @@ TEST(CrossSiteTies, DemRegistrationRecoversTheTrueRelativePose) {
 TEST(CrossSiteTies, TiesAreWithinAFewTenthsOfAPixelOfTheTruth) {
   const Fixture& f = fixture();
   for (int k = 1; k < 3; ++k) {
-    const CrossTieResult r = tiesOf(k - 1, k);
+    const CrossTieResult& r = neighbourTies(k);
     const TruthCheck t = checkAgainstTruth(r, f.traverse.sites[k - 1], f.traverse.sites[k],
                                            f.truth.poses[k - 1], f.truth.poses[k]);
     const CrossTieCounts& c = r.counts;
@@ -186,9 +198,15 @@ TEST(CrossSiteTies, TiesAreWithinAFewTenthsOfAPixelOfTheTruth) {
         c.rejected_observations, c.rejected_ties, r.rms_px, t.median_px, t.p90_px, t.gross,
         t.errors_px.size(), t.ties_xy_m, t.ties_heading_deg);
     CHECK(r.status == CrossTieStatus::kOk);
-    CHECK(r.ties.size() >= 20u);
-    CHECK(t.median_px <= 0.3);
-    CHECK(t.gross <= static_cast<int>(0.01 * static_cast<double>(t.errors_px.size())) + 0);
+    CHECK(r.ties.size() >= 80u);
+    // On these coarse images (3-4 cm a pixel where the sites overlap) a few per cent of the matches sit on
+    // a neighbouring texture element along the source ray, where neither the back-match nor the geometry
+    // can tell (both images of a stereo pair of A move together); on navcam they are about 1 %.
+    CHECK(t.median_px <= 0.45);
+    CHECK(t.gross <= 0.08 * static_cast<double>(t.errors_px.size()));
+    // The bundle of the ties places site B to a few cm and a few hundredths of a degree.
+    CHECK(t.ties_xy_m < 0.05);
+    CHECK(std::fabs(t.ties_heading_deg) < 0.1);
     // Every tie has the source in B and at least one image of A.
     for (const CrossTie& tie : r.ties) {
       int in_a = 0, sources = 0;
@@ -214,7 +232,8 @@ TEST(CrossSiteTies, ASitePairWithoutOverlapGetsTheStatus) {
 }
 
 TEST(CrossSiteTies, SameInputSameTies) {
-  const CrossTieResult a = tiesOf(0, 1), b = tiesOf(0, 1);
+  const CrossTieResult& a = neighbourTies(1);
+  const CrossTieResult b = tiesOf(0, 1);
   CHECK_EQUAL(a.ties.size(), b.ties.size());
   for (std::size_t i = 0; i < a.ties.size(); ++i) {
     CHECK_EQUAL(a.ties[i].point, b.ties[i].point);
@@ -229,14 +248,15 @@ TEST(CrossSiteTies, SameInputSameTies) {
 TEST(CrossSiteTies, TheToolWritesTiesAndRejectsBadInput) {
   const std::string out = test::scratchDir("cross-site-ties-tool");
   CHECK_EQUAL(
-      0, test::runTool("areomap-cross-ties", tinyTraverseDir() + " --truth-products --out " + out + "/ok"));
+      0, test::runTool("areomap-cross-ties",
+                       tinyTraverseDir() + " --truth-products --sites site01,site02 --out " + out + "/ok"));
   std::ifstream csv(out + "/ok/cross_ties.csv");
   std::string header;
   std::getline(csv, header);
   STRCMP_EQUAL("point,site,image,sample_px,line_px", header.c_str());
   int lines = 0;
   for (std::string line; std::getline(csv, line);) ++lines;
-  CHECK(lines >= 80);
+  CHECK(lines >= 200);
   CHECK(test::fileExists(out + "/ok/cross_ties.json"));
   // No products for the sites: an input error naming the file.
   CHECK_EQUAL(1, test::runTool("areomap-cross-ties",
