@@ -136,7 +136,7 @@ namespace {
 
 // Steps 2 and 3: candidates from B's images matched into A's (and B's other) images under `pose`.
 void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& pose,
-               const CrossTieParams& params, int64_t first_point, CrossTieResult& out) {
+               const CrossTieParams& params, int64_t first_point, int stride, CrossTieResult& out) {
   out.ties.clear();
   // 2 + 3: candidates from B's images, matched into A's (and B's other) images.
   auto workspace = std::make_unique<ForstnerWorkspace>();
@@ -146,7 +146,8 @@ void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose&
   for (const SiteImage& source : b.images) {
     const std::vector<Eigen::Vector2d> points = interestPoints(source, params, border, *workspace);
     out.counts.interest_points += static_cast<int>(points.size());
-    for (const Eigen::Vector2d& q : points) {
+    for (std::size_t n = 0; n < points.size(); n += static_cast<std::size_t>(stride)) {
+      const Eigen::Vector2d& q = points[n];
       Vec3 o, d;
       double t = 0.0;
       if (!ok(unproject(source.model, q, o, d)) || !castRayOnDem(b.dem, o, d, params.max_range_m, t))
@@ -199,13 +200,6 @@ void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose&
           if (!(scale <= params.max_scale_ratio && scale >= 1.0 / params.max_scale_ratio)) continue;
           ++out.counts.predicted;
           const PatchMatch m = matchWarpedPatch(source.pyramid, q, target.pyramid, pj, map, params.patch);
-          if (std::getenv("AREOMAP_CROSS_DEBUG") && in_a) {
-            std::fprintf(
-                stderr,
-                "dbg %s %s scale %.2f result %d ncc %.3f second %.3f d %.2f pj %.1f %.1f q %.1f %.1f\n",
-                source.stem.c_str(), target.stem.c_str(), scale, static_cast<int>(m.result), m.ncc, m.second,
-                m.result == PatchResult::kOk ? (m.j_px - pj).norm() : -1.0, pj.x(), pj.y(), q.x(), q.y());
-          }
           if (m.result != PatchResult::kOk) continue;
           ++out.counts.matched;
           const PatchMatch back =
@@ -411,10 +405,13 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
     out.message = out.registration.message;
     return out;
   }
-  // A first pass under the registered pose, a second one under the pose of the first pass's ties with a
-  // narrower search (the registration's error no longer widens the windows).
+  // A first pass under the registered pose (every first_pass_stride-th interest point, a wide search: the
+  // registration's error is 10-30 cm on ground-pass DEMs, ten pixels and more at navcam scale), a second
+  // one, every point, under the pose of the first pass's ties with a narrow search.
   const RelativePose registered = out.registration.a_from_b;
-  matchTies(a, b, registered, params, first_point, out);
+  CrossTieParams wide = params;
+  wide.patch.radius_px = params.second_pass ? params.first_radius_px : params.patch.radius_px;
+  matchTies(a, b, registered, wide, first_point, params.second_pass ? params.first_pass_stride : 1, out);
   out.counts.ties_before_check = static_cast<int>(out.ties.size());
   checkTies(a, b, registered, params, out);
   out.first_pass_ties = static_cast<int>(out.ties.size());
@@ -423,7 +420,7 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
     CrossTieParams narrow = params;
     narrow.patch.radius_px = params.second_radius_px;
     out.counts = CrossTieCounts{};
-    matchTies(a, b, first, narrow, first_point, out);
+    matchTies(a, b, first, narrow, first_point, 1, out);
     out.counts.ties_before_check = static_cast<int>(out.ties.size());
     checkTies(a, b, first, narrow, out);
   }

@@ -44,11 +44,13 @@ struct CrossTieParams {
   double residual_floor_px = 1.0;     // the geometric check never rejects below this
   double residual_sigmas = 4.0;       // ... nor below this many robust sigmas
   int max_check_rounds = 8;
-  double prior_sigma_m = 0.2;  // weak prior of the geometric check on the registered pose
+  double prior_sigma_m = 0.5;  // weak prior of the geometric check on the registered pose
   double prior_sigma_deg = 0.5;
   int min_ties = 8;               // fewer: kTooFewTies (the ties found are still returned)
   double height_floor_m = 0.05;   // the triangulated point within this of both DEMs ...
   double height_sigmas = 3.0;     // ... or this many dem_sigma
+  double first_radius_px = 16.0;  // the first pass's search radius (patch.radius_px without a second pass)
+  int first_pass_stride = 4;      // and every this many interest points
   bool second_pass = true;        // match again under the first pass's pose ...
   double second_radius_px = 4.0;  // ... with this search radius
 };

@@ -74,11 +74,6 @@ TruthCheck checkAgainstTruth(const CrossTieResult& result, const TraverseSite& s
         continue;
       }
       c.errors_px.push_back((px - o.pixel_px).norm());
-      if (std::getenv("AREOMAP_CROSS_DEBUG")) {
-        std::fprintf(stderr, "truth %s %s %s err %.2f tie-vs-true %.3f m range %.1f ncc %.3f\n",
-                     o.site.c_str(), o.image.c_str(), source->image.c_str(), c.errors_px.back(),
-                     (t.b_m - pb).norm(), range, o.ncc);
-      }
     }
   }
   c.median_px = quantile(c.errors_px, 0.5);
