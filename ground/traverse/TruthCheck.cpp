@@ -74,8 +74,13 @@ TruthCheck checkAgainstTruth(const CrossTieResult& result, const TraverseSite& s
         continue;
       }
       c.errors_px.push_back((px - o.pixel_px).norm());
+      if (o.site == site_a.id) c.cross_errors_px.push_back(c.errors_px.back());
     }
   }
+  c.cross_median_px = quantile(c.cross_errors_px, 0.5);
+  c.cross_p90_px = quantile(c.cross_errors_px, 0.9);
+  c.cross_gross = static_cast<int>(std::count_if(c.cross_errors_px.begin(), c.cross_errors_px.end(),
+                                                 [&](double e) { return e > gross_px; }));
   c.median_px = quantile(c.errors_px, 0.5);
   c.p90_px = quantile(c.errors_px, 0.9);
   c.gross = static_cast<int>(

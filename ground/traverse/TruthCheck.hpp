@@ -14,8 +14,11 @@
 namespace areomap::traverse {
 
 struct TruthCheck {
-  std::vector<double> errors_px;  // every non-source observation with a true projection
-  int no_truth = 0;               // observations whose true point could not be found or projected
+  std::vector<double> errors_px;        // every non-source observation with a true projection
+  std::vector<double> cross_errors_px;  // those in site A's images (the cross-site ones)
+  double cross_median_px = 0.0, cross_p90_px = 0.0;
+  int cross_gross = 0;
+  int no_truth = 0;  // observations whose true point could not be found or projected
   double median_px = 0.0, p90_px = 0.0;
   int gross = 0;  // errors above gross_px
   double gross_px = 2.0;

@@ -187,6 +187,10 @@ int main(int argc, char** argv) {
         pj["truth"] = {{"observations", t.errors_px.size()},
                        {"median_px", t.median_px},
                        {"p90_px", t.p90_px},
+                       {"cross_observations", t.cross_errors_px.size()},
+                       {"cross_median_px", t.cross_median_px},
+                       {"cross_p90_px", t.cross_p90_px},
+                       {"cross_gross", t.cross_gross},
                        {"gross", t.gross},
                        {"gross_px", t.gross_px},
                        {"no_truth", t.no_truth},
@@ -196,12 +200,14 @@ int main(int argc, char** argv) {
                        {"ties_xy_m", t.ties_xy_m},
                        {"ties_z_m", t.ties_z_m},
                        {"ties_heading_deg", t.ties_heading_deg}};
-        char buffer[256];
+        char buffer[512];
         std::snprintf(buffer, sizeof buffer,
                       "; truth: registration %.3f m xy, %.3f m z, %.3f deg; ties' pose %.3f m xy, %.3f deg; "
-                      "median %.3f px, 90%% %.3f px, %d of %zu > %.0f px",
+                      "median %.3f px, 90%% %.3f px, %d of %zu > %.0f px; in A's images median %.3f px, 90%% "
+                      "%.3f px, %d of %zu > %.0f px",
                       t.registration_xy_m, t.registration_z_m, t.registration_heading_deg, t.ties_xy_m,
-                      t.ties_heading_deg, t.median_px, t.p90_px, t.gross, t.errors_px.size(), t.gross_px);
+                      t.ties_heading_deg, t.median_px, t.p90_px, t.gross, t.errors_px.size(), t.gross_px,
+                      t.cross_median_px, t.cross_p90_px, t.cross_gross, t.cross_errors_px.size(), t.gross_px);
         line += buffer;
       }
       std::printf("%s\n", line.c_str());

@@ -202,7 +202,10 @@ TEST(CrossSiteTies, TiesAreWithinAFewTenthsOfAPixelOfTheTruth) {
     // On these coarse images (3-4 cm a pixel where the sites overlap) a few per cent of the matches sit on
     // a neighbouring texture element along the source ray, where neither the back-match nor the geometry
     // can tell (both images of a stereo pair of A move together); on navcam they are about 1 %.
+    std::printf("in A's images: median %.3f px, 90%% %.3f px, %d of %zu > 2 px\n", t.cross_median_px,
+                t.cross_p90_px, t.cross_gross, t.cross_errors_px.size());
     CHECK(t.median_px <= 0.45);
+    CHECK(t.cross_median_px <= 0.8);
     CHECK(t.gross <= 0.08 * static_cast<double>(t.errors_px.size()));
     // The bundle of the ties places site B to a few cm and a few hundredths of a degree.
     CHECK(t.ties_xy_m < 0.05);
