@@ -1,0 +1,331 @@
+#include "ground/traverse/DemRegistration.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Dense>
+
+namespace areomap::traverse {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
+constexpr double kFloorSigmaM = 0.02;  // added to every cell's sigma: no cell weighs more than 2 cm's worth
+constexpr int kMaxGaussNewtonIterations = 40;
+
+struct Sample {
+  Eigen::Vector3d b_m;  // cell centre on the surface, B's frame
+  double sigma2 = 0.0;  // B's dem_sigma^2 (0 without one)
+};
+
+double sigmaAt(const std::optional<DemGrid>& sigma, double x, double y) {
+  if (!sigma) return 0.0;
+  const double s = demElevation(*sigma, x, y);
+  return std::isfinite(s) ? s : std::numeric_limits<double>::infinity();
+}
+
+std::vector<Sample> samplesOf(const SiteProducts& b, const DemGrid& dem, double spacing_m,
+                              const RegistrationParams& params) {
+  const int stride = std::max(1, static_cast<int>(std::lround(spacing_m / dem.cell_m)));
+  std::vector<Sample> out;
+  for (int r = stride / 2; r < dem.rows; r += stride) {
+    for (int c = stride / 2; c < dem.cols; c += stride) {
+      const float v = dem.at(c, r);
+      if (v == dem.nodata || !std::isfinite(v)) continue;
+      const Eigen::Vector3d p(dem.northOfRow(r), dem.eastOfCol(c), -v);
+      if (p.head<2>().norm() > params.max_range_m) continue;
+      const double s = sigmaAt(b.dem_sigma, p.x(), p.y());
+      if (s > params.max_sigma_m) continue;
+      out.push_back({p, s * s});
+    }
+  }
+  return out;
+}
+
+struct Moments {
+  double w = 0.0, wd = 0.0, wdd = 0.0;
+  int n = 0;
+  double mean() const { return wd / w; }
+  double variance() const { return std::max(0.0, wdd / w - mean() * mean()); }
+};
+
+// The elevation differences (A's DEM minus B's surface moved into A) of every sample under `pose`.
+Moments moments(const SiteProducts& a, const DemGrid& dem_a, const std::vector<Sample>& samples,
+                const RelativePose& pose, const RegistrationParams& params) {
+  Moments m;
+  const Eigen::Matrix3d r = pose.rotation();
+  for (const Sample& s : samples) {
+    const Eigen::Vector3d p = r * s.b_m + pose.translation_m;
+    if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
+    const double e = demElevation(dem_a, p.x(), p.y());
+    if (!std::isfinite(e)) continue;
+    const double sa = sigmaAt(a.dem_sigma, p.x(), p.y());
+    if (sa > params.max_sigma_m) continue;
+    const double w = 1.0 / (kFloorSigmaM * kFloorSigmaM + sa * sa + s.sigma2);
+    const double d = e + p.z();
+    m.w += w;
+    m.wd += w * d;
+    m.wdd += w * d * d;
+    ++m.n;
+  }
+  return m;
+}
+
+struct Candidate {
+  double dx = 0.0, dy = 0.0, dh = 0.0, cost = std::numeric_limits<double>::infinity();
+};
+
+RelativePose shifted(const RelativePose& base, double dx, double dy, double dh) {
+  RelativePose p = base;
+  p.translation_m.x() += dx;
+  p.translation_m.y() += dy;
+  p.heading_rad += dh;
+  return p;
+}
+
+}  // namespace
+
+Eigen::Matrix3d RelativePose::rotation() const {
+  const double c = std::cos(heading_rad), s = std::sin(heading_rad);
+  Eigen::Matrix3d r;
+  r << c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0;
+  return r;
+}
+
+RelativePose RelativePose::inverse() const {
+  RelativePose inv;
+  inv.heading_rad = -heading_rad;
+  inv.translation_m = -(rotation().transpose() * translation_m);
+  return inv;
+}
+
+RelativePose relativePose(const SitePose& a, const SitePose& b) {
+  RelativePose p;
+  p.heading_rad = b.heading_rad - a.heading_rad;
+  p.translation_m = a.rotation().transpose() * (b.position_m - a.position_m);
+  return p;
+}
+
+const char* registrationStatusName(RegistrationStatus status) {
+  switch (status) {
+    case RegistrationStatus::kOk:
+      return "ok";
+    case RegistrationStatus::kNoOverlap:
+      return "no_overlap";
+    case RegistrationStatus::kAmbiguous:
+      return "ambiguous";
+    case RegistrationStatus::kNotConverged:
+      return "not_converged";
+  }
+  return "unknown";
+}
+
+DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
+                             const RegistrationParams& params) {
+  DemRegistration out;
+  out.apriori = apriori;
+  out.a_from_b = apriori;
+  const std::string pair = "sites " + a.id + " and " + b.id;
+
+  // Coarse: both DEMs averaged to ~0.2 m, steps of 0.2 m and 1 degree.
+  // The coarse steps grow with the search window (about 10 steps each side, at least 0.2 m and 1 degree);
+  // the DEMs are averaged to the step.
+  const double step_m = std::max(0.2, params.search_m / 10.0);
+  const double step_rad = std::max(1.0, params.search_deg / 5.0) * kDegToRad;
+  const int fa = std::max(1, static_cast<int>(std::lround(step_m / a.dem.cell_m)));
+  const int fb = std::max(1, static_cast<int>(std::lround(step_m / b.dem.cell_m)));
+  const DemGrid coarse_a = fa > 1 ? coarsenDem(a.dem, fa) : a.dem;
+  const DemGrid coarse_b = fb > 1 ? coarsenDem(b.dem, fb) : b.dem;
+  const std::vector<Sample> coarse_samples = samplesOf(b, coarse_b, std::max(0.25, step_m), params);
+  const std::vector<Sample> samples = samplesOf(b, b.dem, params.sample_spacing_m, params);
+
+  const Moments at_apriori = moments(a, a.dem, samples, apriori, params);
+  const double area_per_sample = std::pow(std::max(params.sample_spacing_m, b.dem.cell_m), 2);
+  const int min_samples = std::max(
+      20, static_cast<int>(params.min_overlap_cells * a.dem.cell_m * a.dem.cell_m / area_per_sample));
+  if (at_apriori.n < min_samples) {
+    out.overlap_cells = at_apriori.n;
+    out.message = pair + ": their DEMs share " + std::to_string(at_apriori.n) +
+                  " samples under the a-priori poses (at least " + std::to_string(min_samples) + " needed)";
+    return out;
+  }
+
+  const int nxy = static_cast<int>(std::lround(params.search_m / step_m));
+  const int nh = static_cast<int>(std::lround(params.search_deg * kDegToRad / step_rad));
+  const int sx = 2 * nxy + 1, sh = 2 * nh + 1;
+  std::vector<double> cost(static_cast<std::size_t>(sx) * sx * sh, std::numeric_limits<double>::infinity());
+  auto index = [&](int i, int j, int k) { return (static_cast<std::size_t>(k) * sx + j) * sx + i; };
+  const int min_coarse = std::max(20, static_cast<int>(coarse_samples.size() / 20));
+  for (int k = 0; k < sh; ++k) {
+    for (int j = 0; j < sx; ++j) {
+      for (int i = 0; i < sx; ++i) {
+        const Moments m =
+            moments(a, coarse_a, coarse_samples,
+                    shifted(apriori, (i - nxy) * step_m, (j - nxy) * step_m, (k - nh) * step_rad), params);
+        if (m.n >= min_coarse) cost[index(i, j, k)] = m.variance();
+      }
+    }
+  }
+  Candidate best;
+  for (int k = 0; k < sh; ++k) {
+    for (int j = 0; j < sx; ++j) {
+      for (int i = 0; i < sx; ++i) {
+        if (cost[index(i, j, k)] < best.cost)
+          best = {(i - nxy) * step_m, (j - nxy) * step_m, (k - nh) * step_rad, cost[index(i, j, k)]};
+      }
+    }
+  }
+  if (!std::isfinite(best.cost)) {
+    out.message = pair + ": no pose within the search window overlaps enough of the DEMs";
+    return out;
+  }
+  // The second minimum: a local minimum of the coarse cost away from the best.
+  double second = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < sh; ++k) {
+    for (int j = 0; j < sx; ++j) {
+      for (int i = 0; i < sx; ++i) {
+        const double c = cost[index(i, j, k)];
+        if (!std::isfinite(c) || c >= second) continue;
+        const double dx = (i - nxy) * step_m - best.dx, dy = (j - nxy) * step_m - best.dy;
+        const double dh = (k - nh) * step_rad - best.dh;
+        if (std::hypot(dx, dy) < params.second_min_distance_m &&
+            std::fabs(dh) < params.second_min_deg * kDegToRad) {
+          continue;
+        }
+        bool minimum = true;
+        for (int dk = -1; dk <= 1 && minimum; ++dk) {
+          for (int dj = -1; dj <= 1 && minimum; ++dj) {
+            for (int di = -1; di <= 1 && minimum; ++di) {
+              const int ii = i + di, jj = j + dj, kk = k + dk;
+              if ((di == 0 && dj == 0 && dk == 0) || ii < 0 || jj < 0 || kk < 0 || ii >= sx || jj >= sx ||
+                  kk >= sh) {
+                continue;
+              }
+              if (cost[index(ii, jj, kk)] < c) minimum = false;
+            }
+          }
+        }
+        if (minimum) second = c;
+      }
+    }
+  }
+  out.cost_ratio = std::isfinite(second) && second > 0.0 ? best.cost / second : 0.0;
+
+  // Fine: +-1.5 coarse steps in quarter steps, +-1.2 coarse heading steps in fifths, on the full DEMs.
+  Candidate fine = best;
+  fine.cost = std::numeric_limits<double>::infinity();
+  const std::vector<Sample> fine_samples =
+      samplesOf(b, b.dem, std::max(params.sample_spacing_m, 0.1), params);
+  for (int k = -6; k <= 6; ++k) {
+    for (int j = -6; j <= 6; ++j) {
+      for (int i = -6; i <= 6; ++i) {
+        const double dx = best.dx + step_m / 4.0 * i, dy = best.dy + step_m / 4.0 * j;
+        const double dh = best.dh + step_rad / 5.0 * k;
+        const Moments m = moments(a, a.dem, fine_samples, shifted(apriori, dx, dy, dh), params);
+        if (m.n >= min_samples / 2 && m.variance() < fine.cost) fine = {dx, dy, dh, m.variance()};
+      }
+    }
+  }
+  RelativePose pose = shifted(apriori, fine.dx, fine.dy, fine.dh);
+  const Moments start = moments(a, a.dem, samples, pose, params);
+  if (start.n < min_samples) {
+    out.message = pair + ": too few common DEM samples at the best pose";
+    return out;
+  }
+  pose.translation_m.z() -= start.mean();  // d = e_a + z: moving B down by d zeroes the mean
+
+  // Gauss-Newton on the elevation differences, reweighted and trimmed at 3 robust sigmas: on the coarse DEMs
+  // (gradients over 0.2 m, a wide basin), then on the full ones (gradients over two cells).
+  Eigen::Matrix4d normal = Eigen::Matrix4d::Identity();
+  double s0 = 0.0;
+  auto gaussNewton = [&](const DemGrid& dem_a, const std::vector<Sample>& used, double h, int min_used,
+                         bool& converged) {
+    double trim = std::numeric_limits<double>::infinity();
+    converged = false;
+    for (int it = 0; it < kMaxGaussNewtonIterations; ++it) {
+      normal.setZero();
+      Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+      std::vector<double> abs_d;
+      double wrr = 0.0;
+      int n = 0, total = 0;
+      const Eigen::Matrix3d r = pose.rotation();
+      for (const Sample& s : used) {
+        const Eigen::Vector3d rb = r * s.b_m;
+        const Eigen::Vector3d p = rb + pose.translation_m;
+        if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
+        const double e = demElevation(dem_a, p.x(), p.y());
+        const double ex =
+            (demElevation(dem_a, p.x() + h, p.y()) - demElevation(dem_a, p.x() - h, p.y())) / (2 * h);
+        const double ey =
+            (demElevation(dem_a, p.x(), p.y() + h) - demElevation(dem_a, p.x(), p.y() - h)) / (2 * h);
+        if (!std::isfinite(e) || !std::isfinite(ex) || !std::isfinite(ey)) continue;
+        const double sa = sigmaAt(a.dem_sigma, p.x(), p.y());
+        if (sa > params.max_sigma_m) continue;
+        const double d = e + p.z();
+        ++total;
+        abs_d.push_back(std::fabs(d));
+        if (std::fabs(d) > trim) continue;
+        const double w = 1.0 / (kFloorSigmaM * kFloorSigmaM + sa * sa + s.sigma2);
+        const Eigen::Vector4d j(ex, ey, 1.0, ex * -rb.y() + ey * rb.x());
+        normal.noalias() += w * j * j.transpose();
+        rhs += w * j * d;
+        wrr += w * d * d;
+        ++n;
+      }
+      if (n < min_used) return false;
+      out.overlap_cells = total;
+      out.used_cells = n;
+      s0 = std::sqrt(wrr / std::max(1, n - 4));
+      const Eigen::Vector4d delta = -normal.ldlt().solve(rhs);
+      if (!delta.allFinite()) return false;
+      pose.translation_m += delta.head<3>();
+      pose.heading_rad += delta[3];
+      // The trimming threshold settles after a few steps (so that the set of samples stops changing).
+      if (it < 4) {
+        std::nth_element(abs_d.begin(), abs_d.begin() + abs_d.size() / 2, abs_d.end());
+        trim = std::max(3.0 * 1.4826 * abs_d[abs_d.size() / 2], 0.01);
+      }
+      if (it >= 4 && delta.head<3>().norm() < 5e-4 && std::fabs(delta[3]) < 1e-5) {
+        converged = true;
+        return true;
+      }
+    }
+    return true;
+  };
+  bool converged = false;
+  if (!gaussNewton(coarse_a, coarse_samples, coarse_a.cell_m, min_coarse, converged) ||
+      !gaussNewton(a.dem, samples, 2.0 * a.dem.cell_m, min_samples, converged)) {
+    out.message = pair + ": too few common DEM samples after trimming";
+    out.status = RegistrationStatus::kNotConverged;
+    return out;
+  }
+  // Weighted RMS elevation difference at the solution (every common sample, untrimmed).
+  const Moments at_solution = moments(a, a.dem, samples, pose, params);
+  out.rms_m = std::sqrt(at_solution.wdd / at_solution.w);
+  const Eigen::Matrix4d cov = normal.inverse() * s0 * s0;
+  for (int i = 0; i < 4; ++i) out.sigma[i] = std::sqrt(std::max(0.0, cov(i, i)));
+  out.a_from_b = pose;
+  const double moved = (pose.translation_m - apriori.translation_m).head<2>().norm();
+  if (!converged) {
+    out.status = RegistrationStatus::kNotConverged;
+    out.message = pair + ": the DEM registration did not converge";
+  } else if (out.cost_ratio > params.max_cost_ratio) {
+    out.status = RegistrationStatus::kAmbiguous;
+    out.message =
+        pair + ": the DEM match is ambiguous (best/second minimum " + std::to_string(out.cost_ratio) + ")";
+  } else if (moved > params.search_m * 1.5) {
+    out.status = RegistrationStatus::kNotConverged;
+    out.message = pair + ": the DEM registration left the search window";
+  } else {
+    out.status = RegistrationStatus::kOk;
+  }
+  if (out.status != RegistrationStatus::kOk) out.a_from_b = apriori;
+  return out;
+}
+
+}  // namespace areomap::traverse

@@ -1,0 +1,70 @@
+// Coarse relative pose of two neighbouring sites from their DEMs (issue 21, cross-site ties step 1). The
+// a-priori site poses (traverse.json) carry the odometry's drift (~5 % of the leg in position, ~2 deg per
+// leg in heading); registering site B's DEM onto site A's removes most of it, so that the image search
+// windows of the tie matcher stay a few pixels wide.
+//
+// Method: B's DEM cells (those that fall into A's DEM under the a-priori pose) are moved into A's frame by a
+// levelled relative pose (x, y, z, heading) and compared with A's elevation there. A grid search over
+// +-search_m in x, y and +-search_deg in heading (the z offset is the weighted mean difference at each
+// candidate) minimises the weighted variance of the differences, coarse then fine; a Gauss-Newton
+// refinement on the DEM gradients (iteratively reweighted, differences beyond 3 robust sigmas trimmed) gives
+// the pose and its standard deviations. The match is refused when the overlap is too small, or ambiguous:
+// a second minimum of the coarse search, away from the best, nearly as good.
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "ground/dataset/Traverse.hpp"
+#include "ground/traverse/SiteProducts.hpp"
+
+namespace areomap::traverse {
+
+// Levelled rigid map of site B's frame into site A's: p_a = Rz(heading) p_b + translation.
+struct RelativePose {
+  Eigen::Vector3d translation_m = Eigen::Vector3d::Zero();
+  double heading_rad = 0.0;
+
+  Eigen::Matrix3d rotation() const;
+  Eigen::Vector3d toA(const Eigen::Vector3d& b_m) const { return rotation() * b_m + translation_m; }
+  Eigen::Vector3d toB(const Eigen::Vector3d& a_m) const {
+    return rotation().transpose() * (a_m - translation_m);
+  }
+  RelativePose inverse() const;
+};
+
+// A's frame from B's through two site poses in the traverse frame.
+RelativePose relativePose(const SitePose& a, const SitePose& b);
+
+enum class RegistrationStatus { kOk, kNoOverlap, kAmbiguous, kNotConverged };
+const char* registrationStatusName(RegistrationStatus status);
+
+struct RegistrationParams {
+  double search_m = 2.0;               // +- in x and y about the a-priori translation
+  double search_deg = 5.0;             // +- in heading about the a-priori heading
+  double max_range_m = 30.0;           // cells used: within this horizontal range of both site origins
+  double max_sigma_m = 0.10;           // and with dem_sigma below it (when the site has one)
+  int min_overlap_cells = 200;         // fewer common cells: kNoOverlap
+  double sample_spacing_m = 0.1;       // B's cells are thinned to this spacing for the search
+  double max_cost_ratio = 0.7;         // best / second-best minimum of the coarse search above it: kAmbiguous
+  double second_min_distance_m = 0.6;  // a second minimum lies this far from the best (or second_min_deg)
+  double second_min_deg = 2.0;
+};
+
+struct DemRegistration {
+  RegistrationStatus status = RegistrationStatus::kNoOverlap;
+  std::string message;                              // one sentence for the report when not kOk
+  RelativePose apriori;                             // A from B as given
+  RelativePose a_from_b;                            // registered (the a-priori pose when not kOk)
+  Eigen::Vector4d sigma = Eigen::Vector4d::Zero();  // x, y, z (m), heading (rad)
+  int overlap_cells = 0;                            // common cells at the solution (before trimming)
+  int used_cells = 0;                               // after trimming
+  double rms_m = 0.0;                               // weighted RMS elevation difference at the solution
+  double cost_ratio = 0.0;                          // best / second-best minimum of the coarse search
+};
+
+DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
+                             const RegistrationParams& params = {});
+
+}  // namespace areomap::traverse

@@ -1,0 +1,201 @@
+#include "ground/traverse/SiteProducts.hpp"
+
+#include <cmath>
+#include <filesystem>
+
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+
+#include "ground/cli/Cli.hpp"
+#include "ground/dataset/TruthFiles.hpp"
+#include "ground/io/CameraFile.hpp"
+#include "ground/io/ImageFile.hpp"
+
+namespace areomap::traverse {
+
+namespace {
+
+std::vector<cv::Mat> makePyramid(const std::string& path) {
+  const cv::Mat image8 = io::loadImage8(path);
+  std::vector<cv::Mat> pyramid(1);
+  image8.convertTo(pyramid[0], CV_32F);
+  for (int l = 1; l < kPyramidLevels; ++l) {
+    if (pyramid.back().cols < 16 || pyramid.back().rows < 16) break;
+    cv::Mat down;
+    cv::pyrDown(pyramid.back(), down);
+    pyramid.push_back(down);
+  }
+  return pyramid;
+}
+
+// Every image of the site's dataset with the model `model_of(stem)`.
+template <typename ModelPath>
+SiteProducts loadSite(const TraverseSite& site, const ModelPath& model_of) {
+  const Dataset ds = readDataset(site.dir);
+  SiteProducts s;
+  s.id = site.id;
+  for (std::size_t p = 0; p < ds.pairs.size(); ++p) {
+    for (int side = 0; side < 2; ++side) {
+      const ImageRef* ref =
+          side == 0 ? &ds.pairs[p].left : (ds.pairs[p].right ? &*ds.pairs[p].right : nullptr);
+      if (ref == nullptr) continue;
+      SiteImage im;
+      im.stem = ref->stem;
+      im.pair_index = static_cast<int>(p);
+      im.right = side == 1;
+      const std::string model_path = model_of(ref->stem);
+      if (!std::filesystem::exists(model_path)) {
+        throw cli::InputError(model_path, "model",
+                              "no camera model for image " + ref->stem + " of site " + site.id);
+      }
+      im.pyramid = makePyramid(ref->image_path);
+      im.model = io::readCameraModelFile(model_path, im.pyramid[0].cols, im.pyramid[0].rows);
+      s.images.push_back(std::move(im));
+    }
+  }
+  return s;
+}
+
+}  // namespace
+
+int SiteProducts::indexOf(const std::string& stem) const {
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    if (images[i].stem == stem) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+SiteProducts loadSiteProducts(const TraverseSite& site, const std::string& products_dir) {
+  SiteProducts s =
+      loadSite(site, [&](const std::string& stem) { return products_dir + "/models/" + stem + ".cahvor"; });
+  const std::string dem = products_dir + "/dem.tif";
+  if (!std::filesystem::exists(dem))
+    throw cli::InputError(dem, "dem.tif", "no DEM among the products of site " + site.id);
+  s.dem = readDemGeoTiff(dem);
+  const std::string sigma = products_dir + "/dem_sigma.tif";
+  if (std::filesystem::exists(sigma)) {
+    s.dem_sigma = readDemGeoTiff(sigma);
+    if (s.dem_sigma->cols != s.dem.cols || s.dem_sigma->rows != s.dem.rows) s.dem_sigma.reset();
+  }
+  return s;
+}
+
+SiteProducts loadSiteTruth(const TraverseSite& site, double cell_m) {
+  SiteProducts s = loadSite(site, [&](const std::string& stem) {
+    return site.dir + "/" + kTruthModelsFolder + "/" + stem + ".cahvor";
+  });
+  s.dem = readDemGeoTiff(site.dir + "/" + kTruthDemFile);
+  if (cell_m > 0.0) {
+    const int factor = static_cast<int>(std::lround(cell_m / s.dem.cell_m));
+    if (factor > 1) s.dem = coarsenDem(s.dem, factor);
+  }
+  return s;
+}
+
+double demElevation(const DemGrid& dem, double x_north_m, double y_east_m) {
+  const double u = (y_east_m - dem.east0_m) / dem.cell_m - 0.5;
+  const double v = (dem.north0_m - x_north_m) / dem.cell_m - 0.5;
+  if (!(u >= 0.0 && v >= 0.0)) return NAN;
+  const int c = static_cast<int>(u), r = static_cast<int>(v);
+  if (c + 1 >= dem.cols || r + 1 >= dem.rows) return NAN;
+  const float a = dem.at(c, r), b = dem.at(c + 1, r), d = dem.at(c, r + 1), e = dem.at(c + 1, r + 1);
+  if (a == dem.nodata || b == dem.nodata || d == dem.nodata || e == dem.nodata) return NAN;
+  if (!std::isfinite(a) || !std::isfinite(b) || !std::isfinite(d) || !std::isfinite(e)) return NAN;
+  const double fu = u - c, fv = v - r;
+  return a * (1 - fu) * (1 - fv) + b * fu * (1 - fv) + d * (1 - fu) * fv + e * fu * fv;
+}
+
+DemGrid coarsenDem(const DemGrid& dem, int factor) {
+  DemGrid out;
+  out.east0_m = dem.east0_m;
+  out.north0_m = dem.north0_m;
+  out.cell_m = dem.cell_m * factor;
+  out.cols = dem.cols / factor;
+  out.rows = dem.rows / factor;
+  out.nodata = dem.nodata;
+  out.values.assign(static_cast<std::size_t>(out.cols) * out.rows, dem.nodata);
+  for (int r = 0; r < out.rows; ++r) {
+    for (int c = 0; c < out.cols; ++c) {
+      double sum = 0.0;
+      int n = 0;
+      for (int i = 0; i < factor; ++i) {
+        for (int j = 0; j < factor; ++j) {
+          const float v = dem.at(c * factor + j, r * factor + i);
+          if (v != dem.nodata && std::isfinite(v)) {
+            sum += v;
+            ++n;
+          }
+        }
+      }
+      if (2 * n >= factor * factor) out.at(c, r) = static_cast<float>(sum / n);
+    }
+  }
+  return out;
+}
+
+bool castRayOnDem(const DemGrid& dem, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                  double max_range_m, double& t_m) {
+  const double step = std::max(0.5 * dem.cell_m, 0.01);
+  const int steps = static_cast<int>(max_range_m / step);
+  auto above = [&](double t, bool& valid) {
+    const Eigen::Vector3d p = origin + t * direction;
+    const double e = demElevation(dem, p.x(), p.y());
+    valid = std::isfinite(e);
+    return -p.z() - e;  // height above the surface
+  };
+  bool prev_valid = false;
+  double prev_h = 0.0;
+  for (int k = 1; k <= steps; ++k) {
+    const double t = k * step;
+    bool valid = false;
+    const double h = above(t, valid);
+    if (valid && prev_valid && prev_h > 0.0 && h <= 0.0) {
+      double lo = t - step, hi = t;
+      for (int it = 0; it < 30; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        bool v = false;
+        const double hm = above(mid, v);
+        if (!v) break;
+        (hm > 0.0 ? lo : hi) = mid;
+      }
+      t_m = 0.5 * (lo + hi);
+      return true;
+    }
+    prev_valid = valid;
+    prev_h = h;
+  }
+  return false;
+}
+
+bool demPlane(const DemGrid& dem, const Eigen::Vector3d& point_m, double radius_m, Eigen::Vector3d& normal,
+              Eigen::Vector3d& on_plane) {
+  // elevation = a + b * (x - x0) + c * (y - y0) over the cells within the radius.
+  const int reach = std::max(1, static_cast<int>(std::ceil(radius_m / dem.cell_m)));
+  const int c0 = static_cast<int>(std::floor((point_m.y() - dem.east0_m) / dem.cell_m));
+  const int r0 = static_cast<int>(std::floor((dem.north0_m - point_m.x()) / dem.cell_m));
+  Eigen::Matrix3d n = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (int r = r0 - reach; r <= r0 + reach; ++r) {
+    for (int c = c0 - reach; c <= c0 + reach; ++c) {
+      if (r < 0 || c < 0 || r >= dem.rows || c >= dem.cols) continue;
+      const float v = dem.at(c, r);
+      if (v == dem.nodata || !std::isfinite(v)) continue;
+      const double dx = dem.northOfRow(r) - point_m.x(), dy = dem.eastOfCol(c) - point_m.y();
+      if (dx * dx + dy * dy > radius_m * radius_m) continue;
+      const Eigen::Vector3d row(1.0, dx, dy);
+      n.noalias() += row * row.transpose();
+      rhs += row * v;
+      ++count;
+    }
+  }
+  if (count < 6) return false;
+  const Eigen::Vector3d abc = n.ldlt().solve(rhs);
+  if (!abc.allFinite()) return false;
+  // Up-positive elevation e(x, y); the surface z = -e; normal of z + e(x,y) = 0 is (b, c, 1), pointing down.
+  normal = -Eigen::Vector3d(abc[1], abc[2], 1.0).normalized();
+  on_plane = Eigen::Vector3d(point_m.x(), point_m.y(), -abc[0]);
+  return true;
+}
+
+}  // namespace areomap::traverse

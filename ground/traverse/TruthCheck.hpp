@@ -1,0 +1,34 @@
+// Cross-site ties against a synthetic traverse's truth (tests and areomap-cross-ties): the true point of a
+// tie is its source pixel's ray through the source image's true model cast onto the source site's true
+// surface (truth/dem.tif); every other observation is compared with that point's projection through the
+// true site poses (truth/traverse.json) and the observing image's true model. The DEM registration is
+// compared with the true relative pose.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ground/dataset/Traverse.hpp"
+#include "ground/traverse/CrossSiteTies.hpp"
+
+namespace areomap::traverse {
+
+struct TruthCheck {
+  std::vector<double> errors_px;        // every non-source observation with a true projection
+  std::vector<double> cross_errors_px;  // those in site A's images (the cross-site ones)
+  double cross_median_px = 0.0, cross_p90_px = 0.0;
+  int cross_gross = 0;
+  int no_truth = 0;  // observations whose true point could not be found or projected
+  double median_px = 0.0, p90_px = 0.0;
+  int gross = 0;  // errors above gross_px
+  double gross_px = 2.0;
+  // Registration (and the geometric check's pose) minus the true relative pose.
+  double registration_xy_m = 0.0, registration_z_m = 0.0, registration_heading_deg = 0.0;
+  double ties_xy_m = 0.0, ties_z_m = 0.0, ties_heading_deg = 0.0;
+};
+
+TruthCheck checkAgainstTruth(const CrossTieResult& result, const TraverseSite& site_a,
+                             const TraverseSite& site_b, const SitePose& true_a, const SitePose& true_b,
+                             double gross_px = 2.0);
+
+}  // namespace areomap::traverse

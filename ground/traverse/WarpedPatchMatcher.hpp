@@ -1,0 +1,45 @@
+// NCC of DEM-warped patches between two images that see the same ground at different scales and from
+// different directions (cross-site ties, issue 21). A local affine map A = d(pixel in J)/d(pixel in I),
+// from the ground plane under the point, relates the two views. The comparison runs on the grid of the
+// coarser view: the finer image is sampled through the map from its Gaussian pyramid level of that scale
+// (so that it is low-passed like the coarser one), the other image at full resolution. A (2h+1)^2
+// template around the point in I is searched over +-radius grid steps about the predicted point in J:
+// integer NCC maximum, second peak (>= 2 steps away) for the ambiguity test, then a least-squares
+// (Lucas-Kanade) translation with gain and offset from the integer peak for the sub-pixel position.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+namespace areomap::traverse {
+
+struct PatchParams {
+  int half = 7;                    // template (2 half + 1)^2 grid steps
+  double radius_px = 6.0;          // search radius in J pixels about the prediction
+  double min_ncc = 0.75;           // best NCC below it: rejected
+  double max_second_ratio = 0.92;  // second peak / best above it: ambiguous
+  int lsm_iterations = 8;          // least-squares refinement steps
+};
+
+enum class PatchResult { kOk, kOutside, kFlat, kLowNcc, kAmbiguous, kEdgePeak, kLsmDiverged };
+
+struct PatchMatch {
+  PatchResult result = PatchResult::kOutside;
+  Eigen::Vector2d j_px = Eigen::Vector2d::Zero();  // matched point in J (full-resolution pixels)
+  double ncc = 0.0;                                // at the integer peak
+  double second = 0.0;                             // the second peak
+  double ncc_final = 0.0;                          // NCC of the refined position
+};
+
+// Bilinear sample of pyramid level `level` at full-resolution pixel coordinates (NaN outside).
+double samplePyramid(const std::vector<cv::Mat>& pyramid, int level, double x_px, double y_px);
+
+// Matches the patch around `i_px` in image I into image J about `j_predicted_px`; `a` maps I pixel offsets
+// to J pixel offsets near the point.
+PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Vector2d& i_px,
+                            const std::vector<cv::Mat>& image_j, const Eigen::Vector2d& j_predicted_px,
+                            const Eigen::Matrix2d& a, const PatchParams& params);
+
+}  // namespace areomap::traverse
