@@ -235,6 +235,29 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
       out.poses.notes.push_back("Site " + traverse.sites[k].id +
                                 " has no cross-site tie to another site: its pose is the odometry's alone.");
   }
+  // Sites that ties link to the first one, through any chain of sites (union-find over the points' sites):
+  // a group the ties do not link to it hangs on the odometry of the leg between.
+  std::vector<int32_t> group(n);
+  for (std::size_t k = 0; k < n; ++k) group[k] = static_cast<int32_t>(k);
+  const auto root = [&](int32_t k) {
+    while (group[static_cast<std::size_t>(k)] != k) k = group[static_cast<std::size_t>(k)];
+    return k;
+  };
+  std::map<int32_t, int32_t> first_site_of_point;
+  for (int32_t o = 0; o < adjuster->observationCount(); ++o) {
+    const CrossSiteObservation& obs = adjuster->observation(o);
+    if (obs.rejected || !adjuster->point(obs.point).solvable) continue;
+    const int32_t k = adjuster->camera(obs.camera).site;
+    const auto [it, added] = first_site_of_point.emplace(obs.point, k);
+    if (!added) group[static_cast<std::size_t>(root(k))] = root(it->second);
+  }
+  for (std::size_t k = 1; k < n; ++k) {
+    if (root(static_cast<int32_t>(k)) == root(0) || out.poses.sites[k].source != PoseSource::kCrossSiteTies)
+      continue;
+    out.poses.notes.push_back("Site " + traverse.sites[k].id +
+                              " is tied only to sites that no tie links to " + traverse.sites[0].id +
+                              ": its position rests on the odometry of a leg before it.");
+  }
   // Method 1 of the cross-site observations: the mean residual distance.
   double sum = 0.0;
   int count = 0;
