@@ -53,36 +53,12 @@ std::vector<CrossSiteTie> readCrossSiteTies(const std::string& path) {
 
 void writeCrossSiteTies(const std::string& path, const std::vector<CrossSiteTie>& ties) {
   std::ostringstream out;
-  out.precision(10);
   out << "point,site,image,sample_px,line_px\n";
   for (const CrossSiteTie& t : ties)
-    out << t.point << ',' << t.site << ',' << t.image << ',' << t.pixel_px.x() << ',' << t.pixel_px.y()
-        << '\n';
+    out << t.point << ',' << t.site << ',' << t.image << ',' << formatDouble(t.pixel_px.x()) << ','
+        << formatDouble(t.pixel_px.y()) << '\n';
   cli::writeFileAtomic(path, out.str());
 }
-
-namespace {
-
-// sites/<id>/truth/points.csv: point id -> position (site frame).
-std::map<int64_t, Vec3> readTruthPoints(const std::string& path) {
-  std::map<int64_t, Vec3> points;
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  while (std::getline(in, line)) {
-    std::stringstream s(line);
-    std::string f[4];
-    for (std::string& field : f) std::getline(s, field, ',');
-    try {
-      points[std::stoll(f[0])] = Vec3(std::stod(f[1]), std::stod(f[2]), std::stod(f[3]));
-    } catch (const std::exception&) {
-      throw cli::InputError(path, "point", "expected point,x_m,y_m,z_m");
-    }
-  }
-  return points;
-}
-
-}  // namespace
 
 std::vector<CrossSiteTie> truthCrossSiteTies(const Traverse& traverse, double noise_px, uint64_t seed) {
   std::vector<CrossSiteTie> ties;
@@ -96,7 +72,7 @@ std::vector<CrossSiteTie> truthCrossSiteTies(const Traverse& traverse, double no
   for (std::size_t k = 1; k < traverse.sites.size(); ++k) {
     const TraverseSite& here = traverse.sites[k];
     const TraverseSite& before = traverse.sites[k - 1];
-    const std::map<int64_t, Vec3> points = readTruthPoints(here.dir + "/truth/points.csv");
+    const std::vector<CheckPoint> points = readPointsCsv(here.dir + "/" + kTruthPointsFile);
     std::map<int64_t, std::vector<ImageObservation>> seen_here;
     for (const ImageObservation& o : readObservationsCsv(here.dir + "/truth/observations.csv"))
       seen_here[o.point].push_back(o);
@@ -106,7 +82,9 @@ std::vector<CrossSiteTie> truthCrossSiteTies(const Traverse& traverse, double no
         models.emplace_back(f.path().stem().string(), io::readCameraModelFile(f.path().string()));
     }
     std::sort(models.begin(), models.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (const auto& [id, xyz] : points) {
+    for (const CheckPoint& point : points) {
+      const int64_t id = point.point;
+      const Vec3& xyz = point.site_m;
       const auto obs = seen_here.find(id);
       if (obs == seen_here.end()) continue;
       const Vec3 there = truth->poses[k - 1].toSite(truth->poses[k].toTraverse(xyz));

@@ -12,6 +12,7 @@
 #include "firmware_core/match/ForstnerDetector.hpp"
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/dataset/TruthFiles.hpp"
+#include "ground/traverse/CrossSiteAdjustment.hpp"
 
 namespace areomap::traverse {
 
@@ -435,15 +436,11 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
 }
 
 void writeCrossTiesCsv(const std::string& path, const std::vector<CrossTie>& ties) {
-  std::ostringstream s;
-  s << "point,site,image,sample_px,line_px\n";
+  std::vector<CrossSiteTie> flat;
   for (const CrossTie& t : ties) {
-    for (const CrossTieObservation& o : t.observations) {
-      s << o.point << ',' << o.site << ',' << o.image << ',' << formatDouble(o.pixel_px.x()) << ','
-        << formatDouble(o.pixel_px.y()) << '\n';
-    }
+    for (const CrossTieObservation& o : t.observations) flat.push_back({o.point, o.site, o.image, o.pixel_px});
   }
-  cli::writeFileAtomic(path, s.str());
+  writeCrossSiteTies(path, flat);
 }
 
 }  // namespace areomap::traverse

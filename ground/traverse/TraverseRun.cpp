@@ -36,26 +36,30 @@ double figure(const json& report, const char* key, const char* field) {
   return after.contains(field) && after[field].is_number() ? after[field].get<double>() : -1.0;
 }
 
+// The site's own figures from its report.json (method 1-3, truth EO); false when it cannot be read.
+bool readSiteReport(SiteOutcome& s) {
+  std::ifstream in(s.out_dir + "/report.json");
+  const json report = json::parse(in, nullptr, false);
+  if (report.is_discarded()) return false;
+  s.ok = true;
+  s.method1_px = figure(report, "method1_px", "dist");
+  s.method2_m = figure(report, "method2_m", "z");
+  s.method3_px = figure(report, "method3_px", "dist");
+  if (report.contains("truth") && report["truth"].contains("eo_px") && report["truth"]["eo_px"].is_number())
+    s.truth_eo_px = report["truth"]["eo_px"].get<double>();
+  return true;
+}
+
 // One site mapped alone into OUT/sites/<id>.
 SiteOutcome runSite(const TraverseSite& site, const TraverseRunOptions& o, std::size_t k, std::size_t n) {
   SiteOutcome s;
   s.id = site.id;
   s.out_dir = o.out_dir + "/sites/" + site.id;
   if (o.progress) cli::info("site " + std::to_string(k + 1) + "/" + std::to_string(n) + ": " + site.id);
-  if (o.reuse_sites && fs::exists(s.out_dir + "/report.json") && fs::is_directory(s.out_dir + "/models")) {
-    std::ifstream in(s.out_dir + "/report.json");
-    const json report = json::parse(in, nullptr, false);
-    if (!report.is_discarded()) {
-      if (o.progress) cli::info("site " + site.id + ": its pass is there (--reuse-sites)");
-      s.ok = true;
-      s.method1_px = figure(report, "method1_px", "dist");
-      s.method2_m = figure(report, "method2_m", "z");
-      s.method3_px = figure(report, "method3_px", "dist");
-      if (report.contains("truth") && report["truth"].contains("eo_px") &&
-          report["truth"]["eo_px"].is_number())
-        s.truth_eo_px = report["truth"]["eo_px"].get<double>();
-      return s;
-    }
+  if (o.reuse_sites && fs::exists(s.out_dir + "/report.json") && fs::is_directory(s.out_dir + "/models") &&
+      readSiteReport(s)) {
+    if (o.progress) cli::info("site " + site.id + ": its pass is there (--reuse-sites)");
+    return s;
   }
   try {
     const Dataset dataset = readDataset(site.dir);
@@ -63,16 +67,9 @@ SiteOutcome runSite(const TraverseSite& site, const TraverseRunOptions& o, std::
     pass.out_dir = s.out_dir;
     pass.progress = o.progress;
     if (o.products) pass.products_hook = ground::makePassProducts;
-    const ground::GroundPassResult r = ground::runGroundPass(dataset, pass, nullptr, nullptr);
+    (void)ground::runGroundPass(dataset, pass, nullptr, nullptr);
     s.ok = true;
-    std::ifstream in(s.out_dir + "/report.json");
-    const json report = json::parse(in, nullptr, false);
-    if (!report.is_discarded()) {
-      s.method1_px = figure(report, "method1_px", "dist");
-      s.method2_m = figure(report, "method2_m", "z");
-      s.method3_px = figure(report, "method3_px", "dist");
-    }
-    if (r.truth_eo_after_px) s.truth_eo_px = *r.truth_eo_after_px;
+    readSiteReport(s);
   } catch (const std::exception& e) {
     s.error = e.what();
     cli::warn("site " + site.id + " not mapped: " + s.error);
@@ -122,8 +119,9 @@ raster::Geometry geometryOf(const DemGrid& g) {
 }
 
 // The merged dem.tif, dem_sigma.tif and ortho.tif from the sites that have them.
-void writeMergedMap(const Traverse& traverse, const std::vector<SiteOutcome>& sites,
-                    const SitePoseSolution& poses, const TraverseRunOptions& o, TraverseResult& result) {
+void writeMergedMap(const Traverse& traverse, const std::optional<TraverseTruth>& truth,
+                    const std::vector<SiteOutcome>& sites, const SitePoseSolution& poses,
+                    const TraverseRunOptions& o, TraverseResult& result) {
   std::vector<DemGrid> dem(sites.size()), sigma(sites.size()), ortho(sites.size());
   std::vector<MosaicInput> dem_in, sigma_in, ortho_in;
   double cell = o.cell_m;
@@ -164,7 +162,6 @@ void writeMergedMap(const Traverse& traverse, const std::vector<SiteOutcome>& si
   const Mosaic merged = mosaic(dem_in, grid, MosaicKind::kElevation);
   write_float("dem.tif", merged, "elevation up (-Z) in the traverse frame, metres; nearest site");
   const std::string truth_dem = traverse.root + "/truth/dem.tif";
-  const std::optional<TraverseTruth> truth = readTraverseTruth(traverse.root, traverse);
   if (truth && fs::exists(truth_dem)) {
     std::vector<Eigen::Vector3d> centres;
     for (const SitePose& p : truth->poses) centres.push_back(p.position_m);
@@ -207,7 +204,8 @@ json poseJson(const SitePoseEstimate& e) {
           {"distance_m", e.distance_m}};
 }
 
-void writeReport(const Traverse& traverse, const TraverseResult& r, const TraverseRunOptions& o) {
+void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& truth, const TraverseResult& r,
+                 const TraverseRunOptions& o) {
   json sites = json::array();
   double m1 = 0, m2 = 0, m3 = 0;
   int mapped = 0;
@@ -242,7 +240,6 @@ void writeReport(const Traverse& traverse, const TraverseResult& r, const Traver
     estimated.push_back(r.poses.sites[k].pose);
     distance.push_back(r.poses.sites[k].distance_m);
   }
-  const std::optional<TraverseTruth> truth = readTraverseTruth(traverse.root, traverse);
   if (truth) {
     const PositionErrors after = positionErrors(estimated, distance, *truth);
     const PositionErrors before = positionErrors(apriori, distance, *truth);
@@ -313,8 +310,9 @@ TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o
   writePoses(result.poses, o.out_dir + "/poses.csv");
   writeTraverseModels(result.sites, result.poses, o.out_dir, result);
   result.files.push_back(o.out_dir + "/poses.csv");
-  if (o.products) writeMergedMap(traverse, result.sites, result.poses, o, result);
-  writeReport(traverse, result, o);
+  const std::optional<TraverseTruth> truth = readTraverseTruth(traverse.root, traverse);
+  if (o.products) writeMergedMap(traverse, truth, result.sites, result.poses, o, result);
+  writeReport(traverse, truth, result, o);
   result.files.push_back(o.out_dir + "/report.json");
   return result;
 }
