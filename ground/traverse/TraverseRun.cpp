@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <memory>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -20,6 +21,7 @@
 #include "ground/pass/PassProducts.hpp"
 #include "ground/raster/RasterFiles.hpp"
 #include "ground/traverse/CrossSiteAdjustment.hpp"
+#include "ground/traverse/TraverseMatching.hpp"
 #include "ground/traverse/TraverseMosaic.hpp"
 
 namespace areomap::traverse {
@@ -193,6 +195,46 @@ void writeMergedMap(const Traverse& traverse, const std::optional<TraverseTruth>
   }
 }
 
+// Cross-site ties matched between every pair of neighbouring sites that were mapped (their products in
+// OUT/sites/<id>); cross_ties.json says what each pair gave.
+std::vector<CrossSiteTie> matchSites(const Traverse& traverse, const std::optional<TraverseTruth>& truth,
+                                     const TraverseRunOptions& o, TraverseResult& result) {
+  std::vector<int> all;
+  for (int k = 0; k < static_cast<int>(traverse.sites.size()); ++k) all.push_back(k);
+  const SiteLoader load = [&](int k) -> std::shared_ptr<const SiteProducts> {
+    if (!result.sites[k].ok) return nullptr;
+    return std::make_shared<const SiteProducts>(loadSiteProducts(traverse.sites[k], result.sites[k].out_dir));
+  };
+  if (o.progress) cli::info("cross-site tie points between neighbouring sites");
+  const TraverseMatching matching = matchTraverse(traverse, sitePairs(all, false), load, CrossTieParams{},
+                                                  truth, [&](const SitePairMatch& m) {
+                                                    if (o.progress) cli::info(pairMatchLine(traverse, m));
+                                                  });
+  const std::string json_path = o.out_dir + "/cross_ties.json";
+  try {
+    cli::writeFileAtomic(json_path, matchingJson(traverse, o.out_dir + "/sites", matching).dump(2) + "\n");
+    result.files.push_back(json_path);
+  } catch (const std::exception& e) {
+    result.write_errors.push_back(json_path + ": " + e.what());
+  }
+  std::vector<CrossSiteTie> ties;
+  for (const SitePairMatch& m : matching.pairs) {
+    SitePairOutcome p;
+    p.site_a = traverse.sites[m.a].id;
+    p.site_b = traverse.sites[m.b].id;
+    p.status = m.error.empty() ? crossTieStatusName(m.result.status) : "not_matched";
+    p.message = m.error.empty() ? m.result.message : m.error;
+    p.ties = static_cast<int32_t>(m.result.ties.size());
+    p.observations = m.result.observationCount();
+    result.site_pairs.push_back(p);
+  }
+  for (const CrossTie& t : matching.ties) {
+    for (const CrossTieObservation& obs : t.observations)
+      ties.push_back({obs.point, obs.site, obs.image, obs.pixel_px});
+  }
+  return ties;
+}
+
 json poseJson(const SitePoseEstimate& e) {
   const Eigen::Vector4d sd = e.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   return {{"id", e.id},
@@ -229,10 +271,24 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
   json t = {{"sites", static_cast<int>(traverse.sites.size())},
             {"distance_m", traverse.distanceDrivenM()},
             {"cross_site_ties", r.cross_site_ties},
+            {"cross_site_ties_source", r.cross_ties_source},
             {"cross_site_ties_rejected", r.cross_site_ties_rejected},
             {"cross_site_method1_px", r.cross_method1_px >= 0 ? json(r.cross_method1_px) : json(nullptr)},
             {"cross_site_sigma0", r.cross_sigma0},
             {"site", sites}};
+  if (r.cross_ties_source == "matched") {
+    json pairs = json::array();
+    for (const SitePairOutcome& p : r.site_pairs) {
+      json pj = {{"site_a", p.site_a},
+                 {"site_b", p.site_b},
+                 {"status", p.status},
+                 {"ties", p.ties},
+                 {"observations", p.observations}};
+      if (!p.message.empty()) pj["message"] = p.message;
+      pairs.push_back(pj);
+    }
+    t["site_pairs"] = pairs;
+  }
   std::vector<SitePose> apriori, estimated;
   std::vector<double> distance;
   for (std::size_t k = 0; k < traverse.sites.size(); ++k) {
@@ -285,9 +341,25 @@ TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o
       result.warnings.push_back("site " + traverse.sites[k].id + " not mapped: " + result.sites.back().error);
   }
   result.poses = odometryPoses(traverse);
+  const std::optional<TraverseTruth> truth = readTraverseTruth(traverse.root, traverse);
   std::vector<CrossSiteTie> ties;
-  if (!o.cross_ties_csv.empty()) ties = readCrossSiteTies(o.cross_ties_csv);
-  if (o.truth_cross_ties) ties = truthCrossSiteTies(traverse, o.truth_noise_px, 1);
+  if (!o.cross_ties_csv.empty()) {
+    ties = readCrossSiteTies(o.cross_ties_csv);
+    result.cross_ties_source = "file";
+  } else if (o.truth_cross_ties) {
+    ties = truthCrossSiteTies(traverse, o.truth_noise_px, 1);
+    result.cross_ties_source = "truth";
+  } else if (o.match_cross_ties && !o.products) {
+    result.warnings.push_back(
+        "no cross-site matching without the sites' products (--no-products): the poses are the odometry's.");
+  } else if (o.match_cross_ties && traverse.sites.size() > 1) {
+    ties = matchSites(traverse, truth, o, result);
+    result.cross_ties_source = "matched";
+    if (ties.empty())
+      result.warnings.push_back(
+          "no pair of neighbouring sites gave cross-site tie points: the poses are the "
+          "odometry's (cross_ties.json says why per pair).");
+  }
   if (!ties.empty()) {
     std::vector<std::string> models;
     for (const SiteOutcome& s : result.sites) models.push_back(s.ok ? s.out_dir + "/models" : "");
@@ -310,7 +382,6 @@ TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o
   writePoses(result.poses, o.out_dir + "/poses.csv");
   writeTraverseModels(result.sites, result.poses, o.out_dir, result);
   result.files.push_back(o.out_dir + "/poses.csv");
-  const std::optional<TraverseTruth> truth = readTraverseTruth(traverse.root, traverse);
   if (o.products) writeMergedMap(traverse, truth, result.sites, result.poses, o, result);
   writeReport(traverse, truth, result, o);
   result.files.push_back(o.out_dir + "/report.json");

@@ -21,8 +21,11 @@ struct TraverseRunOptions {
   bool progress = true;
   // A site whose OUT/sites/<id> already holds a finished pass (report.json and models/) is not mapped again.
   bool reuse_sites = false;
-  // Cross-site tie points: from a file (point,site,image,sample_px,line_px; "" none), or from the truth of
-  // a synthetic traverse (CrossSiteAdjustment.hpp truthCrossSiteTies) with this noise.
+  // Cross-site tie points: matched between neighbouring sites' products (TraverseMatching.hpp; the
+  // default, needs `products`), from a file (point,site,image,sample_px,line_px), or from the truth of a
+  // synthetic traverse (CrossSiteAdjustment.hpp truthCrossSiteTies) with this noise; none: the poses are
+  // the odometry's.
+  bool match_cross_ties = true;
   std::string cross_ties_csv;
   bool truth_cross_ties = false;
   double truth_noise_px = 0.3;
@@ -40,10 +43,21 @@ struct SiteOutcome {
   double truth_eo_px = -1.0;  // the site's EO against its truth (synthetic sites), -1: none
 };
 
+// One pair of sites the matcher tried (report.json traverse.site_pairs).
+struct SitePairOutcome {
+  std::string site_a, site_b;
+  std::string status;   // crossTieStatusName, or "not_matched" (a site without products)
+  std::string message;  // why not ok
+  int32_t ties = 0;
+  int32_t observations = 0;
+};
+
 struct TraverseResult {
   std::vector<SiteOutcome> sites;
   SitePoseSolution poses;
-  int32_t cross_site_ties = 0;  // observations in the multi-site adjustment
+  std::string cross_ties_source = "none";   // "matched", "file", "truth" or "none"
+  std::vector<SitePairOutcome> site_pairs;  // when matched
+  int32_t cross_site_ties = 0;              // observations in the multi-site adjustment
   int32_t cross_site_ties_rejected = 0;
   double cross_method1_px = -1.0;  // mean residual of the cross-site observations
   double cross_sigma0 = 0.0;

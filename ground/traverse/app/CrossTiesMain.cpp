@@ -1,13 +1,11 @@
 // areomap-cross-ties TRAVERSE --products DIR --out DIR: cross-site tie points between neighbouring sites of
 // a traverse (issue 21), from each site's ground products.
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <iterator>
-#include <map>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -16,15 +14,12 @@
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/Traverse.hpp"
 #include "ground/traverse/CrossSiteTies.hpp"
-#include "ground/traverse/TruthCheck.hpp"
+#include "ground/traverse/TraverseMatching.hpp"
 
 namespace {
 
-using json = nlohmann::json;
 using namespace areomap;
 using namespace areomap::traverse;
-
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
 constexpr const char* kUsage =
     "usage: areomap-cross-ties TRAVERSE --products DIR --out DIR [--sites ID,...] [--all-pairs] "
@@ -54,11 +49,6 @@ constexpr const char* kUsage =
     "A pair of sites whose DEMs do not overlap, or match ambiguously, is reported with its status and no\n"
     "ties; that is not an error. Exit: 0 ok, 2 usage error, 1 bad input (the message names the file and\n"
     "the field).\n";
-
-json poseJson(const RelativePose& p) {
-  return json{{"position_m", {p.translation_m.x(), p.translation_m.y(), p.translation_m.z()}},
-              {"heading_deg", p.heading_rad * kRadToDeg}};
-}
 
 }  // namespace
 
@@ -105,121 +95,26 @@ int main(int argc, char** argv) {
     } else {
       for (int k = 0; k < static_cast<int>(traverse.sites.size()); ++k) chosen.push_back(k);
     }
-    std::vector<std::pair<int, int>> pairs;
-    for (std::size_t j = 1; j < chosen.size(); ++j) {
-      for (std::size_t i = all_pairs ? 0 : j - 1; i < j; ++i) pairs.emplace_back(chosen[i], chosen[j]);
-    }
     std::filesystem::create_directories(out);
-    std::map<int, std::shared_ptr<SiteProducts>> loaded;
-    auto site = [&](int k) {
-      auto it = loaded.find(k);
-      if (it != loaded.end()) return it->second;
+    const SiteLoader load = [&](int k) {
       const TraverseSite& s = traverse.sites[k];
       cli::info("loading " + s.id);
-      auto p = std::make_shared<SiteProducts>(truth_products ? loadSiteTruth(s, truth_cell)
-                                                             : loadSiteProducts(s, *products + "/" + s.id));
-      return loaded[k] = p;
+      return std::make_shared<const SiteProducts>(
+          truth_products ? loadSiteTruth(s, truth_cell) : loadSiteProducts(s, *products + "/" + s.id));
     };
-    json report;
-    report["traverse"] = traverse.name;
-    report["products"] = truth_products ? std::string("truth") : *products;
-    report["pairs"] = json::array();
-    std::vector<CrossTie> all;
-    int64_t next_point = 0;
-    for (const auto& [i, j] : pairs) {
-      // Keep the sites this and later pairs need.
-      for (auto it = loaded.begin(); it != loaded.end();) {
-        it = (!all_pairs && it->first < i) ? loaded.erase(it) : std::next(it);
-      }
-      const TraverseSite& sa = traverse.sites[i];
-      const TraverseSite& sb = traverse.sites[j];
-      cli::info("sites " + sa.id + " and " + sb.id);
-      const RelativePose apriori = relativePose(sa.apriori, sb.apriori);
-      // The DEM search window: 3 sigmas of the odometry between the two sites (the legs' sigmas added in
-      // quadrature), within 2-6 m and 5-12 degrees.
-      double var_m = 0.0, var_rad = 0.0;
-      for (int k = i + 1; k <= j; ++k) {
-        const OdometryLeg& leg = *traverse.sites[k].odometry;
-        var_m += std::pow(std::max(leg.sigma_m.x(), leg.sigma_m.y()), 2);
-        var_rad += std::pow(leg.sigma_heading_rad, 2);
-      }
-      CrossTieParams pair_params = params;
-      pair_params.registration.search_m = std::clamp(3.0 * std::sqrt(var_m), 2.0, 6.0);
-      pair_params.registration.search_deg = std::clamp(3.0 * std::sqrt(var_rad) * kRadToDeg, 5.0, 12.0);
-      const CrossTieResult r = findCrossSiteTies(*site(i), *site(j), apriori, pair_params, next_point);
-      json pj;
-      pj["site_a"] = sa.id;
-      pj["site_b"] = sb.id;
-      pj["status"] = crossTieStatusName(r.status);
-      if (!r.message.empty()) pj["message"] = r.message;
-      const DemRegistration& g = r.registration;
-      pj["registration"] = {{"status", registrationStatusName(g.status)},
-                            {"apriori", poseJson(g.apriori)},
-                            {"a_from_b", poseJson(g.a_from_b)},
-                            {"sigma", {g.sigma[0], g.sigma[1], g.sigma[2], g.sigma[3] * kRadToDeg}},
-                            {"overlap_samples", g.overlap_cells},
-                            {"used_samples", g.used_cells},
-                            {"rms_m", g.rms_m},
-                            {"cost_ratio", g.cost_ratio}};
-      pj["a_from_b"] = poseJson(r.a_from_b);
-      pj["a_from_b_sigma"] = {r.a_from_b_sigma[0], r.a_from_b_sigma[1], r.a_from_b_sigma[2],
-                              r.a_from_b_sigma[3] * kRadToDeg};
-      pj["rms_px"] = r.rms_px;
-      pj["search"] = {{"m", pair_params.registration.search_m}, {"deg", pair_params.registration.search_deg}};
-      pj["first_pass_ties"] = r.first_pass_ties;
-      pj["ties"] = r.ties.size();
-      pj["observations"] = r.observationCount();
-      const CrossTieCounts& c = r.counts;
-      pj["counts"] = {{"interest_points", c.interest_points},
-                      {"on_both_dems", c.on_both_dems},
-                      {"predicted", c.predicted},
-                      {"matched", c.matched},
-                      {"back_matched", c.back_matched},
-                      {"ties_before_check", c.ties_before_check},
-                      {"rejected_observations", c.rejected_observations},
-                      {"rejected_ties", c.rejected_ties},
-                      {"off_dem_ties", c.off_dem_ties}};
-      std::string line = sa.id + "-" + sb.id + ": " + crossTieStatusName(r.status) + ", " +
-                         std::to_string(r.ties.size()) + " ties, " + std::to_string(r.observationCount()) +
-                         " observations, rms " + std::to_string(r.rms_px) + " px";
-      if (truth) {
-        const TruthCheck t = checkAgainstTruth(r, sa, sb, truth->poses[i], truth->poses[j]);
-        pj["truth"] = {{"observations", t.errors_px.size()},
-                       {"median_px", t.median_px},
-                       {"p90_px", t.p90_px},
-                       {"cross_observations", t.cross_errors_px.size()},
-                       {"cross_median_px", t.cross_median_px},
-                       {"cross_p90_px", t.cross_p90_px},
-                       {"cross_gross", t.cross_gross},
-                       {"gross", t.gross},
-                       {"gross_px", t.gross_px},
-                       {"no_truth", t.no_truth},
-                       {"registration_xy_m", t.registration_xy_m},
-                       {"registration_z_m", t.registration_z_m},
-                       {"registration_heading_deg", t.registration_heading_deg},
-                       {"ties_xy_m", t.ties_xy_m},
-                       {"ties_z_m", t.ties_z_m},
-                       {"ties_heading_deg", t.ties_heading_deg}};
-        char buffer[512];
-        std::snprintf(buffer, sizeof buffer,
-                      "; truth: registration %.3f m xy, %.3f m z, %.3f deg; ties' pose %.3f m xy, %.3f deg; "
-                      "median %.3f px, 90%% %.3f px, %d of %zu > %.0f px; in A's images median %.3f px, 90%% "
-                      "%.3f px, %d of %zu > %.0f px",
-                      t.registration_xy_m, t.registration_z_m, t.registration_heading_deg, t.ties_xy_m,
-                      t.ties_heading_deg, t.median_px, t.p90_px, t.gross, t.errors_px.size(), t.gross_px,
-                      t.cross_median_px, t.cross_p90_px, t.cross_gross, t.cross_errors_px.size(), t.gross_px);
-        line += buffer;
-      }
-      std::printf("%s\n", line.c_str());
-      std::fflush(stdout);
-      report["pairs"].push_back(pj);
-      for (const CrossTie& t : r.ties) {
-        all.push_back(t);
-        next_point = std::max(next_point, t.point + 1);
-      }
+    const TraverseMatching matching = matchTraverse(traverse, sitePairs(chosen, all_pairs), load, params,
+                                                    truth, [&](const SitePairMatch& m) {
+                                                      std::printf("%s\n", pairMatchLine(traverse, m).c_str());
+                                                      std::fflush(stdout);
+                                                    });
+    // A site whose products cannot be read is an input error here (areomap-traverse goes on without it).
+    for (const SitePairMatch& m : matching.pairs) {
+      if (!m.error.empty()) throw std::runtime_error(m.error);
     }
-    writeCrossTiesCsv(out + "/cross_ties.csv", all);
-    cli::writeFileAtomic(out + "/cross_ties.json", report.dump(2) + "\n");
+    writeCrossTiesCsv(out + "/cross_ties.csv", matching.ties);
+    cli::writeFileAtomic(
+        out + "/cross_ties.json",
+        matchingJson(traverse, truth_products ? std::string("truth") : *products, matching).dump(2) + "\n");
     return 0;
   });
 }

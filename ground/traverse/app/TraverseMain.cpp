@@ -10,16 +10,19 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: areomap-traverse DATASET --out DIR [--cross-ties FILE | --truth-cross-ties [--noise-px S]]\n"
-    "                        [--no-products] [--reuse-sites] [--cell-m C] [--quiet]\n"
+    "usage: areomap-traverse DATASET --out DIR [--cross-ties FILE | --truth-cross-ties [--noise-px S] |\n"
+    "                        --no-cross-ties] [--no-products] [--reuse-sites] [--cell-m C] [--quiet]\n"
     "\n"
     "Maps a multi-site traverse: DATASET/traverse.json names the sites in driving order (README "
     "\"Multi-site\n"
     "traverse\"), each a single-site dataset in its own site frame. Every site is mapped alone by the "
     "ground\n"
-    "pass (as areomap-ground --dataset) into DIR/sites/<id>/; the sites are placed in the traverse frame "
-    "(the\n"
-    "first site's); and DIR gets poses.csv (site, x, y, z, heading, their sigmas, the pose's source, "
+    "pass (as areomap-ground --dataset) into DIR/sites/<id>/; cross-site tie points are matched between\n"
+    "neighbouring sites (as areomap-cross-ties: DEM registration, NCC on DEM-warped patches; "
+    "DIR/cross_ties.csv\n"
+    "and cross_ties.json); the sites are placed in the traverse frame (the first site's) by the multi-site\n"
+    "adjustment of those ties and the odometry (firmware_core/adjust/SitePoseAdjuster.hpp); and DIR gets "
+    "poses.csv (site, x, y, z, heading, their sigmas, the pose's source, "
     "distance\n"
     "driven), the merged dem.tif, dem_sigma.tif and ortho.tif (traverse frame; each cell from the nearest "
     "site\n"
@@ -29,11 +32,11 @@ constexpr const char* kUsage =
     "figures; method1_px / method2_m / method3_px as the mean of the sites').\n"
     "\n"
     "  --out DIR        output folder (created)\n"
-    "  --no-products    adjustment only: no dense matching, DEM, ortho or merged map\n"
+    "  --no-products    adjustment only: no dense matching, DEM, ortho, merged map or cross-site matching\n"
     "  --cell-m C       merged map cell (default: the coarsest site dem.tif cell)\n"
-    "  --cross-ties FILE  cross-site tie points, CSV point,site,image,sample_px,line_px (measured pixels):\n"
-    "                   the sites' poses then come from the multi-site adjustment (cross-site ties and the\n"
-    "                   odometry; firmware_core/adjust/SitePoseAdjuster.hpp), written to DIR/cross_ties.csv\n"
+    "  --cross-ties FILE  cross-site tie points from a file instead of the matcher, CSV\n"
+    "                   point,site,image,sample_px,line_px (measured pixels; e.g. areomap-cross-ties')\n"
+    "  --no-cross-ties  no cross-site ties: the poses are the odometry's (chained, with its sigmas)\n"
     "  --truth-cross-ties  cross-site ties from a synthetic traverse's truth (each site's check points\n"
     "                   projected into the previous site's true models) with --noise-px S (default 0.3)\n"
     "  --reuse-sites    a site whose DIR/sites/<id> holds a finished pass (report.json, models/) is not\n"
@@ -58,8 +61,9 @@ int main(int argc, char** argv) {
     o.cross_ties_csv = args.option("--cross-ties", "");
     o.truth_cross_ties = args.flag("--truth-cross-ties");
     o.truth_noise_px = args.number("--noise-px", 0.3);
-    if (o.truth_cross_ties && !o.cross_ties_csv.empty())
-      throw cli::UsageError("give at most one of --cross-ties FILE and --truth-cross-ties");
+    o.match_cross_ties = !args.flag("--no-cross-ties");
+    if (int(o.truth_cross_ties) + int(!o.cross_ties_csv.empty()) + int(!o.match_cross_ties) > 1)
+      throw cli::UsageError("give at most one of --cross-ties FILE, --truth-cross-ties and --no-cross-ties");
     const std::string dataset = args.positional(0, "DATASET");
     const Traverse t = readTraverse(dataset);
     checkTraverseSites(t);

@@ -1,5 +1,6 @@
 // areomap-traverse on a rendered tiny traverse of two sites (areomap-sim --preset traverse --camera tiny):
-// both sites mapped, poses.csv and report.json with the contract's keys, the models in the traverse frame;
+// both sites mapped with products, the sites matched, poses.csv, report.json with the contract's keys and
+// the matcher's verdict, the merged map, the models in the traverse frame;
 // a site whose dataset is broken is reported and the other still mapped; bad usage exits 2.
 #include <cstdio>
 #include <cstdlib>
@@ -54,9 +55,13 @@ TEST_GROUP(TraverseTool){};
 TEST(TraverseTool, MapsEverySiteAndWritesThePosesAndTheReport) {
   const std::string ds = traverseDataset();
   CHECK_FALSE(ds.empty());
+  // The whole default run: every site's pass with products, the cross-site matching between the sites'
+  // products, the poses, the merged map.
   const std::string out = areomap::test::scratchDir("traverse-tool-out");
-  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", ds + " --out " + out + " --no-products --quiet"));
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", ds + " --out " + out + " --quiet"));
   CHECK_EQUAL(3, lines(out + "/poses.csv"));  // header + 2 sites
+  for (const char* f : {"dem.tif", "dem_sigma.tif", "ortho.tif", "cross_ties.json", "sites/site02/dem.tif"})
+    CHECK_TEXT(fs::exists(out + "/" + f), f);
   const json r = readJson(out + "/report.json");
   CHECK_FALSE(r.is_discarded());
   const json& t = r["traverse"];
@@ -69,6 +74,26 @@ TEST(TraverseTool, MapsEverySiteAndWritesThePosesAndTheReport) {
   CHECK_TRUE(t["position_error_apriori_pct"].get<double>() > 0.0);  // odometry drift against the truth
   for (const json& s : t["site"]) CHECK_TRUE(s["mapped"].get<bool>());
   CHECK_TRUE(r["method1_px"].get<double>() < 0.5);
+  // The matcher's verdict on the one pair of sites is in the report and in cross_ties.json; the second
+  // site's pose comes from the ties when the pair gave any, else from the odometry with a warning.
+  CHECK_EQUAL(std::string("matched"), t["cross_site_ties_source"].get<std::string>());
+  CHECK_EQUAL(1u, t["site_pairs"].size());
+  const json& pair = t["site_pairs"][0];
+  CHECK_EQUAL(std::string("site01"), pair["site_a"].get<std::string>());
+  CHECK_EQUAL(std::string("site02"), pair["site_b"].get<std::string>());
+  const json matched = readJson(out + "/cross_ties.json");
+  CHECK_EQUAL(pair["status"].get<std::string>(), matched["pairs"][0]["status"].get<std::string>());
+  std::printf("\n  site01-site02: %s, %d ties; position error %.3f m (a priori %.3f m)\n",
+              pair["status"].get<std::string>().c_str(), pair["ties"].get<int>(),
+              t["position_error_m"].get<double>(), t["position_error_apriori_m"].get<double>());
+  if (pair["status"] == "ok") {
+    CHECK_TRUE(pair["ties"].get<int>() > 0 && t["cross_site_ties"].get<int>() > 0);
+    CHECK_EQUAL(std::string("cross_site_ties"), t["site"][1]["source"].get<std::string>());
+  } else {
+    CHECK_TRUE(pair.contains("message"));
+    CHECK_EQUAL(std::string("odometry"), t["site"][1]["source"].get<std::string>());
+    CHECK_TRUE(r["warnings"].dump().find("odometry") != std::string::npos);
+  }
   CHECK_TRUE(fs::exists(out + "/sites/site01/models") && fs::exists(out + "/models/site02"));
 }
 
@@ -126,4 +151,6 @@ TEST(TraverseTool, BadUsageAndMissingTraverse) {
   const std::string text((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
   CHECK_TRUE(text.find("traverse.json") != std::string::npos);
   CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", "--help"));
+  CHECK_EQUAL(2, areomap::test::runTool("areomap-traverse",
+                                        dir + " --out " + dir + "/o --no-cross-ties --truth-cross-ties"));
 }

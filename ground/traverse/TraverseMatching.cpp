@@ -1,0 +1,193 @@
+#include "ground/traverse/TraverseMatching.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <map>
+
+#include <nlohmann/json.hpp>
+
+namespace areomap::traverse {
+
+using json = nlohmann::json;
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
+
+json poseJson(const RelativePose& p) {
+  return json{{"position_m", {p.translation_m.x(), p.translation_m.y(), p.translation_m.z()}},
+              {"heading_deg", p.heading_rad * kRadToDeg}};
+}
+
+}  // namespace
+
+std::vector<std::pair<int, int>> sitePairs(const std::vector<int>& chosen, bool all_pairs) {
+  std::vector<std::pair<int, int>> pairs;
+  for (std::size_t j = 1; j < chosen.size(); ++j) {
+    for (std::size_t i = all_pairs ? 0 : j - 1; i < j; ++i) pairs.emplace_back(chosen[i], chosen[j]);
+  }
+  return pairs;
+}
+
+CrossTieParams pairParams(const Traverse& traverse, int i, int j, const CrossTieParams& base) {
+  double var_m = 0.0, var_rad = 0.0;
+  for (int k = i + 1; k <= j; ++k) {
+    const OdometryLeg& leg = *traverse.sites[k].odometry;
+    var_m += std::pow(std::max(leg.sigma_m.x(), leg.sigma_m.y()), 2);
+    var_rad += std::pow(leg.sigma_heading_rad, 2);
+  }
+  CrossTieParams p = base;
+  p.registration.search_m = std::clamp(3.0 * std::sqrt(var_m), 2.0, 6.0);
+  p.registration.search_deg = std::clamp(3.0 * std::sqrt(var_rad) * kRadToDeg, 5.0, 12.0);
+  return p;
+}
+
+TraverseMatching matchTraverse(const Traverse& traverse, const std::vector<std::pair<int, int>>& pairs,
+                               const SiteLoader& load, const CrossTieParams& base,
+                               const std::optional<TraverseTruth>& truth,
+                               const std::function<void(const SitePairMatch&)>& on_pair) {
+  TraverseMatching out;
+  std::map<int, std::shared_ptr<const SiteProducts>> loaded;
+  std::map<int, std::string> load_errors;
+  auto site = [&](int k) -> std::shared_ptr<const SiteProducts> {
+    if (auto it = loaded.find(k); it != loaded.end()) return it->second;
+    if (load_errors.count(k) != 0) return nullptr;
+    try {
+      std::shared_ptr<const SiteProducts> p = load(k);
+      if (!p) load_errors[k] = "site " + traverse.sites[k].id + " has no products";
+      return loaded[k] = p;
+    } catch (const std::exception& e) {
+      load_errors[k] = e.what();
+      return loaded[k] = nullptr;
+    }
+  };
+  int64_t next_point = 0;
+  for (std::size_t n = 0; n < pairs.size(); ++n) {
+    const auto [i, j] = pairs[n];
+    // Release the sites that no pair from this one on needs.
+    for (auto it = loaded.begin(); it != loaded.end();) {
+      const bool needed = std::any_of(
+          pairs.begin() + static_cast<std::ptrdiff_t>(n), pairs.end(),
+          [&](const std::pair<int, int>& p) { return p.first == it->first || p.second == it->first; });
+      it = needed ? std::next(it) : loaded.erase(it);
+    }
+    SitePairMatch m;
+    m.a = i;
+    m.b = j;
+    m.params = pairParams(traverse, i, j, base);
+    m.result.site_a = traverse.sites[i].id;
+    m.result.site_b = traverse.sites[j].id;
+    const std::shared_ptr<const SiteProducts> a = site(i), b = a ? site(j) : nullptr;
+    if (!a || !b) {
+      m.error = load_errors[a ? j : i];
+    } else {
+      const RelativePose apriori = relativePose(traverse.sites[i].apriori, traverse.sites[j].apriori);
+      m.result = findCrossSiteTies(*a, *b, apriori, m.params, next_point);
+      if (truth)
+        m.truth = checkAgainstTruth(m.result, traverse.sites[i], traverse.sites[j], truth->poses[i],
+                                    truth->poses[j]);
+      for (const CrossTie& t : m.result.ties) {
+        out.ties.push_back(t);
+        next_point = std::max(next_point, t.point + 1);
+      }
+    }
+    if (on_pair) on_pair(m);
+    out.pairs.push_back(std::move(m));
+  }
+  return out;
+}
+
+std::string pairMatchLine(const Traverse& traverse, const SitePairMatch& m) {
+  const std::string sites = traverse.sites[m.a].id + "-" + traverse.sites[m.b].id + ": ";
+  if (!m.error.empty()) return sites + "not matched: " + m.error;
+  const CrossTieResult& r = m.result;
+  char buffer[640];
+  std::snprintf(buffer, sizeof buffer, "%s, %zu ties, %d observations, rms %.3f px",
+                crossTieStatusName(r.status), r.ties.size(), r.observationCount(), r.rms_px);
+  std::string line = sites + buffer;
+  if (m.truth) {
+    const TruthCheck& t = *m.truth;
+    std::snprintf(buffer, sizeof buffer,
+                  "; truth: registration %.3f m xy, %.3f m z, %.3f deg; ties' pose %.3f m xy, %.3f deg; "
+                  "median %.3f px, 90%% %.3f px, %d of %zu > %.0f px; in A's images median %.3f px, 90%% "
+                  "%.3f px, %d of %zu > %.0f px",
+                  t.registration_xy_m, t.registration_z_m, t.registration_heading_deg, t.ties_xy_m,
+                  t.ties_heading_deg, t.median_px, t.p90_px, t.gross, t.errors_px.size(), t.gross_px,
+                  t.cross_median_px, t.cross_p90_px, t.cross_gross, t.cross_errors_px.size(), t.gross_px);
+    line += buffer;
+  }
+  return line;
+}
+
+json matchingJson(const Traverse& traverse, const std::string& products, const TraverseMatching& matching) {
+  json report;
+  report["traverse"] = traverse.name;
+  report["products"] = products;
+  report["pairs"] = json::array();
+  for (const SitePairMatch& m : matching.pairs) {
+    const CrossTieResult& r = m.result;
+    json pj;
+    pj["site_a"] = traverse.sites[m.a].id;
+    pj["site_b"] = traverse.sites[m.b].id;
+    if (!m.error.empty()) {
+      pj["status"] = "not_matched";
+      pj["message"] = m.error;
+      report["pairs"].push_back(pj);
+      continue;
+    }
+    pj["status"] = crossTieStatusName(r.status);
+    if (!r.message.empty()) pj["message"] = r.message;
+    const DemRegistration& g = r.registration;
+    pj["registration"] = {{"status", registrationStatusName(g.status)},
+                          {"apriori", poseJson(g.apriori)},
+                          {"a_from_b", poseJson(g.a_from_b)},
+                          {"sigma", {g.sigma[0], g.sigma[1], g.sigma[2], g.sigma[3] * kRadToDeg}},
+                          {"overlap_samples", g.overlap_cells},
+                          {"used_samples", g.used_cells},
+                          {"rms_m", g.rms_m},
+                          {"cost_ratio", g.cost_ratio}};
+    pj["a_from_b"] = poseJson(r.a_from_b);
+    pj["a_from_b_sigma"] = {r.a_from_b_sigma[0], r.a_from_b_sigma[1], r.a_from_b_sigma[2],
+                            r.a_from_b_sigma[3] * kRadToDeg};
+    pj["rms_px"] = r.rms_px;
+    pj["search"] = {{"m", m.params.registration.search_m}, {"deg", m.params.registration.search_deg}};
+    pj["first_pass_ties"] = r.first_pass_ties;
+    pj["ties"] = r.ties.size();
+    pj["observations"] = r.observationCount();
+    const CrossTieCounts& c = r.counts;
+    pj["counts"] = {{"interest_points", c.interest_points},
+                    {"on_both_dems", c.on_both_dems},
+                    {"predicted", c.predicted},
+                    {"matched", c.matched},
+                    {"back_matched", c.back_matched},
+                    {"ties_before_check", c.ties_before_check},
+                    {"rejected_observations", c.rejected_observations},
+                    {"rejected_ties", c.rejected_ties},
+                    {"off_dem_ties", c.off_dem_ties}};
+    if (m.truth) {
+      const TruthCheck& t = *m.truth;
+      pj["truth"] = {{"observations", t.errors_px.size()},
+                     {"median_px", t.median_px},
+                     {"p90_px", t.p90_px},
+                     {"cross_observations", t.cross_errors_px.size()},
+                     {"cross_median_px", t.cross_median_px},
+                     {"cross_p90_px", t.cross_p90_px},
+                     {"cross_gross", t.cross_gross},
+                     {"gross", t.gross},
+                     {"gross_px", t.gross_px},
+                     {"no_truth", t.no_truth},
+                     {"registration_xy_m", t.registration_xy_m},
+                     {"registration_z_m", t.registration_z_m},
+                     {"registration_heading_deg", t.registration_heading_deg},
+                     {"ties_xy_m", t.ties_xy_m},
+                     {"ties_z_m", t.ties_z_m},
+                     {"ties_heading_deg", t.ties_heading_deg}};
+    }
+    report["pairs"].push_back(pj);
+  }
+  return report;
+}
+
+}  // namespace areomap::traverse
