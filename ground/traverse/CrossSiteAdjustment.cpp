@@ -16,6 +16,7 @@
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/CameraFile.hpp"
+#include "ground/traverse/SiteDatum.hpp"
 
 namespace areomap::traverse {
 
@@ -112,12 +113,22 @@ TraverseFromSite fromSitePose(const SitePose& p) {
   return {p.position_m, p.rotation()};
 }
 
-LegMeasurement legOf(const OdometryLeg& leg) {
+// The leg between two sites as an observation of their camera sets' relative pose: the odometry, its tilt
+// known to the levelling of both frames, and both sites' datum sigmas added (SiteDatum.hpp): each camera set
+// is rotated against its own levelled frame by its datum error.
+LegMeasurement legOf(const OdometryLeg& leg, const SiteDatum& from, const SiteDatum& to) {
   LegMeasurement m;
   m.delta_position_m = leg.delta_m;
   m.delta_rotation = SitePose{Eigen::Vector3d::Zero(), leg.delta_heading_rad}.rotation();
   m.sigma_position_m = leg.sigma_m;
-  m.sigma_rotation_rad = Vec3(kLevelSigmaRad, kLevelSigmaRad, leg.sigma_heading_rad);
+  const auto tilt2 = [](const SiteDatum& d) {
+    return 0.5 * (d.sigma_rad.x() * d.sigma_rad.x() + d.sigma_rad.y() * d.sigma_rad.y());
+  };
+  const double tilt = std::sqrt(kLevelSigmaRad * kLevelSigmaRad + tilt2(from) + tilt2(to));
+  m.sigma_rotation_rad =
+      Vec3(tilt, tilt,
+           std::sqrt(leg.sigma_heading_rad * leg.sigma_heading_rad + from.sigma_rad.z() * from.sigma_rad.z() +
+                     to.sigma_rad.z() * to.sigma_rad.z()));
   return m;
 }
 
@@ -136,12 +147,18 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
   adjuster->clear();
   const SitePoseSolution odometry = odometryPoses(traverse);
   const std::size_t n = traverse.sites.size();
+  out.datum.resize(n);
+  for (std::size_t k = 0; k < n && k < models_dir.size(); ++k) {
+    if (!models_dir[k].empty() && fs::is_directory(models_dir[k]))
+      out.datum[k] = siteDatum(traverse.sites[k], models_dir[k]);
+  }
   int32_t site = 0;
   if (!ok(adjuster->addFirstSite(fromSitePose(traverse.sites[0].apriori), site)))
     throw std::runtime_error("traverse adjustment: cannot add the first site");
   for (std::size_t k = 1; k < n; ++k) {
     const TraverseFromSite apriori = fromSitePose(traverse.sites[k].apriori);
-    const Status s = adjuster->addSite(legOf(*traverse.sites[k].odometry), &apriori, site);
+    const Status s =
+        adjuster->addSite(legOf(*traverse.sites[k].odometry, out.datum[k - 1], out.datum[k]), &apriori, site);
     if (!ok(s))
       throw std::runtime_error(std::string("traverse adjustment: site ") + traverse.sites[k].id + ": " +
                                statusName(s));
@@ -212,6 +229,28 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
     if (st.link == SiteLink::kNoOverlap)
       out.poses.notes.push_back("Site " + traverse.sites[k].id +
                                 " has no cross-site tie to another site: its pose is the odometry's alone.");
+  }
+  // The first site is held, so the adjuster's covariances take its cameras' common rotation as exact. It is
+  // not: every pose placed through the ties turns with that datum error about the first site (SiteDatum.hpp).
+  // First order: a rotation dtheta of the frame moves site k by dtheta x p_k and its heading by dtheta_z.
+  if (out.datum[0].known) {
+    const Vec3 var = out.datum[0].sigma_rad.cwiseAbs2();
+    for (std::size_t k = 1; k < n; ++k) {
+      SitePoseEstimate& e = out.poses.sites[k];
+      if (e.source != PoseSource::kCrossSiteTies) continue;
+      const Vec3 p = e.pose.position_m - out.poses.sites[0].pose.position_m;
+      Mat3 j;  // d(position) / d(theta) = -[p]x
+      j << 0.0, p.z(), -p.y(), -p.z(), 0.0, p.x(), p.y(), -p.x(), 0.0;
+      e.covariance.topLeftCorner<3, 3>() += j * var.asDiagonal() * j.transpose();
+      e.covariance.block<3, 1>(0, 3) += j.col(2) * var.z();
+      e.covariance.block<1, 3>(3, 0) += (j.col(2) * var.z()).transpose();
+      e.covariance(3, 3) += var.z();
+    }
+    out.poses.notes.push_back("The poses tied to " + traverse.sites[0].id +
+                              " turn with its cameras' common rotation (their datum, "
+                              "known to " +
+                              std::to_string(1e3 * out.datum[0].sigma_rad.norm()).substr(0, 5) +
+                              " mrad from the pass's pointing corrections): their sigmas include it.");
   }
   // Sites that ties link to the first one, through any chain of sites (union-find over the points' sites):
   // a group the ties do not link to it hangs on the odometry of the leg between.

@@ -11,13 +11,15 @@
 
 #include "firmware_core/base/EigenTypes.hpp"
 #include "ground/dataset/Traverse.hpp"
+#include "ground/traverse/SiteDatum.hpp"
 #include "ground/traverse/SitePoses.hpp"
 
 namespace areomap::traverse {
 
-// The tilt sigma of an odometry leg (rad): a site frame is levelled by the rover's accelerometers, far
-// better than wheel odometry measures heading (0.06 deg, a tenth of a typical MER tilt sensor's 0.5 deg...
-// the levelled frames of traverse.json have no tilt unknown of their own).
+// The tilt sigma of an odometry leg between two levelled site frames (rad): a site frame is levelled by the
+// rover's accelerometers, far better than wheel odometry measures heading (0.06 deg; the levelled frames
+// of traverse.json have no tilt unknown of their own). The leg's observation of the two camera sets adds
+// both sites' datum sigmas (SiteDatum.hpp).
 inline constexpr double kLevelSigmaRad = 1e-3;
 
 // A cross-site tie observation: a point id shared by observations of images of different sites, the
@@ -42,6 +44,7 @@ std::vector<CrossSiteTie> truthCrossSiteTies(const Traverse& traverse, double no
 
 struct CrossSiteAdjustment {
   SitePoseSolution poses;
+  std::vector<SiteDatum> datum;  // per site (known = false: not mapped, or fewer than 2 pairs)
   int32_t ties_used = 0;      // observations in the adjustment
   int32_t ties_rejected = 0;  // by its robust rejection
   int32_t ties_dropped = 0;   // naming an unknown site or image, or not mappable to ideal pixels

@@ -259,6 +259,10 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
     j["method1_px"] = s.method1_px;
     j["method2_m"] = s.method2_m;
     j["method3_px"] = s.method3_px;
+    if (k < r.datum.size() && r.datum[k].known) {
+      const Vec3 mrad = 1e3 * r.datum[k].sigma_rad;
+      j["datum_sigma_mrad"] = {mrad.x(), mrad.y(), mrad.z()};
+    }
     if (s.truth_eo_px >= 0) j["truth_eo_px"] = s.truth_eo_px;
     sites.push_back(j);
     if (s.ok && s.method1_px >= 0) {
@@ -371,6 +375,7 @@ TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o
     result.cross_site_ties_rejected = a.ties_rejected;
     result.cross_method1_px = a.method1_px;
     result.cross_sigma0 = a.sigma0;
+    result.datum = a.datum;
     if (a.ties_dropped > 0)
       result.warnings.push_back(
           std::to_string(a.ties_dropped) +

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "ground/dataset/Traverse.hpp"
+#include "ground/traverse/SiteDatum.hpp"
 #include "ground/traverse/SitePoses.hpp"
 
 namespace areomap::traverse {
@@ -61,6 +62,9 @@ struct TraverseResult {
   int32_t cross_site_ties_rejected = 0;
   double cross_method1_px = -1.0;  // mean residual of the cross-site observations
   double cross_sigma0 = 0.0;
+  // Per site, when the multi-site adjustment ran: how well its cameras' common rotation is known
+  // (SiteDatum.hpp; report.json site[].datum_sigma_mrad).
+  std::vector<SiteDatum> datum;
   std::vector<std::string> files;     // written (paths)
   std::vector<std::string> warnings;  // also in report.json
   std::vector<std::string> write_errors;

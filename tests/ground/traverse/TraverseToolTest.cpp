@@ -2,6 +2,7 @@
 // both sites mapped with products, the sites matched, poses.csv, report.json with the contract's keys and
 // the matcher's verdict, the merged map, the models in the traverse frame;
 // a site whose dataset is broken is reported and the other still mapped; bad usage exits 2.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -119,6 +120,18 @@ TEST(TraverseTool, CrossSiteTiesPlaceTheSites) {
   CHECK_TRUE(t["cross_site_ties"].get<int>() > 100);
   CHECK_TRUE(t["cross_site_method1_px"].get<double>() < 0.6);
   CHECK_TRUE(fs::exists(out + "/cross_ties.csv"));
+  // The pose's sigmas are honest: they carry the first site's datum (its cameras' common rotation, known
+  // from its pass's pointing corrections: ~15 mrad on this camera), which turns every tied pose about it.
+  const areomap::Traverse traverse = areomap::readTraverse(ds);
+  const areomap::TraverseTruth truth = *areomap::readTraverseTruth(ds, traverse);
+  const json& site = t["site"][1];
+  CHECK_TRUE(site.contains("datum_sigma_mrad") && t["site"][0].contains("datum_sigma_mrad"));
+  for (int a = 0; a < 3; ++a) {
+    const double error = site["position_m"][a].get<double>() - truth.poses[1].position_m[a];
+    const double sigma = site["sigma_m"][a].get<double>();
+    std::printf("  axis %d: error %+.3f m, sigma %.3f m\n", a, error, sigma);
+    CHECK_TRUE(std::fabs(error) <= 3.0 * sigma);
+  }
 }
 
 TEST(TraverseTool, ABrokenSiteIsReportedAndTheOtherMapped) {

@@ -1,0 +1,67 @@
+#include "ground/traverse/SiteDatum.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "firmware_core/camera/CameraConversion.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/dataset/Dataset.hpp"
+#include "ground/io/CameraFile.hpp"
+
+namespace areomap::traverse {
+
+namespace {
+
+// Site-to-camera rotation of a model file (nullopt when it cannot be converted).
+bool rotationOf(const CameraModel& model, Mat3& r) {
+  PhotogrammetricCamera cam;
+  ConversionResidual residual;
+  if (!ok(cahvorToPhotogrammetric(model, cam, residual))) return false;
+  r = cam.m;
+  return true;
+}
+
+}  // namespace
+
+SiteDatum siteDatum(const TraverseSite& site, const std::string& models_dir) {
+  SiteDatum out;
+  const Dataset dataset = readDataset(site.dir);
+  std::vector<Vec3> corrections;  // one per pair: the mean of its images' rotation corrections (site frame)
+  for (const Pair& pair : dataset.pairs) {
+    Vec3 sum = Vec3::Zero();
+    int n = 0;
+    for (const ImageRef* ref : {&pair.left, pair.right ? &*pair.right : nullptr}) {
+      if (ref == nullptr) continue;
+      const std::string adjusted = models_dir + "/" + ref->stem + ".cahvor";
+      if (!std::filesystem::is_regular_file(adjusted)) continue;
+      const std::string path = ref->model_path.empty() ? ref->image_path : ref->model_path;
+      Mat3 r_apriori, r_adjusted;
+      if (!rotationOf(io::readCameraModelForImage(path, ref->image_path, dataset.width, dataset.height),
+                      r_apriori) ||
+          !rotationOf(io::readCameraModelFile(adjusted), r_adjusted))
+        continue;
+      // r_adjusted = r_apriori * G^T for a rotation G of the camera about the site's axes: the correction
+      // G's rotation vector, in the site frame.
+      const Eigen::AngleAxisd g(Mat3(r_adjusted.transpose() * r_apriori));
+      sum += g.angle() * g.axis();
+      ++n;
+    }
+    if (n > 0) corrections.push_back(sum / n);
+  }
+  out.pairs = static_cast<int>(corrections.size());
+  if (out.pairs < 2) return out;
+  Vec3 mean = Vec3::Zero();
+  for (const Vec3& c : corrections) mean += c;
+  mean /= out.pairs;
+  Vec3 var = Vec3::Zero();
+  for (const Vec3& c : corrections) var += (c - mean).cwiseAbs2();
+  out.scatter_rad = (var / (out.pairs - 1)).cwiseSqrt();
+  out.sigma_rad = out.scatter_rad / std::sqrt(static_cast<double>(out.pairs));
+  out.known = true;
+  return out;
+}
+
+}  // namespace areomap::traverse
