@@ -13,7 +13,8 @@
 //   (c) by Ceres on the same problem (ground/adjust/SitePoseCeres.hpp: the same unknowns, rows, datum,
 //       start and points): a first solve under the same Huber loss, then the least-squares solve over the
 //       observations the firmware kept (its rejection flags), from the Huber solution.
-// Every time is the median of --repeat runs; the heap allocations of the firmware's adjust() are counted.
+// Every time is the median of --repeat rounds (each round runs every method once, after one untimed round);
+// the heap allocations of the firmware's adjust() are counted (its thread's).
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -86,67 +87,59 @@ void printRow(const std::string& problem, const Row& r) {
               ratio, r.iterations.empty() ? "-" : r.iterations.c_str(), cost, rms, r.note.c_str());
 }
 
-// The firmware's solve of the whole traverse from the a-priori chain, `repeat` times; the adjuster keeps
-// the last one. Returns the median seconds.
-double firmwareFull(GroundSitePoseAdjuster& adjuster, const SitePoseOptions& options, int repeat,
-                    SitePoseResult& result, uint64_t& heap_allocations) {
-  std::vector<double> seconds;
-  for (int r = 0; r < repeat; ++r) {
-    adjuster.resetToApriori();
-    const uint64_t heap0 = heapAllocationCount();
-    const auto t0 = Clock::now();
-    const Status s = adjuster.adjust(options, result);
-    const double t = since(t0);
-    heap_allocations = heapAllocationCount() - heap0;
-    seconds.push_back(t);
-    if (!ok(s)) throw cli::InputError("synthetic traverse", "adjust", statusName(s));
-  }
-  return median(seconds);
+// The firmware's solve of the whole traverse from the a-priori chain; returns its seconds.
+double firmwareFull(GroundSitePoseAdjuster& adjuster, const SitePoseOptions& options, SitePoseResult& result,
+                    uint64_t& heap_allocations) {
+  adjuster.resetToApriori();
+  const uint64_t heap0 = heapAllocationCountThisThread();
+  const auto t0 = Clock::now();
+  const Status s = adjuster.adjust(options, result);
+  const double t = since(t0);
+  heap_allocations = heapAllocationCountThisThread() - heap0;
+  if (!ok(s)) throw cli::InputError("synthetic traverse", "adjust", statusName(s));
+  return t;
 }
 
+struct WindowRun {
+  std::vector<double> seconds;  // per added site (sites 1 .. N-1)
+  int32_t iterations = 0;       // over all adds
+  int32_t rejected = 0;
+  uint64_t heap_allocations = 0;
+  double position_rms_m = 0.0;  // after the last add
+};
+
 // The rover's use: site 0 and 1 loaded, then one site after the other, each followed by adjust() of the
-// last `window` sites. Returns the median over the runs of the mean seconds per added site.
+// last `window` sites.
 template <typename Adjuster>
-double firmwareWindow(const test::TraversePlan& plan, int32_t window, int repeat, Adjuster& adjuster,
-                      double& worst_seconds, double& mean_iterations, int32_t& rejected,
-                      uint64_t& heap_allocations) {
+WindowRun firmwareWindow(const test::TraversePlan& plan, int32_t window, Adjuster& adjuster) {
   const int32_t sites = static_cast<int32_t>(plan.truth.size());
   SitePoseOptions options;
   options.window_sites = window;
-  std::vector<double> per_site;
-  worst_seconds = 0.0;
-  for (int r = 0; r < repeat; ++r) {
-    test::TraverseLoad load;
-    double total = 0.0;
-    int32_t iterations = 0;
-    rejected = 0;
-    heap_allocations = 0;
-    for (int32_t k = 1; k < sites; ++k) {
-      const bool loaded = k == 1 ? test::loadTraverse(plan, 0, 2, true, adjuster, load)
-                                 : test::loadTraverse(plan, k, k + 1, false, adjuster, load);
-      if (!loaded) throw cli::InputError("synthetic traverse", "load", "refused by the rover's adjuster");
-      SitePoseResult result;
-      const uint64_t heap0 = heapAllocationCount();
-      const auto t0 = Clock::now();
-      const Status s = adjuster.adjust(options, result);
-      const double t = since(t0);
-      heap_allocations += heapAllocationCount() - heap0;
-      if (!ok(s)) throw cli::InputError("synthetic traverse", "windowed adjust", statusName(s));
-      total += t;
-      worst_seconds = std::max(worst_seconds, t);
-      iterations += result.iterations_total;
-      rejected += result.rejected_observations;
-    }
-    per_site.push_back(total / (sites - 1));
-    mean_iterations = static_cast<double>(iterations) / (sites - 1);
+  WindowRun run;
+  test::TraverseLoad load;
+  for (int32_t k = 1; k < sites; ++k) {
+    const bool loaded = k == 1 ? test::loadTraverse(plan, 0, 2, true, adjuster, load)
+                               : test::loadTraverse(plan, k, k + 1, false, adjuster, load);
+    if (!loaded) throw cli::InputError("synthetic traverse", "load", "refused by the adjuster");
+    SitePoseResult result;
+    const uint64_t heap0 = heapAllocationCountThisThread();
+    const auto t0 = Clock::now();
+    const Status s = adjuster.adjust(options, result);
+    const double t = since(t0);
+    run.heap_allocations += heapAllocationCountThisThread() - heap0;
+    run.seconds.push_back(t);
+    if (!ok(s)) throw cli::InputError("synthetic traverse", "windowed adjust", statusName(s));
+    run.iterations += result.iterations_total;
+    run.rejected += result.rejected_observations;
   }
-  return median(per_site);
+  run.position_rms_m = positionRms(posesOf(adjuster, false), plan.truth);
+  return run;
 }
 
 struct CeresRun {
   ground::SitePoseProblem problem;
   ground::SitePoseCeresResult huber, final;
-  double seconds = 0.0;  // both solves, median of the runs
+  double seconds = 0.0;  // both solves
 };
 
 // The norm of the parameter vector Ceres sees (positions, unit quaternions, points): its relative
@@ -164,34 +157,29 @@ double parameterNorm(const ground::SitePoseProblem& p) {
 // final solve at the relative cost decrease and the step of SitePoseOptions), else Ceres' tight defaults of
 // SitePoseCeresOptions (the minimum to rounding).
 CeresRun ceresRun(const GroundSitePoseAdjuster& adjuster, const SitePoseOptions& firmware, bool dense,
-                  bool comparable, int repeat) {
-  const ground::SitePoseProblem start = ground::sitePoseProblemOf(adjuster, 1, true, false);
-  const double norm = parameterNorm(start);
+                  bool comparable) {
   CeresRun run;
-  std::vector<double> seconds;
-  for (int r = 0; r < repeat; ++r) {
-    run.problem = start;
-    ground::SitePoseCeresOptions options;
-    options.dense_schur = dense;
-    options.huber_sigma = firmware.huber_sigma;
-    if (comparable) {
-      options.max_iterations = 15;
-      options.function_tolerance = firmware.relative_cost_tolerance;
-      options.gradient_tolerance = 1e-10;
-      options.parameter_tolerance = 1e-3 / norm;
-    }
-    run.huber = ground::solveSitePosesCeres(run.problem, options);
-    for (int32_t o = 0; o < adjuster.observationCount(); ++o)
-      run.problem.observations[o].rejected = adjuster.observation(o).rejected;
-    options.huber_sigma = 0.0;
-    if (comparable) {
-      options.max_iterations = firmware.max_iterations;
-      options.parameter_tolerance = firmware.step_tolerance_m / norm;
-    }
-    run.final = ground::solveSitePosesCeres(run.problem, options);
-    seconds.push_back(run.huber.seconds + run.final.seconds);
+  run.problem = ground::sitePoseProblemOf(adjuster, 1, true, false);
+  const double norm = parameterNorm(run.problem);
+  ground::SitePoseCeresOptions options;
+  options.dense_schur = dense;
+  options.huber_sigma = firmware.huber_sigma;
+  if (comparable) {
+    options.max_iterations = 15;
+    options.function_tolerance = firmware.relative_cost_tolerance;
+    options.gradient_tolerance = 1e-10;
+    options.parameter_tolerance = 1e-3 / norm;
   }
-  run.seconds = median(seconds);
+  run.huber = ground::solveSitePosesCeres(run.problem, options);
+  for (int32_t o = 0; o < adjuster.observationCount(); ++o)
+    run.problem.observations[o].rejected = adjuster.observation(o).rejected;
+  options.huber_sigma = 0.0;
+  if (comparable) {
+    options.max_iterations = firmware.max_iterations;
+    options.parameter_tolerance = firmware.step_tolerance_m / norm;
+  }
+  run.final = ground::solveSitePosesCeres(run.problem, options);
+  run.seconds = run.huber.seconds + run.final.seconds;
   return run;
 }
 
@@ -213,45 +201,52 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
     throw cli::InputError("synthetic traverse", "load", "refused by the ground's adjuster");
   const double apriori_rms = positionRms(posesOf(*ground, true), plan.truth);
 
-  // (a) The whole traverse: the solve alone, then the default (with the covariance); the adjuster keeps the
-  // default's solution.
+  // One round: (a) the whole traverse, the solve alone and the default (with the covariance; the adjuster
+  // keeps its solution and rejections); (c) Ceres from the same start, dense and sparse Schur, then tight;
+  // (b) the sliding window, site by site. Rounds repeat so that every method sees the same load over the
+  // run; each figure is the median over the rounds.
   SitePoseOptions solve_only;
   solve_only.covariance = false;
+  const SitePoseOptions defaults;
   SitePoseResult solve_result, full_result;
   uint64_t heap_solve = 0, heap_full = 0;
-  const double solve_s = firmwareFull(*ground, solve_only, repeat, solve_result, heap_solve);
-  const std::vector<TraverseFromSite> solve_poses = posesOf(*ground, false);
-  const SitePoseOptions defaults;
-  const double full_s = firmwareFull(*ground, defaults, repeat, full_result, heap_full);
+  std::vector<TraverseFromSite> solve_poses;
+  std::vector<double> solve_times, full_times, window_times, ceres_times[3];
+  std::vector<std::vector<double>> per_add(sites - 1);
+  CeresRun runs[3];
+  WindowRun window_run;
+  const bool rover = sites <= kMaxSites;
+  const auto window_ground = std::make_unique<GroundSitePoseAdjuster>();  // beyond the rover's kMaxSites
+  for (int r = -1; r < repeat; ++r) {  // round -1 warms up (the adjusters' pages first touched), not timed
+    const double solve_t = firmwareFull(*ground, solve_only, solve_result, heap_solve);
+    solve_poses = posesOf(*ground, false);
+    const double full_t = firmwareFull(*ground, defaults, full_result, heap_full);
+    for (int d = 0; d < 3; ++d) runs[d] = ceresRun(*ground, defaults, d != 1, d != 2);
+    window_run = rover ? firmwareWindow(plan, window, g_rover) : firmwareWindow(plan, window, *window_ground);
+    if (r < 0) continue;
+    solve_times.push_back(solve_t);
+    full_times.push_back(full_t);
+    for (int d = 0; d < 3; ++d) ceres_times[d].push_back(runs[d].seconds);
+    double total = 0.0;
+    for (int32_t k = 0; k < sites - 1; ++k) {
+      per_add[k].push_back(window_run.seconds[k]);
+      total += window_run.seconds[k];
+    }
+    window_times.push_back(total / (sites - 1));
+  }
+  const double solve_s = median(solve_times);
+  const double full_s = median(full_times);
+  const double window_s = median(window_times);
+  double window_worst = 0.0;
+  for (const std::vector<double>& t : per_add) window_worst = std::max(window_worst, median(t));
   const double firmware_rms = positionRms(posesOf(*ground, false), plan.truth);
-
-  // (c) Ceres on the same problem, dense and sparse Schur.
-  const CeresRun runs[3] = {ceresRun(*ground, defaults, true, true, repeat),
-                            ceresRun(*ground, defaults, false, true, repeat),
-                            ceresRun(*ground, defaults, true, false, repeat)};
   const char* names[3] = {"Ceres 2.1 DENSE_SCHUR, the firmware's stop rules",
                           "Ceres 2.1 SPARSE_SCHUR, the firmware's stop rules",
                           "Ceres 2.1 DENSE_SCHUR, tight tolerances (1e-14)"};
+  for (int d = 0; d < 3; ++d) runs[d].seconds = median(ceres_times[d]);
   const CeresRun& tight = runs[2];
   double rows_rms_px = 0.0;
   const double rows_cost = ground::sitePoseRowsCost(tight.problem, 0.0, &rows_rms_px);
-
-  // (b) The rover's sliding window, site by site.
-  double window_worst = 0.0, window_iterations = 0.0, window_rms = 0.0;
-  int32_t window_rejected = 0;
-  uint64_t heap_window = 0;
-  double window_s = 0.0;
-  const bool rover = sites <= kMaxSites;
-  if (rover) {
-    window_s = firmwareWindow(plan, window, repeat, g_rover, window_worst, window_iterations, window_rejected,
-                              heap_window);
-    window_rms = positionRms(posesOf(g_rover, false), plan.truth);
-  } else {
-    const auto window_adjuster = std::make_unique<GroundSitePoseAdjuster>();
-    window_s = firmwareWindow(plan, window, repeat, *window_adjuster, window_worst, window_iterations,
-                              window_rejected, heap_window);
-    window_rms = positionRms(posesOf(*window_adjuster, false), plan.truth);
-  }
 
   char problem[200];
   std::snprintf(problem, sizeof problem, "%d sites (%.0f m, %zu points, %zu obs, %d gross, %d unknowns)",
@@ -273,8 +268,10 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
   printRow(problem, apriori);
   char note[400];
   std::snprintf(note, sizeof note,
-                "%s; %d rejected in %d rounds; sigma0 %.3f; RMS %.3f px; %llu heap allocations in adjust()",
-                solve_result.converged ? "converged" : "NOT converged", solve_result.rejected_observations,
+                "%s; %.2f ms per iteration; %d rejected in %d rounds; sigma0 %.3f; RMS %.3f px; %llu heap "
+                "allocations in adjust()",
+                solve_result.converged ? "converged" : "NOT converged",
+                1e3 * solve_s / solve_result.iterations_total, solve_result.rejected_observations,
                 solve_result.rejection_rounds, solve_result.sigma0, solve_result.rms_px,
                 static_cast<unsigned long long>(heap_solve));
   Row fw_solve{"firmware, whole traverse (GroundSitePoseAdjuster), solve alone",
@@ -298,17 +295,17 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
   printRow(problem, fw_full);
   std::snprintf(
       note, sizeof note,
-      "per added site (%d adds), worst %.5f s; %.1f iterations per add; %d rejected; %llu heap "
-      "allocations over all adds; %s",
-      sites - 1, window_worst, window_iterations, window_rejected,
-      static_cast<unsigned long long>(heap_window),
+      "per added site (%d adds; the slowest add %.5f s, median over the rounds); %.1f iterations per add; %d "
+      "rejected; %llu heap allocations over all adds; %s",
+      sites - 1, window_worst, static_cast<double>(window_run.iterations) / (sites - 1), window_run.rejected,
+      static_cast<unsigned long long>(window_run.heap_allocations),
       rover ? "the rover's SitePoseAdjuster" : "the ground instance (beyond the rover's kMaxSites)");
   Row fw_window{"firmware, sliding window K = " + std::to_string(window) + ", sites added one by one",
                 window_s,
                 window_s / solve_s,
                 "",
                 -1.0,
-                window_rms,
+                window_run.position_rms_m,
                 note};
   printRow(problem, fw_window);
   for (int d = 0; d < 3; ++d) {
@@ -316,10 +313,11 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
     const ground::SitePoseDifference a = ground::sitePoseDifference(*ground, c.problem);
     std::snprintf(
         note, sizeof note,
-        "Huber solve %d steps (%s), final solve %s; max |ceres - firmware| %.3g mm, %.3g mrad, points "
-        "%.3g mm",
-        c.huber.iterations, c.huber.termination.c_str(), c.final.termination.c_str(), 1e3 * a.position_m,
-        1e3 * a.rotation_rad, 1e3 * a.point_m);
+        "%.2f ms per iteration; Huber solve %d steps (%s), final solve %s; max |ceres - firmware| %.3g mm, "
+        "%.3g mrad, points %.3g mm",
+        1e3 * c.seconds / (c.huber.iterations + c.final.iterations), c.huber.iterations,
+        c.huber.termination.c_str(), c.final.termination.c_str(), 1e3 * a.position_m, 1e3 * a.rotation_rad,
+        1e3 * a.point_m);
     Row row{names[d],
             c.seconds,
             c.seconds / solve_s,
