@@ -13,7 +13,8 @@
 //   (c) by Ceres on the same problem (ground/adjust/SitePoseCeres.hpp: the same unknowns, rows, datum,
 //       start and points): a first solve under the same Huber loss, then the least-squares solve over the
 //       observations the firmware kept (its rejection flags), from the Huber solution.
-// Every time is the median of --repeat rounds (each round runs every method once, after one untimed round);
+// Every time is the median and the best of --repeat rounds (each round runs every method once, after one
+// untimed round);
 // the heap allocations of the firmware's adjust() are counted (its thread's).
 #include <sys/resource.h>
 
@@ -53,6 +54,16 @@ double median(std::vector<double> v) {
   return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+// Seconds over the rounds: the median, and the best (the least disturbed by the other jobs of the machine).
+struct Timing {
+  double median = -1.0;
+  double best = -1.0;
+};
+
+Timing timing(const std::vector<double>& seconds) {
+  return {median(seconds), *std::min_element(seconds.begin(), seconds.end())};
+}
+
 // RMS over the sites after site 0 (the datum, at its true pose) of the position error against the truth.
 double positionRms(const std::vector<TraverseFromSite>& poses, const std::vector<TraverseFromSite>& truth) {
   double sq = 0.0;
@@ -69,18 +80,21 @@ std::vector<TraverseFromSite> posesOf(const Adjuster& a, bool apriori) {
 
 struct Row {
   std::string solver;
-  double seconds = -1.0;
-  double ratio = -1.0;  // seconds / the firmware's solve alone
+  Timing time;
   std::string iterations;
   double cost = -1.0;
   double position_rms_m = -1.0;
   std::string note;
 };
 
-void printRow(const std::string& problem, const Row& r) {
-  char seconds[32] = "-", ratio[32] = "-", cost[32] = "-", rms[32] = "-";
-  if (r.seconds >= 0.0) std::snprintf(seconds, sizeof seconds, "%.5f", r.seconds);
-  if (r.ratio >= 0.0) std::snprintf(ratio, sizeof ratio, "%.2f", r.ratio);
+// One row; the times against `reference` (the firmware's solve alone), median to median and best to best.
+void printRow(const std::string& problem, const Row& r, const Timing& reference) {
+  char seconds[64] = "-", ratio[64] = "-", cost[32] = "-", rms[32] = "-";
+  if (r.time.median >= 0.0) {
+    std::snprintf(seconds, sizeof seconds, "%.5f / %.5f", r.time.median, r.time.best);
+    std::snprintf(ratio, sizeof ratio, "%.2f / %.2f", r.time.median / reference.median,
+                  r.time.best / reference.best);
+  }
   if (r.cost >= 0.0) std::snprintf(cost, sizeof cost, "%.4f", r.cost);
   if (r.position_rms_m >= 0.0) std::snprintf(rms, sizeof rms, "%.4f", r.position_rms_m);
   std::printf("| %s | %s | %s | %s | %s | %s | %s | %s |\n", problem.c_str(), r.solver.c_str(), seconds,
@@ -234,16 +248,15 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
     }
     window_times.push_back(total / (sites - 1));
   }
-  const double solve_s = median(solve_times);
-  const double full_s = median(full_times);
-  const double window_s = median(window_times);
+  const Timing solve_s = timing(solve_times);
+  const Timing full_s = timing(full_times);
+  const Timing window_s = timing(window_times);
   double window_worst = 0.0;
   for (const std::vector<double>& t : per_add) window_worst = std::max(window_worst, median(t));
   const double firmware_rms = positionRms(posesOf(*ground, false), plan.truth);
   const char* names[3] = {"Ceres 2.1 DENSE_SCHUR, the firmware's stop rules",
                           "Ceres 2.1 SPARSE_SCHUR, the firmware's stop rules",
                           "Ceres 2.1 DENSE_SCHUR, tight tolerances (1e-14)"};
-  for (int d = 0; d < 3; ++d) runs[d].seconds = median(ceres_times[d]);
   const CeresRun& tight = runs[2];
   double rows_rms_px = 0.0;
   const double rows_cost = ground::sitePoseRowsCost(tight.problem, 0.0, &rows_rms_px);
@@ -254,45 +267,39 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
                 6 * (sites - 1) + 3 * static_cast<int>(plan.points.size()));
   std::printf("\n%s\n\n", problem);
   std::printf(
-      "| problem | solver | seconds (median of %d) | x firmware solve | iterations | final cost | position "
-      "RMS vs "
-      "truth m | note |\n|---|---|---|---|---|---|---|---|\n",
+      "| problem | solver | seconds, median / best of %d | x firmware solve (median / best) | iterations | "
+      "final cost | position RMS vs truth m | note |\n|---|---|---|---|---|---|---|---|\n",
       repeat);
-  Row apriori{"a priori (odometry chain)",
-              -1.0,
-              -1.0,
-              "",
-              -1.0,
-              apriori_rms,
-              "5 % of the leg, 2 deg heading per leg"};
-  printRow(problem, apriori);
+  Row apriori{
+      "a priori (odometry chain)", Timing{}, "", -1.0, apriori_rms, "5 % of the leg, 2 deg heading per leg"};
+  printRow(problem, apriori, solve_s);
   char note[400];
   std::snprintf(note, sizeof note,
                 "%s; %.2f ms per iteration; %d rejected in %d rounds; sigma0 %.3f; RMS %.3f px; %llu heap "
                 "allocations in adjust()",
                 solve_result.converged ? "converged" : "NOT converged",
-                1e3 * solve_s / solve_result.iterations_total, solve_result.rejected_observations,
+                1e3 * solve_s.median / solve_result.iterations_total, solve_result.rejected_observations,
                 solve_result.rejection_rounds, solve_result.sigma0, solve_result.rms_px,
                 static_cast<unsigned long long>(heap_solve));
   Row fw_solve{"firmware, whole traverse (GroundSitePoseAdjuster), solve alone",
                solve_s,
-               1.0,
                std::to_string(solve_result.iterations_total) + " (final solve " +
                    std::to_string(solve_result.iterations) + ")",
                solve_result.cost,
                positionRms(solve_poses, plan.truth),
                note};
-  printRow(problem, fw_solve);
-  std::snprintf(note, sizeof note, "+ the sites' covariance %.5f s; %llu heap allocations in adjust()",
-                full_s - solve_s, static_cast<unsigned long long>(heap_full));
+  printRow(problem, fw_solve, solve_s);
+  std::snprintf(
+      note, sizeof note,
+      "+ the sites' covariance %.5f s (difference of the medians); %llu heap allocations in adjust()",
+      full_s.median - solve_s.median, static_cast<unsigned long long>(heap_full));
   Row fw_full{"firmware, whole traverse, default (with covariance)",
               full_s,
-              full_s / solve_s,
               std::to_string(full_result.iterations_total),
               full_result.cost,
               firmware_rms,
               note};
-  printRow(problem, fw_full);
+  printRow(problem, fw_full, solve_s);
   std::snprintf(
       note, sizeof note,
       "per added site (%d adds; the slowest add %.5f s, median over the rounds); %.1f iterations per add; %d "
@@ -302,12 +309,11 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
       rover ? "the rover's SitePoseAdjuster" : "the ground instance (beyond the rover's kMaxSites)");
   Row fw_window{"firmware, sliding window K = " + std::to_string(window) + ", sites added one by one",
                 window_s,
-                window_s / solve_s,
                 "",
                 -1.0,
                 window_run.position_rms_m,
                 note};
-  printRow(problem, fw_window);
+  printRow(problem, fw_window, solve_s);
   for (int d = 0; d < 3; ++d) {
     const CeresRun& c = runs[d];
     const ground::SitePoseDifference a = ground::sitePoseDifference(*ground, c.problem);
@@ -315,18 +321,17 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
         note, sizeof note,
         "%.2f ms per iteration; Huber solve %d steps (%s), final solve %s; max |ceres - firmware| %.3g mm, "
         "%.3g mrad, points %.3g mm",
-        1e3 * c.seconds / (c.huber.iterations + c.final.iterations), c.huber.iterations,
+        1e3 * median(ceres_times[d]) / (c.huber.iterations + c.final.iterations), c.huber.iterations,
         c.huber.termination.c_str(), c.final.termination.c_str(), 1e3 * a.position_m, 1e3 * a.rotation_rad,
         1e3 * a.point_m);
     Row row{names[d],
-            c.seconds,
-            c.seconds / solve_s,
+            timing(ceres_times[d]),
             std::to_string(c.huber.iterations + c.final.iterations) + " (final solve " +
                 std::to_string(c.final.iterations) + ")",
             c.final.cost,
             positionRms(c.problem.poses, plan.truth),
             note};
-    printRow(problem, row);
+    printRow(problem, row, solve_s);
   }
   std::printf(
       "\nagreement at %d sites: final cost firmware %.6f, Ceres (tight) %.6f (relative %.2e), the firmware's "
