@@ -1,6 +1,7 @@
 // The reference solver of the multi-site (traverse) adjustment: the problem of
 // firmware_core/adjust/SitePoseAdjuster.hpp written again, independently, for Ceres, so that the firmware
-// solver can be compared with it on the same problem (areomap-site-pose-bench, SitePoseCeresTest).
+// solver can be compared with it on the same problem (tests/ground/adjust: ground_site_pose_bench,
+// SitePoseCeresTest).
 //
 // The same problem: the same unknowns (per free site its 6-DOF pose, per cross-site point its position in
 // the traverse frame), the same rows (an ideal-pixel observation through the collinearity of a camera that

@@ -1,6 +1,6 @@
 // The Ceres formulation of the multi-site adjustment (ground/adjust/SitePoseCeres.hpp) against the
 // firmware's SitePoseAdjuster on the same 5-site traverses, so that the comparison of
-// areomap-site-pose-bench cannot rot: the two formulations give the same cost at the same state, and reach
+// ground_site_pose_bench cannot rot: the two formulations give the same cost at the same state, and reach
 // the same solution from the same start (least squares; the Huber solve and the firmware's rejections;
 // a sliding window with held sites).
 #include <algorithm>

@@ -1,4 +1,4 @@
-// areomap-site-pose-bench: the multi-site (traverse) adjustment (firmware_core/adjust/SitePoseAdjuster.hpp)
+// ground_site_pose_bench: the multi-site (traverse) adjustment (firmware_core/adjust/SitePoseAdjuster.hpp)
 // against the number of sites and against Ceres on the same problem, side by side in one process.
 //
 // Per number of sites N: one synthetic traverse of the site-pose adjuster's tests
@@ -38,7 +38,7 @@ using namespace areomap;
 using Clock = std::chrono::steady_clock;
 
 const char* kUsage =
-    "usage: areomap-site-pose-bench [--sites 5,10,20] [--repeat 5] [--window 4] [--outliers F] [--seed S]\n"
+    "usage: ground_site_pose_bench [--sites 5,10,20] [--repeat 5] [--window 4] [--outliers F] [--seed S]\n"
     "Prints markdown tables: per number of sites, the firmware's full and windowed solves and Ceres on the\n"
     "same problem (time, iterations, cost, position error vs truth) and their agreement.\n";
 
@@ -361,7 +361,7 @@ std::vector<int32_t> siteList(const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return cli::runTool("areomap-site-pose-bench", argc, argv, kUsage, [](cli::Args& args) {
+  return cli::runTool("ground_site_pose_bench", argc, argv, kUsage, [](cli::Args& args) {
     const std::vector<int32_t> sites = siteList(args.option("--sites", "5,10,20"));
     const int repeat = static_cast<int>(args.integer("--repeat", 5));
     const int32_t window = static_cast<int32_t>(args.integer("--window", 4));
