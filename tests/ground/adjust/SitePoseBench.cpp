@@ -14,8 +14,7 @@
 //       start and points): a first solve under the same Huber loss, then the least-squares solve over the
 //       observations the firmware kept (its rejection flags), from the Huber solution.
 // Every time is the median and the best of --repeat rounds (each round runs every method once, after one
-// untimed round);
-// the heap allocations of the firmware's adjust() are counted (its thread's).
+// untimed round); the heap allocations of the firmware's adjust() are counted (its thread's).
 #include <sys/resource.h>
 
 #include <algorithm>
