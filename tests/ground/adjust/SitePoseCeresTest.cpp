@@ -3,8 +3,6 @@
 // ground_site_pose_bench cannot rot: the two formulations give the same cost at the same state, and reach
 // the same solution from the same start (least squares; the Huber solve and the firmware's rejections;
 // a sliding window with held sites).
-#include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <memory>
 
