@@ -41,9 +41,11 @@ void checkSameSolution(const char* what, const GroundSitePoseAdjuster& adjuster,
       "%.2e m; iterations %d / %d\n",
       what, r.cost, c.cost, d.position_m, d.rotation_rad, d.point_m, r.iterations_total, c.iterations);
   DOUBLES_EQUAL(c.cost, r.cost, 1e-8 * c.cost);
-  CHECK(d.position_m < 1e-5);
+  // Largest seen (x86-64): 2.5e-6 m, 1e-8 rad, points 7.5e-6 m, in the cold window; a formulation that
+  // differs (a row, a weight, the datum) moves them by millimetres or more.
+  CHECK(d.position_m < 2e-5);
   CHECK(d.rotation_rad < 1e-6);
-  CHECK(d.point_m < 1e-5);
+  CHECK(d.point_m < 5e-5);
 }
 
 }  // namespace
