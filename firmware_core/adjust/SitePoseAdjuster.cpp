@@ -570,6 +570,18 @@ Status BasicSitePoseAdjuster<C>::solve(const SitePoseOptions& options, SitePoseR
 }
 
 template <typename C>
+void BasicSitePoseAdjuster<C>::readmitWindowObservations() {
+  for (int32_t p = 0; p < point_count_; ++p) {
+    const CrossSitePoint& pt = points_[p];
+    bool seen_by_free = false;
+    for (int32_t k = 0; k < pt.obs_count && !seen_by_free; ++k)
+      seen_by_free = freeSite(cameras_[observations_[pt.obs[k]].camera].site);
+    if (!seen_by_free) continue;
+    for (int32_t k = 0; k < pt.obs_count; ++k) observations_[pt.obs[k]].rejected = false;
+  }
+}
+
+template <typename C>
 int32_t BasicSitePoseAdjuster<C>::rejectOutliers(const SitePoseOptions& options) {
   int32_t n = 0;
   for (int32_t o = 0; o < observation_count_; ++o) {
@@ -700,6 +712,7 @@ Status BasicSitePoseAdjuster<C>::adjust(const SitePoseOptions& options, SitePose
   result.first_free_site = first_free_;
   result.free_sites = std::max(0, site_count_ - first_free_);
   for (bool& r : resected_) r = false;
+  if (options.robust) readmitWindowObservations();
   preparePoints();
   resectNewSites(result);
   preparePoints();

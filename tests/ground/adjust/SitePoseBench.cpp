@@ -113,12 +113,33 @@ double firmwareFull(GroundSitePoseAdjuster& adjuster, const SitePoseOptions& opt
   return t;
 }
 
+// Rejections against the generator's gross errors: good observations rejected, gross ones caught.
+struct Rejections {
+  int32_t false_rejections = 0;
+  int32_t caught = 0;
+};
+
+template <typename Adjuster>
+Rejections rejectionsOf(const Adjuster& adjuster, const test::TraversePlan& plan,
+                        const test::TraverseLoad& load) {
+  Rejections r;
+  for (std::size_t i = 0; i < plan.observations.size() && i < load.observation.size(); ++i) {
+    if (load.observation[i] < 0 || !adjuster.observation(load.observation[i]).rejected) continue;
+    if (plan.observations[i].outlier)
+      ++r.caught;
+    else
+      ++r.false_rejections;
+  }
+  return r;
+}
+
 struct WindowRun {
   std::vector<double> seconds;  // per added site (sites 1 .. N-1)
   int32_t iterations = 0;       // over all adds
   int32_t rejected = 0;
   uint64_t heap_allocations = 0;
   double position_rms_m = 0.0;  // after the last add
+  Rejections rejections;        // after the last add
 };
 
 // The rover's use: site 0 and 1 loaded, then one site after the other, each followed by adjust() of the
@@ -146,6 +167,7 @@ WindowRun firmwareWindow(const test::TraversePlan& plan, int32_t window, Adjuste
     run.rejected += result.rejected_observations;
   }
   run.position_rms_m = positionRms(posesOf(adjuster, false), plan.truth);
+  run.rejections = rejectionsOf(adjuster, plan, load);
   return run;
 }
 
@@ -253,6 +275,7 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
   double window_worst = 0.0;
   for (const std::vector<double>& t : per_add) window_worst = std::max(window_worst, median(t));
   const double firmware_rms = positionRms(posesOf(*ground, false), plan.truth);
+  const Rejections full_rejections = rejectionsOf(*ground, plan, load);
   const char* names[3] = {"Ceres 2.1 DENSE_SCHUR, the firmware's stop rules",
                           "Ceres 2.1 SPARSE_SCHUR, the firmware's stop rules",
                           "Ceres 2.1 DENSE_SCHUR, tight tolerances (1e-14)"};
@@ -274,11 +297,12 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
   printRow(problem, apriori, solve_s);
   char note[400];
   std::snprintf(note, sizeof note,
-                "%s; %.2f ms per iteration; %d rejected in %d rounds; sigma0 %.3f; RMS %.3f px; %llu heap "
-                "allocations in adjust()",
+                "%s; %.2f ms per iteration; %d rejected in %d rounds (%d of the %d gross errors, %d good); "
+                "sigma0 %.3f; RMS %.3f px; %llu heap allocations in adjust()",
                 solve_result.converged ? "converged" : "NOT converged",
                 1e3 * solve_s.median / solve_result.iterations_total, solve_result.rejected_observations,
-                solve_result.rejection_rounds, solve_result.sigma0, solve_result.rms_px,
+                solve_result.rejection_rounds, full_rejections.caught, gross,
+                full_rejections.false_rejections, solve_result.sigma0, solve_result.rms_px,
                 static_cast<unsigned long long>(heap_solve));
   Row fw_solve{"firmware, whole traverse (GroundSitePoseAdjuster), solve alone",
                solve_s,
@@ -302,8 +326,9 @@ void benchSites(int32_t sites, int repeat, int32_t window, double outliers, uint
   std::snprintf(
       note, sizeof note,
       "per added site (%d adds; the slowest add %.5f s, median over the rounds); %.1f iterations per add; %d "
-      "rejected; %llu heap allocations over all adds; %s",
+      "rejected (%d of the %d gross errors, %d good); %llu heap allocations over all adds; %s",
       sites - 1, window_worst, static_cast<double>(window_run.iterations) / (sites - 1), window_run.rejected,
+      window_run.rejections.caught, gross, window_run.rejections.false_rejections,
       static_cast<unsigned long long>(window_run.heap_allocations),
       rover ? "the rover's SitePoseAdjuster" : "the ground instance (beyond the rover's kMaxSites)");
   Row fw_window{"firmware, sliding window K = " + std::to_string(window) + ", sites added one by one",
