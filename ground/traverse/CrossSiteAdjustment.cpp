@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <set>
 #include <random>
 #include <filesystem>
 #include <fstream>
@@ -109,6 +110,9 @@ std::vector<CrossSiteTie> truthCrossSiteTies(const Traverse& traverse, double no
 
 namespace {
 
+constexpr int32_t kGroundPoints = TraverseCapacity<kMaxGroundSites>::kPoints;
+constexpr int32_t kGroundObservations = TraverseCapacity<kMaxGroundSites>::kObservations;
+
 TraverseFromSite fromSitePose(const SitePose& p) {
   return {p.position_m, p.rotation()};
 }
@@ -139,6 +143,112 @@ struct CameraRef {
 };
 
 }  // namespace
+
+TieSelection selectCrossSiteTies(const std::vector<CrossSiteTie>& ties, int32_t max_points,
+                                 int32_t max_observations) {
+  // Each point's observations, in file order (the first is its source).
+  std::vector<int64_t> order;
+  std::map<int64_t, std::vector<const CrossSiteTie*>> of_point;
+  for (const CrossSiteTie& t : ties) {
+    auto [it, added] = of_point.try_emplace(t.point);
+    if (added) order.push_back(t.point);
+    it->second.push_back(&t);
+  }
+  // Per point: the source, then the other sites' observations and the source site's in turn, at most
+  // kMaxObsPerCrossSitePoint.
+  struct Candidate {
+    std::vector<const CrossSiteTie*> obs;
+    std::string pair;  // the sites it ties, sorted
+    std::string cell;  // its source's image and grid cell
+  };
+  std::map<std::string, std::vector<Candidate>> by_pair;
+  std::map<std::string, std::map<std::string, std::vector<std::size_t>>> cells;  // pair -> cell -> candidates
+  TieSelection out;
+  for (const int64_t id : order) {
+    const std::vector<const CrossSiteTie*>& all = of_point[id];
+    const std::string& home = all.front()->site;
+    std::vector<const CrossSiteTie*> other, same;
+    std::set<std::string> sites;
+    for (std::size_t k = 0; k < all.size(); ++k) {
+      sites.insert(all[k]->site);
+      if (k > 0) (all[k]->site == home ? same : other).push_back(all[k]);
+    }
+    Candidate c;
+    c.obs.push_back(all.front());
+    for (std::size_t k = 0; c.obs.size() < static_cast<std::size_t>(kMaxObsPerCrossSitePoint) &&
+                            (k < other.size() || k < same.size());
+         ++k) {
+      if (k < other.size()) c.obs.push_back(other[k]);
+      if (k < same.size() && c.obs.size() < static_cast<std::size_t>(kMaxObsPerCrossSitePoint))
+        c.obs.push_back(same[k]);
+    }
+    out.observations_left_out += static_cast<int32_t>(all.size() - c.obs.size());
+    for (const std::string& site : sites) c.pair += site + " ";
+    const Vec2& px = all.front()->pixel_px;
+    c.cell = all.front()->image + ":" + std::to_string(static_cast<int>(px.x() / kSelectionCellPx)) + ":" +
+             std::to_string(static_cast<int>(px.y() / kSelectionCellPx));
+    std::vector<Candidate>& list = by_pair[c.pair];
+    cells[c.pair][c.cell].push_back(list.size());
+    list.push_back(std::move(c));
+  }
+  // Every pair of sites gets an equal share of the capacity (what one pair leaves, the others may take),
+  // filled round-robin over its source cells so that a thinned pair keeps its spread over the images.
+  std::map<std::string, std::vector<std::size_t>> queue;  // per pair, the candidates in round-robin order
+  for (auto& [pair, by_cell] : cells) {
+    std::vector<std::size_t>& q = queue[pair];
+    for (std::size_t round = 0;; ++round) {
+      bool any = false;
+      for (auto& [cell, list] : by_cell) {
+        if (round < list.size()) {
+          q.push_back(list[round]);
+          any = true;
+        }
+      }
+      if (!any) break;
+    }
+  }
+  std::vector<const Candidate*> kept;
+  int32_t points = 0, observations = 0;
+  std::map<std::string, std::size_t> next;
+  for (bool progress = true; progress;) {
+    progress = false;
+    const std::size_t pairs_left = std::count_if(
+        queue.begin(), queue.end(), [&](const auto& q) { return next[q.first] < q.second.size(); });
+    if (pairs_left == 0) break;
+    const int32_t share_points =
+        std::max<int32_t>(1, (max_points - points) / static_cast<int32_t>(pairs_left));
+    const int32_t share_obs =
+        std::max<int32_t>(1, (max_observations - observations) / static_cast<int32_t>(pairs_left));
+    for (auto& [pair, q] : queue) {
+      std::size_t& k = next[pair];
+      int32_t p = 0, o = 0;
+      while (k < q.size()) {
+        const Candidate& c = by_pair[pair][q[k]];
+        const int32_t n = static_cast<int32_t>(c.obs.size());
+        if (p + 1 > share_points || o + n > share_obs || points + 1 > max_points ||
+            observations + n > max_observations)
+          break;
+        kept.push_back(&c);
+        ++p;
+        o += n;
+        ++points;
+        observations += n;
+        ++k;
+        progress = true;
+      }
+    }
+  }
+  for (auto& [pair, q] : queue) {
+    for (std::size_t k = next[pair]; k < q.size(); ++k) {
+      ++out.points_left_out;
+      out.observations_left_out += static_cast<int32_t>(by_pair[pair][q[k]].obs.size());
+    }
+  }
+  for (const Candidate* c : kept) {
+    for (const CrossSiteTie* t : c->obs) out.ties.push_back(*t);
+  }
+  return out;
+}
 
 CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<std::string>& models_dir,
                                     const std::vector<CrossSiteTie>& ties, double sigma_px) {
@@ -179,9 +289,12 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
       cameras[{traverse.sites[k].id, f.path().stem().string()}] = ref;
     }
   }
-  // Points and observations.
+  // Points and observations: the ties chosen to fit the adjuster (selectCrossSiteTies).
+  const TieSelection chosen = selectCrossSiteTies(ties, kGroundPoints, kGroundObservations);
+  out.points_left_out = chosen.points_left_out;
+  out.observations_left_out = chosen.observations_left_out;
   std::map<int64_t, int32_t> point_of_id;
-  for (const CrossSiteTie& t : ties) {
+  for (const CrossSiteTie& t : chosen.ties) {
     const auto cam = cameras.find({t.site, t.image});
     Vec2 ideal;
     if (cam == cameras.end() || !ok(pixelToIdeal(cam->second.model, cam->second.camera, t.pixel_px, ideal))) {

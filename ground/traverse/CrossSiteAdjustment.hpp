@@ -42,13 +42,29 @@ void writeCrossSiteTies(const std::string& path, const std::vector<CrossSiteTie>
 // adjustment apart from the matching. Empty when the traverse has no truth.
 std::vector<CrossSiteTie> truthCrossSiteTies(const Traverse& traverse, double noise_px, uint64_t seed);
 
+// The ties the adjuster takes: at most kMaxObsPerCrossSitePoint observations a point (the source, then the
+// other sites' and the source site's in turn) and, when the whole traverse's ties exceed the adjuster's
+// points or observations, an equal share of them per pair of sites, taken round-robin over the source
+// images' grid cells (kSelectionCellPx) so that a thinned pair keeps its spread. (The matcher gives a
+// navcam pair 1000-3000 ties of 8-12 observations; a 6-DOF pose needs far fewer.)
+struct TieSelection {
+  std::vector<CrossSiteTie> ties;
+  int32_t points_left_out = 0;
+  int32_t observations_left_out = 0;  // of the points kept beyond a point's cap, and of the points left out
+};
+inline constexpr double kSelectionCellPx = 64.0;
+TieSelection selectCrossSiteTies(const std::vector<CrossSiteTie>& ties, int32_t max_points,
+                                 int32_t max_observations);
+
 struct CrossSiteAdjustment {
   SitePoseSolution poses;
-  std::vector<SiteDatum> datum;  // per site (known = false: not mapped, or fewer than 2 pairs)
-  int32_t ties_used = 0;      // observations in the adjustment
-  int32_t ties_rejected = 0;  // by its robust rejection
-  int32_t ties_dropped = 0;   // naming an unknown site or image, or not mappable to ideal pixels
-  double method1_px = -1.0;   // mean |residual| of the cross-site observations (pixel distance)
+  std::vector<SiteDatum> datum;       // per site (known = false: not mapped, or fewer than 2 pairs)
+  int32_t ties_used = 0;              // observations in the adjustment
+  int32_t ties_rejected = 0;          // by its robust rejection
+  int32_t ties_dropped = 0;           // naming an unknown site or image, or not mappable to ideal pixels
+  int32_t points_left_out = 0;        // by selectCrossSiteTies (capacity)
+  int32_t observations_left_out = 0;  // by selectCrossSiteTies (a point's cap, capacity)
+  double method1_px = -1.0;           // mean |residual| of the cross-site observations (pixel distance)
   double sigma0 = 0.0;
   bool converged = false;
 };

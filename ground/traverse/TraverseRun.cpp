@@ -381,6 +381,12 @@ TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o
           std::to_string(a.ties_dropped) +
           " cross-site observations name an unknown site or image, or could not be mapped; "
           "left out.");
+    if (a.observations_left_out > 0)
+      result.poses.notes.push_back("The adjustment took at most " + std::to_string(kMaxObsPerCrossSitePoint) +
+                                   " observations of a cross-site point and fit the ties to its capacity: " +
+                                   std::to_string(a.points_left_out) + " points and " +
+                                   std::to_string(a.observations_left_out) +
+                                   " observations left out (CrossSiteAdjustment.hpp selectCrossSiteTies).");
     writeCrossSiteTies(o.out_dir + "/cross_ties.csv", ties);
     result.files.push_back(o.out_dir + "/cross_ties.csv");
   }

@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "firmware_core/base/Capacities.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/sim/TraverseSim.hpp"
@@ -121,4 +123,48 @@ TEST(CrossSiteAdjustment, TheDatumSigmaComesFromTheSitesOwnPointingCorrections) 
   const SiteDatum none = siteDatum(s, s.dir + "/models");
   CHECK(none.known);
   CHECK(none.sigma_rad.norm() < 1e-9);
+}
+
+TEST(CrossSiteAdjustment, TiesAreFittedToTheAdjusterPairByPairAndKeepTheirSpread) {
+  // Three pairs of sites: 400, 400 and 40 points of 10 observations each (source in B, 4 more in B, 5 in
+  // A), the sources on a 20 x 20 grid of 64 px cells. Room for 300 points and 2000 observations.
+  std::vector<CrossSiteTie> ties;
+  const int counts[3] = {400, 400, 40};
+  int64_t id = 0;
+  for (int pair = 0; pair < 3; ++pair) {
+    const std::string a = "site0" + std::to_string(pair + 1), b = "site0" + std::to_string(pair + 2);
+    for (int i = 0; i < counts[pair]; ++i, ++id) {
+      const Vec2 px(32.0 + 64.0 * (i % 20), 32.0 + 64.0 * ((i / 20) % 20));
+      ties.push_back({id, b, "src", px});
+      for (int k = 0; k < 4; ++k) ties.push_back({id, b, "b" + std::to_string(k), px});
+      for (int k = 0; k < 5; ++k) ties.push_back({id, a, "a" + std::to_string(k), px});
+    }
+  }
+  const TieSelection s = selectCrossSiteTies(ties, 300, 2000);
+  std::map<int64_t, std::vector<const CrossSiteTie*>> kept;
+  for (const CrossSiteTie& t : s.ties) kept[t.point].push_back(&t);
+  int per_pair[3] = {};
+  std::set<std::pair<int, int>> cells[3];
+  int observations = 0;
+  for (const auto& [point, obs] : kept) {
+    const int pair = point < 400 ? 0 : point < 800 ? 1 : 2;
+    ++per_pair[pair];
+    observations += static_cast<int>(obs.size());
+    CHECK_EQUAL(kMaxObsPerCrossSitePoint, static_cast<int>(obs.size()));
+    CHECK_EQUAL(std::string("src"), obs.front()->image);  // the source first
+    int in_a = 0;
+    for (const CrossSiteTie* t : obs) in_a += t->image[0] == 'a' ? 1 : 0;
+    CHECK(in_a >= 3);  // both sites kept
+    cells[pair].insert({static_cast<int>(obs.front()->pixel_px.x() / kSelectionCellPx),
+                        static_cast<int>(obs.front()->pixel_px.y() / kSelectionCellPx)});
+  }
+  std::printf("\n  kept %d / %d / %d points (%d observations); %d points and %d observations left out\n",
+              per_pair[0], per_pair[1], per_pair[2], observations, s.points_left_out,
+              s.observations_left_out);
+  CHECK(static_cast<int>(kept.size()) <= 300 && observations <= 2000);
+  CHECK_EQUAL(40, per_pair[2]);                                           // the small pair whole
+  CHECK(per_pair[0] >= 100 && std::abs(per_pair[0] - per_pair[1]) <= 1);  // the rest shared equally
+  CHECK_EQUAL(per_pair[0], static_cast<int>(cells[0].size()));            // one point a cell before a second
+  CHECK_EQUAL(840 - static_cast<int>(kept.size()), s.points_left_out);
+  CHECK_EQUAL(8400 - observations, s.observations_left_out);
 }
