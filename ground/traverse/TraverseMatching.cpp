@@ -84,10 +84,24 @@ TraverseMatching matchTraverse(const Traverse& traverse, const std::vector<std::
       m.error = load_errors[a ? j : i];
     } else {
       const RelativePose apriori = relativePose(traverse.sites[i].apriori, traverse.sites[j].apriori);
-      m.result = findCrossSiteTies(*a, *b, apriori, m.params, next_point);
-      if (truth)
-        m.truth = checkAgainstTruth(m.result, traverse.sites[i], traverse.sites[j], truth->poses[i],
-                                    truth->poses[j]);
+      try {
+        m.result = findCrossSiteTies(*a, *b, apriori, m.params, next_point);
+      } catch (const std::exception& e) {  // one pair's failure costs that pair only
+        m.result = CrossTieResult{};
+        m.result.site_a = traverse.sites[i].id;
+        m.result.site_b = traverse.sites[j].id;
+        m.error = std::string("matching failed: ") + e.what();
+      }
+    }
+    if (m.error.empty() && a && b) {
+      if (truth) {
+        try {
+          m.truth = checkAgainstTruth(m.result, traverse.sites[i], traverse.sites[j], truth->poses[i],
+                                      truth->poses[j]);
+        } catch (const std::exception&) {  // a truth that cannot be read checks nothing
+          m.truth.reset();
+        }
+      }
       for (const CrossTie& t : m.result.ties) {
         out.ties.push_back(t);
         next_point = std::max(next_point, t.point + 1);
