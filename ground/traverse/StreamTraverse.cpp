@@ -102,8 +102,11 @@ TraverseResult finishStreamTraverse(const StreamTraverseInputs& in, const Traver
                        std::to_string(t.sites.size()) + " were announced and accepted.");
   }
   TraverseTruthInput truth;
+  if (o.truth_cross_ties && in.truth_traverse.empty())
+    throw cli::UsageError("--truth-cross-ties needs --truth TRAVERSE (the traverse folder packed)");
   if (!in.truth_traverse.empty()) {
     const Traverse full = readTraverse(in.truth_traverse);
+    truth.folder = full;
     const std::optional<TraverseTruth> all = readTraverseTruth(full.root, full);
     if (all) {
       TraverseTruth subset;

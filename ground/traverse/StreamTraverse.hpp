@@ -32,7 +32,8 @@ struct StreamTraverseInputs {
 };
 
 // Rebuilds the traverse, writes OUT/traverse.json and runs finishTraverse into options.out_dir. Truth (when
-// `truth_traverse` is given): its truth/traverse.json poses of the announced sites and truth/dem.tif.
+// `truth_traverse` is given): its truth/traverse.json poses of the announced sites and truth/dem.tif, and
+// with options.truth_cross_ties its sites' truth/ makes the cross-site ties (cli::UsageError without it).
 TraverseResult finishStreamTraverse(const StreamTraverseInputs& inputs, const TraverseRunOptions& options);
 
 }  // namespace areomap::traverse

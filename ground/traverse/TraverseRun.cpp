@@ -327,7 +327,8 @@ TraverseResult finishTraverse(const Traverse& traverse, std::vector<SiteOutcome>
   result.poses = odometryPoses(traverse);
   std::vector<CrossSiteTie> ties;
   if (!o.cross_ties_csv.empty()) ties = readCrossSiteTies(o.cross_ties_csv);
-  if (o.truth_cross_ties) ties = truthCrossSiteTies(traverse, o.truth_noise_px, 1);
+  if (o.truth_cross_ties)
+    ties = truthCrossSiteTies(truth.folder ? *truth.folder : traverse, o.truth_noise_px, 1);
   if (!ties.empty()) {
     std::vector<std::string> models;
     for (const SiteOutcome& s : result.sites) models.push_back(s.ok ? s.out_dir + "/models" : "");

@@ -79,6 +79,9 @@ inline constexpr double kTruthDemRadiusM = 10.0;  // issue 21: the merged DEM wi
 struct TraverseTruthInput {
   std::optional<TraverseTruth> poses;
   std::string dem_path;
+  // The traverse folder whose sites' truth/ makes truth cross-site ties (--truth-cross-ties); unset: the
+  // traverse mapped itself.
+  std::optional<Traverse> folder;
 };
 // From traverse.root (a synthetic traverse's truth/), nothing when absent.
 TraverseTruthInput readTraverseTruthInput(const Traverse& traverse);

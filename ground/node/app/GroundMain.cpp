@@ -76,6 +76,14 @@ constexpr const char* kUsage =
     "                      does not decode or repeats a site, a pair whose panorama no site announced).\n"
     "                      --truth TRAVERSE: the traverse folder packed (truth/traverse.json, truth/dem.tif\n"
     "                      and each site's truth/)\n"
+    "  --cross-ties FILE   with --traverse: cross-site tie points (CSV point,site,image,sample_px,line_px) "
+    "for\n"
+    "                      the multi-site adjustment of the poses, as areomap-traverse --cross-ties\n"
+    "  --truth-cross-ties  with --traverse --truth TRAVERSE: cross-site ties from the synthetic traverse's "
+    "truth\n"
+    "                      with --noise-px S (default 0.3), as areomap-traverse --truth-cross-ties (a check "
+    "of\n"
+    "                      the adjustment, not a measurement)\n"
     "  --no-record         do not record: by default a live node (udpm://, memq://) appends every message "
     "it\n"
     "                      receives to DIR/received.lcm before handling it; after a crash or kill,\n"
@@ -144,6 +152,9 @@ int main(int argc, char** argv) {
     options.pass.use_rover_ties = !args.flag("--no-rover-ties");
     options.stream_only = args.flag("--stream-only");
     options.traverse = args.flag("--traverse");
+    const std::string cross_ties = args.option("--cross-ties", "");
+    const bool truth_cross_ties = args.flag("--truth-cross-ties");
+    const double noise_px = args.number("--noise-px", 0.3);
 #ifdef AREOMAP_HAVE_PRODUCTS
     if (!no_products) options.pass.products_hook = ground::makePassProducts;
 #else
@@ -161,6 +172,11 @@ int main(int argc, char** argv) {
 #endif
     if (options.traverse && !lcm)
       throw cli::UsageError("--traverse needs --lcm (for a traverse folder: areomap-traverse)");
+    if (!options.traverse && (truth_cross_ties || !cross_ties.empty()))
+      throw cli::UsageError("--cross-ties and --truth-cross-ties go with --traverse");
+    if (truth_cross_ties && !cross_ties.empty())
+      throw cli::UsageError("give at most one of --cross-ties FILE and --truth-cross-ties");
+    (void)noise_px;              // used by the traverse steps only
     std::string truth_traverse;  // --truth naming a traverse folder
     if (options.traverse && !options.pass.truth_dir.empty()) {
       const std::string& t = options.pass.truth_dir;
@@ -262,6 +278,9 @@ int main(int argc, char** argv) {
         traverse::TraverseRunOptions o;
         o.out_dir = out;
         o.products = !no_products;
+        o.cross_ties_csv = cross_ties;
+        o.truth_cross_ties = truth_cross_ties;
+        o.truth_noise_px = noise_px;
         cli::info("traverse: " + std::to_string(mapped_sites.size()) +
                   " site(s) mapped; poses, merged map, report");
         const traverse::TraverseResult r = traverse::finishStreamTraverse(in, o);
