@@ -17,6 +17,7 @@
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/Traverse.hpp"
 #include "ground/pack/Pack.hpp"
+#include "ground/traverse/StreamTraverse.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
 #include "msgs/adapters/MessageAdapters.hpp"
@@ -275,4 +276,70 @@ TEST(StreamTraverseGround, PairOfAnUnannouncedPanoramaCounted) {
   for (const json& w : r["warnings"])
     planned = planned || w.get<std::string>().find("plans 2 sites") != std::string::npos;
   CHECK_TRUE(planned);
+}
+
+TEST_GROUP(StreamTraverseAnnouncements){};
+
+namespace {
+
+// The announcement of site k of a hand-made 3-site traverse (what areomap-pack sends for it).
+areomap::site_t announcement(int k) {
+  static const double position[3][3] = {{0, 0, 0}, {10.0, 2.0, 0.1}, {18.0, 9.0, 0.3}};
+  static const double heading[3] = {0.0, 20.0, 50.0};
+  areomap::site_t s{};
+  s.sequence = k;
+  s.traverse = "hand";
+  s.site_id = "site0" + std::to_string(k + 1);
+  s.site_index = k;
+  s.sites_planned = 3;
+  s.panorama = "hand-" + s.site_id;
+  for (int c = 0; c < 3; ++c) s.position_m[c] = position[k][c];
+  s.heading_deg = heading[k];
+  s.has_odometry = k > 0;
+  if (k > 0) {
+    s.odometry_from = "site0" + std::to_string(k);
+    s.delta_m[0] = 9.0;  // not used where the chain is whole: the leg is taken as announced
+    s.delta_heading_deg = heading[k] - heading[k - 1];
+    s.distance_m = 10.0;
+    s.sigma_m[0] = s.sigma_m[1] = 0.5;
+    s.sigma_m[2] = 0.1;
+    s.sigma_heading_deg = 2.0;
+  }
+  s.is_last = k == 2;
+  return s;
+}
+
+}  // namespace
+
+// The traverse the announcements describe: the sites in index order (whatever the arrival order), each leg as
+// announced; where the site before was not announced, the leg from the previous announced site is the
+// relative a-priori pose (so the chained poses are the announced ones), sigmas x sqrt(2) and distance x 2
+// over the two legs it spans, with a warning.
+TEST(StreamTraverseAnnouncements, TraverseRebuiltAndABrokenChainBridged) {
+  std::vector<std::string> warnings;
+  const areomap::Traverse whole = areomap::traverse::traverseFromAnnouncements(
+      {announcement(2), announcement(0), announcement(1)}, "/x", warnings);
+  CHECK_EQUAL(3u, whole.sites.size());
+  CHECK_TRUE(warnings.empty());
+  STRCMP_EQUAL("site02", whole.sites[1].id.c_str());
+  STRCMP_EQUAL("sites/site02/stream", whole.sites[1].path.c_str());
+  DOUBLES_EQUAL(9.0, whole.sites[2].odometry->delta_m.x(), 0.0);
+  DOUBLES_EQUAL(30.0 * M_PI / 180.0, whole.sites[2].odometry->delta_heading_rad, 1e-12);
+  DOUBLES_EQUAL(20.0, whole.distanceDrivenM(), 1e-12);
+
+  const areomap::Traverse bridged =
+      areomap::traverse::traverseFromAnnouncements({announcement(0), announcement(2)}, "/x", warnings);
+  CHECK_EQUAL(2u, bridged.sites.size());
+  CHECK_EQUAL(1u, warnings.size());
+  CHECK_TRUE(warnings[0].find("site02, which was not announced") != std::string::npos);
+  const areomap::OdometryLeg& leg = *bridged.sites[1].odometry;
+  STRCMP_EQUAL("site01", leg.from.c_str());
+  // Site 1 is the identity: the leg is site 3's a-priori position and heading.
+  DOUBLES_EQUAL(18.0, leg.delta_m.x(), 1e-12);
+  DOUBLES_EQUAL(9.0, leg.delta_m.y(), 1e-12);
+  DOUBLES_EQUAL(0.3, leg.delta_m.z(), 1e-12);
+  DOUBLES_EQUAL(50.0 * M_PI / 180.0, leg.delta_heading_rad, 1e-12);
+  DOUBLES_EQUAL(0.5 * std::sqrt(2.0), leg.sigma_m.x(), 1e-12);
+  DOUBLES_EQUAL(2.0 * std::sqrt(2.0) * M_PI / 180.0, leg.sigma_heading_rad, 1e-12);
+  DOUBLES_EQUAL(20.0, leg.distance_m, 1e-12);
 }
