@@ -9,6 +9,9 @@ ROOT=$(pwd)
 usage() {
   cat <<'EOF'
 usage: ./run.sh [--dataset DIR | --preset NAME] [--out DIR] [--speed S] [--transport auto|udpm|netns|file]
+       ./run.sh --traverse [--sites N] [--camera C] [--seed S] [--truth-cross-ties] [--out DIR] [--speed S]
+                [--transport T]
+       ./run.sh --dataset TRAVERSE_DIR (a folder with traverse.json: as --traverse on it)
 
 Makes (or reuses) a dataset, packs it into an LCM log, starts areomap-ground and areomap-rover on a udpm
 URL of loopback (ttl=0, 8 MiB receive buffers), replays the log with stock lcm-logplayer, waits for the
@@ -23,11 +26,38 @@ products and prints a summary; the last line is `products: <dir>`.
                   network namespace (unshare -n, lo up, route 239.0.0.0/8 dev lo), else file replay
                   (the ground reads the log itself; the rover replays it apart)
   --build DIR     build folder with bin/ (default build, or $AREOMAP_BUILD_DIR)
+
+A multi-site traverse over the same stream (issue 21): --traverse makes (or reuses) a traverse with
+areomap-sim --preset traverse into OUT/traverse-C-sN-seedS, packs it (each site announced on AREOMAP_SITE,
+then its pairs and end-of-panorama marker), and the two nodes map it site after site: the rover adjusts and
+publishes each site's pass as it arrives, the ground (areomap-ground --traverse) writes each site's
+products into OUT/products-NAME/sites/<id>/ and, after the last site, the traverse steps of
+areomap-traverse (poses.csv, the merged dem.tif / dem_sigma.tif / ortho.tif, report.json). The summary gives
+the sites, the distance driven, the position error a priori and after, the cross-site ties and the merged
+DEM's RMSE against the truth.
+
+  --traverse      map a multi-site traverse (above)
+  --sites N       sites of the simulated traverse (default 3)
+  --camera C      camera preset of each site: tiny (default), imp, navcam, fido. tiny because the whole
+                  run (3 sites simulated, packed, both nodes, every site's dense DEM, the merged map) took
+                  1 min 40 s on 2 shared cores; a navcam site has up to 5 min of simulation and 10 min of
+                  ground pass in the DESIGN.md budgets, so 3 navcam sites would take up to ~45 min
+  --seed S        traverse seed (default 1)
+  --truth-cross-ties  the sites' poses from the multi-site adjustment with cross-site ties made from the
+                  synthetic traverse's truth (0.3 px noise; areomap-traverse --truth-cross-ties): a check
+                  of the adjustment, not a measurement. Without it the poses are the odometry's (the
+                  automatic cross-site matcher, areomap-cross-ties, is not run by the job; on the tiny
+                  camera it finds no ties), so the position error after equals the a-priori one
 EOF
 }
 
 DATASET=""
 PRESET=navcam
+TRAVERSE=0
+CROSS_TIES=()
+SITES=3
+CAMERA=tiny
+SEED=1
 OUT=out
 SPEED=0
 TRANSPORT=auto
@@ -42,10 +72,20 @@ while [[ $# -gt 0 ]]; do
     --speed) SPEED=${2:?--speed needs a number}; shift 2 ;;
     --transport) TRANSPORT=${2:?--transport needs auto, udpm, netns or file}; shift 2 ;;
     --build) BUILD=${2:?--build needs a folder}; shift 2 ;;
+    --traverse) TRAVERSE=1; shift ;;
+    --sites) SITES=${2:?--sites needs a number}; shift 2 ;;
+    --camera) CAMERA=${2:?--camera needs a preset}; shift 2 ;;
+    --seed) SEED=${2:?--seed needs a number}; shift 2 ;;
+    --truth-cross-ties) CROSS_TIES=(--truth-cross-ties); shift ;;
     *) echo "run: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
 case "$TRANSPORT" in auto|udpm|netns|file|netns-inner) ;; *) echo "run: --transport: '$TRANSPORT'" >&2; exit 2 ;; esac
+
+[[ "$SITES" =~ ^[0-9]+$ && "$SITES" -ge 1 ]] || { echo "run: --sites: '$SITES' is not a whole number >= 1" >&2; exit 2; }
+[[ "$SEED" =~ ^[0-9]+$ ]] || { echo "run: --seed: '$SEED' is not a whole number" >&2; exit 2; }
+case "$CAMERA" in tiny|imp|navcam|fido) ;; *) echo "run: --camera: '$CAMERA' (tiny, imp, navcam or fido)" >&2; exit 2 ;; esac
+[[ -n "$DATASET" && -f "$DATASET/traverse.json" ]] && TRAVERSE=1
 
 BIN="$BUILD/bin"
 TOOLS=(areomap-sim areomap-pack areomap-rover areomap-ground)
@@ -64,36 +104,54 @@ command -v lcm-logplayer > /dev/null || { echo "run: lcm-logplayer not found (De
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
 
-# 1. The dataset.
+# 1. The dataset (INDEX: panorama.json, or traverse.json for a traverse).
+INDEX=panorama.json
+[[ $TRAVERSE -eq 1 ]] && INDEX=traverse.json
+# simulate: areomap-sim $SIM_OPTIONS into $DATASET, reused when $DATASET/$INDEX exists and was made with the
+# same options ($DATASET.options).
+simulate() {
+  [[ "$TRANSPORT" == netns-inner ]] && return 0
+  if [[ -f "$DATASET/$INDEX" && -f "$DATASET.options" && "$(cat "$DATASET.options")" == "$SIM_OPTIONS" ]]; then
+    echo "run: reusing $DATASET (areomap-sim $SIM_OPTIONS)"
+    return 0
+  fi
+  echo "run: areomap-sim $SIM_OPTIONS --out $DATASET"
+  rm -rf "$DATASET" "$DATASET.options"
+  local start
+  start=$(date +%s)
+  "$BIN/areomap-sim" $SIM_OPTIONS --out "$DATASET"
+  echo "$SIM_OPTIONS" > "$DATASET.options"
+  echo "run: dataset made in $(( $(date +%s) - start )) s"
+}
 if [[ -n "$DATASET" ]]; then
-  [[ -f "$DATASET/panorama.json" ]] || { echo "run: $DATASET/panorama.json: no such file" >&2; exit 1; }
+  [[ -f "$DATASET/$INDEX" ]] || { echo "run: $DATASET/$INDEX: no such file" >&2; exit 1; }
   DATASET=$(cd "$DATASET" && pwd)
   NAME=$(basename "$DATASET")
+elif [[ $TRAVERSE -eq 1 ]]; then
+  NAME="traverse-$CAMERA-s$SITES-seed$SEED"
+  DATASET="$OUT/$NAME"
+  SIM_OPTIONS="--preset traverse --camera $CAMERA --sites $SITES --seed $SEED"
+  simulate
 else
   NAME=$PRESET
   DATASET="$OUT/$PRESET"
   SIM_OPTIONS="--preset $PRESET --seed 1"
-  if [[ "$TRANSPORT" != netns-inner ]]; then
-    if [[ -f "$DATASET/panorama.json" && -f "$DATASET.options" && "$(cat "$DATASET.options")" == "$SIM_OPTIONS" ]]; then
-      echo "run: reusing $DATASET (areomap-sim $SIM_OPTIONS)"
-    else
-      echo "run: areomap-sim $SIM_OPTIONS --out $DATASET"
-      rm -rf "$DATASET" "$DATASET.options"
-      start=$(date +%s)
-      "$BIN/areomap-sim" $SIM_OPTIONS --out "$DATASET"
-      echo "$SIM_OPTIONS" > "$DATASET.options"
-      echo "run: dataset made in $(( $(date +%s) - start )) s"
-    fi
-  fi
+  simulate
 fi
 TRUTH=()
 [[ -d "$DATASET/truth" ]] && TRUTH=(--truth "$DATASET")
+GROUND_MODE=()
+[[ $TRAVERSE -eq 1 ]] && GROUND_MODE=(--traverse "${CROSS_TIES[@]}")
+if [[ ${#CROSS_TIES[@]} -gt 0 && ( $TRAVERSE -ne 1 || ${#TRUTH[@]} -eq 0 ) ]]; then
+  echo "run: --truth-cross-ties needs a traverse with truth/" >&2
+  exit 2
+fi
 LOG="$OUT/$NAME.lcm"
 PRODUCTS="$OUT/products-$NAME"
 
 # 2. The camera stream as an LCM log.
 if [[ "$TRANSPORT" != netns-inner ]]; then
-  if [[ -f "$LOG" && "$LOG" -nt "$DATASET/panorama.json" ]]; then
+  if [[ -f "$LOG" && "$LOG" -nt "$DATASET/$INDEX" ]]; then
     echo "run: reusing $LOG"
   else
     echo "run: areomap-pack $DATASET --out $LOG"
@@ -128,7 +186,7 @@ run_udpm() {
     echo "run: warning: net.core.rmem_max is $rmem (< $RECV_BUF_BYTES) and this is not root: a full-speed replay may lose pairs (counted as gaps)"
   fi
   echo "run: url $url"
-  timed ground "$BIN/areomap-ground" --lcm "$url" --out "$PRODUCTS" "${TRUTH[@]}" \
+  timed ground "$BIN/areomap-ground" --lcm "$url" --out "$PRODUCTS" "${TRUTH[@]}" "${GROUND_MODE[@]}" \
     > "$OUT/ground.out" 2> "$OUT/ground.log" &
   local ground=$!
   timed rover "$BIN/areomap-rover" --lcm "$url" --exit-at-end --quiet \
@@ -164,7 +222,7 @@ run_file() {
   echo "run: file replay: the rover replays the log apart (its figures in $OUT/rover.log); the ground reads the log itself"
   timed rover "$BIN/areomap-rover" --lcm "file://$LOG" --quiet \
     > "$OUT/rover.out" 2> "$OUT/rover.log" || echo "run: areomap-rover exited with $? (see $OUT/rover.log)"
-  timed ground "$BIN/areomap-ground" --lcm "file://$LOG" --out "$PRODUCTS" "${TRUTH[@]}" \
+  timed ground "$BIN/areomap-ground" --lcm "file://$LOG" --out "$PRODUCTS" "${TRUTH[@]}" "${GROUND_MODE[@]}" \
     > "$OUT/ground.out" 2> "$OUT/ground.log" || { tail -n 20 "$OUT/ground.log" >&2; return 1; }
 }
 
@@ -195,6 +253,50 @@ case "$TRANSPORT" in
 esac
 
 # 4. The summary.
+if [[ $TRAVERSE -eq 1 ]]; then
+  python3 - "$PRODUCTS" "$RAN" "$OUT" <<'EOF'
+import json, os, sys
+products, ran, out = sys.argv[1], sys.argv[2], sys.argv[3]
+r = json.load(open(os.path.join(products, "report.json")))
+t = r.get("traverse", {})
+s = r.get("stream", {})
+def num(v, fmt):
+    return fmt % v if isinstance(v, (int, float)) else "n/a"
+def rss(name):
+    try:
+        return "%.0f MiB" % (int(open(os.path.join(out, name + ".rss")).read().split()[-1]) / 1024)
+    except Exception:
+        return "n/a"
+print("=" * 78)
+print("transport: %s" % ran)
+mapped = sum(1 for x in t.get("site", []) if x.get("mapped"))
+print("traverse:  %s sites (%d mapped), %s m driven; site announcements %s accepted, rejected %s" % (
+    t.get("sites"), mapped, num(t.get("distance_m"), "%.1f"), s.get("sites_announced"), s.get("rejected") or "none"))
+print("position:  error %s m a priori (%s %% of the distance) -> %s m after (%s %%)" % (
+    num(t.get("position_error_apriori_m"), "%.3f"), num(t.get("position_error_apriori_pct"), "%.2f"),
+    num(t.get("position_error_m"), "%.3f"), num(t.get("position_error_pct"), "%.2f")))
+print("ties:      cross-site ties %s (method 1 %s px)" % (t.get("cross_site_ties"), num(t.get("cross_site_method1_px"), "%.3f")))
+tr = r.get("truth", {})
+print("dem:       merged DEM RMSE against the truth %s m over %s cells (within %s m of a site)" % (
+    num(tr.get("dem_rmse_m"), "%.3f"), tr.get("dem_cells", "n/a"), tr.get("dem_radius_m", "n/a")))
+for x in t.get("site", []):
+    rep = os.path.join(products, "sites", x["id"], "report.json")
+    rv, st = {}, {}
+    if os.path.exists(rep):
+        sr = json.load(open(rep))
+        rv, st = sr.get("rover", {}), sr.get("stream", {})
+    print("site %s: %s, method 1 %s px, truth EO %s px, %s pairs; rover heap after start-up %s, EO vs ground %s px" % (
+        x["id"], "mapped" if x.get("mapped") else "NOT mapped (%s)" % x.get("error"), num(x.get("method1_px"), "%.3f"),
+        num(x.get("truth_eo_px"), "%.3f"), st.get("pairs", "n/a"), rv.get("heap_allocs_after_init", "n/a"),
+        num(rv.get("eo_vs_ground_px"), "%.4f")))
+print("memory:    peak RSS ground %s, rover %s" % (rss("ground"), rss("rover")))
+for w in r.get("warnings", [])[:6]:
+    print("warning:   " + w)
+print("=" * 78)
+EOF
+  echo "products: $PRODUCTS"
+  exit 0
+fi
 python3 - "$PRODUCTS/report.json" "$RAN" "$OUT" <<'EOF'
 import json, os, sys
 path, ran, out = sys.argv[1], sys.argv[2], sys.argv[3]

@@ -9,5 +9,7 @@ constexpr const char* kEoSolution = "AREOMAP_EO_SOLUTION";    // areomap::eo_sol
 constexpr const char* kCoarseDem = "AREOMAP_COARSE_DEM";      // areomap::coarse_dem_t (rover)
 constexpr const char* kRoverStatus = "AREOMAP_ROVER_STATUS";  // areomap::rover_status_t (rover)
 constexpr const char* kProduct = "AREOMAP_PRODUCT";           // areomap::product_t (ground manifest)
+constexpr const char* kSite =
+    "AREOMAP_SITE";  // areomap::site_t (camera stream: a traverse site, before its pairs)
 
 }  // namespace areomap::channels

@@ -8,7 +8,7 @@ namespace {
 
 // Bounds of the schema tables (sized for msgs/*.lcm with room to grow; a schema beyond them fails to parse
 // and every check then returns kUnsupported, which the schema test catches).
-constexpr int32_t kMaxTypes = 16;       // message and nested types (9 today)
+constexpr int32_t kMaxTypes = 16;       // message and nested types (10 today)
 constexpr int32_t kMaxFields = 32;      // fields per type, const members not stored (26 today)
 constexpr int32_t kMaxNameChars = 40;   // identifier length + NUL
 constexpr int32_t kMaxDims = 2;         // array dimensions per field (1 today)
@@ -280,7 +280,9 @@ int32_t primitiveBytes(Kind kind) {
 }
 
 // Recursion is bounded by kMaxNesting (nested types cannot be cyclic in LCM, and the depth is checked).
-Status walkType(const Schema& schema, int32_t type_index, Cursor& cursor, int32_t depth) {
+// `longest_string` grows to the longest string walked (characters without the NUL).
+Status walkType(const Schema& schema, int32_t type_index, Cursor& cursor, int32_t depth,
+                int64_t& longest_string) {
   if (depth >= kMaxNesting) return Status::kCorruptData;
   const Type& type = schema.types[type_index];
   int64_t values[kMaxFields] = {0};
@@ -305,11 +307,12 @@ Status walkType(const Schema& schema, int32_t type_index, Cursor& cursor, int32_
         if (std::memchr(cursor.data + cursor.pos, 0, static_cast<std::size_t>(length - 1)) != nullptr) {
           return Status::kCorruptData;
         }
+        if (length - 1 > longest_string) longest_string = length - 1;
         cursor.pos += length;
       }
     } else if (field.kind == Kind::kStruct) {
       for (int64_t i = 0; i < count; ++i) {
-        const Status status = walkType(schema, field.struct_index, cursor, depth + 1);
+        const Status status = walkType(schema, field.struct_index, cursor, depth + 1, longest_string);
         if (!ok(status)) return status;
       }
     } else {
@@ -328,6 +331,13 @@ Status walkType(const Schema& schema, int32_t type_index, Cursor& cursor, int32_
 }  // namespace
 
 Status checkEncoding(const char* type_name, uint64_t hash, const uint8_t* data, std::size_t size) {
+  int64_t longest_string = 0;
+  return checkEncoding(type_name, hash, data, size, longest_string);
+}
+
+Status checkEncoding(const char* type_name, uint64_t hash, const uint8_t* data, std::size_t size,
+                     int64_t& longest_string_chars) {
+  longest_string_chars = 0;
   const Schema& s = schema();
   if (s.error[0] != '\0') return Status::kUnsupported;
   if (type_name == nullptr || data == nullptr) return Status::kInvalidArgument;
@@ -337,7 +347,7 @@ Status checkEncoding(const char* type_name, uint64_t hash, const uint8_t* data, 
   Cursor cursor{data, static_cast<int64_t>(size), 0};
   if (cursor.left() < 8) return Status::kTruncated;
   if (static_cast<uint64_t>(cursor.readSigned(8)) != hash) return Status::kCorruptData;
-  const Status status = walkType(s, type_index, cursor, 0);
+  const Status status = walkType(s, type_index, cursor, 0, longest_string_chars);
   if (!ok(status)) return status;
   return cursor.pos == cursor.size ? Status::kOk : Status::kCorruptData;
 }

@@ -30,6 +30,12 @@ namespace areomap::msgs {
 [[nodiscard]] Status checkEncoding(const char* type_name, uint64_t hash, const uint8_t* data,
                                    std::size_t size);
 
+// The same, and the longest string of the message in characters (its NUL not counted; 0 when it has none),
+// so that a receiver whose strings are reserved at start-up can refuse a longer one before decode() would
+// grow it on the heap. `longest_string_chars` is meaningful only when the result is kOk.
+[[nodiscard]] Status checkEncoding(const char* type_name, uint64_t hash, const uint8_t* data,
+                                   std::size_t size, int64_t& longest_string_chars);
+
 // Types found in the embedded schema, and the parse error ("" when none): for tests.
 int32_t schemaTypeCount();
 const char* schemaError();

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 #include "msgs/MessageCheck.hpp"
 
@@ -40,6 +41,11 @@ void RoverNode::start(platform::Transport& out, platform::JpegCodec& codec, cons
   eo_.images.resize(kMaxImages);
   for (eo_entry_t& e : eo_.images) e.stem.reserve(kMaxMessageStringChars + 1);
   status_.last_error.reserve(sizeof(last_error_));
+  prepareSite(site_in_);
+  site_panorama_[0] = '\0';
+  ended_panorama_[0] = '\0';
+  site_announced_ = false;
+  last_site_announced_ = false;
   counters_ = RoverCounters{};
   sequence_count_ = 0;
   sequence_head_ = 0;
@@ -170,6 +176,7 @@ void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
   }
   if (in_.kind == stereo_pair_t::KIND_END_OF_PANORAMA) {
     counters_.end_markers += 1;
+    copyText(in_.panorama.c_str(), ended_panorama_, sizeof(ended_panorama_));
     finishPanorama();
     return;
   }
@@ -178,6 +185,35 @@ void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
     return;
   }
   processPair(in_.sequence);
+}
+
+void RoverNode::handleSite(const uint8_t* data, std::size_t size) {
+  const char* field = "";
+  const Status s = data == nullptr ? Status::kInvalidArgument : decodeSite(data, size, site_in_, field);
+  if (!ok(s)) {
+    const int32_t c = static_cast<int32_t>(s);
+    if (c > 0 && c < static_cast<int32_t>(Status::kCount)) counters_.rejected_by_cause[c] += 1;
+    counters_.sites_rejected += 1;
+    std::snprintf(last_error_, sizeof(last_error_), "site announcement: %s: %s", statusName(s), field);
+    if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
+    publishStatus();
+    return;
+  }
+  counters_.sites_announced += 1;
+  copyText(site_in_.panorama.c_str(), site_panorama_, sizeof(site_panorama_));
+  site_announced_ = true;
+  last_site_announced_ = site_in_.is_last;
+  if (options_.log_to_stderr) {
+    std::fprintf(stderr, "areomap-rover: site %s (%d/%d), panorama %s%s\n", site_in_.site_id.c_str(),
+                 static_cast<int>(site_in_.site_index + 1), static_cast<int>(site_in_.sites_planned),
+                 site_panorama_, site_in_.is_last ? ", the last" : "");
+  }
+}
+
+bool RoverNode::endOfRun() const {
+  if (!counters_.finished) return false;
+  if (!site_announced_) return true;
+  return last_site_announced_ && std::strcmp(ended_panorama_, site_panorama_) == 0;
 }
 
 Status RoverNode::decodeSide(const stereo_image_t& side, uint8_t* pixels, int32_t& width, int32_t& height) {

@@ -14,6 +14,11 @@
 // stderr and in last_error), a sequence seen before is a duplicate (dropped), a sequence below the
 // highest seen but not seen before is reordered (processed). After the end-of-panorama marker, sequence 0
 // starts a new stream and a new panorama.
+//
+// A traverse (areomap-pack of a traverse.json): each site is announced on AREOMAP_SITE (handleSite) before
+// its pairs, which form a panorama of their own (sequences from 0); the node maps site after site, resetting
+// the panorama's workspaces (no heap) at the first pair after an end marker. endOfRun() is true after the
+// end marker of the last announced site's panorama (or of any panorama when no site was announced).
 #pragma once
 
 #include <cstddef>
@@ -23,6 +28,7 @@
 #include "areomap/coarse_dem_t.hpp"
 #include "areomap/eo_solution_t.hpp"
 #include "areomap/rover_status_t.hpp"
+#include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "areomap/tiepoints_t.hpp"
 #include "firmware_core/adjust/FastAdjuster.hpp"
@@ -72,13 +78,14 @@ constexpr int64_t kCoarseDem = kStringBytes + static_cast<int64_t>(kCoarseDemCel
 constexpr int64_t kEo =
     kStringBytes + kImages * static_cast<int64_t>(sizeof(eo_entry_t)) + kImages * kStringBytes;
 constexpr int64_t kStatus = kMaxLastErrorChars + 2;
-// stereo pair 5, tie points 1 + 1 + kImages + 5, coarse DEM 2, EO 1 + 1 + kImages, status 1.
-constexpr int64_t kAllocations = 5 + (7 + kImages) + 2 + (2 + kImages) + 1;
+constexpr int64_t kSite = 4 * kStringBytes;  // traverse, site id, panorama, odometry_from
+// stereo pair 5, tie points 1 + 1 + kImages + 5, coarse DEM 2, EO 1 + 1 + kImages, status 1, site 4.
+constexpr int64_t kAllocations = 5 + (7 + kImages) + 2 + (2 + kImages) + 1 + 4;
 constexpr int64_t kAllocatorBytes = 32 * kAllocations + 2 * 4096;
 }  // namespace rover_reserve
-constexpr int64_t kRoverStartupReserveBytes = rover_reserve::kStereoPair + rover_reserve::kTiePoints +
-                                              rover_reserve::kCoarseDem + rover_reserve::kEo +
-                                              rover_reserve::kStatus + rover_reserve::kAllocatorBytes;
+constexpr int64_t kRoverStartupReserveBytes =
+    rover_reserve::kStereoPair + rover_reserve::kTiePoints + rover_reserve::kCoarseDem + rover_reserve::kEo +
+    rover_reserve::kStatus + rover_reserve::kSite + rover_reserve::kAllocatorBytes;
 
 enum class RoverStage : uint8_t {
   kDecode = 0,
@@ -103,6 +110,8 @@ struct RoverCounters {
   int32_t tie_overflow = 0;  // observations not sent for lack of message room
   int32_t publish_failures = 0;
   int32_t end_markers = 0;
+  int32_t sites_announced = 0;  // AREOMAP_SITE announcements accepted
+  int32_t sites_rejected = 0;   // ... refused (also in rejected_by_cause)
   double stage_seconds[8] = {};
   double panorama_seconds = 0.0;  // first pair message to the final EO
   int32_t last_sweeps = 0;
@@ -123,6 +132,12 @@ class RoverNode {
 
   // One AREOMAP_STEREO_PAIR message (the bytes as received). Never fails: problems are counted.
   void handleStereoPair(const uint8_t* data, std::size_t size);
+  // One AREOMAP_SITE message: a traverse site announced before its pairs. Never fails: a bad one is counted
+  // (sites_rejected and rejected_by_cause) with a line on stderr.
+  void handleSite(const uint8_t* data, std::size_t size);
+  // True after the end marker of the last announced site's panorama, or of any panorama when no site was
+  // announced (a single-panorama stream): what --exit-at-end waits for.
+  bool endOfRun() const;
   // Publishes AREOMAP_ROVER_STATUS now (the 1 Hz heartbeat).
   void heartbeat();
   // Heap figures to report: allocations of the pipeline thread after start-up and of the whole process.
@@ -202,7 +217,14 @@ class RoverNode {
   coarse_dem_t dem_;
   eo_solution_t eo_;
   rover_status_t status_;
+  site_t site_in_;
   int64_t extra_static_bytes_ = 0;
+
+  // Traverse state: the last site announced (its panorama name, and whether it is the traverse's last).
+  char site_panorama_[kMaxMessageStringChars + 1] = {0};
+  char ended_panorama_[kMaxMessageStringChars + 1] = {0};  // named by the last end-of-panorama marker
+  bool site_announced_ = false;
+  bool last_site_announced_ = false;
 
   // Panorama state.
   char panorama_[kMaxMessageStringChars + 1] = {0};

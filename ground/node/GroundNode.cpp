@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <stdexcept>
 #include <vector>
 
 #include "ground/cli/Cli.hpp"
@@ -17,7 +18,8 @@ constexpr int32_t kPollMs = 100;
 constexpr double kNoRoverWaitS = 5.0;  // after the end marker, when nothing ever came from a rover
 
 int64_t epochMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
@@ -25,8 +27,9 @@ enum class Collected { kPanorama, kStreamEnded, kNothing };
 
 // Handles messages until one panorama is complete (its end marker and the rover's final EO, bounded
 // waits), the stream ends, or it goes quiet. kNothing when no pair was kept.
-Collected collectPanorama(platform::Transport& transport, const std::string& url, const GroundNodeOptions& options,
-                          const StreamCollector& collector, bool first_panorama, double& receive_seconds) {
+Collected collectPanorama(platform::Transport& transport, const std::string& url,
+                          const GroundNodeOptions& options, const StreamCollector& collector,
+                          bool first_panorama, double& receive_seconds) {
   const double start = cli::nowSeconds();
   double first = -1.0, last_message = start, end_seen = -1.0, last_rover = -1.0;
   int64_t last_count = 0;
@@ -79,16 +82,21 @@ Collected collectPanorama(platform::Transport& transport, const std::string& url
       if (options.log_replay) continue;  // what the rover sent is further on in the log, if anywhere
       // A rover that was heard may work minutes on a pair without a word; one never heard is not waited for.
       const double rover_quiet = now - (last_rover >= 0 ? last_rover : end_seen);
-      if (rover_quiet > (last_rover >= 0 ? options.rover_silent_s : std::min(options.rover_silent_s, kNoRoverWaitS))) break;
+      if (rover_quiet >
+          (last_rover >= 0 ? options.rover_silent_s : std::min(options.rover_silent_s, kNoRoverWaitS)))
+        break;
       if (now - end_seen > options.rover_wait_s) {
-        cli::warn("the rover's final EO did not arrive within " + std::to_string(options.rover_wait_s) + " s");
+        cli::warn("the rover's final EO did not arrive within " + std::to_string(options.rover_wait_s) +
+                  " s");
         break;
       }
       continue;
     }
     if (first < 0 && now - start > options.first_message_timeout_s) {
       if (!first_panorama) return Collected::kNothing;
-      throw cli::InputError(url, "stream", "no message arrived within " + std::to_string(options.first_message_timeout_s) + " s");
+      throw cli::InputError(
+          url, "stream",
+          "no message arrived within " + std::to_string(options.first_message_timeout_s) + " s");
     }
     if (first >= 0 && now - last_message > options.idle_timeout_s) {
       cli::warn("the stream went quiet for " + std::to_string(options.idle_timeout_s) +
@@ -106,6 +114,18 @@ GroundNodeResult makePanorama(platform::Transport& transport, const GroundNodeOp
   GroundNodeResult result;
   result.panorama_index = k;
   result.out_dir = panoramaOutDir(options.pass.out_dir, options.panoramas, k);
+  GroundPassOptions pass_options = options.pass;
+  if (options.traverse) {
+    const site_t* site = collector.siteOfPanorama(collector.panorama());
+    if (site == nullptr) throw std::logic_error("traverse: a collected panorama without its site");
+    result.site_id = site->site_id;
+    result.out_dir = options.pass.out_dir + "/sites/" + site->site_id;
+    const auto truth = options.site_truth_dirs.find(site->site_id);
+    pass_options.truth_dir = truth != options.site_truth_dirs.end() ? truth->second : std::string();
+    if (options.pass.progress)
+      cli::info("site " + site->site_id + " (" + std::to_string(site->site_index + 1) + "/" +
+                std::to_string(site->sites_planned) + "): panorama " + collector.panorama() + " received");
+  }
   result.receive_seconds = receive_seconds;
   result.messages = collector.messagesReceived();
   result.stream = collector.counts();
@@ -122,7 +142,6 @@ GroundNodeResult makePanorama(platform::Transport& transport, const GroundNodeOp
   if (options.stream_only) return result;
 
   const std::string& out = result.out_dir;
-  GroundPassOptions pass_options = options.pass;
   pass_options.out_dir = out;
   if (options.pass.progress) cli::info("writing the received images to " + out + "/stream");
   // The images and models as they arrived (stream/ is the record of them; one copy in memory).
@@ -150,8 +169,8 @@ std::string panoramaOutDir(const std::string& out, int32_t panoramas, int32_t k)
   return out + name;
 }
 
-GroundNodeResult runGroundNode(platform::Transport& transport, const std::string& url, const GroundNodeOptions& options,
-                               const PanoramaDone& done) {
+GroundNodeResult runGroundNode(platform::Transport& transport, const std::string& url,
+                               const GroundNodeOptions& options, const PanoramaDone& done) {
   StreamCollector collector;
   EventRecorder recorder;
   EventRecorder::Tee tee{&recorder, &StreamCollector::onMessage, &collector};
@@ -161,15 +180,19 @@ GroundNodeResult runGroundNode(platform::Transport& transport, const std::string
     if (!parent.empty()) std::filesystem::create_directories(parent);
     recorder.open(options.record_path);
   }
-  for (const char* channel : {channels::kStereoPair, channels::kTiePoints, channels::kEoSolution, channels::kCoarseDem,
-                              channels::kRoverStatus}) {
+  collector.setTraverse(options.traverse);
+  std::vector<const char*> subscribed = {channels::kStereoPair, channels::kTiePoints, channels::kEoSolution,
+                                         channels::kCoarseDem, channels::kRoverStatus};
+  if (options.traverse) subscribed.push_back(channels::kSite);
+  for (const char* channel : subscribed) {
     const Status s = record ? transport.subscribe(channel, &EventRecorder::onMessage, &tee)
                             : transport.subscribe(channel, &StreamCollector::onMessage, &collector);
     if (!ok(s)) throw cli::InputError(url, channel, std::string("cannot subscribe: ") + statusName(s));
   }
   GroundNodeResult last;
   bool ended = false;  // the transport ended; panoramas already read (kept aside) are still made
-  for (int32_t k = 1; options.panoramas <= 0 || k <= options.panoramas; ++k) {
+  const int32_t panoramas = options.traverse ? 0 : options.panoramas;
+  for (int32_t k = 1; panoramas <= 0 || k <= panoramas; ++k) {
     double receive_seconds = 0.0;
     Collected collected = Collected::kStreamEnded;
     if (!ended) {
@@ -180,14 +203,22 @@ GroundNodeResult runGroundNode(platform::Transport& transport, const std::string
     ended = ended || collected == Collected::kStreamEnded;
     if (collected == Collected::kNothing) {
       if (k == 1) throw cli::InputError(url, channels::kStereoPair, "no usable stereo pair arrived");
-      if (collector.messagesReceived() > 0) cli::warn("the stream ended inside panorama " + std::to_string(k) + " with no usable pair");
+      if (collector.messagesReceived() > 0)
+        cli::warn("the stream ended inside panorama " + std::to_string(k) + " with no usable pair");
       break;
     }
     GroundNodeResult result = makePanorama(transport, options, collector, k, receive_seconds);
+    result.sites = collector.sites();
+    result.site_counts = collector.siteCounts();
+    const site_t* site = options.traverse ? collector.siteOfPanorama(collector.panorama()) : nullptr;
+    const bool last_site = site != nullptr && site->is_last;
     if (done) done(result);
     last = std::move(result);
     collector.nextPanorama();
+    if (last_site) break;  // the traverse's last site is mapped
   }
+  last.sites = collector.sites();
+  last.site_counts = collector.siteCounts();
   last.recorded = recorder.events();
   last.record_write_errors = recorder.writeErrors();
   return last;

@@ -35,7 +35,8 @@ bool fingerprintOf(const uint8_t* data, std::size_t size, uint64_t& hash) {
 template <class Message>
 std::string decodeOrCause(const uint8_t* data, std::size_t size, Message& out) {
   uint64_t hash = 0;
-  if (fingerprintOf(data, size, hash) && hash != static_cast<uint64_t>(Message::getHash())) return "wrong_type";
+  if (fingerprintOf(data, size, hash) && hash != static_cast<uint64_t>(Message::getHash()))
+    return "wrong_type";
   const Status s = msgs::decodeMessage(data, size, out);
   return ok(s) ? std::string() : std::string(statusName(s));
 }
@@ -96,8 +97,16 @@ void StreamCollector::nextPanorama() {
   std::map<std::string, SequenceTracker> rover_sequences = std::move(rover_sequences_);
   for (auto& [channel, tracker] : rover_sequences) tracker.restartAfterHighest();
   std::vector<std::vector<uint8_t>> next = std::move(next_panorama_);
+  const bool traverse = traverse_;
+  std::vector<site_t> sites = std::move(sites_);
+  SequenceTracker site_sequences = std::move(site_sequences_);
+  SiteStreamCounts site_counts = std::move(site_counts_);
   *this = StreamCollector();
   rover_sequences_ = std::move(rover_sequences);
+  traverse_ = traverse;
+  sites_ = std::move(sites);
+  site_sequences_ = std::move(site_sequences);
+  site_counts_ = std::move(site_counts);
   for (const std::vector<uint8_t>& m : next) receive(channels::kStereoPair, m.data(), m.size());
 }
 
@@ -145,6 +154,10 @@ void StreamCollector::onMessage(void* context, const char* channel, const uint8_
 
 void StreamCollector::receive(const std::string& channel, const uint8_t* data, std::size_t size) {
   ++messages_;
+  if (channel == channels::kSite) {
+    receiveSite(data, size);
+    return;
+  }
   if (channel == channels::kStereoPair) {
     if (end_of_panorama_) {
       if (data != nullptr) next_panorama_.emplace_back(data, data + size);
@@ -219,7 +232,8 @@ std::string StreamCollector::decodeImage(const stereo_image_t& side, ReceivedIma
   const std::size_t capacity = static_cast<std::size_t>(kMaxImagePixels);
   std::vector<uint8_t> pixels(capacity);
   int32_t width = 0, height = 0;
-  const Status s = codec->decodeGray(side.jpeg.data(), side.jpeg.size(), pixels.data(), capacity, width, height);
+  const Status s =
+      codec->decodeGray(side.jpeg.data(), side.jpeg.size(), pixels.data(), capacity, width, height);
   if (s == Status::kCapacityExceeded || (ok(s) && (width > kMaxImageWidth || height > kMaxImageHeight))) {
     codec.reset();
     return "capacity_exceeded";
@@ -251,10 +265,97 @@ std::string StreamCollector::decodeImage(const stereo_image_t& side, ReceivedIma
   return std::string();
 }
 
+const site_t* StreamCollector::siteOfPanorama(const std::string& panorama) const {
+  for (const site_t& site : sites_) {
+    if (site.panorama == panorama) return &site;
+  }
+  return nullptr;
+}
+
+void StreamCollector::rejectSite(const std::string& cause, const std::string& sentence) {
+  ++site_counts_.rejected[cause];
+  site_counts_.warnings.push_back(sentence);
+  cli::warn(sentence);
+}
+
+void StreamCollector::receiveSite(const uint8_t* data, std::size_t size) {
+  if (!traverse_) return reject("site_without_traverse_mode");
+  site_t site;
+  prepareSite(site);
+  const char* field = "";
+  uint64_t hash = 0;
+  if (fingerprintOf(data, size, hash) && hash != static_cast<uint64_t>(site_t::getHash())) {
+    return rejectSite("site_wrong_type", "A message on " + std::string(channels::kSite) +
+                                             " is not a site_t (another fingerprint): dropped.");
+  }
+  const Status s = data == nullptr ? Status::kInvalidArgument : decodeSite(data, size, site, field);
+  if (!ok(s)) {
+    return rejectSite(std::string("site_") + statusName(s),
+                      "A site announcement was rejected (" + std::string(statusName(s)) + ", " + field +
+                          "): the pairs of its panorama will be refused as unannounced.");
+  }
+  if (site_sequences_.record(site.sequence) == SequenceTracker::Arrival::kDuplicate) {
+    ++site_counts_.site_duplicates;
+    return;
+  }
+  const std::string what = "site " + site.site_id + " (index " + std::to_string(site.site_index) +
+                           ", panorama " + site.panorama + ")";
+  if (!sites_.empty()) {
+    const site_t& first = sites_.front();
+    if (site.traverse != first.traverse || site.sites_planned != first.sites_planned) {
+      return rejectSite("site_unknown", "The announcement of " + what + " names traverse '" + site.traverse +
+                                            "' of " + std::to_string(site.sites_planned) +
+                                            " sites, not this stream's '" + first.traverse + "' of " +
+                                            std::to_string(first.sites_planned) + ": dropped.");
+    }
+    for (const site_t& known : sites_) {
+      if (known.site_id == site.site_id || known.panorama == site.panorama ||
+          known.site_index == site.site_index) {
+        return rejectSite("site_duplicate", "The announcement of " + what + " repeats site " + known.site_id +
+                                                " (index " + std::to_string(known.site_index) +
+                                                ", panorama " + known.panorama +
+                                                "): dropped, the first one stands.");
+      }
+    }
+  }
+  ++site_counts_.sites_announced;
+  if (site.has_odometry && !sites_.empty()) {
+    bool from_known = false;
+    for (const site_t& known : sites_) from_known = from_known || known.site_id == site.odometry_from;
+    if (!from_known) {
+      site_counts_.warnings.push_back("The odometry of " + what + " is from site " + site.odometry_from +
+                                      ", which was not announced.");
+    }
+  }
+  sites_.push_back(std::move(site));
+}
+
 void StreamCollector::receivePair(const uint8_t* data, std::size_t size) {
   stereo_pair_t msg;
   const std::string cause = decodeOrCause(data, size, msg);
   if (!cause.empty()) return reject(cause);
+  if (traverse_) {
+    if (siteOfPanorama(msg.panorama) == nullptr) {
+      // Before its sequence is counted: the next site's numbering starts at 0 again.
+      ++site_counts_.rejected["pair_unannounced_panorama"];
+      reject("pair_unannounced_panorama");
+      const std::string what =
+          msg.kind == stereo_pair_t::KIND_END_OF_PANORAMA
+              ? "the end-of-panorama marker"
+              : "pair " + std::to_string(msg.pair_id) + " (sequence " + std::to_string(msg.sequence) + ")";
+      site_counts_.warnings.push_back("The camera stream's " + what + " of panorama '" + msg.panorama +
+                                      "' was rejected: no site announced that panorama.");
+      return;
+    }
+    if (!panorama_.empty() && msg.panorama != panorama_) {
+      // The next site's stream before this one's end marker: the marker was lost; this panorama ends here.
+      end_of_panorama_ = true;
+      pair_rejections_.push_back("The end-of-panorama marker of '" + panorama_ +
+                                 "' was not received before the pairs of '" + msg.panorama + "'.");
+      next_panorama_.emplace_back(data, data + size);
+      return;
+    }
+  }
   const SequenceTracker::Arrival arrival = pair_sequences_.record(msg.sequence);
   if (arrival == SequenceTracker::Arrival::kDuplicate) return;
   if (panorama_.empty()) panorama_ = msg.panorama;
@@ -294,8 +395,9 @@ void StreamCollector::receivePair(const uint8_t* data, std::size_t size) {
 
 void StreamCollector::rejectPair(const stereo_pair_t& pair, const std::string& cause) {
   reject(cause);
-  pair_rejections_.push_back("Pair " + std::to_string(pair.pair_id) + " (sequence " + std::to_string(pair.sequence) +
-                             ", " + pair.left.stem + ") was rejected: " + cause + "; it is missing from every product.");
+  pair_rejections_.push_back("Pair " + std::to_string(pair.pair_id) + " (sequence " +
+                             std::to_string(pair.sequence) + ", " + pair.left.stem +
+                             ") was rejected: " + cause + "; it is missing from every product.");
 }
 
 bool StreamCollector::roverFinished() const {
@@ -327,7 +429,8 @@ StreamCounts StreamCollector::counts() const {
   }
   for (const std::string& w : pair_rejections_) c.warnings.push_back(w);
   if (!end_of_panorama_) {
-    c.warnings.push_back("The end-of-panorama marker was not received; products are made from the pairs that came.");
+    c.warnings.push_back(
+        "The end-of-panorama marker was not received; products are made from the pairs that came.");
   }
   if (pairs_planned_ >= 0 && c.pairs < pairs_planned_) {
     c.warnings.push_back("The panorama plans " + std::to_string(pairs_planned_) + " pairs; " +
@@ -344,7 +447,8 @@ std::vector<std::string> StreamCollector::roverWarnings() const {
   for (const auto& [channel, tracker] : rover_sequences_) {
     const std::size_t lost = tracker.missing().size();
     if (lost > 0) {
-      out.push_back(std::to_string(lost) + " message(s) of " + channel + " from the rover were never received.");
+      out.push_back(std::to_string(lost) + " message(s) of " + channel +
+                    " from the rover were never received.");
     }
   }
   return out;

@@ -21,6 +21,7 @@
 
 #include "areomap/eo_solution_t.hpp"
 #include "areomap/rover_status_t.hpp"
+#include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/dataset/Dataset.hpp"
@@ -46,8 +47,8 @@ struct ReceivedPair {
 
 // The `stream` object of report.json.
 struct StreamCounts {
-  int32_t pairs = 0;         // pairs kept
-  int32_t gaps = 0;          // camera-stream messages never received
+  int32_t pairs = 0;  // pairs kept
+  int32_t gaps = 0;   // camera-stream messages never received
   int32_t duplicates = 0;
   int32_t reordered = 0;
   std::map<std::string, int32_t> rejected;  // cause -> count
@@ -82,9 +83,33 @@ class SequenceTracker {
   int32_t reordered_ = 0;
 };
 
+// A traverse over the stream (areomap-ground --traverse): the site announcements (AREOMAP_SITE) over the
+// whole run, and what was refused. report.json of the traverse: `stream`.
+struct SiteStreamCounts {
+  int32_t sites_announced = 0;
+  int32_t site_duplicates = 0;              // an announcement's sequence seen before (dropped)
+  std::map<std::string, int32_t> rejected;  // cause -> count: site_<status> (does not decode or fails
+                                            // checkSite), site_duplicate (a site id or panorama announced
+                                            // before), site_unknown (another traverse, or an index
+                                            // beyond it), pair_unannounced_panorama (a pair or end marker
+                                            // whose panorama no site announced)
+  std::vector<std::string> warnings;        // one sentence per refusal
+};
+
 class StreamCollector {
  public:
   StreamCollector();
+
+  // Traverse mode: AREOMAP_SITE announcements are collected (and kept over panoramas); a camera-stream
+  // message whose panorama no site announced is rejected (pair_unannounced_panorama) before its sequence
+  // is counted; a pair of another announced panorama before this one's end marker ends this one (the
+  // marker was lost: a warning) and starts the next.
+  void setTraverse(bool traverse) { traverse_ = traverse; }
+  // Accepted announcements in arrival order.
+  const std::vector<site_t>& sites() const { return sites_; }
+  // The announcement whose panorama is `panorama`, nullptr when none.
+  const site_t* siteOfPanorama(const std::string& panorama) const;
+  const SiteStreamCounts& siteCounts() const { return site_counts_; }
 
   // A platform::MessageHandler: pass the collector as the context.
   static void onMessage(void* context, const char* channel, const uint8_t* data, std::size_t size);
@@ -128,6 +153,8 @@ class StreamCollector {
   void reject(const std::string& cause) { ++rejected_[cause]; }
   void rejectPair(const stereo_pair_t& pair, const std::string& cause);
   void receivePair(const uint8_t* data, std::size_t size);
+  void receiveSite(const uint8_t* data, std::size_t size);
+  void rejectSite(const std::string& cause, const std::string& sentence);
   // The rejection cause, "" when decoded.
   std::string decodeImage(const stereo_image_t& side, ReceivedImage& out);
 
@@ -153,6 +180,11 @@ class StreamCollector {
   std::vector<std::vector<uint8_t>> next_panorama_;  // camera-stream messages after the end marker
   bool rover_running_seen_ = false;
   std::map<int32_t, std::vector<double>> gimbal_by_sol_;
+  // Traverse mode (kept over panoramas by nextPanorama).
+  bool traverse_ = false;
+  std::vector<site_t> sites_;
+  SequenceTracker site_sequences_;
+  SiteStreamCounts site_counts_;
 };
 
 }  // namespace areomap::ground

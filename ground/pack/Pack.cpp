@@ -5,11 +5,13 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <set>
 
 #include <lcm/eventlog.h>
 #include <opencv2/core.hpp>
 
 #include "areomap/rover_status_t.hpp"
+#include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "firmware_core/adjust/Network.hpp"
 #include "firmware_core/camera/CameraConversion.hpp"
@@ -46,7 +48,8 @@ struct Encoder {
     std::vector<uint8_t> out(codec.maxEncodedBytes(grey.cols, grey.rows));
     std::size_t bytes = 0;
     const cv::Mat c = grey.isContinuous() ? grey : grey.clone();
-    const Status s = codec.encodeGray(c.ptr<uint8_t>(0), c.cols, c.rows, quality, out.data(), out.size(), bytes);
+    const Status s =
+        codec.encodeGray(c.ptr<uint8_t>(0), c.cols, c.rows, quality, out.data(), out.size(), bytes);
     if (!ok(s)) throw cli::InputError(file, "image", std::string("JPEG encoding failed: ") + statusName(s));
     out.resize(bytes);
     return out;
@@ -78,6 +81,45 @@ bool decodePair(const LogEvent& e, stereo_pair_t& pair) {
   return e.channel == channels::kStereoPair && ok(msgs::decodeMessage(e.data.data(), e.data.size(), pair));
 }
 
+bool decodeSiteEvent(const LogEvent& e, site_t& site) {
+  return e.channel == channels::kSite && ok(msgs::decodeMessage(e.data.data(), e.data.size(), site));
+}
+
+constexpr double kDegPerRad = 180.0 / M_PI;
+
+// The first event's utime: the given one, or now.
+int64_t startUtime(const PackOptions& options) {
+  if (options.start_utime != 0) return options.start_utime;
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+site_t siteMessage(const Traverse& traverse, std::size_t k, const std::string& panorama) {
+  const TraverseSite& site = traverse.sites[k];
+  site_t m{};
+  m.sequence = static_cast<int64_t>(k);
+  m.traverse = traverse.name;
+  m.site_id = site.id;
+  m.site_index = static_cast<int32_t>(k);
+  m.sites_planned = static_cast<int32_t>(traverse.sites.size());
+  m.panorama = panorama;
+  put3(site.apriori.position_m, m.position_m);
+  m.heading_deg = site.apriori.heading_rad * kDegPerRad;
+  m.has_odometry = site.odometry.has_value();
+  if (site.odometry) {
+    const OdometryLeg& leg = *site.odometry;
+    m.odometry_from = leg.from;
+    put3(leg.delta_m, m.delta_m);
+    m.delta_heading_deg = leg.delta_heading_rad * kDegPerRad;
+    m.distance_m = leg.distance_m;
+    put3(leg.sigma_m, m.sigma_m);
+    m.sigma_heading_deg = leg.sigma_heading_rad * kDegPerRad;
+  }
+  m.is_last = k + 1 == traverse.sites.size();
+  return m;
+}
+
 }  // namespace
 
 std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& options, PackSummary* summary) {
@@ -105,15 +147,18 @@ std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& opt
     ConversionResidual residual;
     const ImageRef* refs[2] = {&p.left, p.right ? &*p.right : nullptr};
     for (int side = 0; side < (p.right ? 2 : 1); ++side) {
-      const Status s = cahvorToPhotogrammetric(side == 0 ? left[k].model : right[k].model, cams[side], residual);
+      const Status s =
+          cahvorToPhotogrammetric(side == 0 ? left[k].model : right[k].model, cams[side], residual);
       if (!ok(s))
-        throw cli::InputError(refs[side]->model_path.empty() ? refs[side]->image_path : refs[side]->model_path,
-                              "model", std::string("no photogrammetric form: ") + statusName(s));
+        throw cli::InputError(
+            refs[side]->model_path.empty() ? refs[side]->image_path : refs[side]->model_path, "model",
+            std::string("no photogrammetric form: ") + statusName(s));
     }
     int32_t pair_index = -1;
     const int tier = std::max(0, std::min(kMaxTiers - 1, p.tier));
-    if (!ok(net->addPair(static_cast<int32_t>(it - sol_of_index.begin()), tier, cams[0].io, cams[0].eo.center_m,
-                         cams[0].m, p.right ? &cams[1].io : nullptr, cams[1].eo.center_m, cams[1].m, pair_index)))
+    if (!ok(net->addPair(static_cast<int32_t>(it - sol_of_index.begin()), tier, cams[0].io,
+                         cams[0].eo.center_m, cams[0].m, p.right ? &cams[1].io : nullptr, cams[1].eo.center_m,
+                         cams[1].m, pair_index)))
       throw cli::InputError(dataset.root + "/panorama.json", "pairs", "more pairs than the rover's capacity");
     progress.step();
   }
@@ -122,11 +167,7 @@ std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& opt
   setRigConstraints(dataset, sol_of_index, *net, notes);
   const bool offsets_given = dataset.rig.left_offset_m.has_value();
 
-  const int64_t start = options.start_utime != 0
-                            ? options.start_utime
-                            : std::chrono::duration_cast<std::chrono::microseconds>(
-                                  std::chrono::system_clock::now().time_since_epoch())
-                                  .count();
+  const int64_t start = startUtime(options);
   const int64_t step = static_cast<int64_t>(std::llround(options.interval_s * 1e6));
   std::vector<LogEvent> events;
   PackSummary sum;
@@ -151,7 +192,8 @@ std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& opt
       m.has_right = p.right.has_value();
       fillSide(m.left, p.left, left[k], encoder, options.quality);
       if (p.right) fillSide(m.right, *p.right, right[k], encoder, options.quality);
-      const int sol_index = static_cast<int>(std::find(sol_of_index.begin(), sol_of_index.end(), p.sol) - sol_of_index.begin());
+      const int sol_index =
+          static_cast<int>(std::find(sol_of_index.begin(), sol_of_index.end(), p.sol) - sol_of_index.begin());
       put3(net->rig.gimbal_m[sol_index], m.gimbal_m);
       put3(net->rig.left_offset_m, m.left_offset_m);
       put3(net->rig.right_offset_m, m.right_offset_m);
@@ -174,8 +216,70 @@ std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& opt
   return events;
 }
 
+std::vector<std::string> traversePanoramaNames(const Traverse& traverse, bool* qualified) {
+  std::vector<std::string> names;
+  std::set<std::string> seen;
+  bool qualify = false;
+  for (const TraverseSite& site : traverse.sites) {
+    const std::string name = readDataset(site.dir).name;
+    qualify = qualify || name.empty() || !seen.insert(name).second;
+    names.push_back(name);
+  }
+  if (qualify) {
+    for (std::size_t k = 0; k < names.size(); ++k) names[k] = traverse.name + "/" + traverse.sites[k].id;
+  }
+  if (qualified != nullptr) *qualified = qualify;
+  return names;
+}
+
+std::vector<LogEvent> packTraverse(const Traverse& traverse, const PackOptions& options,
+                                   PackSummary* summary) {
+  bool qualified = false;
+  const std::vector<std::string> names = traversePanoramaNames(traverse, &qualified);
+  const int64_t start = startUtime(options);
+  const int64_t step = static_cast<int64_t>(std::llround(options.interval_s * 1e6));
+  std::vector<LogEvent> events;
+  PackSummary sum;
+  if (qualified) {
+    sum.notes.push_back(
+        "sites share a panorama name (or have none): each site's pairs are named "
+        "\"<traverse>/<site id>\" (\"" +
+        names.front() + "\", ...)");
+  }
+  int64_t utime = start;
+  for (std::size_t k = 0; k < traverse.sites.size(); ++k) {
+    const TraverseSite& site = traverse.sites[k];
+    cli::info("pack: site " + std::to_string(k + 1) + "/" + std::to_string(traverse.sites.size()) + ": " +
+              site.id + " (panorama " + names[k] + ")");
+    Dataset dataset = readDataset(site.dir);
+    dataset.name = names[k];
+    site_t announcement = siteMessage(traverse, k, names[k]);
+    announcement.utime = utime;
+    events.push_back(LogEvent{channels::kSite, utime, encodeMessage(announcement)});
+    PackOptions site_options = options;
+    site_options.start_utime = utime + step;
+    PackSummary site_summary;
+    std::vector<LogEvent> site_events = packDataset(dataset, site_options, &site_summary);
+    utime = site_events.back().utime + step;
+    for (LogEvent& e : site_events) events.push_back(std::move(e));
+    sum.pairs += site_summary.pairs;
+    sum.jpeg_bytes += site_summary.jpeg_bytes;
+    for (const std::string& n : site_summary.notes) sum.notes.push_back(site.id + ": " + n);
+  }
+  if (summary != nullptr) *summary = sum;
+  return events;
+}
+
 std::vector<LogEvent> injectFaults(const std::vector<LogEvent>& events, const std::string& spec) {
   std::vector<LogEvent> out = events;
+  auto find_site = [&](int seq) -> std::size_t {
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      site_t m;
+      if (decodeSiteEvent(out[i], m) && m.sequence == seq) return i;
+    }
+    throw cli::UsageError("--inject: no site announcement with sequence " + std::to_string(seq) +
+                          " in the stream");
+  };
   auto find = [&](int seq) -> std::size_t {
     for (std::size_t i = 0; i < out.size(); ++i) {
       stereo_pair_t p;
@@ -196,11 +300,35 @@ std::vector<LogEvent> injectFaults(const std::vector<LogEvent>& events, const st
     const std::string value = colon == std::string::npos ? "" : item.substr(colon + 1);
     const int64_t base_utime = out.empty() ? 0 : out.back().utime;
     if (name == "unknown-channel") {
-      out.insert(out.begin() + static_cast<long>(out.size() / 2), LogEvent{"AREOMAP_UNKNOWN", base_utime, {1, 2, 3, 4}});
+      out.insert(out.begin() + static_cast<long>(out.size() / 2),
+                 LogEvent{"AREOMAP_UNKNOWN", base_utime, {1, 2, 3, 4}});
     } else if (name == "wrong-type") {
       rover_status_t s{};
       s.last_error = "injected wrong type";
-      out.insert(out.begin() + static_cast<long>(out.size() / 2), LogEvent{channels::kStereoPair, base_utime, encodeMessage(s)});
+      out.insert(out.begin() + static_cast<long>(out.size() / 2),
+                 LogEvent{channels::kStereoPair, base_utime, encodeMessage(s)});
+    } else if (name == "drop-site" || name == "dup-site" || name == "truncate-site") {
+      const std::size_t i = find_site(sequenceArg(item, value));
+      if (name == "drop-site") {
+        out.erase(out.begin() + static_cast<long>(i));
+      } else if (name == "truncate-site") {
+        out[i].data.resize(out[i].data.size() / 2);
+      } else {
+        // A second announcement of the site as a new message (the next sequence; later ones renumbered),
+        // not a repeated one (a repeat is a duplicate by its sequence alone).
+        for (std::size_t j = i + 1; j < out.size(); ++j) {
+          site_t later;
+          if (!decodeSiteEvent(out[j], later)) continue;
+          later.sequence += 1;
+          out[j].data = encodeMessage(later);
+        }
+        site_t m;
+        (void)decodeSiteEvent(out[i], m);
+        m.sequence += 1;
+        LogEvent again = out[i];
+        again.data = encodeMessage(m);
+        out.insert(out.begin() + static_cast<long>(i) + 1, again);
+      }
     } else {
       const int seq = sequenceArg(item, value);
       const std::size_t i = find(seq);

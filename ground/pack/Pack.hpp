@@ -14,6 +14,10 @@
 //   nan-model:S      a NaN in that pair's left a-priori model (cause not_finite)
 //   unknown-channel  an extra event on channel AREOMAP_UNKNOWN (not subscribed: ignored)
 //   wrong-type       an extra rover_status_t on the AREOMAP_STEREO_PAIR channel (cause unsupported)
+// and for a traverse stream (S = a site announcement's sequence, i.e. the site's index):
+//   drop-site:S      remove that site's announcement (its pairs then name a panorama no site announced)
+//   dup-site:S       announce that site a second time (same id and panorama, a new sequence) after it
+//   truncate-site:S  cut that site's announcement to half its bytes (cause truncated)
 #pragma once
 
 #include <cstdint>
@@ -21,6 +25,7 @@
 #include <vector>
 
 #include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/Traverse.hpp"
 
 namespace areomap {
 
@@ -43,7 +48,22 @@ struct PackSummary {
 };
 
 // The stream of a dataset. Throws cli::InputError naming the file and field for unreadable inputs.
-std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& options, PackSummary* summary = nullptr);
+std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& options,
+                                  PackSummary* summary = nullptr);
+
+// The stream of a multi-site traverse (traverse.json): for each site in driving order one AREOMAP_SITE
+// announcement (site_t, sequence = the site's index), then that site's pairs and its end-of-panorama marker
+// exactly as packDataset writes them for the site alone (AREOMAP_STEREO_PAIR sequences 0, 1, ... per site,
+// as a sender that starts a new panorama numbers them). The pairs' panorama name is the site dataset's name
+// (panorama.json); when two sites share a name (or a site has none) every site's pairs are named
+// "<traverse name>/<site id>" instead, and a note says so. utime runs on over the whole traverse, with one
+// interval between sites. Throws cli::InputError naming the file and field for unreadable inputs.
+std::vector<LogEvent> packTraverse(const Traverse& traverse, const PackOptions& options,
+                                   PackSummary* summary = nullptr);
+
+// The panorama name of each site's pairs in packTraverse's stream (in site order), and whether they had to
+// be qualified as "<traverse name>/<site id>".
+std::vector<std::string> traversePanoramaNames(const Traverse& traverse, bool* qualified = nullptr);
 
 // Applies a fault SPEC (above) to a packed stream. Throws cli::UsageError for a bad SPEC.
 std::vector<LogEvent> injectFaults(const std::vector<LogEvent>& events, const std::string& spec);

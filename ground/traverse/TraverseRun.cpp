@@ -9,6 +9,7 @@
 #include <fstream>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
@@ -121,7 +122,7 @@ raster::Geometry geometryOf(const DemGrid& g) {
 }
 
 // The merged dem.tif, dem_sigma.tif and ortho.tif from the sites that have them.
-void writeMergedMap(const Traverse& traverse, const std::optional<TraverseTruth>& truth,
+void writeMergedMap(const Traverse& traverse, const TraverseTruthInput& truth,
                     const std::vector<SiteOutcome>& sites, const SitePoseSolution& poses,
                     const TraverseRunOptions& o, TraverseResult& result) {
   std::vector<DemGrid> dem(sites.size()), sigma(sites.size()), ortho(sites.size());
@@ -163,12 +164,11 @@ void writeMergedMap(const Traverse& traverse, const std::optional<TraverseTruth>
     cli::info("merged map: " + std::to_string(grid.cols) + " x " + std::to_string(grid.rows) + " cells");
   const Mosaic merged = mosaic(dem_in, grid, MosaicKind::kElevation);
   write_float("dem.tif", merged, "elevation up (-Z) in the traverse frame, metres; nearest site");
-  const std::string truth_dem = traverse.root + "/truth/dem.tif";
-  if (truth && fs::exists(truth_dem)) {
+  if (truth.poses && !truth.dem_path.empty()) {
     std::vector<Eigen::Vector3d> centres;
-    for (const SitePose& p : truth->poses) centres.push_back(p.position_m);
+    for (const SitePose& p : truth.poses->poses) centres.push_back(p.position_m);
     const RasterDifference d =
-        differenceNear(merged.grid, readDemGeoTiff(truth_dem), centres, kTruthDemRadiusM);
+        differenceNear(merged.grid, readDemGeoTiff(truth.dem_path), centres, kTruthDemRadiusM);
     result.truth_dem_rms_m = d.rms_m;
     result.truth_dem_cells = d.cells;
   }
@@ -329,35 +329,74 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
                   "mean over the mapped sites of each site's own (report.json of sites/<id>)"},
                  {"notes", r.poses.notes},
                  {"warnings", r.warnings}};
+  if (r.stream) {
+    json rejected = json::object();
+    for (const auto& [cause, count] : r.stream->rejected) rejected[cause] = count;
+    report["stream"] = {{"sites_announced", r.stream->sites_announced},
+                        {"site_duplicates", r.stream->site_duplicates},
+                        {"rejected", rejected}};
+  }
   cli::writeFileAtomic(o.out_dir + "/report.json", report.dump(1) + "\n");
 }
 
 }  // namespace
 
+TraverseTruthInput readTraverseTruthInput(const Traverse& traverse) {
+  TraverseTruthInput truth;
+  truth.poses = readTraverseTruth(traverse.root, traverse);
+  const std::string dem = traverse.root + "/truth/dem.tif";
+  if (fs::exists(dem)) truth.dem_path = dem;
+  return truth;
+}
+
+SiteOutcome siteOutcome(const std::string& id, const std::string& out_dir) {
+  SiteOutcome s;
+  s.id = id;
+  s.out_dir = out_dir;
+  if (!readSiteReport(s)) s.error = out_dir + "/report.json: cannot be read";
+  return s;
+}
+
 TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o) {
-  TraverseResult result;
   std::error_code ec;
   fs::create_directories(o.out_dir + "/sites", ec);
   if (ec) throw cli::InputError(o.out_dir, "--out", "cannot create the folder: " + ec.message());
+  std::vector<SiteOutcome> sites;
   for (std::size_t k = 0; k < traverse.sites.size(); ++k) {
-    result.sites.push_back(runSite(traverse.sites[k], o, k, traverse.sites.size()));
-    if (!result.sites.back().ok)
-      result.warnings.push_back("site " + traverse.sites[k].id + " not mapped: " + result.sites.back().error);
+    sites.push_back(runSite(traverse.sites[k], o, k, traverse.sites.size()));
+  }
+  return finishTraverse(traverse, std::move(sites), o, readTraverseTruthInput(traverse));
+}
+
+TraverseResult finishTraverse(const Traverse& traverse, std::vector<SiteOutcome> sites,
+                              const TraverseRunOptions& o, const TraverseTruthInput& truth,
+                              const std::vector<std::string>& warnings,
+                              const std::optional<TraverseStreamFigures>& stream) {
+  if (sites.size() != traverse.sites.size())
+    throw std::logic_error("finishTraverse: one outcome per traverse site is needed");
+  TraverseResult result;
+  result.stream = stream;
+  result.warnings = warnings;
+  std::error_code ec;
+  fs::create_directories(o.out_dir, ec);
+  if (ec) throw cli::InputError(o.out_dir, "--out", "cannot create the folder: " + ec.message());
+  result.sites = std::move(sites);
+  for (const SiteOutcome& s : result.sites) {
+    if (!s.ok) result.warnings.push_back("site " + s.id + " not mapped: " + s.error);
   }
   result.poses = odometryPoses(traverse);
-  const std::optional<TraverseTruth> truth = readTraverseTruth(traverse.root, traverse);
   std::vector<CrossSiteTie> ties;
   if (!o.cross_ties_csv.empty()) {
     ties = readCrossSiteTies(o.cross_ties_csv);
     result.cross_ties_source = "file";
   } else if (o.truth_cross_ties) {
-    ties = truthCrossSiteTies(traverse, o.truth_noise_px, 1);
+    ties = truthCrossSiteTies(truth.folder ? *truth.folder : traverse, o.truth_noise_px, 1);
     result.cross_ties_source = "truth";
   } else if (o.match_cross_ties && !o.products) {
     result.warnings.push_back(
         "no cross-site matching without the sites' products (--no-products): the poses are the odometry's.");
   } else if (o.match_cross_ties && traverse.sites.size() > 1) {
-    ties = matchSites(traverse, truth, o, result);
+    ties = matchSites(traverse, truth.poses, o, result);
     result.cross_ties_source = "matched";
     if (ties.empty())
       result.warnings.push_back(
@@ -394,7 +433,7 @@ TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o
   writeTraverseModels(result.sites, result.poses, o.out_dir, result);
   result.files.push_back(o.out_dir + "/poses.csv");
   if (o.products) writeMergedMap(traverse, truth, result.sites, result.poses, o, result);
-  writeReport(traverse, truth, result, o);
+  writeReport(traverse, truth.poses, result, o);
   result.files.push_back(o.out_dir + "/report.json");
   return result;
 }

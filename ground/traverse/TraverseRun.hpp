@@ -4,8 +4,15 @@
 // sites' DEM, DEM sigma and orthoimage merged by the nearest-site rule (TraverseMosaic.hpp), poses.csv
 // and report.json. A site whose pass fails keeps the others going: its status says why, and the map
 // is made of the rest.
+//
+// Two callers share it: areomap-traverse (runTraverse: every site's pass from its dataset folder, then
+// finishTraverse) and areomap-ground --traverse (each site's pass made from the LCM stream as it arrives,
+// then finishTraverse on the traverse the stream's site announcements describe).
 #pragma once
 
+#include <cstdint>
+#include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,6 +60,14 @@ struct SitePairOutcome {
   int32_t observations = 0;
 };
 
+// The camera stream's figures of a traverse received over LCM (areomap-ground --traverse): report.json
+// `stream`.
+struct TraverseStreamFigures {
+  int32_t sites_announced = 0;              // site announcements accepted
+  int32_t site_duplicates = 0;              // announcements whose sequence was seen before (dropped)
+  std::map<std::string, int32_t> rejected;  // cause -> count (site announcements and unannounced pairs)
+};
+
 struct TraverseResult {
   std::vector<SiteOutcome> sites;
   SitePoseSolution poses;
@@ -68,6 +83,7 @@ struct TraverseResult {
   std::vector<std::string> files;     // written (paths)
   std::vector<std::string> warnings;  // also in report.json
   std::vector<std::string> write_errors;
+  std::optional<TraverseStreamFigures> stream;
   // The merged dem.tif against DATASET/truth/dem.tif within kTruthDemRadiusM of a site's true position
   // (cells < 0: no truth).
   double truth_dem_rms_m = -1.0;
@@ -76,7 +92,32 @@ struct TraverseResult {
 
 inline constexpr double kTruthDemRadiusM = 10.0;  // issue 21: the merged DEM within 10 m of any site
 
+// What a traverse's truth gives the report: the true poses (truth/traverse.json, in the traverse's site
+// order) and the terrain (truth/dem.tif; "" when absent).
+struct TraverseTruthInput {
+  std::optional<TraverseTruth> poses;
+  std::string dem_path;
+  // The traverse folder whose sites' truth/ makes truth cross-site ties (--truth-cross-ties); unset: the
+  // traverse mapped itself.
+  std::optional<Traverse> folder;
+};
+// From traverse.root (a synthetic traverse's truth/), nothing when absent.
+TraverseTruthInput readTraverseTruthInput(const Traverse& traverse);
+
 // Runs everything into options.out_dir. Throws cli::InputError for an out_dir that cannot be made.
 TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& options);
+
+// A site's outcome from its finished pass in `out_dir` (report.json figures); ok false, with `error`, when
+// report.json cannot be read.
+SiteOutcome siteOutcome(const std::string& id, const std::string& out_dir);
+
+// The traverse steps once every site's pass is done (`sites`, one per traverse site, in order): poses
+// (odometry, or the multi-site adjustment with cross-site ties), poses.csv, the sites' models in the
+// traverse frame, the merged dem/dem_sigma/ortho, report.json (with `stream` when given). `warnings` go
+// into report.json before the steps' own.
+TraverseResult finishTraverse(const Traverse& traverse, std::vector<SiteOutcome> sites,
+                              const TraverseRunOptions& options, const TraverseTruthInput& truth,
+                              const std::vector<std::string>& warnings = {},
+                              const std::optional<TraverseStreamFigures>& stream = std::nullopt);
 
 }  // namespace areomap::traverse

@@ -3,11 +3,17 @@
 #include <cmath>
 #include <cstring>
 
+#include "msgs/MessageCheck.hpp"
+
 namespace areomap {
 namespace {
 
-bool finite3(const double v[3]) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
-Vec3 vec(const double v[3]) { return Vec3(v[0], v[1], v[2]); }
+bool finite3(const double v[3]) {
+  return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
+Vec3 vec(const double v[3]) {
+  return Vec3(v[0], v[1], v[2]);
+}
 void put(const Vec3& v, double out[3]) {
   out[0] = v.x();
   out[1] = v.y();
@@ -26,8 +32,8 @@ struct Reader {
   }
   bool int32(int32_t& v) {
     if (size - at < 4) return false;
-    const uint32_t u = (uint32_t{data[at]} << 24) | (uint32_t{data[at + 1]} << 16) | (uint32_t{data[at + 2]} << 8) |
-                       uint32_t{data[at + 3]};
+    const uint32_t u = (uint32_t{data[at]} << 24) | (uint32_t{data[at + 1]} << 16) |
+                       (uint32_t{data[at + 2]} << 8) | uint32_t{data[at + 3]};
     v = static_cast<int32_t>(u);
     at += 4;
     return true;
@@ -64,10 +70,17 @@ Status walkImage(Reader& r, const char* side, const char*& field) {
 Status toCameraModel(const camera_model_t& in, CameraModel& out, const char*& field) {
   field = "type";
   switch (in.type) {
-    case camera_model_t::TYPE_CAHV: out.type = CameraType::kCahv; break;
-    case camera_model_t::TYPE_CAHVOR: out.type = CameraType::kCahvor; break;
-    case camera_model_t::TYPE_CAHVORE: out.type = CameraType::kCahvore; break;
-    default: return Status::kUnsupported;
+    case camera_model_t::TYPE_CAHV:
+      out.type = CameraType::kCahv;
+      break;
+    case camera_model_t::TYPE_CAHVOR:
+      out.type = CameraType::kCahvor;
+      break;
+    case camera_model_t::TYPE_CAHVORE:
+      out.type = CameraType::kCahvore;
+      break;
+    default:
+      return Status::kUnsupported;
   }
   const double* vectors[] = {in.c_m, in.a, in.h_px, in.v_px, in.o, in.r, in.e};
   const char* names[] = {"C", "A", "H", "V", "O", "R", "E"};
@@ -88,7 +101,7 @@ Status toCameraModel(const camera_model_t& in, CameraModel& out, const char*& fi
   out.o = vec(in.o);
   out.r = vec(in.r);
   out.e = vec(in.e);
-  out.cahvore_kind = in.cahvore_kind == camera_model_t::CAHVORE_FISHEYE  ? CahvoreKind::kFisheye
+  out.cahvore_kind = in.cahvore_kind == camera_model_t::CAHVORE_FISHEYE   ? CahvoreKind::kFisheye
                      : in.cahvore_kind == camera_model_t::CAHVORE_GENERAL ? CahvoreKind::kGeneral
                                                                           : CahvoreKind::kPerspective;
   out.linearity = in.linearity;
@@ -109,7 +122,7 @@ void toMessage(const CameraModel& in, camera_model_t& out) {
   put(in.o, out.o);
   put(in.r, out.r);
   put(in.e, out.e);
-  out.cahvore_kind = in.type != CameraType::kCahvore ? camera_model_t::CAHVORE_INVALID
+  out.cahvore_kind = in.type != CameraType::kCahvore            ? camera_model_t::CAHVORE_INVALID
                      : in.cahvore_kind == CahvoreKind::kFisheye ? camera_model_t::CAHVORE_FISHEYE
                      : in.cahvore_kind == CahvoreKind::kGeneral ? camera_model_t::CAHVORE_GENERAL
                                                                 : camera_model_t::CAHVORE_PERSPECTIVE;
@@ -180,6 +193,98 @@ void copyText(const char* text, char* out, std::size_t capacity) {
     ++n;
   }
   out[n] = '\0';
+}
+
+void prepareSite(site_t& site) {
+  for (std::string* text : {&site.traverse, &site.site_id, &site.panorama, &site.odometry_from}) {
+    text->reserve(kMaxMessageStringChars + 1);
+  }
+}
+
+Status decodeSite(const uint8_t* data, std::size_t size, site_t& out, const char*& field) {
+  field = "encoding";
+  int64_t longest = 0;
+  const Status s = msgs::checkEncoding(site_t::getTypeName(), static_cast<uint64_t>(site_t::getHash()), data,
+                                       size, longest);
+  if (!ok(s)) return s;
+  if (longest > kMaxMessageStringChars) {
+    field = "a string longer than kMaxMessageStringChars";
+    return Status::kCapacityExceeded;
+  }
+  if (out.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return Status::kCorruptData;
+  return checkSite(out, field);
+}
+
+namespace {
+
+bool safeId(const std::string& id) {
+  if (id.empty()) return false;
+  for (const char c : id) {
+    const bool good =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+    if (!good) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+Status checkSite(const site_t& site, const char*& field) {
+  field = "";
+  if (!safeId(site.site_id)) {
+    field = "site_id";
+    return Status::kInvalidArgument;
+  }
+  if (site.panorama.empty()) {
+    field = "panorama";
+    return Status::kMissingField;
+  }
+  if (site.sites_planned < 1 || site.sites_planned > kMaxGroundSites) {
+    field = "sites_planned";
+    return Status::kInvalidArgument;
+  }
+  if (site.site_index < 0 || site.site_index >= site.sites_planned) {
+    field = "site_index";
+    return Status::kInvalidArgument;
+  }
+  if (site.is_last != (site.site_index == site.sites_planned - 1)) {
+    field = "is_last";
+    return Status::kInvalidArgument;
+  }
+  if (!finite3(site.position_m) || !std::isfinite(site.heading_deg)) {
+    field = "position_m/heading_deg";
+    return Status::kNotFinite;
+  }
+  if (site.site_index == 0) {
+    if (site.has_odometry) {
+      field = "has_odometry";
+      return Status::kInvalidArgument;
+    }
+    return Status::kOk;
+  }
+  if (!site.has_odometry) {
+    field = "has_odometry";
+    return Status::kMissingField;
+  }
+  if (!safeId(site.odometry_from) || site.odometry_from == site.site_id) {
+    field = "odometry_from";
+    return Status::kInvalidArgument;
+  }
+  if (!finite3(site.delta_m) || !std::isfinite(site.delta_heading_deg) || !std::isfinite(site.distance_m) ||
+      !finite3(site.sigma_m) || !std::isfinite(site.sigma_heading_deg)) {
+    field = "odometry";
+    return Status::kNotFinite;
+  }
+  if (!(site.sigma_m[0] > 0.0 && site.sigma_m[1] > 0.0 && site.sigma_m[2] > 0.0 &&
+        site.sigma_heading_deg > 0.0)) {
+    field = "sigma_m/sigma_heading_deg";
+    return Status::kInvalidArgument;
+  }
+  if (site.distance_m < 0.0) {
+    field = "distance_m";
+    return Status::kInvalidArgument;
+  }
+  return Status::kOk;
 }
 
 }  // namespace areomap

@@ -11,6 +11,7 @@
 #include <cstdint>
 
 #include "areomap/camera_model_t.hpp"
+#include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "firmware_core/base/Capacities.hpp"
 #include "firmware_core/base/Status.hpp"
@@ -62,6 +63,21 @@ int32_t plannedPairs(int32_t pairs_planned);
 // x 1..kMaxImageHeight (kCapacityExceeded above, kInvalidArgument at or below 0), the model's size equal to
 // the image's (kInvalidArgument). `field` names what.
 [[nodiscard]] Status checkImageSizes(const stereo_image_t& side, const char*& field);
+
+// Reserves the strings of a site_t (kMaxMessageStringChars each) so that decodeSite never allocates.
+void prepareSite(site_t& site);
+
+// A received AREOMAP_SITE message: checks the encoding (msgs::checkEncoding), refuses a string longer than
+// kMaxMessageStringChars before decoding (kCapacityExceeded), decodes into `out` (prepared) and checks what
+// the traverse needs (checkSite). On failure `field` names the field, or "encoding".
+[[nodiscard]] Status decodeSite(const uint8_t* data, std::size_t size, site_t& out, const char*& field);
+
+// The content of a decoded site_t: a site id of letters, digits, _ and - (kInvalidArgument), a panorama
+// name (kMissingField), 0 <= site_index < sites_planned <= kMaxGroundSites and is_last exactly on the last
+// index (kInvalidArgument), finite numbers (kNotFinite), odometry on every site but the first (from a
+// named site, positive finite sigmas, distance >= 0; kMissingField / kInvalidArgument) and none on the
+// first. `field` names the first field that fails.
+[[nodiscard]] Status checkSite(const site_t& site, const char*& field);
 
 // Copies a NUL-terminated text into `out` (capacity chars incl. the NUL), truncating.
 void copyText(const char* text, char* out, std::size_t capacity);

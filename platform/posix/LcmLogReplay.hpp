@@ -11,7 +11,7 @@ namespace areomap::platform {
 
 class LcmLogReplay final : public Transport {
  public:
-  static constexpr int32_t kMaxSubscriptions = 16;  // channels one node listens to (6 exist)
+  static constexpr int32_t kMaxSubscriptions = 16;  // channels one node listens to (7 exist)
   static constexpr std::size_t kMaxChannelChars =
       256;  // LCM's own channel-name limit is 63; logs may hold longer
 

@@ -9,7 +9,7 @@ namespace areomap::platform {
 
 class LcmTransport final : public Transport {
  public:
-  static constexpr int32_t kMaxSubscriptions = 16;  // channels one node listens to (6 exist)
+  static constexpr int32_t kMaxSubscriptions = 16;  // channels one node listens to (7 exist)
   static constexpr std::size_t kMaxChannelChars = 64;
 
   LcmTransport() = default;

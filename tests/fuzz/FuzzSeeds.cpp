@@ -5,6 +5,7 @@
 //   lcm_log/      LCM logs of such pairs, a status and an end-of-panorama marker
 //   jpeg/         gray JPEGs of a textured pattern at several sizes and qualities
 //   camera_file/  the JPL text form of CAHV, CAHVOR and CAHVORE models
+//   site/         site announcements of a 3-site traverse (first, middle, last) and a truncated one
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -16,6 +17,7 @@
 #include "areomap/eo_solution_t.hpp"
 #include "areomap/product_t.hpp"
 #include "areomap/rover_status_t.hpp"
+#include "areomap/site_t.hpp"
 #include "areomap/stereo_image_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "areomap/tiepoints_t.hpp"
@@ -60,7 +62,8 @@ Bytes jpeg(int width, int height, int quality, int seed) {
   }
   Bytes out(codec.maxEncodedBytes(width, height));
   std::size_t used = 0;
-  if (!opened || !areomap::ok(codec.encodeGray(pixels.data(), width, height, quality, out.data(), out.size(), used))) {
+  if (!opened ||
+      !areomap::ok(codec.encodeGray(pixels.data(), width, height, quality, out.data(), out.size(), used))) {
     std::fprintf(stderr, "fuzz_seeds: JPEG encoding failed\n");
     std::exit(1);
   }
@@ -155,6 +158,36 @@ int main(int argc, char** argv) {
   writeMessage(6, "coarse_dem", test::makeCoarseDem(7, 3, 4));
   writeMessage(7, "rover_status", test::makeRoverStatus(8));
   writeMessage(8, "product", test::makeProduct(9, 2));
+
+  // Site announcements (SiteFuzz.cpp: the encoded site_t alone).
+  for (int k = 0; k < 3; ++k) {
+    site_t s{};
+    s.sequence = k;
+    s.traverse = "sim-traverse-1";
+    s.site_id = "site0" + std::to_string(k + 1);
+    s.site_index = k;
+    s.sites_planned = 3;
+    s.panorama = s.traverse + "-" + s.site_id;
+    s.position_m[0] = 12.5 * k;
+    s.position_m[1] = -3.0 * k;
+    s.heading_deg = 20.0 * k;
+    s.has_odometry = k > 0;
+    if (k > 0) {
+      s.odometry_from = "site0" + std::to_string(k);
+      s.delta_m[0] = 12.0;
+      s.delta_heading_deg = 20.0;
+      s.distance_m = 12.2;
+      s.sigma_m[0] = s.sigma_m[1] = 0.6;
+      s.sigma_m[2] = 0.12;
+      s.sigma_heading_deg = 2.0;
+    }
+    s.is_last = k == 2;
+    const Bytes bytes = test::encode(s);
+    write("site", "site_" + std::to_string(k + 1) + "_of_3", bytes);
+    if (k == 1)
+      write("site", "site_2_of_3_truncated",
+            Bytes(bytes.begin(), bytes.begin() + static_cast<long>(bytes.size() / 2)));
+  }
 
   // Logs.
   Bytes log;

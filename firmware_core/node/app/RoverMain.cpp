@@ -79,7 +79,8 @@ areomap::ByteRing g_outbox(g_outbox_storage, kOutboxBytes);
 bool g_input_done = false;
 std::atomic<bool> g_stop{false};
 std::atomic<bool> g_pipeline_done{false};  // set by the pipeline thread as its last act
-std::atomic<bool> g_finished{false};  // set by the pipeline thread after the final EO (read by the transport thread)
+std::atomic<bool> g_finished{
+    false};  // set by the pipeline thread after the final EO (read by the transport thread)
 uint64_t g_inbox_refused = 0;
 uint64_t g_inbox_waits = 0;          // messages that waited for room in the inbox (back-pressure)
 std::size_t g_inbox_peak_bytes = 0;  // the inbox's highest fill
@@ -95,15 +96,21 @@ class OutboxTransport final : public areomap::platform::Transport {
     std::lock_guard<std::mutex> lock(g_mutex);
     return g_outbox.push(tag, data, size) ? Status::kOk : Status::kCapacityExceeded;
   }
-  Status subscribe(const char*, areomap::platform::MessageHandler, void*) override { return Status::kUnsupported; }
+  Status subscribe(const char*, areomap::platform::MessageHandler, void*) override {
+    return Status::kUnsupported;
+  }
   Status handle(int32_t) override { return Status::kTimeout; }
 };
 
-void onStereoPair(void*, const char*, const uint8_t* data, std::size_t size) {
+// Inbox record tags: what the pipeline hands the record to.
+constexpr uint8_t kTagStereoPair = 0;
+constexpr uint8_t kTagSite = 1;
+
+void toInbox(uint8_t tag, const uint8_t* data, std::size_t size) {
   // Back-pressure: wait for room rather than drop (a log replay waits; LCM keeps buffering meanwhile).
   std::unique_lock<std::mutex> lock(g_mutex);
   bool waited = false;
-  while (!g_inbox.push(0, data, size)) {
+  while (!g_inbox.push(tag, data, size)) {
     if (g_inbox.records() == 0 || g_stop.load()) {
       g_inbox_refused += 1;  // larger than the whole inbox
       std::fprintf(stderr, "areomap-rover: a %zu-byte message is larger than the inbox, dropped\n", size);
@@ -118,6 +125,15 @@ void onStereoPair(void*, const char*, const uint8_t* data, std::size_t size) {
   g_wake.notify_all();
 }
 
+void onStereoPair(void*, const char*, const uint8_t* data, std::size_t size) {
+  toInbox(kTagStereoPair, data, size);
+}
+
+// A traverse's site announcement: through the inbox too, so that it is handled in stream order.
+void onSite(void*, const char*, const uint8_t* data, std::size_t size) {
+  toInbox(kTagSite, data, size);
+}
+
 struct Options {
   const char* lcm_url = nullptr;
   const char* publish_url = nullptr;
@@ -128,18 +144,24 @@ struct Options {
 };
 
 constexpr const char* kUsage =
-    "usage: areomap-rover --lcm URL [--publish URL] [--exit-at-end] [--heartbeat-s S] [--max-seconds S] [--quiet]\n"
+    "usage: areomap-rover --lcm URL [--publish URL] [--exit-at-end] [--heartbeat-s S] [--max-seconds S] "
+    "[--quiet]\n"
     "\n"
     "The rover node: subscribes to AREOMAP_STEREO_PAIR on URL (udpm://GROUP:PORT?... live, file:///path.lcm\n"
-    "replay as fast as the pipeline takes it, memq://), and for each pair: JPEG decode into fixed buffers, tie\n"
+    "replay as fast as the pipeline takes it, memq://), and for each pair: JPEG decode into fixed buffers, "
+    "tie\n"
     "points, coarse DEM, inter-stereo ties with the pairs already seen, an incremental fast adjustment\n"
-    "warm-started from the previous solution; a final adjustment at the end-of-panorama marker. Publishes\n"
+    "warm-started from the previous solution; a final adjustment at the end-of-panorama marker. A "
+    "traverse's\n"
+    "sites (AREOMAP_SITE announcements, each before its pairs) are mapped one after the other. Publishes\n"
     "AREOMAP_TIEPOINTS, AREOMAP_COARSE_DEM, AREOMAP_EO_SOLUTION, AREOMAP_ROVER_STATUS (per pair and every\n"
     "--heartbeat-s seconds, default 1).\n"
     "\n"
-    "  --publish URL    where results go (default: the --lcm URL when it is udpm:// or memq://; nowhere for a\n"
+    "  --publish URL    where results go (default: the --lcm URL when it is udpm:// or memq://; nowhere for "
+    "a\n"
     "                   file:// replay unless given)\n"
-    "  --exit-at-end    exit after the end-of-panorama marker (always at the end of a file:// log)\n"
+    "  --exit-at-end    exit after the end-of-panorama marker (always at the end of a file:// log); in a\n"
+    "                   traverse (sites announced on AREOMAP_SITE) after the last site's marker\n"
     "  --max-seconds S  exit after S seconds (0 = no limit)\n"
     "  --quiet          no per-pair lines on stderr\n"
     "\n"
@@ -239,19 +261,23 @@ void pipelineLoop(const Options& options, const areomap::platform::Clock& clock,
     const uint8_t* message = nullptr;
     bool have = false;
     bool done = false;
+    uint8_t tag = 0;
     {
       std::unique_lock<std::mutex> lock(g_mutex);
       if (g_inbox.records() == 0 && !g_input_done && !g_stop.load()) {
         g_wake.wait_for(lock, std::chrono::milliseconds(50));
       }
-      uint8_t tag = 0;
       // A signal stops after the message in hand; the end of the input lets the inbox drain first.
       have = !g_stop.load() && g_inbox.front(tag, message, size);
       done = g_stop.load() || (g_input_done && g_inbox.records() == 0);
     }
     if (have) {
       // Processed in place: the record stays in the ring (push never overwrites it) until popped here.
-      g_node.handleStereoPair(message, size);
+      if (tag == kTagSite) {
+        g_node.handleSite(message, size);
+      } else {
+        g_node.handleStereoPair(message, size);
+      }
       std::lock_guard<std::mutex> lock(g_mutex);
       g_inbox.pop();
       g_wake.notify_all();
@@ -264,7 +290,7 @@ void pipelineLoop(const Options& options, const areomap::platform::Clock& clock,
       g_node.heartbeat();
       next_heartbeat = now + static_cast<int64_t>(options.heartbeat_s * 1e6);
     }
-    if (g_node.counters().finished && !finished_reported) {
+    if (g_node.endOfRun() && !finished_reported) {
       finished_reported = true;
       g_finished.store(true);
       if (options.exit_at_end) done = true;
@@ -357,13 +383,15 @@ bool openTransports(const Options& options, bool replay, Transports& t) {
   } else {
 #ifndef AREOMAP_NO_LCM_RUNTIME
     if (!areomap::ok(t.lcm_in.open(options.lcm_url))) {
-      std::fprintf(stderr, "areomap-rover: %s: LCM cannot open this URL (no multicast route?)\n", options.lcm_url);
+      std::fprintf(stderr, "areomap-rover: %s: LCM cannot open this URL (no multicast route?)\n",
+                   options.lcm_url);
       return false;
     }
     t.input = &t.lcm_in;
     t.output = &t.lcm_in;
 #else
-    std::fprintf(stderr, "areomap-rover: %s: this build has no LCM runtime; use a file:// log\n", options.lcm_url);
+    std::fprintf(stderr, "areomap-rover: %s: this build has no LCM runtime; use a file:// log\n",
+                 options.lcm_url);
     return false;
 #endif
   }
@@ -383,6 +411,10 @@ bool openTransports(const Options& options, bool replay, Transports& t) {
     std::fprintf(stderr, "areomap-rover: cannot subscribe to %s\n", areomap::channels::kStereoPair);
     return false;
   }
+  if (!areomap::ok(t.input->subscribe(areomap::channels::kSite, onSite, nullptr))) {
+    std::fprintf(stderr, "areomap-rover: cannot subscribe to %s\n", areomap::channels::kSite);
+    return false;
+  }
   return true;
 }
 
@@ -399,7 +431,8 @@ bool transportLoop(const Options& options, bool replay, Transports& t, const are
       if (s == Status::kEndOfStream ||
           (replay && s != Status::kOk && s != Status::kCapacityExceeded && s != Status::kTimeout)) {
         if (s != Status::kEndOfStream) {
-          std::fprintf(stderr, "areomap-rover: %s: log replay stopped: %s\n", options.lcm_url, areomap::statusName(s));
+          std::fprintf(stderr, "areomap-rover: %s: log replay stopped: %s\n", options.lcm_url,
+                       areomap::statusName(s));
           input_failed = s == Status::kIoError;
         }
         std::lock_guard<std::mutex> lock(g_mutex);
@@ -414,7 +447,8 @@ bool transportLoop(const Options& options, bool replay, Transports& t, const are
         clock.monotonicUtime() - g_last_status_us >= static_cast<int64_t>(options.heartbeat_s * 1e6)) {
       publishStatus(t.output, clock);
     }
-    if (options.max_seconds > 0.0 && clock.monotonicUtime() - start_us > static_cast<int64_t>(options.max_seconds * 1e6))
+    if (options.max_seconds > 0.0 &&
+        clock.monotonicUtime() - start_us > static_cast<int64_t>(options.max_seconds * 1e6))
       g_stop.store(true);
     const bool finished = g_finished.load() && options.exit_at_end;
     if (g_stop.load() || finished) {
@@ -429,8 +463,9 @@ bool transportLoop(const Options& options, bool replay, Transports& t, const are
     }
     if (!join) continue;
     if (!awaitPipeline(t.output, clock)) {
-      writeStderr("areomap-rover: stopped while the pipeline was busy with a pair for longer than the grace "
-                  "time; exiting without it\n");
+      writeStderr(
+          "areomap-rover: stopped while the pipeline was busy with a pair for longer than the grace "
+          "time; exiting without it\n");
       std::fflush(nullptr);
       std::_Exit(1);
     }

@@ -8,6 +8,7 @@
 
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/Traverse.hpp"
 #include "ground/node/EventRecorder.hpp"
 #include "ground/node/GroundNode.hpp"
 #include "ground/node/GroundPass.hpp"
@@ -17,23 +18,31 @@
 #ifdef AREOMAP_HAVE_PRODUCTS
 #include "ground/pass/PassProducts.hpp"
 #endif
+#ifdef AREOMAP_HAVE_TRAVERSE
+#include "ground/traverse/StreamTraverse.hpp"
+#endif
 
 namespace {
 
 constexpr const char* kUsage =
-    "usage: areomap-ground --lcm URL --out DIR [--truth DATASET] [options]\n"
+    "usage: areomap-ground --lcm URL --out DIR [--truth DATASET] [--traverse] [options]\n"
     "       areomap-ground --dataset DIR --out DIR [--truth DATASET]\n"
     "\n"
     "The ground node. With --lcm it subscribes to the camera stream (AREOMAP_STEREO_PAIR) and the rover's\n"
     "results (AREOMAP_TIEPOINTS, AREOMAP_EO_SOLUTION, AREOMAP_COARSE_DEM, AREOMAP_ROVER_STATUS), keeps the\n"
-    "full-resolution images (DIR/stream/: images as decoded from the stream's JPEGs, models, panorama.json),\n"
+    "full-resolution images (DIR/stream/: images as decoded from the stream's JPEGs, models, "
+    "panorama.json),\n"
     "and at the end-of-panorama marker (after waiting, bounded, for the rover's final EO) runs the ground\n"
-    "pass, then publishes AREOMAP_PRODUCT (files, sizes, sha256) on the same URL. With --dataset it runs the\n"
+    "pass, then publishes AREOMAP_PRODUCT (files, sizes, sha256) on the same URL. With --dataset it runs "
+    "the\n"
     "same pass on a dataset folder, without LCM.\n"
     "\n"
-    "The pass: the rover's tie points (AREOMAP_TIEPOINTS) when they arrived complete, else the rover's matcher\n"
-    "run on the ground's images (report.json ground.tie_source, and a warning saying why); the fast adjustment\n"
-    "(outlier rejection); the integrated adjustment (Ceres) as the reference; products in DIR: models/<stem>.cahvor,\n"
+    "The pass: the rover's tie points (AREOMAP_TIEPOINTS) when they arrived complete, else the rover's "
+    "matcher\n"
+    "run on the ground's images (report.json ground.tie_source, and a warning saying why); the fast "
+    "adjustment\n"
+    "(outlier rejection); the integrated adjustment (Ceres) as the reference; products in DIR: "
+    "models/<stem>.cahvor,\n"
     "eo.csv, tiepoints.csv, rover_models/<stem>.cahvor (the rover's last EO), rover_tiepoints.csv,\n"
     "report.json (method1/2/3,\n"
     "stream {pairs, gaps, duplicates, reordered, rejected}, rover {heap_allocs_after_init, static_bytes\n"
@@ -47,13 +56,36 @@ constexpr const char* kUsage =
     "  --truth DATASET     a dataset folder with truth/ (true models): truth.eo_px in the report. With\n"
     "                      --dataset the dataset's own truth/ is used when present\n"
     "  --rover-wait-s S    after the end marker, wait up to S s for the rover's final EO (default 1800)\n"
-    "  --rover-silent-s S  ... but stop waiting when the rover sent nothing for S s (default 300: a busy rover\n"
+    "  --rover-silent-s S  ... but stop waiting when the rover sent nothing for S s (default 300: a busy "
+    "rover\n"
     "                      sends nothing while it works on a pair; 5 s when no rover was ever heard)\n"
     "  --idle-timeout-s S  the stream stops without an end marker: make products after S s (default 120)\n"
     "  --first-timeout-s S nothing arrives at all within S s: exit 1 (default 600)\n"
     "  --panoramas N       make products for N panoramas, then exit (default 1; 0 = until the stream ends):\n"
     "                      with N != 1 panorama k (1-based) goes to DIR/panorama-KKK/ (own stream/, report)\n"
-    "  --no-record         do not record: by default a live node (udpm://, memq://) appends every message it\n"
+    "  --traverse          a multi-site traverse (areomap-pack of a traverse.json): also subscribes to\n"
+    "                      AREOMAP_SITE; each site's panorama (tied to its site by the panorama name the "
+    "site\n"
+    "                      announcement gives) is mapped into DIR/sites/<id>/ as it arrives, and after the\n"
+    "                      last site the traverse steps of areomap-traverse run: DIR/traverse.json (the\n"
+    "                      announced sites; their datasets DIR/sites/<id>/stream), poses.csv, models/<id>/,\n"
+    "                      the merged dem.tif, dem_sigma.tif, ortho.tif and report.json (traverse.sites, "
+    "...;\n"
+    "                      `stream` counts the site announcements and what was refused: an announcement "
+    "that\n"
+    "                      does not decode or repeats a site, a pair whose panorama no site announced).\n"
+    "                      --truth TRAVERSE: the traverse folder packed (truth/traverse.json, truth/dem.tif\n"
+    "                      and each site's truth/)\n"
+    "  --cross-ties FILE   with --traverse: cross-site tie points (CSV point,site,image,sample_px,line_px) "
+    "for\n"
+    "                      the multi-site adjustment of the poses, as areomap-traverse --cross-ties\n"
+    "  --truth-cross-ties  with --traverse --truth TRAVERSE: cross-site ties from the synthetic traverse's "
+    "truth\n"
+    "                      with --noise-px S (default 0.3), as areomap-traverse --truth-cross-ties (a check "
+    "of\n"
+    "                      the adjustment, not a measurement)\n"
+    "  --no-record         do not record: by default a live node (udpm://, memq://) appends every message "
+    "it\n"
     "                      receives to DIR/received.lcm before handling it; after a crash or kill,\n"
     "                      `--lcm file://DIR/received.lcm` re-makes the same products\n"
     "  --no-products       adjustment products only (no dense matching, DEM, ortho, previews)\n"
@@ -61,18 +93,23 @@ constexpr const char* kUsage =
     "  --stream-only       collect and count the stream only (the `stream:` line), no pass, nothing written\n"
     "  --summary-json      print the figures as one JSON line on stdout at the end\n"
     "\n"
-    "Exit: 0 ok, 2 usage error, 1 other error (the message names the file or URL and the field); also 1 when a\n"
-    "product could not be written (full disk, folder not writable): every other product is still made, and each\n"
+    "Exit: 0 ok, 2 usage error, 1 other error (the message names the file or URL and the field); also 1 when "
+    "a\n"
+    "product could not be written (full disk, folder not writable): every other product is still made, and "
+    "each\n"
     "file not written is named on stderr.\n";
 
 constexpr std::size_t kReplayBufferBytes = 16u * 1024u * 1024u;  // one log event: a stereo pair is <= ~4 MiB
 
 void printSummary(const areomap::ground::GroundPassResult& p, const std::string& out) {
-  std::printf("ground: %d pairs, %d images, %d points, %d intra + %d inter observations, %d rejected\n", p.pairs,
-              p.images, p.points, p.intra_observations, p.inter_observations, p.rejected_observations);
-  std::printf("ground: method 1 mean distance %.3f px before, %.3f px after (integrated, %d iterations); fast %.3f px "
-              "(%d sweeps)\n",
-              p.method1_before_px, p.method1_after_px, p.integrated_iterations, p.method1_fast_px, p.fast_sweeps);
+  std::printf("ground: %d pairs, %d images, %d points, %d intra + %d inter observations, %d rejected\n",
+              p.pairs, p.images, p.points, p.intra_observations, p.inter_observations,
+              p.rejected_observations);
+  std::printf(
+      "ground: method 1 mean distance %.3f px before, %.3f px after (integrated, %d iterations); fast %.3f "
+      "px "
+      "(%d sweeps)\n",
+      p.method1_before_px, p.method1_after_px, p.integrated_iterations, p.method1_fast_px, p.fast_sweeps);
   if (p.truth_eo_after_px) {
     std::printf("ground: truth EO error %.3f px before, %.3f px integrated, %.3f px fast (datum removed)\n",
                 p.truth_eo_before_px.value_or(-1.0), *p.truth_eo_after_px, p.truth_eo_fast_px.value_or(-1.0));
@@ -81,13 +118,15 @@ void printSummary(const areomap::ground::GroundPassResult& p, const std::string&
   std::printf("ground: %zu product files in %s\n", p.files.size(), out.c_str());
 }
 
-
 // DESIGN.md exit codes: a product that could not be written (full disk, folder not writable) is an error,
 // reported once every other product is made: each file named on stderr, then exit 1.
 int writeErrorsExit(const std::vector<std::string>& errors) {
-  for (const std::string& e : errors) std::fprintf(stderr, "areomap-ground: error: not written: %s\n", e.c_str());
-  std::fprintf(stderr, "areomap-ground: error: %zu product file(s) could not be written; the other products were made\n",
-               errors.size());
+  for (const std::string& e : errors)
+    std::fprintf(stderr, "areomap-ground: error: not written: %s\n", e.c_str());
+  std::fprintf(
+      stderr,
+      "areomap-ground: error: %zu product file(s) could not be written; the other products were made\n",
+      errors.size());
   return 1;
 }
 
@@ -112,6 +151,10 @@ int main(int argc, char** argv) {
     const bool no_products = args.flag("--no-products");
     options.pass.use_rover_ties = !args.flag("--no-rover-ties");
     options.stream_only = args.flag("--stream-only");
+    options.traverse = args.flag("--traverse");
+    const std::string cross_ties = args.option("--cross-ties", "");
+    const bool truth_cross_ties = args.flag("--truth-cross-ties");
+    const double noise_px = args.number("--noise-px", 0.3);
 #ifdef AREOMAP_HAVE_PRODUCTS
     if (!no_products) options.pass.products_hook = ground::makePassProducts;
 #else
@@ -122,8 +165,32 @@ int main(int argc, char** argv) {
       throw cli::UsageError("--panoramas needs a whole number >= 0");
     }
     options.panoramas = static_cast<int32_t>(panoramas);
-    if (lcm.has_value() == dataset_dir.has_value()) throw cli::UsageError("give exactly one of --lcm URL and --dataset DIR");
-    for (double v : {options.rover_wait_s, options.rover_silent_s, options.idle_timeout_s, options.first_message_timeout_s}) {
+    if (lcm.has_value() == dataset_dir.has_value())
+      throw cli::UsageError("give exactly one of --lcm URL and --dataset DIR");
+#ifndef AREOMAP_HAVE_TRAVERSE
+    if (options.traverse) throw cli::UsageError("--traverse: this build has no ground/traverse");
+#endif
+    if (options.traverse && !lcm)
+      throw cli::UsageError("--traverse needs --lcm (for a traverse folder: areomap-traverse)");
+    if (!options.traverse && (truth_cross_ties || !cross_ties.empty()))
+      throw cli::UsageError("--cross-ties and --truth-cross-ties go with --traverse");
+    if (truth_cross_ties && !cross_ties.empty())
+      throw cli::UsageError("give at most one of --cross-ties FILE and --truth-cross-ties");
+    (void)noise_px;              // used by the traverse steps only
+    std::string truth_traverse;  // --truth naming a traverse folder
+    if (options.traverse && !options.pass.truth_dir.empty()) {
+      const std::string& t = options.pass.truth_dir;
+      if (!std::filesystem::is_regular_file(t + "/" + kTraverseFileName)) {
+        throw cli::InputError(t, "--truth",
+                              std::string("with --traverse, a traverse folder with ") + kTraverseFileName);
+      }
+      truth_traverse = t;
+      for (const TraverseSite& site : readTraverse(t).sites) options.site_truth_dirs[site.id] = site.dir;
+      options.pass.truth_dir.clear();
+    }
+    std::vector<std::string> mapped_sites;
+    for (double v : {options.rover_wait_s, options.rover_silent_s, options.idle_timeout_s,
+                     options.first_message_timeout_s}) {
       if (!(v >= 0.0)) throw cli::UsageError("timeouts must be >= 0 seconds");
     }
     ground::GroundPassResult pass;
@@ -141,26 +208,34 @@ int main(int argc, char** argv) {
       }
       // Per panorama: the stream figures, and the pass summary (several panoramas: each with its folder).
       const ground::PanoramaDone done = [&](const ground::GroundNodeResult& r) {
-        std::printf("stream: %d pairs, %d gaps, %d duplicates, %d reordered, %d rejected; %lld messages in %.2f s\n",
-                    r.stream.pairs, r.stream.gaps, r.stream.duplicates, r.stream.reordered,
-                    [&] {
-                      int n = 0;
-                      for (const auto& [cause, count] : r.stream.rejected) n += count;
-                      return n;
-                    }(),
-                    static_cast<long long>(r.messages), r.receive_seconds);
+        std::printf(
+            "stream: %d pairs, %d gaps, %d duplicates, %d reordered, %d rejected; %lld messages in %.2f s\n",
+            r.stream.pairs, r.stream.gaps, r.stream.duplicates, r.stream.reordered,
+            [&] {
+              int n = 0;
+              for (const auto& [cause, count] : r.stream.rejected) n += count;
+              return n;
+            }(),
+            static_cast<long long>(r.messages), r.receive_seconds);
         if (r.rover.status) {
           const rover_status_t& st = *r.rover.status;
-          std::printf("rover: %d pairs seen, %d accepted, %d rejected, %d sequence gaps; %d tie-point messages "
-                      "(%d lost); heap allocations after start-up %lld; final EO %s\n",
-                      st.pairs_seen, st.pairs_accepted, st.pairs_rejected, st.sequence_gaps, r.rover.tie_messages,
-                      r.rover.tie_messages_missing, static_cast<long long>(st.heap_allocs_after_init),
-                      r.rover.finished ? "arrived" : "missing");
+          std::printf(
+              "rover: %d pairs seen, %d accepted, %d rejected, %d sequence gaps; %d tie-point messages "
+              "(%d lost); heap allocations after start-up %lld; final EO %s\n",
+              st.pairs_seen, st.pairs_accepted, st.pairs_rejected, st.sequence_gaps, r.rover.tie_messages,
+              r.rover.tie_messages_missing, static_cast<long long>(st.heap_allocs_after_init),
+              r.rover.finished ? "arrived" : "missing");
         }
         if (options.stream_only) return;
         write_errors.insert(write_errors.end(), r.pass.write_errors.begin(), r.pass.write_errors.end());
-        if (options.panoramas != 1) std::printf("panorama %d: products in %s\n", r.panorama_index, r.out_dir.c_str());
-        if (options.panoramas != 1) printSummary(r.pass, r.out_dir);
+        if (options.traverse) {
+          mapped_sites.push_back(r.site_id);
+          std::printf("site %s: products in %s\n", r.site_id.c_str(), r.out_dir.c_str());
+          printSummary(r.pass, r.out_dir);
+        } else if (options.panoramas != 1) {
+          std::printf("panorama %d: products in %s\n", r.panorama_index, r.out_dir.c_str());
+          printSummary(r.pass, r.out_dir);
+        }
         std::fflush(stdout);
       };
       ground::GroundNodeResult result;
@@ -172,7 +247,8 @@ int main(int argc, char** argv) {
         options.log_replay = true;  // a log holds whatever was recorded: read on, never wait
         result = ground::runGroundNode(replay, *lcm, options, done);
         cli::info("log replay: AREOMAP_PRODUCT not published (a log is read-only); " +
-                  std::to_string(replay.eventsTooLarge()) + " event(s) larger than the replay buffer skipped");
+                  std::to_string(replay.eventsTooLarge()) +
+                  " event(s) larger than the replay buffer skipped");
       } else {
         platform::LcmTransport transport;
         if (!ok(transport.open(lcm->c_str()))) {
@@ -184,19 +260,46 @@ int main(int argc, char** argv) {
         if (!result.product_published) cli::warn("AREOMAP_PRODUCT could not be published");
         if (result.record_write_errors > 0) {
           // The products are made, but a restarted node could not resume from this recording.
-          write_errors.push_back(options.record_path + ": " + std::to_string(result.record_write_errors) + " of " +
-                                 std::to_string(result.recorded + result.record_write_errors) +
-                                 " received messages not recorded (disk full?); a restart cannot resume from it");
+          write_errors.push_back(
+              options.record_path + ": " + std::to_string(result.record_write_errors) + " of " +
+              std::to_string(result.recorded + result.record_write_errors) +
+              " received messages not recorded (disk full?); a restart cannot resume from it");
         }
       }
       pass = result.pass;
       if (options.stream_only) return 0;
+#ifdef AREOMAP_HAVE_TRAVERSE
+      if (options.traverse) {
+        traverse::StreamTraverseInputs in;
+        in.sites = result.sites;
+        in.site_counts = result.site_counts;
+        in.mapped_sites = mapped_sites;
+        in.truth_traverse = truth_traverse;
+        traverse::TraverseRunOptions o;
+        o.out_dir = out;
+        o.products = !no_products;
+        o.cross_ties_csv = cross_ties;
+        o.truth_cross_ties = truth_cross_ties;
+        o.truth_noise_px = noise_px;
+        cli::info("traverse: " + std::to_string(mapped_sites.size()) +
+                  " site(s) mapped; poses, merged map, report");
+        const traverse::TraverseResult r = traverse::finishStreamTraverse(in, o);
+        int mapped = 0;
+        for (const traverse::SiteOutcome& site : r.sites) mapped += site.ok ? 1 : 0;
+        std::printf("traverse: %d of %zu sites mapped, %d site announcement(s) accepted, %zu file(s) in %s\n",
+                    mapped, r.sites.size(), result.site_counts.sites_announced, r.files.size(), out.c_str());
+        write_errors.insert(write_errors.end(), r.write_errors.begin(), r.write_errors.end());
+        return write_errors.empty() ? 0 : writeErrorsExit(write_errors);
+      }
+#endif
+      (void)truth_traverse;
       if (options.panoramas != 1) return write_errors.empty() ? 0 : writeErrorsExit(write_errors);
     }
     printSummary(pass, out);
     if (summary_json) {
-      std::printf("{\"pairs\": %d, \"method1_before_px\": %.6f, \"method1_after_px\": %.6f, \"files\": %zu}\n", pass.pairs,
-                  pass.method1_before_px, pass.method1_after_px, pass.files.size());
+      std::printf(
+          "{\"pairs\": %d, \"method1_before_px\": %.6f, \"method1_after_px\": %.6f, \"files\": %zu}\n",
+          pass.pairs, pass.method1_before_px, pass.method1_after_px, pass.files.size());
     }
     return write_errors.empty() ? 0 : writeErrorsExit(write_errors);
   });

@@ -8,6 +8,7 @@
 #include <malloc.h>
 
 #include "areomap/rover_status_t.hpp"
+#include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "firmware_core/node/RoverNode.hpp"
 #include "msgs/Channels.hpp"
@@ -126,7 +127,6 @@ TEST(RoverNodeStream, SequencesAndBadMessagesCountedWithoutHeap) {
 // sequence that jumps by ~2^62 counts its gap without overflowing the counter; an image larger than the
 // capacity or a model of another size is rejected before its JPEG is decoded; no heap.
 TEST(RoverNodeStream, SequenceAndSizesCheckedBeforeUse) {
-
   auto withImage = [](int64_t sequence, int32_t width, int32_t model_width) {
     stereo_pair_t p{};
     std::vector<uint8_t> bytes = encodeMarker(sequence, stereo_pair_t::KIND_PAIR);
@@ -160,6 +160,74 @@ TEST(RoverNodeStream, SequenceAndSizesCheckedBeforeUse) {
   CHECK_EQUAL(2, c.rejected_by_cause[static_cast<int>(Status::kMissingField)]);
   CHECK_EQUAL(INT32_MAX, c.sequence_gaps);  // saturated, not wrapped negative
   CHECK_EQUAL(0, c.pairs_accepted);
+}
+
+// A traverse's site announcements (AREOMAP_SITE) without images: a bad one counted under its cause
+// (sites_rejected), the good ones accepted; endOfRun() only after the end marker of the last announced
+// site's panorama, not after the first site's; a second site's stream (sequences from 0 again) is not
+// counted as duplicates; no heap after start().
+TEST(RoverNodeStream, SiteAnnouncementsAndEndOfRun) {
+  const auto site = [](int32_t index, const char* panorama) {
+    site_t m{};
+    m.sequence = index;
+    m.traverse = "unit-traverse";
+    m.site_id = index == 0 ? "site01" : "site02";
+    m.site_index = index;
+    m.sites_planned = 2;
+    m.panorama = panorama;
+    m.has_odometry = index > 0;
+    if (index > 0) {
+      m.odometry_from = "site01";
+      m.delta_m[0] = 10.0;
+      m.distance_m = 10.0;
+      m.sigma_m[0] = m.sigma_m[1] = m.sigma_m[2] = 0.5;
+      m.sigma_heading_deg = 2.0;
+    }
+    m.is_last = index == 1;
+    std::vector<uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
+    (void)m.encode(b.data(), 0, static_cast<int>(b.size()));
+    return b;
+  };
+  const auto named = [](int64_t sequence, int8_t kind, const char* panorama) {
+    std::vector<uint8_t> b = encodeMarker(sequence, kind);
+    stereo_pair_t p;
+    CHECK(ok(msgs::decodeMessage(b.data(), b.size(), p)));
+    p.panorama = panorama;
+    b.resize(static_cast<std::size_t>(p.getEncodedSize()));
+    (void)p.encode(b.data(), 0, static_cast<int>(b.size()));
+    return b;
+  };
+  const std::vector<uint8_t> first = site(0, "unit-1"), second = site(1, "unit-2");
+  std::vector<uint8_t> truncated = second;
+  truncated.resize(truncated.size() / 2);
+  const std::vector<uint8_t> pair_a = named(0, stereo_pair_t::KIND_PAIR, "unit-1"),
+                             end_a = named(1, stereo_pair_t::KIND_END_OF_PANORAMA, "unit-1"),
+                             pair_b = named(0, stereo_pair_t::KIND_PAIR, "unit-2"),
+                             end_b = named(1, stereo_pair_t::KIND_END_OF_PANORAMA, "unit-2");
+  HeapAllocationScope scope;
+  g_node.handleSite(first.data(), first.size());
+  g_node.handleStereoPair(pair_a.data(), pair_a.size());
+  g_node.handleStereoPair(end_a.data(), end_a.size());
+  const bool finished_a = g_node.counters().finished, end_of_run_a = g_node.endOfRun();
+  g_node.handleSite(truncated.data(), truncated.size());
+  g_node.handleSite(second.data(), second.size());
+  g_node.handleStereoPair(pair_b.data(), pair_b.size());
+  const bool end_of_run_mid = g_node.endOfRun();
+  g_node.handleStereoPair(end_b.data(), end_b.size());
+  const uint64_t allocations = scope.allocations();
+  const RoverCounters& c = g_node.counters();
+  CHECK_EQUAL(0u, allocations);
+  CHECK_TRUE(finished_a);
+  CHECK_FALSE(end_of_run_a);  // the first site's marker: the traverse goes on
+  CHECK_FALSE(end_of_run_mid);
+  CHECK_TRUE(g_node.endOfRun());
+  CHECK_EQUAL(2, c.sites_announced);
+  CHECK_EQUAL(1, c.sites_rejected);
+  CHECK_EQUAL(1, c.rejected_by_cause[static_cast<int>(Status::kTruncated)]);
+  CHECK_EQUAL(0, c.duplicates);
+  CHECK_EQUAL(0, c.sequence_gaps);
+  CHECK_EQUAL(2, c.end_markers);
+  CHECK_EQUAL(2, c.rejected_by_cause[static_cast<int>(Status::kMissingField)]);  // the pairs carry no JPEG
 }
 
 TEST_GROUP(RoverNodeMemory){};

@@ -18,6 +18,7 @@
 #include "firmware_core/camera/CameraConversion.hpp"
 #include "firmware_core/node/RoverNode.hpp"
 #include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/Traverse.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/pack/Pack.hpp"
@@ -38,7 +39,9 @@
 using namespace areomap;
 
 // CppUTest prints a Status by its name.
-SimpleString StringFrom(areomap::Status status) { return SimpleString(areomap::statusName(status)); }
+SimpleString StringFrom(areomap::Status status) {
+  return SimpleString(areomap::statusName(status));
+}
 
 namespace {
 
@@ -64,6 +67,7 @@ uint8_t g_arena[platform::ArenaJpegDecoder::kArenaBytes];
 struct Captured {
   eo_solution_t last_eo;
   bool have_final = false;
+  std::vector<eo_solution_t> finals;  // every final EO (one per panorama), in order
   rover_status_t last_status;
   int statuses = 0;
   int tiepoints = 0;
@@ -77,6 +81,7 @@ void onEo(void* ctx, const char*, const uint8_t* data, std::size_t size) {
   if (ok(msgs::decodeMessage(data, size, m)) && m.is_final) {
     c->last_eo = m;
     c->have_final = true;
+    c->finals.push_back(m);
   }
 }
 void onStatus(void* ctx, const char*, const uint8_t* data, std::size_t size) {
@@ -87,7 +92,9 @@ void onStatus(void* ctx, const char*, const uint8_t* data, std::size_t size) {
     c->statuses += 1;
   }
 }
-void onCount(void* ctx, const char*, const uint8_t*, std::size_t) { *static_cast<int*>(ctx) += 1; }
+void onCount(void* ctx, const char*, const uint8_t*, std::size_t) {
+  *static_cast<int*>(ctx) += 1;
+}
 void onTies(void* ctx, const char*, const uint8_t* data, std::size_t size) {
   auto* c = static_cast<Captured*>(ctx);
   tiepoints_t m;
@@ -113,6 +120,12 @@ void onPair(void* ctx, const char*, const uint8_t* data, std::size_t size) {
   node().handleStereoPair(data, size);
   f->pipeline_allocs += heapAllocationCountThisThread() - before;
 }
+void onSite(void* ctx, const char*, const uint8_t* data, std::size_t size) {
+  auto* f = static_cast<PairFeeder*>(ctx);
+  const uint64_t before = heapAllocationCountThisThread();
+  node().handleSite(data, size);
+  f->pipeline_allocs += heapAllocationCountThisThread() - before;
+}
 
 // The rover's outbox (as in areomap-rover): publications are copied into a heap-free queue and forwarded to
 // the captures after each message, so that only the pipeline's own work is counted.
@@ -134,6 +147,7 @@ Captured runThroughMemq(const std::vector<LogEvent>& events, uint64_t& pipeline_
   captured = Captured{};
   PairFeeder feeder;
   CHECK_EQUAL(Status::kOk, lcm.subscribe(channels::kStereoPair, onPair, &feeder));
+  CHECK_EQUAL(Status::kOk, lcm.subscribe(channels::kSite, onSite, &feeder));
   CHECK_EQUAL(Status::kOk, outbox.subscribe(channels::kEoSolution, onEo, &captured));
   CHECK_EQUAL(Status::kOk, outbox.subscribe(channels::kRoverStatus, onStatus, &captured));
   CHECK_EQUAL(Status::kOk, outbox.subscribe(channels::kTiePoints, onTies, &captured));
@@ -157,7 +171,8 @@ stereo_pair_t decodePair(const LogEvent& e) {
 }
 
 LogEvent encodePair(const stereo_pair_t& p, int64_t utime) {
-  LogEvent e{channels::kStereoPair, utime, std::vector<uint8_t>(static_cast<std::size_t>(p.getEncodedSize()))};
+  LogEvent e{channels::kStereoPair, utime,
+             std::vector<uint8_t>(static_cast<std::size_t>(p.getEncodedSize()))};
   CHECK_EQUAL(static_cast<int>(e.data.size()), p.encode(e.data.data(), 0, static_cast<int>(e.data.size())));
   return e;
 }
@@ -223,7 +238,8 @@ double maxEoDifferencePx(const Network& a, const Network& b) {
   for (int32_t i = 0; i < a.imageCount(); ++i) {
     const NetImage& x = a.image(i);
     const NetImage& y = b.image(i);
-    worst = std::max(worst, eoPixelEquivalent(x.io.f_px, x.center_m - y.center_m, rotationAngle(x.m, y.m), 5.0));
+    worst =
+        std::max(worst, eoPixelEquivalent(x.io.f_px, x.center_m - y.center_m, rotationAngle(x.m, y.m), 5.0));
   }
   return worst;
 }
@@ -253,7 +269,8 @@ TEST(PackStream, TinyStreamIsOrderedAndComplete) {
     CHECK_EQUAL(stereo_pair_t::KIND_PAIR, p.kind);
     STRCMP_EQUAL(dataset.pairs[k].left.stem.c_str(), p.left.stem.c_str());
     int32_t w = 0, h = 0;
-    CHECK_EQUAL(Status::kOk, codec.decodeGray(p.left.jpeg.data(), p.left.jpeg.size(), pixels.data(), pixels.size(), w, h));
+    CHECK_EQUAL(Status::kOk,
+                codec.decodeGray(p.left.jpeg.data(), p.left.jpeg.size(), pixels.data(), pixels.size(), w, h));
     CHECK_EQUAL(p.left.width_px, w);
     CHECK_EQUAL(p.left.height_px, h);
     CHECK_TRUE(p.has_right == dataset.pairs[k].right.has_value());
@@ -281,10 +298,11 @@ TEST(RoverMemq, TinyEndToEndEqualsTheTiesToolAndZeroHeap) {
   uint64_t allocs = 99;
   const Captured c = runThroughMemq(tinyStream(), allocs);
   const RoverCounters& k = node().counters();
-  std::printf("rover memq tiny: %d pairs accepted of %d, final rms %.4f px, %d sweeps, %d tie-point and %d DEM "
-              "messages (%zu observations), pipeline heap allocations %llu (heap counter %s)\n",
-              k.pairs_accepted, k.pairs_seen, k.last_rms_px, k.last_sweeps, c.tiepoints, c.dems, c.ties.size(),
-              static_cast<unsigned long long>(allocs), heapCounterActive() ? "on" : "off");
+  std::printf(
+      "rover memq tiny: %d pairs accepted of %d, final rms %.4f px, %d sweeps, %d tie-point and %d DEM "
+      "messages (%zu observations), pipeline heap allocations %llu (heap counter %s)\n",
+      k.pairs_accepted, k.pairs_seen, k.last_rms_px, k.last_sweeps, c.tiepoints, c.dems, c.ties.size(),
+      static_cast<unsigned long long>(allocs), heapCounterActive() ? "on" : "off");
   CHECK_EQUAL(static_cast<int>(dataset.pairs.size()), k.pairs_accepted);
   CHECK_EQUAL(0, k.pairs_rejected);
   CHECK_TRUE(c.have_final);
@@ -315,12 +333,14 @@ TEST(RoverMemq, TinyEndToEndEqualsTheTiesToolAndZeroHeap) {
     CameraModel rover;
     const char* field = "";
     CHECK_EQUAL(Status::kOk, toCameraModel(e.model, rover, field));
-    const CameraModel tool = io::readCameraModelFile(dir + "/ties/models/" + e.stem + ".cahvor", rover.width, rover.height);
+    const CameraModel tool =
+        io::readCameraModelFile(dir + "/ties/models/" + e.stem + ".cahvor", rover.width, rover.height);
     worst = std::max(worst, modelDifferencePx(rover, tool));
   }
-  std::printf("rover vs areomap-ties --adjust on the same pixels: %zu vs %zu tie observations, %zu differ; final EO "
-              "max %.6f px equivalent\n",
-              c.ties.size(), ties.size(), differ, worst);
+  std::printf(
+      "rover vs areomap-ties --adjust on the same pixels: %zu vs %zu tie observations, %zu differ; final EO "
+      "max %.6f px equivalent\n",
+      c.ties.size(), ties.size(), differ, worst);
   CHECK_EQUAL(0u, differ);
   CHECK_TRUE(worst < 0.01);
 }
@@ -330,20 +350,22 @@ TEST(RoverMemq, TinyEndToEndEqualsTheTiesToolAndZeroHeap) {
 // simply removed accepts the same pairs and ends at the same EO (within 1e-6 px equivalent).
 TEST(RoverMemq, InjectedFaultsCountedAndResultAsWithoutTheFaultyPairs) {
   const std::vector<LogEvent> faulty = injectFaults(
-      tinyStream(), "drop:2,dup:3,swap:5,truncate:4,corrupt-jpeg:6,unknown-channel,wrong-type,oversize:7,nan-model:1");
+      tinyStream(),
+      "drop:2,dup:3,swap:5,truncate:4,corrupt-jpeg:6,unknown-channel,wrong-type,oversize:7,nan-model:1");
   uint64_t allocs = 99;
   const Captured c = runThroughMemq(faulty, allocs);
   const RoverCounters& k = node().counters();
   auto cause = [&](Status s) { return k.rejected_by_cause[static_cast<int>(s)]; };
-  std::printf("faults: seen %d accepted %d rejected %d; gaps %d duplicates %d reordered %d; truncated %d corrupt %d "
-              "capacity %d unsupported %d not_finite %d; heap %llu; last error: %s\n",
-              k.pairs_seen, k.pairs_accepted, k.pairs_rejected, k.sequence_gaps, k.duplicates, k.reordered,
-              cause(Status::kTruncated), cause(Status::kCorruptData), cause(Status::kCapacityExceeded),
-              cause(Status::kUnsupported), cause(Status::kNotFinite), static_cast<unsigned long long>(allocs),
-              node().lastError());
-  CHECK_EQUAL(2, k.sequence_gaps);   // pair 2 dropped; pair 4 truncated (its sequence cannot be read)
-  CHECK_EQUAL(1, k.duplicates);      // pair 3 twice
-  CHECK_EQUAL(1, k.reordered);       // 5 after 6
+  std::printf(
+      "faults: seen %d accepted %d rejected %d; gaps %d duplicates %d reordered %d; truncated %d corrupt %d "
+      "capacity %d unsupported %d not_finite %d; heap %llu; last error: %s\n",
+      k.pairs_seen, k.pairs_accepted, k.pairs_rejected, k.sequence_gaps, k.duplicates, k.reordered,
+      cause(Status::kTruncated), cause(Status::kCorruptData), cause(Status::kCapacityExceeded),
+      cause(Status::kUnsupported), cause(Status::kNotFinite), static_cast<unsigned long long>(allocs),
+      node().lastError());
+  CHECK_EQUAL(2, k.sequence_gaps);  // pair 2 dropped; pair 4 truncated (its sequence cannot be read)
+  CHECK_EQUAL(1, k.duplicates);     // pair 3 twice
+  CHECK_EQUAL(1, k.reordered);      // 5 after 6
   CHECK_EQUAL(1, cause(Status::kTruncated));
   CHECK_EQUAL(1, cause(Status::kCorruptData));
   CHECK_EQUAL(1, cause(Status::kCapacityExceeded));
@@ -359,7 +381,8 @@ TEST(RoverMemq, InjectedFaultsCountedAndResultAsWithoutTheFaultyPairs) {
   if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
   const auto with_faults = std::make_unique<Network>(node().network());
   std::vector<std::string> stems_with_faults;
-  for (int32_t i = 0; i < with_faults->imageCount(); ++i) stems_with_faults.emplace_back(node().stemOfImage(i));
+  for (int32_t i = 0; i < with_faults->imageCount(); ++i)
+    stems_with_faults.emplace_back(node().stemOfImage(i));
   const double rms_with_faults = k.last_rms_px;
 
   // The same stream with the faulty pairs removed (1, 2, 4, 6, 7): the clean messages of 0, 3, 5, the marker.
@@ -372,11 +395,13 @@ TEST(RoverMemq, InjectedFaultsCountedAndResultAsWithoutTheFaultyPairs) {
   CHECK_EQUAL(with_faults->imageCount(), node().network().imageCount());
   CHECK_EQUAL(with_faults->pointCount(), node().network().pointCount());
   CHECK_EQUAL(with_faults->observationCount(), node().network().observationCount());
-  for (int32_t i = 0; i < node().network().imageCount(); ++i) STRCMP_EQUAL(stems_with_faults[static_cast<std::size_t>(i)].c_str(), node().stemOfImage(i));
+  for (int32_t i = 0; i < node().network().imageCount(); ++i)
+    STRCMP_EQUAL(stems_with_faults[static_cast<std::size_t>(i)].c_str(), node().stemOfImage(i));
   const double diff = maxEoDifferencePx(node().network(), *with_faults);
-  std::printf("faulty stream vs the same stream without the faulty pairs: same %d pairs accepted, final EO max %.3g "
-              "px equivalent, rms %.6f vs %.6f px\n",
-              node().counters().pairs_accepted, diff, rms_with_faults, node().counters().last_rms_px);
+  std::printf(
+      "faulty stream vs the same stream without the faulty pairs: same %d pairs accepted, final EO max %.3g "
+      "px equivalent, rms %.6f vs %.6f px\n",
+      node().counters().pairs_accepted, diff, rms_with_faults, node().counters().last_rms_px);
   CHECK_TRUE(diff < 1e-6);
 }
 
@@ -424,8 +449,8 @@ TEST(RoverMemq, MorePairsThanCapacityRejectedPanoramaKept) {
   const Captured c = runThroughMemq(full, allocs);
   const RoverCounters& k = node().counters();
   std::printf("capacity: %d pairs seen, %d accepted, %d without texture, %d over capacity; last error: %s\n",
-              k.pairs_seen, k.pairs_accepted, k.no_texture_pairs, k.rejected_by_cause[static_cast<int>(Status::kCapacityExceeded)],
-              node().lastError());
+              k.pairs_seen, k.pairs_accepted, k.no_texture_pairs,
+              k.rejected_by_cause[static_cast<int>(Status::kCapacityExceeded)], node().lastError());
   CHECK_EQUAL(kMaxPairs + 2, k.pairs_seen);
   CHECK_EQUAL(real, k.pairs_accepted);
   CHECK_EQUAL(kMaxPairs - real, k.no_texture_pairs);
@@ -481,10 +506,11 @@ TEST(RoverMemq, TiePointsAtCapacityRejectedPanoramaKept) {
   const Captured c = runThroughMemq(stream, allocs, options);
   const RoverCounters& k = node().counters();
   const int full = k.rejected_by_cause[static_cast<int>(Status::kCapacityExceeded)];
-  std::printf("tie points at capacity: %d pairs seen, %d accepted, %d rejected as workspace full, network %d images "
-              "%d points; last error: %s\n",
-              k.pairs_seen, k.pairs_accepted, full, node().network().imageCount(), node().network().pointCount(),
-              node().lastError());
+  std::printf(
+      "tie points at capacity: %d pairs seen, %d accepted, %d rejected as workspace full, network %d images "
+      "%d points; last error: %s\n",
+      k.pairs_seen, k.pairs_accepted, full, node().network().imageCount(), node().network().pointCount(),
+      node().lastError());
   CHECK_TRUE(full >= 1);
   CHECK_EQUAL(groups * real, k.pairs_accepted + full + k.no_texture_pairs);
   CHECK_EQUAL(full + k.no_texture_pairs, k.pairs_rejected);
@@ -495,6 +521,72 @@ TEST(RoverMemq, TiePointsAtCapacityRejectedPanoramaKept) {
   CHECK_EQUAL(rover_status_t::STATE_FINISHED, c.last_status.state);
   CHECK_EQUAL(full, c.last_status.rejected_by_cause[rover_status_t::CAUSE_CAPACITY_EXCEEDED]);
   if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
+}
+
+// A two-site tiny traverse (areomap-pack of traverse.json: each site announced, then its pairs and end
+// marker) through the node in one run: both sites mapped, a final EO per site tagged with its panorama,
+// zero heap allocations in the pipeline over both sites (the reset between sites included), endOfRun()
+// only after the last site; and the second site's final EO identical to the node's on that site alone
+// (nothing of the first site is left in the workspaces).
+TEST(RoverMemq, TwoSiteTraverseHeapFreeAndEachSiteAsAlone) {
+  const std::string ds = test::scratchDir("rover-traverse") + "/ds";
+  CHECK_EQUAL(0, test::runTool("areomap-sim",
+                               "--preset traverse --camera tiny --sites 2 --seed 3 --leg-min-m 10 "
+                               "--leg-max-m 12 --out " +
+                                   ds));
+  const Traverse traverse = readTraverse(ds);
+  PackOptions options;
+  options.start_utime = 1'700'000'000'000'000;
+  const std::vector<LogEvent> events = packTraverse(traverse, options);
+  uint64_t allocs = 99;
+  const Captured both = runThroughMemq(events, allocs);
+  const RoverCounters k = node().counters();
+  const Dataset site1 = readDataset(traverse.sites[0].dir), site2 = readDataset(traverse.sites[1].dir);
+  std::printf(
+      "rover memq 2-site traverse: %d + %zu pairs, %d accepted, %d sites announced, %zu final EOs, "
+      "pipeline heap allocations %llu (heap counter %s)\n",
+      static_cast<int>(site1.pairs.size()), site2.pairs.size(), k.pairs_accepted, k.sites_announced,
+      both.finals.size(), static_cast<unsigned long long>(allocs), heapCounterActive() ? "on" : "off");
+  CHECK_EQUAL(static_cast<int>(site1.pairs.size() + site2.pairs.size()), k.pairs_accepted);
+  CHECK_EQUAL(0, k.pairs_rejected);
+  CHECK_EQUAL(2, k.sites_announced);
+  CHECK_EQUAL(0, k.sites_rejected);
+  CHECK_EQUAL(0, k.sequence_gaps);
+  CHECK_EQUAL(0, k.duplicates);
+  CHECK_EQUAL(2u, both.finals.size());
+  STRCMP_EQUAL(site1.name.c_str(), both.finals[0].panorama.c_str());
+  STRCMP_EQUAL(site2.name.c_str(), both.finals[1].panorama.c_str());
+  CHECK_EQUAL(2 * static_cast<int>(site2.pairs.size()), both.finals[1].num_images);
+  CHECK_TRUE(node().endOfRun());
+  if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
+
+  // endOfRun() waits for the last site: after the first site's marker it is still false.
+  std::vector<LogEvent> first_site;
+  for (const LogEvent& e : events) {
+    first_site.push_back(e);
+    if (first_site.size() == site1.pairs.size() + 2) break;  // announcement, pairs, marker
+  }
+  (void)runThroughMemq(first_site, allocs);
+  CHECK_TRUE(node().counters().finished);
+  CHECK_FALSE(node().endOfRun());
+
+  // Site 2 alone (its own announcement, pairs and marker) gives the same final EO, bit for bit.
+  const std::vector<LogEvent> second_site(events.begin() + static_cast<long>(site1.pairs.size() + 2),
+                                          events.end());
+  const Captured alone = runThroughMemq(second_site, allocs);
+  CHECK_EQUAL(1u, alone.finals.size());
+  CHECK_EQUAL(alone.finals[0].num_images, both.finals[1].num_images);
+  double worst = 0.0;
+  for (int32_t i = 0; i < alone.finals[0].num_images; ++i) {
+    const eo_entry_t& a = alone.finals[0].images[static_cast<std::size_t>(i)];
+    const eo_entry_t& b = both.finals[1].images[static_cast<std::size_t>(i)];
+    STRCMP_EQUAL(a.stem.c_str(), b.stem.c_str());
+    for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(a.center_m[c] - b.center_m[c]));
+    worst = std::max({worst, std::abs(a.omega_rad - b.omega_rad), std::abs(a.phi_rad - b.phi_rad),
+                      std::abs(a.kappa_rad - b.kappa_rad)});
+  }
+  std::printf("site 2 in the traverse vs alone: largest EO difference %.3g (m or rad)\n", worst);
+  CHECK_EQUAL(0.0, worst);
 }
 
 TEST_GROUP(RoverTool){};
@@ -536,8 +628,8 @@ TEST(PackRealData, OpportunityLeftOnlyPds3) {
   uint64_t allocs = 99;
   const Captured c = runThroughMemq(events, allocs);
   std::printf("opportunity: accepted %d of %d, final EO of %d images, rms %.3f px, pipeline heap %llu\n",
-              node().counters().pairs_accepted, node().counters().pairs_seen, c.last_eo.num_images, c.last_eo.rms_px,
-              static_cast<unsigned long long>(allocs));
+              node().counters().pairs_accepted, node().counters().pairs_seen, c.last_eo.num_images,
+              c.last_eo.rms_px, static_cast<unsigned long long>(allocs));
   CHECK_EQUAL(2, node().counters().pairs_accepted);
   CHECK_TRUE(c.have_final);
   CHECK_EQUAL(2, c.last_eo.num_images);

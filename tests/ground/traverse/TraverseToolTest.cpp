@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ground/dataset/Traverse.hpp"
+#include "tests/ground/traverse/ReportFiles.hpp"
 #include "tests/support/TestData.hpp"
 
 #include <CppUTest/TestHarness.h>
@@ -37,17 +38,8 @@ std::string traverseDataset() {
   return dir;
 }
 
-json readJson(const std::string& path) {
-  std::ifstream in(path);
-  return json::parse(in, nullptr, false);
-}
-
-int lines(const std::string& path) {
-  std::ifstream in(path);
-  int n = 0;
-  for (std::string l; std::getline(in, l);) ++n;
-  return n;
-}
+using areomap::test::lines;
+using areomap::test::readJson;
 
 }  // namespace
 

@@ -1,8 +1,10 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <vector>
 
+#include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "msgs/MessageCheck.hpp"
 #include "msgs/adapters/MessageAdapters.hpp"
@@ -60,7 +62,8 @@ TEST(MessageAdapters, CameraModelRoundTripAndBadModels) {
   CameraModel out;
   const char* field = "";
   CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(toCameraModel(msg, out, field)));
-  CHECK_TRUE(out.c == in.c && out.a == in.a && out.h == in.h && out.v == in.v && out.o == in.o && out.r == in.r);
+  CHECK_TRUE(out.c == in.c && out.a == in.a && out.h == in.h && out.v == in.v && out.o == in.o &&
+             out.r == in.r);
   CHECK_EQUAL(in.width, out.width);
   CHECK_TRUE(out.type == CameraType::kCahvor);
 
@@ -73,7 +76,8 @@ TEST(MessageAdapters, CameraModelRoundTripAndBadModels) {
   CHECK_EQUAL(static_cast<int>(Status::kUnsupported), static_cast<int>(toCameraModel(bad_type, out, field)));
   camera_model_t parallel = msg;
   for (int k = 0; k < 3; ++k) parallel.h_px[k] = 100.0 * parallel.a[k];  // H parallel to A
-  CHECK_EQUAL(static_cast<int>(Status::kInvalidArgument), static_cast<int>(toCameraModel(parallel, out, field)));
+  CHECK_EQUAL(static_cast<int>(Status::kInvalidArgument),
+              static_cast<int>(toCameraModel(parallel, out, field)));
 }
 
 // The capacity walk accepts a pair within the reserved sizes, names the field that is too large, and a
@@ -81,7 +85,8 @@ TEST(MessageAdapters, CameraModelRoundTripAndBadModels) {
 TEST(MessageAdapters, CapacityWalkAndHeapFreeDecode) {
   const char* field = "";
   const std::vector<uint8_t> good = encode(pairWith(20, 5000));
-  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(checkStereoPairCapacity(good.data(), good.size(), field)));
+  CHECK_EQUAL(static_cast<int>(Status::kOk),
+              static_cast<int>(checkStereoPairCapacity(good.data(), good.size(), field)));
   const std::vector<uint8_t> long_stem = encode(pairWith(kMaxMessageStringChars + 1, 10));
   CHECK_EQUAL(static_cast<int>(Status::kCapacityExceeded),
               static_cast<int>(checkStereoPairCapacity(long_stem.data(), long_stem.size(), field)));
@@ -97,9 +102,12 @@ TEST(MessageAdapters, CapacityWalkAndHeapFreeDecode) {
   prepareStereoPair(received);
   const std::vector<uint8_t> full = encode(pairWith(kMaxMessageStringChars, kMaxJpegBytes));
   areomap::HeapAllocationScope scope;
-  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(checkStereoPairCapacity(full.data(), full.size(), field)));
-  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(msgs::decodeMessage(full.data(), full.size(), received)));
-  CHECK_EQUAL(static_cast<int>(Status::kOk), static_cast<int>(msgs::decodeMessage(good.data(), good.size(), received)));
+  CHECK_EQUAL(static_cast<int>(Status::kOk),
+              static_cast<int>(checkStereoPairCapacity(full.data(), full.size(), field)));
+  CHECK_EQUAL(static_cast<int>(Status::kOk),
+              static_cast<int>(msgs::decodeMessage(full.data(), full.size(), received)));
+  CHECK_EQUAL(static_cast<int>(Status::kOk),
+              static_cast<int>(msgs::decodeMessage(good.data(), good.size(), received)));
   CHECK_EQUAL(0u, scope.allocations());
   CHECK_EQUAL(5000, received.left.jpeg_bytes);
   CHECK_EQUAL(encodedFingerprint(good.data(), good.size()), static_cast<uint64_t>(stereo_pair_t::getHash()));
@@ -176,4 +184,107 @@ TEST(MessageAdapters, PlannedPairsWithinCapacity) {
   CHECK_EQUAL(kMaxPairs, plannedPairs(0));
   CHECK_EQUAL(kMaxPairs, plannedPairs(INT32_MIN));
   CHECK_EQUAL(kMaxPairs, plannedPairs(INT32_MAX));
+}
+
+namespace {
+
+site_t goodSite(int32_t index, int32_t planned) {
+  site_t s{};
+  s.sequence = index;
+  s.traverse = "sim-traverse-1";
+  s.site_id = "site0" + std::to_string(index + 1);
+  s.site_index = index;
+  s.sites_planned = planned;
+  s.panorama = "sim-traverse-1-" + s.site_id;
+  s.position_m[0] = 10.0 * index;
+  s.heading_deg = 15.0 * index;
+  s.has_odometry = index > 0;
+  if (index > 0) {
+    s.odometry_from = "site0" + std::to_string(index);
+    s.delta_m[0] = 10.0;
+    s.delta_heading_deg = 15.0;
+    s.distance_m = 10.4;
+    s.sigma_m[0] = s.sigma_m[1] = 0.5;
+    s.sigma_m[2] = 0.1;
+    s.sigma_heading_deg = 2.0;
+  }
+  s.is_last = index == planned - 1;
+  return s;
+}
+
+std::vector<uint8_t> encodeSite(const site_t& s) {
+  std::vector<uint8_t> b(static_cast<std::size_t>(s.getEncodedSize()));
+  CHECK_EQUAL(static_cast<int>(b.size()), s.encode(b.data(), 0, static_cast<int>(b.size())));
+  return b;
+}
+
+// decodeSite's status and field for a site_t changed by `change`.
+template <class Change>
+void expectSite(Status expected, const char* expected_field, Change change) {
+  site_t s = goodSite(1, 3);
+  change(s);
+  const std::vector<uint8_t> bytes = encodeSite(s);
+  site_t out;
+  prepareSite(out);
+  const char* field = "";
+  CHECK_EQUAL(static_cast<int>(expected),
+              static_cast<int>(decodeSite(bytes.data(), bytes.size(), out, field)));
+  STRCMP_EQUAL(expected_field, field);
+}
+
+}  // namespace
+
+// A site announcement (AREOMAP_SITE): the encoding checked, strings within the reserved capacity before the
+// decode (no heap), then the content a traverse needs; each refusal names its field.
+TEST(MessageAdapters, SiteAnnouncementChecked) {
+  site_t out;
+  prepareSite(out);
+  const char* field = "";
+  for (int32_t k = 0; k < 3; ++k) {
+    const std::vector<uint8_t> bytes = encodeSite(goodSite(k, 3));
+    areomap::HeapAllocationScope scope;
+    CHECK_EQUAL(static_cast<int>(Status::kOk),
+                static_cast<int>(decodeSite(bytes.data(), bytes.size(), out, field)));
+    CHECK_EQUAL(0u, scope.allocations());
+    CHECK_EQUAL(k, out.site_index);
+  }
+  const std::vector<uint8_t> good = encodeSite(goodSite(1, 3));
+  CHECK_EQUAL(static_cast<int>(Status::kTruncated),
+              static_cast<int>(decodeSite(good.data(), good.size() / 2, out, field)));
+  STRCMP_EQUAL("encoding", field);
+  const std::vector<uint8_t> pair = encode(pairWith(4, 10));
+  CHECK_EQUAL(static_cast<int>(Status::kCorruptData),
+              static_cast<int>(decodeSite(pair.data(), pair.size(), out, field)));
+  // Longest string: reported by checkEncoding, refused before decode() would grow the reserved string.
+  site_t long_name = goodSite(1, 3);
+  long_name.traverse = std::string(kMaxMessageStringChars + 1, 't');
+  const std::vector<uint8_t> long_bytes = encodeSite(long_name);
+  int64_t longest = 0;
+  CHECK_EQUAL(
+      static_cast<int>(Status::kOk),
+      static_cast<int>(msgs::checkEncoding(site_t::getTypeName(), static_cast<uint64_t>(site_t::getHash()),
+                                           long_bytes.data(), long_bytes.size(), longest)));
+  CHECK_EQUAL(kMaxMessageStringChars + 1, longest);
+  const std::size_t capacity = out.traverse.capacity();
+  CHECK_EQUAL(static_cast<int>(Status::kCapacityExceeded),
+              static_cast<int>(decodeSite(long_bytes.data(), long_bytes.size(), out, field)));
+  CHECK_EQUAL(capacity, out.traverse.capacity());
+
+  expectSite(Status::kInvalidArgument, "site_id", [](site_t& s) { s.site_id = "site/02"; });
+  expectSite(Status::kMissingField, "panorama", [](site_t& s) { s.panorama = ""; });
+  expectSite(Status::kInvalidArgument, "sites_planned", [](site_t& s) { s.sites_planned = 0; });
+  expectSite(Status::kInvalidArgument, "site_index", [](site_t& s) { s.site_index = 3; });
+  expectSite(Status::kInvalidArgument, "is_last", [](site_t& s) { s.is_last = true; });
+  expectSite(Status::kNotFinite, "position_m/heading_deg",
+             [](site_t& s) { s.position_m[1] = std::numeric_limits<double>::quiet_NaN(); });
+  expectSite(Status::kMissingField, "has_odometry", [](site_t& s) { s.has_odometry = false; });
+  expectSite(Status::kInvalidArgument, "odometry_from", [](site_t& s) { s.odometry_from = s.site_id; });
+  expectSite(Status::kNotFinite, "odometry",
+             [](site_t& s) { s.delta_m[2] = std::numeric_limits<double>::infinity(); });
+  expectSite(Status::kInvalidArgument, "sigma_m/sigma_heading_deg", [](site_t& s) { s.sigma_m[0] = 0.0; });
+  expectSite(Status::kInvalidArgument, "distance_m", [](site_t& s) { s.distance_m = -1.0; });
+  expectSite(Status::kInvalidArgument, "has_odometry", [](site_t& s) {
+    s.site_index = 0;
+    s.has_odometry = true;
+  });
 }

@@ -1,0 +1,39 @@
+// The traverse steps of `areomap-ground --traverse`: after the ground node has mapped each site's panorama
+// from the LCM stream into OUT/sites/<id>/ (GroundNode.hpp, traverse mode), the traverse that the site
+// announcements (AREOMAP_SITE, msgs/site_t.lcm) describe is rebuilt, written as OUT/traverse.json (its
+// sites' datasets are OUT/sites/<id>/stream, the images as received) and handed to finishTraverse
+// (TraverseRun.hpp), the code areomap-traverse runs after its own per-site passes: poses.csv, the sites'
+// models in the traverse frame, the merged dem/dem_sigma/ortho and report.json.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "areomap/site_t.hpp"
+#include "ground/dataset/Traverse.hpp"
+#include "ground/node/StreamCollector.hpp"
+#include "ground/traverse/TraverseRun.hpp"
+
+namespace areomap::traverse {
+
+// The traverse of the accepted announcements, in site-index order; each site's path is
+// "sites/<id>/stream" under `root`. A site whose odometry is from a site that was not announced (its
+// announcement lost or refused) gets a leg from the previous announced site made from the two a-priori
+// poses (which are the odometry chained), its distance and sigmas scaled by the legs it spans (a random
+// walk: sigma x sqrt(legs), distance x legs) -- one sentence per such site in `warnings`.
+Traverse traverseFromAnnouncements(const std::vector<site_t>& sites, const std::string& root,
+                                   std::vector<std::string>& warnings);
+
+struct StreamTraverseInputs {
+  std::vector<site_t> sites;              // accepted announcements (GroundNodeResult::sites)
+  ground::SiteStreamCounts site_counts;   // refusals
+  std::vector<std::string> mapped_sites;  // site ids whose panorama was made into OUT/sites/<id>
+  std::string truth_traverse;             // a traverse folder with truth/ (the dataset packed), "" none
+};
+
+// Rebuilds the traverse, writes OUT/traverse.json and runs finishTraverse into options.out_dir. Truth (when
+// `truth_traverse` is given): its truth/traverse.json poses of the announced sites and truth/dem.tif, and
+// with options.truth_cross_ties its sites' truth/ makes the cross-site ties (cli::UsageError without it).
+TraverseResult finishStreamTraverse(const StreamTraverseInputs& inputs, const TraverseRunOptions& options);
+
+}  // namespace areomap::traverse
