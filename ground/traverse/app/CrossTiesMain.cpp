@@ -50,6 +50,16 @@ constexpr const char* kUsage =
     "                     default 0.05) instead of --products: the matcher alone, for checking\n"
     "  --sites ID,ID,...  only these sites (pairs of neighbours among them, in driving order)\n"
     "  --ncc X            NCC threshold (default 0.75); --radius-px R search radius (default 6)\n"
+    "  --plane-warp       warp patches by the DEM's local plane only (the matcher before the per-sample\n"
+    "                     DEM warp; for comparison)\n"
+    "  --translation-lsm  least-squares sub-pixel step with a translation only (no affine correction of\n"
+    "                     the warp; for comparison)\n"
+    "  --fixed-radius     search radii of 16 px (first pass) and 4 px (second) instead of those derived\n"
+    "                     from the pose's covariance and the DEM sigma (for comparison)\n"
+    "  --isotropic        the finer image low-passed by its pyramid level of the mean scale only (for\n"
+    "                     comparison)\n"
+    "  --no-edge-clip     refuse a point whose search window leaves the image (else the search is clipped\n"
+    "                     at the edge; for comparison). All five: the matcher before issue 21's reach work\n"
     "\n"
     "A pair of sites whose DEMs do not overlap, or match ambiguously, is reported with its status and no\n"
     "ties; that is not an error. Exit: 0 ok, 2 usage error, 1 bad input (the message names the file and\n"
@@ -58,6 +68,30 @@ constexpr const char* kUsage =
 json poseJson(const RelativePose& p) {
   return json{{"position_m", {p.translation_m.x(), p.translation_m.y(), p.translation_m.z()}},
               {"heading_deg", p.heading_rad * kRadToDeg}};
+}
+
+json countsJson(const CrossTieCounts& c) {
+  return json{{"interest_points", c.interest_points},
+              {"on_both_dems", c.on_both_dems},
+              {"outside_image", c.outside_image},
+              {"beyond_range", c.beyond_range},
+              {"grazing", c.grazing},
+              {"occluded", c.occluded},
+              {"scale_gate", c.scale_gate},
+              {"too_uncertain", c.too_uncertain},
+              {"predicted", c.predicted},
+              {"patch_outside", c.patch_outside},
+              {"low_ncc", c.low_ncc},
+              {"ambiguous", c.ambiguous},
+              {"edge_peak", c.edge_peak},
+              {"lsm_diverged", c.lsm_diverged},
+              {"back_failed", c.back_failed},
+              {"matched", c.matched},
+              {"back_matched", c.back_matched},
+              {"ties_before_check", c.ties_before_check},
+              {"rejected_observations", c.rejected_observations},
+              {"rejected_ties", c.rejected_ties},
+              {"off_dem_ties", c.off_dem_ties}};
 }
 
 }  // namespace
@@ -73,6 +107,12 @@ int main(int argc, char** argv) {
     CrossTieParams params;
     params.patch.min_ncc = args.number("--ncc", params.patch.min_ncc);
     params.patch.radius_px = args.number("--radius-px", params.patch.radius_px);
+    params.surface_warp = !args.flag("--plane-warp");
+    params.patch.lsm_affine = !args.flag("--translation-lsm");
+    params.derived_radius = !args.flag("--fixed-radius");
+    params.patch.anisotropic = !args.flag("--isotropic");
+    params.patch.clip_at_edge = !args.flag("--no-edge-clip");
+    if (args.flag("--isotropic")) params.max_scale_ratio = 6.0;  // the gate that went with it
     const std::string dir = args.positional(0, "TRAVERSE");
     if (!truth_products && !products)
       throw cli::UsageError("--products DIR is required (or --truth-products)");
@@ -135,17 +175,8 @@ int main(int argc, char** argv) {
       const TraverseSite& sb = traverse.sites[j];
       cli::info("sites " + sa.id + " and " + sb.id);
       const RelativePose apriori = relativePose(sa.apriori, sb.apriori);
-      // The DEM search window: 3 sigmas of the odometry between the two sites (the legs' sigmas added in
-      // quadrature), within 2-6 m and 5-12 degrees.
-      double var_m = 0.0, var_rad = 0.0;
-      for (int k = i + 1; k <= j; ++k) {
-        const OdometryLeg& leg = *traverse.sites[k].odometry;
-        var_m += std::pow(std::max(leg.sigma_m.x(), leg.sigma_m.y()), 2);
-        var_rad += std::pow(leg.sigma_heading_rad, 2);
-      }
       CrossTieParams pair_params = params;
-      pair_params.registration.search_m = std::clamp(3.0 * std::sqrt(var_m), 2.0, 6.0);
-      pair_params.registration.search_deg = std::clamp(3.0 * std::sqrt(var_rad) * kRadToDeg, 5.0, 12.0);
+      pair_params.registration = searchWindowOf(traverse, i, j, params.registration);
       const CrossTieResult r = findCrossSiteTies(*site(i), *site(j), apriori, pair_params, next_point);
       json pj;
       pj["site_a"] = sa.id;
@@ -160,6 +191,7 @@ int main(int argc, char** argv) {
                             {"overlap_samples", g.overlap_cells},
                             {"used_samples", g.used_cells},
                             {"rms_m", g.rms_m},
+                            {"correlation_factor", g.correlation_factor},
                             {"cost_ratio", g.cost_ratio}};
       pj["a_from_b"] = poseJson(r.a_from_b);
       pj["a_from_b_sigma"] = {r.a_from_b_sigma[0], r.a_from_b_sigma[1], r.a_from_b_sigma[2],
@@ -169,16 +201,9 @@ int main(int argc, char** argv) {
       pj["first_pass_ties"] = r.first_pass_ties;
       pj["ties"] = r.ties.size();
       pj["observations"] = r.observationCount();
-      const CrossTieCounts& c = r.counts;
-      pj["counts"] = {{"interest_points", c.interest_points},
-                      {"on_both_dems", c.on_both_dems},
-                      {"predicted", c.predicted},
-                      {"matched", c.matched},
-                      {"back_matched", c.back_matched},
-                      {"ties_before_check", c.ties_before_check},
-                      {"rejected_observations", c.rejected_observations},
-                      {"rejected_ties", c.rejected_ties},
-                      {"off_dem_ties", c.off_dem_ties}};
+      pj["counts"] = countsJson(r.counts);
+      pj["first_pass_counts"] = countsJson(r.first_pass_counts);
+      pj["counts_in_a"] = countsJson(r.counts_in_a);
       std::string line = sa.id + "-" + sb.id + ": " + crossTieStatusName(r.status) + ", " +
                          std::to_string(r.ties.size()) + " ties, " + std::to_string(r.observationCount()) +
                          " observations, rms " + std::to_string(r.rms_px) + " px";
