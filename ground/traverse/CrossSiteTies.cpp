@@ -21,6 +21,11 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegToRad = kPi / 180.0;
 constexpr int kGaussNewtonSteps = 6;  // per round of the geometric check
+// The widest search about a prediction: its cost grows with the square of the radius (32 px at a grid step
+// of one pixel is 65^2 NCCs of the template), and so do the chances of a false peak. A prediction more
+// uncertain than that is not searched: in the first pass the second one, under the pose of the first one's
+// ties, may take it; what is left then is B's height along a grazing source ray, a poor tie anyway.
+constexpr double kMaxSearchRadiusPx = 32.0;
 
 // An image that may observe a point, with the point in its site's frame.
 struct Target {
@@ -74,6 +79,89 @@ bool rayOnPlane(const CameraModel& model, const Eigen::Vector2d& px, const Eigen
   hit = o + t * d;
   return true;
 }
+
+// A rigid map between the two sites' frames: from frame `from_a` (A when true, else B) into `to_a`.
+Eigen::Vector3d moved(const RelativePose& a_from_b, bool from_a, bool to_a, const Eigen::Vector3d& p) {
+  if (from_a == to_a) return p;
+  return to_a ? a_from_b.toA(p) : a_from_b.toB(p);
+}
+Eigen::Vector3d turned(const RelativePose& a_from_b, bool from_a, bool to_a, const Eigen::Vector3d& d) {
+  if (from_a == to_a) return d;
+  return to_a ? Eigen::Vector3d(a_from_b.rotation() * d)
+              : Eigen::Vector3d(a_from_b.rotation().transpose() * d);
+}
+
+// Most steps of the local ray-DEM search (each half a DEM cell): 4 m either side at 5 cm cells.
+constexpr int kMaxSurfaceSteps = 160;
+
+// One image's pixel to another's through a site's DEM: the pixel's ray meets the DEM near the tie's point
+// (the first crossing from above, searched from the point's distance along the ray), projected into the
+// other image. The DEM, the cameras and the tie's point may each be in either site's frame.
+class DemSurface : public PatchSurface {
+ public:
+  DemSurface(const CameraModel& from, bool from_a, const CameraModel& to, bool to_a, const DemGrid& dem,
+             bool dem_a, const RelativePose& a_from_b, const Eigen::Vector3d& point_in_dem)
+      : from_(from),
+        to_(to),
+        dem_(dem),
+        pose_(a_from_b),
+        point_(point_in_dem),
+        from_a_(from_a),
+        to_a_(to_a),
+        dem_a_(dem_a) {}
+
+  bool map(const Eigen::Vector2d& i_px, Eigen::Vector2d& j_px) const override {
+    Vec3 o3, d3;
+    if (!ok(unproject(from_, i_px, o3, d3))) return false;
+    const Eigen::Vector3d o = moved(pose_, from_a_, dem_a_, o3);
+    const Eigen::Vector3d d = turned(pose_, from_a_, dem_a_, d3);
+    const double horizontal = d.head<2>().norm();
+    const double step = 0.5 * dem_.cell_m / std::max(horizontal, 0.1);
+    auto above = [&](double t, bool& valid) {
+      const Eigen::Vector3d p = o + t * d;
+      const double e = demElevation(dem_, p.x(), p.y());
+      valid = std::isfinite(e);
+      return -p.z() - e;
+    };
+    double t = (point_ - o).dot(d);
+    bool valid = false;
+    double h = above(t, valid);
+    if (!valid) return false;
+    // Back to where the ray is above the surface, then on to the first crossing.
+    int k = 0;
+    for (; k < kMaxSurfaceSteps && h <= 0.0; ++k) {
+      t -= step;
+      h = above(t, valid);
+      if (!valid || t <= 0.0) return false;
+    }
+    double lo = t, hi = t;
+    for (k = 0; k < kMaxSurfaceSteps; ++k) {
+      hi = lo + step;
+      h = above(hi, valid);
+      if (!valid) return false;
+      if (h <= 0.0) break;
+      lo = hi;
+    }
+    if (k == kMaxSurfaceSteps) return false;
+    for (int it = 0; it < 20; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (above(mid, valid) > 0.0 ? lo : hi) = mid;
+    }
+    const Eigen::Vector3d hit = moved(pose_, dem_a_, to_a_, o + 0.5 * (lo + hi) * d);
+    Vec2 px;
+    if (!ok(project(to_, hit, px))) return false;
+    j_px = px;
+    return true;
+  }
+
+ private:
+  const CameraModel& from_;
+  const CameraModel& to_;
+  const DemGrid& dem_;
+  RelativePose pose_;
+  Eigen::Vector3d point_;
+  bool from_a_, to_a_, dem_a_;
+};
 
 struct GeoObservation {
   int tie = 0;
@@ -135,14 +223,41 @@ int CrossTieResult::observationCount() const {
 
 namespace {
 
+void countRefusal(PatchResult result, CrossTieCounts& counts) {
+  switch (result) {
+    case PatchResult::kLowNcc:
+      ++counts.low_ncc;
+      break;
+    case PatchResult::kAmbiguous:
+      ++counts.ambiguous;
+      break;
+    case PatchResult::kEdgePeak:
+      ++counts.edge_peak;
+      break;
+    case PatchResult::kLsmDiverged:
+      ++counts.lsm_diverged;
+      break;
+    case PatchResult::kOk:
+      break;
+    case PatchResult::kOutside:
+    case PatchResult::kFlat:
+      ++counts.patch_outside;
+      break;
+  }
+}
+
 // Steps 2 and 3: candidates from B's images matched into A's (and B's other) images under `pose`.
 void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& pose,
-               const CrossTieParams& params, int64_t first_point, int stride, CrossTieResult& out) {
+               const Eigen::Matrix4d& pose_cov, const CrossTieParams& params, int64_t first_point, int stride,
+               CrossTieResult& out) {
   out.ties.clear();
   // 2 + 3: candidates from B's images, matched into A's (and B's other) images.
   auto workspace = std::make_unique<ForstnerWorkspace>();
   const int border = params.patch.half + 2;
   const double sin_incidence = std::sin(params.min_incidence_deg * kDegToRad);
+  const double max_scale = params.max_scale_ratio > 0.0
+                               ? params.max_scale_ratio
+                               : std::sqrt(2.0) * static_cast<double>(1 << (kPyramidLevels - 1));
   int64_t next_point = first_point;
   for (const SiteImage& source : b.images) {
     const std::vector<Eigen::Vector2d> points = interestPoints(source, params, border, *workspace);
@@ -170,6 +285,26 @@ void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose&
           !rayOnPlane(source.model, q + Eigen::Vector2d(0, step), on_plane, normal, gy)) {
         continue;
       }
+      // The surface the patches are warped through: the DEM of the site that knows the point better (the
+      // smaller dem_sigma there; B's without sigmas).
+      const DemGrid* surface_dem = &b.dem;
+      bool surface_in_a = false;
+      if (a.dem_sigma && b.dem_sigma) {
+        const double sa = demElevation(*a.dem_sigma, pa.x(), pa.y());
+        const double sb = demElevation(*b.dem_sigma, pb.x(), pb.y());
+        if (std::isfinite(sa) && (!std::isfinite(sb) || sa < sb)) {
+          surface_dem = &a.dem;
+          surface_in_a = true;
+        }
+      }
+      const Eigen::Vector3d surface_point = surface_in_a ? pa : pb;
+      // B's height uncertainty at the point and the source ray's incidence on the ground.
+      double source_dh_m = 0.0;
+      if (b.dem_sigma) {
+        const double sb = demElevation(*b.dem_sigma, pb.x(), pb.y());
+        source_dh_m = std::isfinite(sb) ? sb : 0.0;
+      }
+      const double source_sin = std::max(std::fabs(normal.dot(Eigen::Vector3d(d))), sin_incidence);
       CrossTie tie;
       tie.point = next_point;
       tie.b_m = pb;
@@ -179,17 +314,32 @@ void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose&
         const SiteProducts& site = side == 0 ? a : b;
         const bool in_a = side == 0;
         const Eigen::Vector3d p = in_a ? pa : pb;
+        auto bump = [&](int CrossTieCounts::*field) {
+          ++(out.counts.*field);
+          if (in_a) ++(out.counts_in_a.*field);
+        };
         for (const SiteImage& target : site.images) {
           if (&target == &source) continue;
           Vec2 pj;
-          if (!ok(project(target.model, p, pj)) || !inside(target, pj, 2.0)) continue;
+          if (!ok(project(target.model, p, pj)) || !inside(target, pj, 2.0)) {
+            bump(&CrossTieCounts::outside_image);
+            continue;
+          }
           const Eigen::Vector3d ray = p - target.model.c;
           const double range = ray.norm();
-          if (range > params.max_range_m || std::fabs(normal.dot(ray / range)) < sin_incidence) continue;
+          if (range > params.max_range_m) {
+            bump(&CrossTieCounts::beyond_range);
+            continue;
+          }
+          if (std::fabs(normal.dot(ray / range)) < sin_incidence) {
+            bump(&CrossTieCounts::grazing);
+            continue;
+          }
           double hit = 0.0;
           if (castRayOnDem(site.dem, target.model.c, ray / range, range + 1.0, hit) &&
               hit < range * (1.0 - params.occlusion_tolerance) - 0.05) {
-            continue;  // occluded
+            bump(&CrossTieCounts::occluded);
+            continue;
           }
           Vec2 px, py;
           const Eigen::Vector3d gxs = in_a ? pose.toA(gx) : gx, gys = in_a ? pose.toA(gy) : gy;
@@ -198,16 +348,61 @@ void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose&
           map.col(0) = (px - pj) / step;
           map.col(1) = (py - pj) / step;
           const double scale = std::sqrt(std::fabs(map.determinant()));
-          if (!(scale <= params.max_scale_ratio && scale >= 1.0 / params.max_scale_ratio)) continue;
-          ++out.counts.predicted;
-          const PatchMatch m = matchWarpedPatch(source.pyramid, q, target.pyramid, pj, map, params.patch);
-          if (m.result != PatchResult::kOk) continue;
-          ++out.counts.matched;
-          const PatchMatch back =
-              matchWarpedPatch(target.pyramid, m.j_px, source.pyramid, q, map.inverse(), params.patch);
+          if (!(scale <= max_scale && scale >= 1.0 / max_scale)) {
+            bump(&CrossTieCounts::scale_gate);
+            continue;
+          }
+          bump(&CrossTieCounts::predicted);
+          const DemSurface forward(source.model, false, target.model, in_a, *surface_dem, surface_in_a, pose,
+                                   surface_point);
+          const DemSurface backward(target.model, in_a, source.model, false, *surface_dem, surface_in_a, pose,
+                                    surface_point);
+          const bool use_surface = params.surface_warp;
+          PatchParams patch = params.patch;
+          if (params.derived_radius) {
+            // The prediction's uncertainty in this image: the pose's (for A's images) and B's DEM height
+            // along the source ray (the cast point slides along it by dh / sin(incidence)).
+            Mat2x3 dp;
+            Vec2 unused;
+            if (!ok(project(target.model, p, unused, &dp))) continue;
+            const Eigen::Matrix3d r = in_a ? pose.rotation() : Eigen::Matrix3d::Identity();
+            Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+            if (in_a) {
+              const Eigen::Vector3d rb = r * pb;
+              Eigen::Matrix<double, 2, 4> jc;
+              jc.leftCols<3>() = dp;
+              jc.col(3) = dp * Eigen::Vector3d(-rb.y(), rb.x(), 0.0);
+              cov = jc * pose_cov * jc.transpose();
+            }
+            const Eigen::Vector2d slide = dp * (r * Eigen::Vector3d(d)) * source_dh_m / source_sin;
+            cov += slide * slide.transpose();
+            const double sigma_px =
+                std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues()[1]);
+            patch.radius_px = params.search_sigmas * sigma_px + params.min_radius_px;
+            if (!(patch.radius_px <= kMaxSearchRadiusPx)) {
+              bump(&CrossTieCounts::too_uncertain);
+              continue;
+            }
+          }
+          const PatchMatch m = matchWarpedPatch(source.pyramid, q, target.pyramid, pj, map, patch,
+                                                use_surface ? &forward : nullptr);
+          if (m.result != PatchResult::kOk) {
+            countRefusal(m.result, out.counts);
+            if (in_a) countRefusal(m.result, out.counts_in_a);
+            continue;
+          }
+          bump(&CrossTieCounts::matched);
+          // The back-match starts from the source point itself: the matcher's own pull-in is enough.
+          PatchParams back_patch = params.patch;
+          if (params.derived_radius) back_patch.radius_px = params.min_radius_px;
+          const PatchMatch back = matchWarpedPatch(target.pyramid, m.j_px, source.pyramid, q, map.inverse(),
+                                                   back_patch, use_surface ? &backward : nullptr);
           const double tolerance = params.lr_tolerance_px * std::max(1.0, 1.0 / scale);
-          if (back.result != PatchResult::kOk || (back.j_px - q).norm() > tolerance) continue;
-          ++out.counts.back_matched;
+          if (back.result != PatchResult::kOk || (back.j_px - q).norm() > tolerance) {
+            bump(&CrossTieCounts::back_failed);
+            continue;
+          }
+          bump(&CrossTieCounts::back_matched);
           tie.observations.push_back({next_point, site.id, target.stem, m.j_px, false, m.ncc_final});
           any_a = any_a || in_a;
         }
@@ -349,6 +544,7 @@ void checkTies(const SiteProducts& a, const SiteProducts& b, const RelativePose&
     if (dropped == 0) break;
   }
   const Eigen::Matrix4d cov = reduced.inverse() * std::max(rms * rms / 2.0, 1e-6);
+  out.a_from_b_covariance = cov;
   for (int c = 0; c < 4; ++c) out.a_from_b_sigma[c] = std::sqrt(std::max(0.0, cov(c, c)));
   out.a_from_b = current;
   out.rms_px = rms;
@@ -412,16 +608,20 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
   const RelativePose registered = out.registration.a_from_b;
   CrossTieParams wide = params;
   wide.patch.radius_px = params.second_pass ? params.first_radius_px : params.patch.radius_px;
-  matchTies(a, b, registered, wide, first_point, params.second_pass ? params.first_pass_stride : 1, out);
+  matchTies(a, b, registered, out.registration.covariance, wide, first_point,
+            params.second_pass ? params.first_pass_stride : 1, out);
   out.counts.ties_before_check = static_cast<int>(out.ties.size());
   checkTies(a, b, registered, params, out);
   out.first_pass_ties = static_cast<int>(out.ties.size());
+  out.first_pass_counts = out.counts;
   if (params.second_pass && static_cast<int>(out.ties.size()) >= params.min_ties) {
     const RelativePose first = out.a_from_b;
+    const Eigen::Matrix4d first_cov = out.a_from_b_covariance;
     CrossTieParams narrow = params;
     narrow.patch.radius_px = params.second_radius_px;
     out.counts = CrossTieCounts{};
-    matchTies(a, b, first, narrow, first_point, 1, out);
+    out.counts_in_a = CrossTieCounts{};
+    matchTies(a, b, first, first_cov, narrow, first_point, 1, out);
     out.counts.ties_before_check = static_cast<int>(out.ties.size());
     checkTies(a, b, first, narrow, out);
   }
@@ -438,7 +638,8 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
 void writeCrossTiesCsv(const std::string& path, const std::vector<CrossTie>& ties) {
   std::vector<CrossSiteTie> flat;
   for (const CrossTie& t : ties) {
-    for (const CrossTieObservation& o : t.observations) flat.push_back({o.point, o.site, o.image, o.pixel_px});
+    for (const CrossTieObservation& o : t.observations)
+      flat.push_back({o.point, o.site, o.image, o.pixel_px});
   }
   writeCrossSiteTies(path, flat);
 }

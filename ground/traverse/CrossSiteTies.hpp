@@ -32,10 +32,12 @@ namespace areomap::traverse {
 struct CrossTieParams {
   RegistrationParams registration;
   PatchParams patch;
-  int cell_px = 0;                    // Förstner spreading grid (0: the image width / 16, at least 16)
-  int per_cell = 2;                   // points per cell
-  double max_range_m = 30.0;          // from every camera that observes the point
-  double max_scale_ratio = 6.0;       // between the views' pixel footprints
+  int cell_px = 0;            // Förstner spreading grid (0: the image width / 16, at least 16)
+  int per_cell = 2;           // points per cell
+  double max_range_m = 30.0;  // from every camera that observes the point
+  // Between the views' pixel footprints (the map's mean scale): 0 for the pyramid's reach, the scale whose
+  // nearest level is its coarsest (2^(kPyramidLevels - 1) * sqrt 2).
+  double max_scale_ratio = 0.0;
   double min_incidence_deg = 4.0;     // of each view's ray on the local ground plane
   double occlusion_tolerance = 0.03;  // a ray may meet the DEM this fraction of its length early
   double max_height_gap_m = 0.3;      // |A's DEM - the point moved into A| (plus 1 % of its range)
@@ -53,6 +55,14 @@ struct CrossTieParams {
   int first_pass_stride = 4;      // and every this many interest points
   bool second_pass = true;        // match again under the first pass's pose ...
   double second_radius_px = 4.0;  // ... with this search radius
+  bool surface_warp = true;       // patches warped through the DEM sample by sample (else its local plane)
+  // The search radius of each prediction from its uncertainty (else first_radius_px, second_radius_px):
+  // search_sigmas times the pose's covariance (the registration's, then the first pass's) and B's
+  // dem_sigma along the source ray, propagated into the image, plus min_radius_px (the least-squares
+  // step's own pull-in, also the least radius).
+  bool derived_radius = true;
+  double search_sigmas = 3.0;
+  double min_radius_px = 2.0;
 };
 
 struct CrossTieObservation {
@@ -77,8 +87,22 @@ struct CrossTieCounts {
   int interest_points = 0;  // in B's images
   int on_both_dems = 0;     // cast onto B's DEM and found on A's
   int predicted = 0;        // (point, image) predictions searched
-  int matched = 0;          // passing NCC, second peak and the sub-pixel refinement
-  int back_matched = 0;     // and the back-match
+  // Predictions not searched, by the first gate that refused them (in this order).
+  int outside_image = 0;  // projects outside the image (or behind the camera)
+  int beyond_range = 0;   // farther than max_range_m from the camera
+  int grazing = 0;        // the ray meets the ground plane under min_incidence_deg
+  int occluded = 0;       // the ray meets the site's DEM first
+  int scale_gate = 0;     // the views' footprints differ by more than max_scale_ratio
+  int too_uncertain = 0;  // the derived search radius is beyond the widest search (counted in predicted)
+  // Searched predictions refused by the patch matcher, by cause.
+  int patch_outside = 0;  // the patch or its search window leaves the image, or is flat
+  int low_ncc = 0;
+  int ambiguous = 0;  // second peak
+  int edge_peak = 0;
+  int lsm_diverged = 0;
+  int back_failed = 0;   // the back-match failed or landed too far
+  int matched = 0;       // passing NCC, second peak and the sub-pixel refinement
+  int back_matched = 0;  // and the back-match
   int ties_before_check = 0;
   int rejected_observations = 0;  // by the geometric check
   int rejected_ties = 0;
@@ -92,9 +116,12 @@ struct CrossTieResult {
   DemRegistration registration;
   RelativePose a_from_b;  // the geometric check's pose (the registration's when it did not run)
   Eigen::Vector4d a_from_b_sigma = Eigen::Vector4d::Zero();  // x, y, z (m), heading (rad)
-  double rms_px = 0.0;                                       // RMS residual of the kept observations
-  CrossTieCounts counts;                                     // of the last pass
-  int first_pass_ties = 0;                                   // kept by the first pass's check
+  Eigen::Matrix4d a_from_b_covariance = Eigen::Matrix4d::Zero();
+  double rms_px = 0.0;      // RMS residual of the kept observations
+  CrossTieCounts counts;    // of the last pass
+  int first_pass_ties = 0;  // kept by the first pass's check
+  CrossTieCounts first_pass_counts;
+  CrossTieCounts counts_in_a;  // the per-prediction counts of the last pass for A's images alone
   std::vector<CrossTie> ties;
   int observationCount() const;
 };

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -88,6 +90,59 @@ RelativePose shifted(const RelativePose& base, double dx, double dy, double dh) 
   return p;
 }
 
+// The variance inflation of a mean of the elevation differences under `pose` through their spatial
+// correlation: over square blocks of side L, (variance of the block means) / (variance of one difference /
+// samples a block), the largest over L doubling from 4 sample spacings while at least 8 blocks are filled;
+// differences beyond 3 times `rms_m` are left out (as the trimmed solution does). At least 1.
+double designEffect(const SiteProducts& a, const std::vector<Sample>& samples, const RelativePose& pose,
+                    const RegistrationParams& params, double rms_m) {
+  struct Residual {
+    double x, y, d;
+  };
+  std::vector<Residual> res;
+  const Eigen::Matrix3d r = pose.rotation();
+  double sum = 0.0, sum2 = 0.0;
+  for (const Sample& s : samples) {
+    const Eigen::Vector3d p = r * s.b_m + pose.translation_m;
+    if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
+    const double e = demElevation(a.dem, p.x(), p.y());
+    if (!std::isfinite(e) || sigmaAt(a.dem_sigma, p.x(), p.y()) > params.max_sigma_m) continue;
+    const double d = e + p.z();
+    if (std::fabs(d) > 3.0 * rms_m) continue;
+    res.push_back({p.x(), p.y(), d});
+    sum += d;
+    sum2 += d * d;
+  }
+  if (res.size() < 100) return 1.0;
+  const double n = static_cast<double>(res.size());
+  const double mean = sum / n, var = std::max(sum2 / n - mean * mean, 1e-12);
+  double factor = 1.0;
+  for (double side = 4.0 * params.sample_spacing_m; side < params.max_range_m; side *= 2.0) {
+    std::map<std::pair<long, long>, std::pair<double, int>> blocks;
+    for (const Residual& q : res) {
+      auto& b = blocks[{std::lround(std::floor(q.x / side)), std::lround(std::floor(q.y / side))}];
+      b.first += q.d;
+      ++b.second;
+    }
+    // Blocks at least half full, as in the interior of the overlap.
+    int full = 0, per_block_max = 0;
+    for (const auto& [key, b] : blocks) per_block_max = std::max(per_block_max, b.second);
+    double m1 = 0.0, m2 = 0.0, count = 0.0;
+    for (const auto& [key, b] : blocks) {
+      if (2 * b.second < per_block_max) continue;
+      const double bm = b.first / b.second - mean;
+      m1 += b.second;
+      m2 += bm * bm;
+      count += 1.0;
+      ++full;
+    }
+    if (full < 8) break;
+    const double per_block = m1 / count;
+    factor = std::max(factor, (m2 / count) * per_block / var);
+  }
+  return factor;
+}
+
 }  // namespace
 
 Eigen::Matrix3d RelativePose::rotation() const {
@@ -108,6 +163,19 @@ RelativePose relativePose(const SitePose& a, const SitePose& b) {
   RelativePose p;
   p.heading_rad = b.heading_rad - a.heading_rad;
   p.translation_m = a.rotation().transpose() * (b.position_m - a.position_m);
+  return p;
+}
+
+RegistrationParams searchWindowOf(const Traverse& traverse, int i, int j, const RegistrationParams& base) {
+  double var_m = 0.0, var_rad = 0.0;
+  for (int k = i + 1; k <= j; ++k) {
+    const OdometryLeg& leg = *traverse.sites[k].odometry;
+    var_m += std::pow(std::max(leg.sigma_m.x(), leg.sigma_m.y()), 2);
+    var_rad += std::pow(leg.sigma_heading_rad, 2);
+  }
+  RegistrationParams p = base;
+  p.search_m = std::clamp(3.0 * std::sqrt(var_m), 2.0, 6.0);
+  p.search_deg = std::clamp(3.0 * std::sqrt(var_rad) / kDegToRad, 5.0, 12.0);
   return p;
 }
 
@@ -307,7 +375,9 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   // Weighted RMS elevation difference at the solution (every common sample, untrimmed).
   const Moments at_solution = moments(a, a.dem, samples, pose, params);
   out.rms_m = std::sqrt(at_solution.wdd / at_solution.w);
-  const Eigen::Matrix4d cov = normal.inverse() * s0 * s0;
+  out.correlation_factor = designEffect(a, samples, pose, params, out.rms_m);
+  const Eigen::Matrix4d cov = normal.inverse() * s0 * s0 * out.correlation_factor;
+  out.covariance = cov;
   for (int i = 0; i < 4; ++i) out.sigma[i] = std::sqrt(std::max(0.0, cov(i, i)));
   out.a_from_b = pose;
   const double moved = (pose.translation_m - apriori.translation_m).head<2>().norm();

@@ -8,8 +8,12 @@
 // +-search_m in x, y and +-search_deg in heading (the z offset is the weighted mean difference at each
 // candidate) minimises the weighted variance of the differences, coarse then fine; a Gauss-Newton
 // refinement on the DEM gradients (iteratively reweighted, differences beyond 3 robust sigmas trimmed) gives
-// the pose and its standard deviations. The match is refused when the overlap is too small, or ambiguous:
-// a second minimum of the coarse search, away from the best, nearly as good.
+// the pose and its covariance. The DEMs' differences are correlated over some distance (each DEM is
+// smoothed, its errors come in patches), so the least-squares covariance, which takes every sample as
+// independent, is inflated by the design effect measured on the residuals themselves: the variance of
+// their means over blocks of side L against the variance of a mean of independent samples, the largest over
+// L from 4 sample spacings to a quarter of the overlap. The match is refused when the overlap is too small,
+// or ambiguous: a second minimum of the coarse search, away from the best, nearly as good.
 #pragma once
 
 #include <string>
@@ -54,15 +58,22 @@ struct RegistrationParams {
 
 struct DemRegistration {
   RegistrationStatus status = RegistrationStatus::kNoOverlap;
-  std::string message;                              // one sentence for the report when not kOk
-  RelativePose apriori;                             // A from B as given
-  RelativePose a_from_b;                            // registered (the a-priori pose when not kOk)
-  Eigen::Vector4d sigma = Eigen::Vector4d::Zero();  // x, y, z (m), heading (rad)
-  int overlap_cells = 0;                            // common cells at the solution (before trimming)
-  int used_cells = 0;                               // after trimming
-  double rms_m = 0.0;                               // weighted RMS elevation difference at the solution
-  double cost_ratio = 0.0;                          // best / second-best minimum of the coarse search
+  std::string message;                                   // one sentence for the report when not kOk
+  RelativePose apriori;                                  // A from B as given
+  RelativePose a_from_b;                                 // registered (the a-priori pose when not kOk)
+  Eigen::Vector4d sigma = Eigen::Vector4d::Zero();       // x, y, z (m), heading (rad)
+  Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();  // of x, y, z, heading (sigma its diagonal's root)
+  double correlation_factor = 1.0;  // the covariance's inflation for spatially correlated DEM differences
+  int overlap_cells = 0;            // common cells at the solution (before trimming)
+  int used_cells = 0;               // after trimming
+  double rms_m = 0.0;               // weighted RMS elevation difference at the solution
+  double cost_ratio = 0.0;          // best / second-best minimum of the coarse search
 };
+
+// The search window of sites i < j of a traverse: 3 sigmas of the odometry between them (the legs' sigmas
+// added in quadrature), within 2-6 m and 5-12 degrees; the other parameters as in `base`.
+RegistrationParams searchWindowOf(const Traverse& traverse, int i, int j,
+                                  const RegistrationParams& base = {});
 
 DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
                              const RegistrationParams& params = {});

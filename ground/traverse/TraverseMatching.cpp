@@ -16,6 +16,30 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
+json countsJson(const CrossTieCounts& c) {
+  return json{{"interest_points", c.interest_points},
+              {"on_both_dems", c.on_both_dems},
+              {"outside_image", c.outside_image},
+              {"beyond_range", c.beyond_range},
+              {"grazing", c.grazing},
+              {"occluded", c.occluded},
+              {"scale_gate", c.scale_gate},
+              {"too_uncertain", c.too_uncertain},
+              {"predicted", c.predicted},
+              {"patch_outside", c.patch_outside},
+              {"low_ncc", c.low_ncc},
+              {"ambiguous", c.ambiguous},
+              {"edge_peak", c.edge_peak},
+              {"lsm_diverged", c.lsm_diverged},
+              {"back_failed", c.back_failed},
+              {"matched", c.matched},
+              {"back_matched", c.back_matched},
+              {"ties_before_check", c.ties_before_check},
+              {"rejected_observations", c.rejected_observations},
+              {"rejected_ties", c.rejected_ties},
+              {"off_dem_ties", c.off_dem_ties}};
+}
+
 json poseJson(const RelativePose& p) {
   return json{{"position_m", {p.translation_m.x(), p.translation_m.y(), p.translation_m.z()}},
               {"heading_deg", p.heading_rad * kRadToDeg}};
@@ -32,15 +56,8 @@ std::vector<std::pair<int, int>> sitePairs(const std::vector<int>& chosen, bool 
 }
 
 CrossTieParams pairParams(const Traverse& traverse, int i, int j, const CrossTieParams& base) {
-  double var_m = 0.0, var_rad = 0.0;
-  for (int k = i + 1; k <= j; ++k) {
-    const OdometryLeg& leg = *traverse.sites[k].odometry;
-    var_m += std::pow(std::max(leg.sigma_m.x(), leg.sigma_m.y()), 2);
-    var_rad += std::pow(leg.sigma_heading_rad, 2);
-  }
   CrossTieParams p = base;
-  p.registration.search_m = std::clamp(3.0 * std::sqrt(var_m), 2.0, 6.0);
-  p.registration.search_deg = std::clamp(3.0 * std::sqrt(var_rad) * kRadToDeg, 5.0, 12.0);
+  p.registration = searchWindowOf(traverse, i, j, base.registration);
   return p;
 }
 
@@ -161,6 +178,7 @@ json matchingJson(const Traverse& traverse, const std::string& products, const T
                           {"overlap_samples", g.overlap_cells},
                           {"used_samples", g.used_cells},
                           {"rms_m", g.rms_m},
+                          {"correlation_factor", g.correlation_factor},
                           {"cost_ratio", g.cost_ratio}};
     pj["a_from_b"] = poseJson(r.a_from_b);
     pj["a_from_b_sigma"] = {r.a_from_b_sigma[0], r.a_from_b_sigma[1], r.a_from_b_sigma[2],
@@ -170,16 +188,9 @@ json matchingJson(const Traverse& traverse, const std::string& products, const T
     pj["first_pass_ties"] = r.first_pass_ties;
     pj["ties"] = r.ties.size();
     pj["observations"] = r.observationCount();
-    const CrossTieCounts& c = r.counts;
-    pj["counts"] = {{"interest_points", c.interest_points},
-                    {"on_both_dems", c.on_both_dems},
-                    {"predicted", c.predicted},
-                    {"matched", c.matched},
-                    {"back_matched", c.back_matched},
-                    {"ties_before_check", c.ties_before_check},
-                    {"rejected_observations", c.rejected_observations},
-                    {"rejected_ties", c.rejected_ties},
-                    {"off_dem_ties", c.off_dem_ties}};
+    pj["counts"] = countsJson(r.counts);
+    pj["first_pass_counts"] = countsJson(r.first_pass_counts);
+    pj["counts_in_a"] = countsJson(r.counts_in_a);
     if (m.truth) {
       const TruthCheck& t = *m.truth;
       pj["truth"] = {{"observations", t.errors_px.size()},

@@ -24,8 +24,7 @@ namespace areomap::traverse {
 // site with the one before it, or with every one before it when all_pairs.
 std::vector<std::pair<int, int>> sitePairs(const std::vector<int>& chosen, bool all_pairs);
 
-// `base` with the DEM registration's search window for sites i < j: 3 sigmas of the odometry between them
-// (the legs' horizontal and heading sigmas added in quadrature), within 2-6 m and 5-12 degrees.
+// `base` with the DEM registration's search window for sites i < j (DemRegistration.hpp searchWindowOf).
 CrossTieParams pairParams(const Traverse& traverse, int i, int j, const CrossTieParams& base);
 
 struct SitePairMatch {

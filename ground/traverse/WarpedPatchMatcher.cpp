@@ -9,11 +9,50 @@ namespace areomap::traverse {
 
 namespace {
 
+// The largest correction of the warp's linear part (per element) that the least-squares step may make.
+constexpr double kMaxAffineFix = 0.3;
+// The score of a shift whose window leaves the image (below any NCC and the flat window's -2).
+constexpr double kUnscored = -3.0;
+
 // The pyramid level whose pixel best matches a grid step of `scale` full-resolution pixels.
 int levelFor(const std::vector<cv::Mat>& pyramid, double scale) {
   const int l = static_cast<int>(std::floor(std::log2(std::max(scale, 1.0)) + 0.5));
   return std::clamp(l, 0, static_cast<int>(pyramid.size()) - 1);
 }
+
+// Most taps of a footprint along its long axis (a grid step up to this many pyramid pixels long).
+constexpr int kMaxFootprintTaps = 16;
+
+// Samples an image through a grid-step map m (grid step -> full-resolution pixels) low-passed to the
+// step's footprint, which is anisotropic where the views see the ground at different obliquities: the
+// pyramid level of the footprint's short axis (singular value), and along its long axis the mean of taps
+// one level pixel apart spanning the step (a box over the footprint). With an isotropic map this is the
+// pyramid level of its scale alone.
+struct Footprint {
+  const std::vector<cv::Mat>* pyramid = nullptr;
+  int level = 0;
+  Eigen::Vector2d axis = Eigen::Vector2d::Zero();  // the long axis' extent (full-resolution pixels)
+  int taps = 1;
+
+  Footprint(const std::vector<cv::Mat>& p, const Eigen::Matrix2d& m) : pyramid(&p) {
+    const Eigen::JacobiSVD<Eigen::Matrix2d> svd(m, Eigen::ComputeFullU);
+    const double s_long = svd.singularValues()[0], s_short = svd.singularValues()[1];
+    level = levelFor(p, s_short);
+    const double pixel = static_cast<double>(1 << level);
+    taps = std::clamp(static_cast<int>(std::lround(s_long / pixel)), 1, kMaxFootprintTaps);
+    if (taps > 1) axis = svd.matrixU().col(0) * s_long;
+  }
+
+  double at(double x_px, double y_px) const {
+    if (taps == 1) return samplePyramid(*pyramid, level, x_px, y_px);
+    double sum = 0.0;
+    for (int t = 0; t < taps; ++t) {
+      const double f = (t + 0.5) / taps - 0.5;
+      sum += samplePyramid(*pyramid, level, x_px + f * axis.x(), y_px + f * axis.y());
+    }
+    return sum / taps;  // NaN when a tap is
+  }
+};
 
 double nccOf(const std::vector<double>& t, const std::vector<double>& s) {
   const double n = static_cast<double>(t.size());
@@ -48,7 +87,8 @@ double samplePyramid(const std::vector<cv::Mat>& pyramid, int level, double x_px
 
 PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Vector2d& i_px,
                             const std::vector<cv::Mat>& image_j, const Eigen::Vector2d& j_predicted_px,
-                            const Eigen::Matrix2d& a, const PatchParams& params) {
+                            const Eigen::Matrix2d& a, const PatchParams& params,
+                            const PatchSurface* surface) {
   PatchMatch out;
   const double det = a.determinant();
   if (!std::isfinite(det) || std::fabs(det) < 1e-6) return out;
@@ -58,49 +98,59 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
     mi = a.inverse();
     mj = Eigen::Matrix2d::Identity();
   }
-  const int level_i = levelFor(image_i, std::sqrt(std::fabs(mi.determinant())));
-  const int level_j = levelFor(image_j, std::sqrt(std::fabs(mj.determinant())));
+  const Footprint sample_i =
+      params.anisotropic
+          ? Footprint(image_i, mi)
+          : Footprint(image_i, std::sqrt(std::fabs(mi.determinant())) * Eigen::Matrix2d::Identity());
+  const Footprint sample_j =
+      params.anisotropic
+          ? Footprint(image_j, mj)
+          : Footprint(image_j, std::sqrt(std::fabs(mj.determinant())) * Eigen::Matrix2d::Identity());
   const int h = params.half;
   const int radius =
       std::max(2, static_cast<int>(std::ceil(params.radius_px / std::sqrt(std::fabs(mj.determinant())))));
   const int side = 2 * h + 1;
 
-  std::vector<double> tmpl(static_cast<std::size_t>(side) * side);
+  // Per grid sample k: its place in I and its offset in J from the prediction (through the surface where
+  // one is given, else the affine map).
+  const std::size_t count = static_cast<std::size_t>(side) * side;
+  std::vector<double> tmpl(count);
+  std::vector<Eigen::Vector2d> off_j(count);
+  Eigen::Vector2d j_centre;
+  const bool mapped = surface != nullptr && surface->map(i_px, j_centre);
   for (int v = -h; v <= h; ++v) {
     for (int u = -h; u <= h; ++u) {
-      const Eigen::Vector2d p = i_px + mi * Eigen::Vector2d(u, v);
-      const double value = samplePyramid(image_i, level_i, p.x(), p.y());
+      const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
+      const Eigen::Vector2d g(u, v);
+      const Eigen::Vector2d p = i_px + mi * g;
+      const double value = sample_i.at(p.x(), p.y());
       if (!std::isfinite(value)) return out;
-      tmpl[static_cast<std::size_t>(v + h) * side + (u + h)] = value;
-    }
-  }
-  const int wide = 2 * (h + radius) + 1;
-  std::vector<double> search(static_cast<std::size_t>(wide) * wide);
-  for (int v = -h - radius; v <= h + radius; ++v) {
-    for (int u = -h - radius; u <= h + radius; ++u) {
-      const Eigen::Vector2d p = j_predicted_px + mj * Eigen::Vector2d(u, v);
-      const double value = samplePyramid(image_j, level_j, p.x(), p.y());
-      if (!std::isfinite(value)) return out;
-      search[static_cast<std::size_t>(v + h + radius) * wide + (u + h + radius)] = value;
+      tmpl[k] = value;
+      Eigen::Vector2d pj;
+      off_j[k] = mapped && surface->map(p, pj) ? Eigen::Vector2d(pj - j_centre) : Eigen::Vector2d(mj * g);
     }
   }
   const int ns = 2 * radius + 1;
   std::vector<double> score(static_cast<std::size_t>(ns) * ns, -2.0);
-  std::vector<double> window(tmpl.size());
+  std::vector<double> window(count);
   int best_k = -1;
   for (int sy = 0; sy < ns; ++sy) {
     for (int sx = 0; sx < ns; ++sx) {
-      for (int v = 0; v < side; ++v) {
-        for (int u = 0; u < side; ++u) {
-          window[static_cast<std::size_t>(v) * side + u] =
-              search[static_cast<std::size_t>(v + sy) * wide + (u + sx)];
-        }
+      const Eigen::Vector2d shift = j_predicted_px + mj * Eigen::Vector2d(sx - radius, sy - radius);
+      bool inside = true;
+      for (std::size_t k = 0; k < count && inside; ++k) {
+        const Eigen::Vector2d p = shift + off_j[k];
+        window[k] = sample_j.at(p.x(), p.y());
+        inside = std::isfinite(window[k]);
       }
+      // A shift whose window leaves the image is not scored (the search is clipped at the image's edge).
       const int k = sy * ns + sx;
-      score[k] = nccOf(tmpl, window);
-      if (best_k < 0 || score[k] > score[best_k]) best_k = k;
+      if (!inside && !params.clip_at_edge) return out;
+      score[k] = inside ? nccOf(tmpl, window) : kUnscored;
+      if (inside && (best_k < 0 || score[k] > score[best_k])) best_k = k;
     }
   }
+  if (best_k < 0) return out;  // every window leaves the image
   out.ncc = score[best_k];
   if (out.ncc <= -1.5) {
     out.result = PatchResult::kFlat;
@@ -112,6 +162,7 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
     for (int sx = 0; sx < ns; ++sx) {
       if (std::max(std::abs(sx - bx), std::abs(sy - by)) < 2) continue;
       const double c = score[sy * ns + sx];
+      if (c == kUnscored) continue;
       bool peak = true;
       for (int dy = -1; dy <= 1 && peak; ++dy) {
         for (int dx = -1; dx <= 1 && peak; ++dx) {
@@ -131,13 +182,25 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
     out.result = PatchResult::kAmbiguous;
     return out;
   }
-  if (bx == 0 || by == 0 || bx == ns - 1 || by == ns - 1) {
+  // A peak on the search's edge, or beside a shift clipped by the image's edge, is not known to be one.
+  bool clipped = false;
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int x = bx + dx, y = by + dy;
+      if (x >= 0 && y >= 0 && x < ns && y < ns && score[y * ns + x] == kUnscored) clipped = true;
+    }
+  }
+  if (clipped || bx == 0 || by == 0 || bx == ns - 1 || by == ns - 1) {
     out.result = PatchResult::kEdgePeak;
     return out;
   }
-  // Least squares from the integer peak: translation d (grid steps) with gain and offset, template
-  // normalised; the search image resampled at each step.
+  // Least squares from the integer peak: translation d (grid steps), with an affine correction B of the
+  // warp (J offset of grid sample g: mj (d + B g) + the warp's offset) when params.lsm_affine, and gain and
+  // offset (template and window normalised); the search image resampled at each step. B absorbs what the
+  // DEM gets linearly wrong over the patch (its slope, hence the foreshortening), which would otherwise
+  // pull the translation towards the stronger texture.
   Eigen::Vector2d d(bx - radius, by - radius);
+  Eigen::Matrix2d b_fix = Eigen::Matrix2d::Zero();
   double tm = 0, tv = 0;
   for (double t : tmpl) tm += t;
   tm /= static_cast<double>(tmpl.size());
@@ -145,18 +208,16 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
   const double tn = std::sqrt(tv);
   std::vector<double> sv(tmpl.size()), gx(tmpl.size()), gy(tmpl.size());
   const Eigen::Vector2d start = d;
+  const Eigen::Vector2d ex = mj * Eigen::Vector2d(0.5, 0.0), ey = mj * Eigen::Vector2d(0.0, 0.5);
+  const int unknowns = params.lsm_affine ? 6 : 2;
   for (int it = 0; it < params.lsm_iterations; ++it) {
     for (int v = -h; v <= h; ++v) {
       for (int u = -h; u <= h; ++u) {
         const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
-        const Eigen::Vector2d g = d + Eigen::Vector2d(u, v);
-        const Eigen::Vector2d p = j_predicted_px + mj * g;
-        const Eigen::Vector2d ex = mj * Eigen::Vector2d(0.5, 0.0), ey = mj * Eigen::Vector2d(0.0, 0.5);
-        sv[k] = samplePyramid(image_j, level_j, p.x(), p.y());
-        gx[k] = samplePyramid(image_j, level_j, p.x() + ex.x(), p.y() + ex.y()) -
-                samplePyramid(image_j, level_j, p.x() - ex.x(), p.y() - ex.y());
-        gy[k] = samplePyramid(image_j, level_j, p.x() + ey.x(), p.y() + ey.y()) -
-                samplePyramid(image_j, level_j, p.x() - ey.x(), p.y() - ey.y());
+        const Eigen::Vector2d p = j_predicted_px + mj * (d + b_fix * Eigen::Vector2d(u, v)) + off_j[k];
+        sv[k] = sample_j.at(p.x(), p.y());
+        gx[k] = sample_j.at(p.x() + ex.x(), p.y() + ex.y()) - sample_j.at(p.x() - ex.x(), p.y() - ex.y());
+        gy[k] = sample_j.at(p.x() + ey.x(), p.y() + ey.y()) - sample_j.at(p.x() - ey.x(), p.y() - ey.y());
         if (!std::isfinite(sv[k]) || !std::isfinite(gx[k]) || !std::isfinite(gy[k])) {
           out.result = PatchResult::kOutside;
           return out;
@@ -168,30 +229,46 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
     sm /= static_cast<double>(sv.size());
     for (double s : sv) svv += (s - sm) * (s - sm);
     const double sn = std::sqrt(std::max(svv, 1e-12));
-    // r = tn_k - sn_k(d); d(sn_k)/dd = grad / sn (the normalisation's own derivative is second order).
-    Eigen::Matrix2d n = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
-    for (std::size_t k = 0; k < sv.size(); ++k) {
-      const double r = (tmpl[k] - tm) / tn - (sv[k] - sm) / sn;
-      const Eigen::Vector2d j(gx[k] / sn, gy[k] / sn);
-      n.noalias() += j * j.transpose();
-      rhs += j * r;
+    // r = tn_k - sn_k(d, B); d(sn_k)/dd = grad / sn (the normalisation's own derivative is second order).
+    Eigen::Matrix<double, 6, 6> n = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+    for (int v = -h; v <= h; ++v) {
+      for (int u = -h; u <= h; ++u) {
+        const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
+        const double r = (tmpl[k] - tm) / tn - (sv[k] - sm) / sn;
+        const double jx = gx[k] / sn, jy = gy[k] / sn;
+        Eigen::Matrix<double, 6, 1> j;
+        j << jx, jy, jx * u, jx * v, jy * u, jy * v;
+        n.noalias() += j * j.transpose();
+        rhs += j * r;
+      }
     }
-    const Eigen::Vector2d step = n.ldlt().solve(rhs);
+    Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
+    if (unknowns == 6) {
+      step = n.ldlt().solve(rhs);
+    } else {
+      step.head<2>() = n.topLeftCorner<2, 2>().ldlt().solve(rhs.head<2>());
+    }
     if (!step.allFinite()) break;
-    d += step.cwiseMax(-0.5).cwiseMin(0.5);
-    if ((d - start).cwiseAbs().maxCoeff() > 1.0) {
+    d += step.head<2>().cwiseMax(-0.5).cwiseMin(0.5);
+    const Eigen::Matrix<double, 4, 1> db = step.tail<4>().cwiseMax(-0.05).cwiseMin(0.05);
+    b_fix(0, 0) += db[0];
+    b_fix(0, 1) += db[1];
+    b_fix(1, 0) += db[2];
+    b_fix(1, 1) += db[3];
+    // The correction stays a correction: a warp off by more than kMaxAffineFix is not this point.
+    if ((d - start).cwiseAbs().maxCoeff() > 1.0 || b_fix.cwiseAbs().maxCoeff() > kMaxAffineFix) {
       out.result = PatchResult::kLsmDiverged;
       return out;
     }
-    if (step.norm() < 1e-3) break;
+    if (step.head<2>().norm() < 1e-3 && db.cwiseAbs().maxCoeff() < 1e-4) break;
   }
   // NCC at the refined position.
   for (int v = -h; v <= h; ++v) {
     for (int u = -h; u <= h; ++u) {
-      const Eigen::Vector2d p = j_predicted_px + mj * (d + Eigen::Vector2d(u, v));
-      window[static_cast<std::size_t>(v + h) * side + (u + h)] =
-          samplePyramid(image_j, level_j, p.x(), p.y());
+      const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
+      const Eigen::Vector2d p = j_predicted_px + mj * (d + b_fix * Eigen::Vector2d(u, v)) + off_j[k];
+      window[k] = sample_j.at(p.x(), p.y());
     }
   }
   out.ncc_final = nccOf(tmpl, window);

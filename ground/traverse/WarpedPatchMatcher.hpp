@@ -21,6 +21,9 @@ struct PatchParams {
   double min_ncc = 0.75;           // best NCC below it: rejected
   double max_second_ratio = 0.92;  // second peak / best above it: ambiguous
   int lsm_iterations = 8;          // least-squares refinement steps
+  bool lsm_affine = true;          // the refinement also corrects the warp's linear part
+  bool anisotropic = true;         // the finer image low-passed to the footprint's shape (else its scale)
+  bool clip_at_edge = true;        // search only the shifts whose window is inside J (else refuse the point)
 };
 
 enum class PatchResult { kOk, kOutside, kFlat, kLowNcc, kAmbiguous, kEdgePeak, kLsmDiverged };
@@ -33,6 +36,16 @@ struct PatchMatch {
   double ncc_final = 0.0;                          // NCC of the refined position
 };
 
+// The surface between the two views: maps a pixel of image I to image J through the ground (e.g. the ray
+// cast onto a DEM and projected), false where it cannot. With one, each template sample has its own place in
+// J (the relief within the patch, which a plane misses at grazing views, is followed); without, or where it
+// fails, the local affine map is used.
+class PatchSurface {
+ public:
+  virtual ~PatchSurface() = default;
+  virtual bool map(const Eigen::Vector2d& i_px, Eigen::Vector2d& j_px) const = 0;
+};
+
 // Bilinear sample of pyramid level `level` at full-resolution pixel coordinates (NaN outside).
 double samplePyramid(const std::vector<cv::Mat>& pyramid, int level, double x_px, double y_px);
 
@@ -40,6 +53,7 @@ double samplePyramid(const std::vector<cv::Mat>& pyramid, int level, double x_px
 // to J pixel offsets near the point.
 PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Vector2d& i_px,
                             const std::vector<cv::Mat>& image_j, const Eigen::Vector2d& j_predicted_px,
-                            const Eigen::Matrix2d& a, const PatchParams& params);
+                            const Eigen::Matrix2d& a, const PatchParams& params,
+                            const PatchSurface* surface = nullptr);
 
 }  // namespace areomap::traverse

@@ -45,6 +45,16 @@ constexpr const char* kUsage =
     "                     default 0.05) instead of --products: the matcher alone, for checking\n"
     "  --sites ID,ID,...  only these sites (pairs of neighbours among them, in driving order)\n"
     "  --ncc X            NCC threshold (default 0.75); --radius-px R search radius (default 6)\n"
+    "  --plane-warp       warp patches by the DEM's local plane only (the matcher before the per-sample\n"
+    "                     DEM warp; for comparison)\n"
+    "  --translation-lsm  least-squares sub-pixel step with a translation only (no affine correction of\n"
+    "                     the warp; for comparison)\n"
+    "  --fixed-radius     search radii of 16 px (first pass) and 4 px (second) instead of those derived\n"
+    "                     from the pose's covariance and the DEM sigma (for comparison)\n"
+    "  --isotropic        the finer image low-passed by its pyramid level of the mean scale only (for\n"
+    "                     comparison)\n"
+    "  --no-edge-clip     refuse a point whose search window leaves the image (else the search is clipped\n"
+    "                     at the edge; for comparison). All five: the matcher before issue 21's reach work\n"
     "\n"
     "A pair of sites whose DEMs do not overlap, or match ambiguously, is reported with its status and no\n"
     "ties; that is not an error. Exit: 0 ok, 2 usage error, 1 bad input (the message names the file and\n"
@@ -63,6 +73,12 @@ int main(int argc, char** argv) {
     CrossTieParams params;
     params.patch.min_ncc = args.number("--ncc", params.patch.min_ncc);
     params.patch.radius_px = args.number("--radius-px", params.patch.radius_px);
+    params.surface_warp = !args.flag("--plane-warp");
+    params.patch.lsm_affine = !args.flag("--translation-lsm");
+    params.derived_radius = !args.flag("--fixed-radius");
+    params.patch.anisotropic = !args.flag("--isotropic");
+    params.patch.clip_at_edge = !args.flag("--no-edge-clip");
+    if (args.flag("--isotropic")) params.max_scale_ratio = 6.0;  // the gate that went with it
     const std::string dir = args.positional(0, "TRAVERSE");
     if (!truth_products && !products)
       throw cli::UsageError("--products DIR is required (or --truth-products)");

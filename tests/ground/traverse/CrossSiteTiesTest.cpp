@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -22,9 +23,13 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Three tiny sites 7-9 m apart, rendered once per process (~20-50 s). The tiny camera (256 x 192 px, 60
-// degrees: 4 mrad a pixel, 3-4 cm on the ground between the sites) is the coarsest that the cross-site
-// matcher is tested on; the navcam figures are in the report of issue 21.
+// Three tiny sites 7-9 m apart, rendered once per process. The tiny camera (256 x 192 px, 60 degrees: 4
+// mrad a pixel, 3-4 cm on the ground between the sites) is the coarsest that the cross-site matcher is
+// tested on; the navcam figures are in README "Cross-site ties". Its top row looks 6.6 degrees below the
+// horizon, 13 m out on level ground from its 1.5 m mast, so the fine terrain reaches 14 m beyond the
+// outermost site (the preset's 20 m rendered ground no image sees); beyond it the coarse grid goes on.
+// The tiny camera cannot see a 25-30 m leg at all (its views meet only within ~26 m); that reach is
+// measured on navcam and imp traverses (README).
 const std::string& tinyTraverseDir() {
   static const std::string dir = [] {
     sim::TraverseSimConfig c = sim::traversePreset("tiny");
@@ -32,6 +37,7 @@ const std::string& tinyTraverseDir() {
     c.traverse.sites = 3;
     c.traverse.leg_min_m = 7.0;
     c.traverse.leg_max_m = 9.0;
+    c.terrain_margin_m = 14.0;
     const std::string d = test::scratchDir("cross-site-ties") + "/traverse";
     (void)sim::writeTraverseDataset(c, d, sim::TraverseSimOptions{});
     return d;
@@ -57,10 +63,24 @@ const Fixture& fixture() {
   return f;
 }
 
+// The ties of sites i and j with the tool's parameters (the registration's window from the odometry).
 CrossTieResult tiesOf(int i, int j) {
   const Fixture& f = fixture();
+  CrossTieParams params;
+  params.registration = searchWindowOf(f.traverse, i, j);
   return findCrossSiteTies(f.sites[i], f.sites[j],
-                           relativePose(f.traverse.sites[i].apriori, f.traverse.sites[j].apriori));
+                           relativePose(f.traverse.sites[i].apriori, f.traverse.sites[j].apriori), params);
+}
+
+// areomap-cross-ties on the first two sites (truth products), run once per process.
+const std::string& toolOutputDir() {
+  static const std::string dir = [] {
+    const std::string out = test::scratchDir("cross-site-ties-tool-ok");
+    const int status = test::runTool(
+        "areomap-cross-ties", tinyTraverseDir() + " --truth-products --sites site01,site02 --out " + out);
+    return status == 0 ? out : std::string();
+  }();
+  return dir;
 }
 
 // The ties of the neighbours (k-1, k), found once per process.
@@ -198,18 +218,20 @@ TEST(CrossSiteTies, TiesAreWithinAFewTenthsOfAPixelOfTheTruth) {
         c.rejected_observations, c.rejected_ties, r.rms_px, t.median_px, t.p90_px, t.gross,
         t.errors_px.size(), t.ties_xy_m, t.ties_heading_deg);
     CHECK(r.status == CrossTieStatus::kOk);
-    CHECK(r.ties.size() >= 80u);
-    // On these coarse images (3-4 cm a pixel where the sites overlap) a few per cent of the matches sit on
-    // a neighbouring texture element along the source ray, where neither the back-match nor the geometry
-    // can tell (both images of a stereo pair of A move together); on navcam they are about 1 %.
+    CHECK(r.ties.size() >= 150u);
+    // On these coarse images (3-4 cm a pixel where the sites overlap) a match may still sit on a
+    // neighbouring texture element along the source ray, where neither the back-match nor the geometry can
+    // tell (both images of a stereo pair of A move together): ~1-2 % here (6-7 % with the plane warp and a
+    // translation-only sub-pixel step, a median of 0.6 px in A's images).
     std::printf("in A's images: median %.3f px, 90%% %.3f px, %d of %zu > 2 px\n", t.cross_median_px,
                 t.cross_p90_px, t.cross_gross, t.cross_errors_px.size());
-    CHECK(t.median_px <= 0.45);
-    CHECK(t.cross_median_px <= 0.8);
-    CHECK(t.gross <= 0.08 * static_cast<double>(t.errors_px.size()));
-    // The bundle of the ties places site B to a few cm and a few hundredths of a degree.
-    CHECK(t.ties_xy_m < 0.05);
-    CHECK(std::fabs(t.ties_heading_deg) < 0.1);
+    CHECK(t.median_px <= 0.2);
+    CHECK(t.cross_median_px <= 0.3);
+    CHECK(t.gross <= 0.03 * static_cast<double>(t.errors_px.size()));
+    CHECK(t.cross_gross <= 0.03 * static_cast<double>(t.cross_errors_px.size()));
+    // The bundle of the ties places site B to about a cm and a few hundredths of a degree.
+    CHECK(t.ties_xy_m < 0.02);
+    CHECK(std::fabs(t.ties_heading_deg) < 0.05);
     // Every tie has the source in B and at least one image of A.
     for (const CrossTie& tie : r.ties) {
       int in_a = 0, sources = 0;
@@ -235,32 +257,46 @@ TEST(CrossSiteTies, ASitePairWithoutOverlapGetsTheStatus) {
 }
 
 TEST(CrossSiteTies, SameInputSameTies) {
+  // The tool, in another process, writes exactly the ties found here (the CSV's numbers round-trip).
   const CrossTieResult& a = neighbourTies(1);
-  const CrossTieResult b = tiesOf(0, 1);
-  CHECK_EQUAL(a.ties.size(), b.ties.size());
-  for (std::size_t i = 0; i < a.ties.size(); ++i) {
-    CHECK_EQUAL(a.ties[i].point, b.ties[i].point);
-    CHECK_EQUAL(a.ties[i].observations.size(), b.ties[i].observations.size());
-    for (std::size_t k = 0; k < a.ties[i].observations.size(); ++k) {
-      CHECK(a.ties[i].observations[k].pixel_px == b.ties[i].observations[k].pixel_px);
-      CHECK(a.ties[i].observations[k].image == b.ties[i].observations[k].image);
+  CHECK(!toolOutputDir().empty());
+  std::ifstream csv(toolOutputDir() + "/cross_ties.csv");
+  std::string line;
+  std::getline(csv, line);
+  std::size_t rows = 0;
+  for (const CrossTie& t : a.ties) {
+    for (const CrossTieObservation& o : t.observations) {
+      CHECK(static_cast<bool>(std::getline(csv, line)));
+      std::istringstream fields(line);
+      std::string point, site, image, x, y;
+      std::getline(fields, point, ',');
+      std::getline(fields, site, ',');
+      std::getline(fields, image, ',');
+      std::getline(fields, x, ',');
+      std::getline(fields, y, ',');
+      CHECK_EQUAL(t.point, std::stoll(point));
+      STRCMP_EQUAL(o.site.c_str(), site.c_str());
+      STRCMP_EQUAL(o.image.c_str(), image.c_str());
+      CHECK(o.pixel_px.x() == std::stod(x));
+      CHECK(o.pixel_px.y() == std::stod(y));
+      ++rows;
     }
   }
+  CHECK(rows > 0);
+  CHECK(!std::getline(csv, line));
 }
 
 TEST(CrossSiteTies, TheToolWritesTiesAndRejectsBadInput) {
   const std::string out = test::scratchDir("cross-site-ties-tool");
-  CHECK_EQUAL(
-      0, test::runTool("areomap-cross-ties",
-                       tinyTraverseDir() + " --truth-products --sites site01,site02 --out " + out + "/ok"));
-  std::ifstream csv(out + "/ok/cross_ties.csv");
+  CHECK(!toolOutputDir().empty());
+  std::ifstream csv(toolOutputDir() + "/cross_ties.csv");
   std::string header;
   std::getline(csv, header);
   STRCMP_EQUAL("point,site,image,sample_px,line_px", header.c_str());
   int lines = 0;
   for (std::string line; std::getline(csv, line);) ++lines;
   CHECK(lines >= 200);
-  CHECK(test::fileExists(out + "/ok/cross_ties.json"));
+  CHECK(test::fileExists(toolOutputDir() + "/cross_ties.json"));
   // No products for the sites: an input error naming the file.
   CHECK_EQUAL(1, test::runTool("areomap-cross-ties",
                                tinyTraverseDir() + " --products " + out + "/none --out " + out + "/bad"));
