@@ -84,6 +84,8 @@ constexpr const char* kUsage =
     "                      with --noise-px S (default 0.3), as areomap-traverse --truth-cross-ties (a check "
     "of\n"
     "                      the adjustment, not a measurement)\n"
+    "  --no-cross-ties     with --traverse: no cross-site matching (by default the received sites are\n"
+    "                      matched as areomap-traverse does); the poses are the odometry's\n"
     "  --no-record         do not record: by default a live node (udpm://, memq://) appends every message "
     "it\n"
     "                      receives to DIR/received.lcm before handling it; after a crash or kill,\n"
@@ -154,6 +156,7 @@ int main(int argc, char** argv) {
     options.traverse = args.flag("--traverse");
     const std::string cross_ties = args.option("--cross-ties", "");
     const bool truth_cross_ties = args.flag("--truth-cross-ties");
+    const bool no_cross_ties = args.flag("--no-cross-ties");
     const double noise_px = args.number("--noise-px", 0.3);
 #ifdef AREOMAP_HAVE_PRODUCTS
     if (!no_products) options.pass.products_hook = ground::makePassProducts;
@@ -172,10 +175,10 @@ int main(int argc, char** argv) {
 #endif
     if (options.traverse && !lcm)
       throw cli::UsageError("--traverse needs --lcm (for a traverse folder: areomap-traverse)");
-    if (!options.traverse && (truth_cross_ties || !cross_ties.empty()))
-      throw cli::UsageError("--cross-ties and --truth-cross-ties go with --traverse");
-    if (truth_cross_ties && !cross_ties.empty())
-      throw cli::UsageError("give at most one of --cross-ties FILE and --truth-cross-ties");
+    if (!options.traverse && (truth_cross_ties || no_cross_ties || !cross_ties.empty()))
+      throw cli::UsageError("--cross-ties, --truth-cross-ties and --no-cross-ties go with --traverse");
+    if (int(truth_cross_ties) + int(no_cross_ties) + int(!cross_ties.empty()) > 1)
+      throw cli::UsageError("give at most one of --cross-ties FILE, --truth-cross-ties and --no-cross-ties");
     (void)noise_px;              // used by the traverse steps only
     std::string truth_traverse;  // --truth naming a traverse folder
     if (options.traverse && !options.pass.truth_dir.empty()) {
@@ -280,6 +283,7 @@ int main(int argc, char** argv) {
         o.products = !no_products;
         o.cross_ties_csv = cross_ties;
         o.truth_cross_ties = truth_cross_ties;
+        o.match_cross_ties = !no_cross_ties;
         o.truth_noise_px = noise_px;
         cli::info("traverse: " + std::to_string(mapped_sites.size()) +
                   " site(s) mapped; poses, merged map, report");

@@ -220,6 +220,16 @@ TEST(StreamTraverseGround, FileReplayMapsEverySiteAndTheTraverse) {
   CHECK_EQUAL(2, r["stream"]["sites_announced"].get<int>());
   CHECK_TRUE(r["stream"]["rejected"].empty());
   CHECK_TRUE(r["truth"]["dem_rmse_m"].get<double>() < 0.2);
+  // The received sites are matched as areomap-traverse matches them: the one pair's verdict is reported.
+  CHECK_EQUAL(std::string("matched"), t["cross_site_ties_source"].get<std::string>());
+  CHECK_EQUAL(1u, t["site_pairs"].size());
+  CHECK_TRUE(fs::exists(out + "/cross_ties.json"));
+  // Usage: the cross-site options go with --traverse, one at a time.
+  CHECK_EQUAL(2, areomap::test::runTool("areomap-ground",
+                                        "--lcm file:///nonexistent --out " + out + "-usage --no-cross-ties"));
+  CHECK_EQUAL(2, areomap::test::runTool("areomap-ground",
+                                        "--lcm file:///nonexistent --out " + out +
+                                            "-usage --traverse --no-cross-ties --truth-cross-ties"));
 }
 
 // Faults: site01 announced twice (site_duplicate), site02's announcement truncated (site_truncated; its
