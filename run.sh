@@ -45,9 +45,10 @@ DEM's RMSE against the truth.
   --seed S        traverse seed (default 1)
   --truth-cross-ties  the sites' poses from the multi-site adjustment with cross-site ties made from the
                   synthetic traverse's truth (0.3 px noise; areomap-traverse --truth-cross-ties): a check
-                  of the adjustment, not a measurement. Without it the poses are the odometry's (the
-                  automatic cross-site matcher, areomap-cross-ties, is not run by the job; on the tiny
-                  camera it finds no ties), so the position error after equals the a-priori one
+                  of the adjustment, not a measurement. Without it the ground matches the received
+                  sites itself, as areomap-traverse does (report.json traverse.site_pairs); on the tiny
+                  camera the DEM registration of its own products fails, so there the poses stay the
+                  odometry's and the position error after equals the a-priori one
 EOF
 }
 
