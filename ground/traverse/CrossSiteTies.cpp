@@ -635,13 +635,13 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
   return out;
 }
 
-void writeCrossTiesCsv(const std::string& path, const std::vector<CrossTie>& ties) {
+std::vector<CrossSiteTie> crossSiteObservations(const std::vector<CrossTie>& ties) {
   std::vector<CrossSiteTie> flat;
   for (const CrossTie& t : ties) {
     for (const CrossTieObservation& o : t.observations)
       flat.push_back({o.point, o.site, o.image, o.pixel_px});
   }
-  writeCrossSiteTies(path, flat);
+  return flat;
 }
 
 }  // namespace areomap::traverse

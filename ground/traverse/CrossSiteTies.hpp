@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 
+#include "ground/traverse/CrossSiteAdjustment.hpp"
 #include "ground/traverse/DemRegistration.hpp"
 #include "ground/traverse/SiteProducts.hpp"
 #include "ground/traverse/WarpedPatchMatcher.hpp"
@@ -131,7 +132,7 @@ struct CrossTieResult {
 CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
                                  const CrossTieParams& params = {}, int64_t first_point = 0);
 
-// cross_ties.csv: point,site,image,sample_px,line_px (one observation a line, ties in order).
-void writeCrossTiesCsv(const std::string& path, const std::vector<CrossTie>& ties);
+// The ties as the multi-site adjustment and cross_ties.csv take them: one observation each, ties in order.
+std::vector<CrossSiteTie> crossSiteObservations(const std::vector<CrossTie>& ties);
 
 }  // namespace areomap::traverse

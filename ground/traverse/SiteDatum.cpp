@@ -15,7 +15,7 @@ namespace areomap::traverse {
 
 namespace {
 
-// Site-to-camera rotation of a model file (nullopt when it cannot be converted).
+// Site-to-camera rotation of a model; false when it cannot be converted.
 bool rotationOf(const CameraModel& model, Mat3& r) {
   PhotogrammetricCamera cam;
   ConversionResidual residual;

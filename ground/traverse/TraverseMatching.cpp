@@ -55,10 +55,8 @@ std::vector<std::pair<int, int>> sitePairs(const std::vector<int>& chosen, bool 
   return pairs;
 }
 
-CrossTieParams pairParams(const Traverse& traverse, int i, int j, const CrossTieParams& base) {
-  CrossTieParams p = base;
-  p.registration = searchWindowOf(traverse, i, j, base.registration);
-  return p;
+const char* pairStatusName(const SitePairMatch& m) {
+  return m.error.empty() ? crossTieStatusName(m.result.status) : "not_matched";
 }
 
 TraverseMatching matchTraverse(const Traverse& traverse, const std::vector<std::pair<int, int>>& pairs,
@@ -93,7 +91,8 @@ TraverseMatching matchTraverse(const Traverse& traverse, const std::vector<std::
     SitePairMatch m;
     m.a = i;
     m.b = j;
-    m.params = pairParams(traverse, i, j, base);
+    m.params = base;
+    m.params.registration = searchWindowOf(traverse, i, j, base.registration);
     m.result.site_a = traverse.sites[i].id;
     m.result.site_b = traverse.sites[j].id;
     const std::shared_ptr<const SiteProducts> a = site(i), b = a ? site(j) : nullptr;
@@ -162,13 +161,12 @@ json matchingJson(const Traverse& traverse, const std::string& products, const T
     json pj;
     pj["site_a"] = traverse.sites[m.a].id;
     pj["site_b"] = traverse.sites[m.b].id;
+    pj["status"] = pairStatusName(m);
     if (!m.error.empty()) {
-      pj["status"] = "not_matched";
       pj["message"] = m.error;
       report["pairs"].push_back(pj);
       continue;
     }
-    pj["status"] = crossTieStatusName(r.status);
     if (!r.message.empty()) pj["message"] = r.message;
     const DemRegistration& g = r.registration;
     pj["registration"] = {{"status", registrationStatusName(g.status)},

@@ -24,9 +24,6 @@ namespace areomap::traverse {
 // site with the one before it, or with every one before it when all_pairs.
 std::vector<std::pair<int, int>> sitePairs(const std::vector<int>& chosen, bool all_pairs);
 
-// `base` with the DEM registration's search window for sites i < j (DemRegistration.hpp searchWindowOf).
-CrossTieParams pairParams(const Traverse& traverse, int i, int j, const CrossTieParams& base);
-
 struct SitePairMatch {
   int a = -1, b = -1;  // site indices, a < b
   CrossTieParams params;
@@ -34,6 +31,10 @@ struct SitePairMatch {
   std::string error;                // not matched: a site's products could not be loaded (result empty)
   std::optional<TruthCheck> truth;  // a synthetic traverse's truth
 };
+
+// A pair's status for the reports: crossTieStatusName, or "not_matched" (a site's products could not be
+// loaded, or its matching failed).
+const char* pairStatusName(const SitePairMatch& m);
 
 // Site k's products, or nullptr when the site has none (its pass failed); may throw cli::InputError.
 using SiteLoader = std::function<std::shared_ptr<const SiteProducts>(int)>;

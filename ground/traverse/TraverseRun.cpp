@@ -217,22 +217,17 @@ std::vector<CrossSiteTie> matchSites(const Traverse& traverse, const std::option
   } catch (const std::exception& e) {
     result.write_errors.push_back(json_path + ": " + e.what());
   }
-  std::vector<CrossSiteTie> ties;
   for (const SitePairMatch& m : matching.pairs) {
     SitePairOutcome p;
     p.site_a = traverse.sites[m.a].id;
     p.site_b = traverse.sites[m.b].id;
-    p.status = m.error.empty() ? crossTieStatusName(m.result.status) : "not_matched";
+    p.status = pairStatusName(m);
     p.message = m.error.empty() ? m.result.message : m.error;
     p.ties = static_cast<int32_t>(m.result.ties.size());
     p.observations = m.result.observationCount();
     result.site_pairs.push_back(p);
   }
-  for (const CrossTie& t : matching.ties) {
-    for (const CrossTieObservation& obs : t.observations)
-      ties.push_back({obs.point, obs.site, obs.image, obs.pixel_px});
-  }
-  return ties;
+  return crossSiteObservations(matching.ties);
 }
 
 json poseJson(const SitePoseEstimate& e) {

@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
     for (const SitePairMatch& m : matching.pairs) {
       if (!m.error.empty()) throw std::runtime_error(m.error);
     }
-    writeCrossTiesCsv(out + "/cross_ties.csv", matching.ties);
+    writeCrossSiteTies(out + "/cross_ties.csv", crossSiteObservations(matching.ties));
     cli::writeFileAtomic(
         out + "/cross_ties.json",
         matchingJson(traverse, truth_products ? std::string("truth") : *products, matching).dump(2) + "\n");
