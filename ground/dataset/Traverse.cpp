@@ -99,6 +99,14 @@ TraverseSite readSite(const JsonFieldReader& r, const Json& j, std::size_t index
   const std::string normal = std::filesystem::path(site.path).lexically_normal().string();
   if (!paths.insert(normal).second) r.fail(field + ".path", "'" + site.path + "' is used by another site");
   site.dir = resolvePath(t.root, site.path);
+  if (j.contains("kind")) {
+    const std::string kind = r.string(j["kind"], field + ".kind");
+    if (kind == siteKindName(SiteKind::kStop)) {
+      site.kind = SiteKind::kStop;
+    } else if (kind != siteKindName(SiteKind::kPanorama)) {
+      r.fail(field + ".kind", "'" + kind + "': expected \"panorama\" or \"stop\"");
+    }
+  }
   site.apriori = readPose(r, member(r, j, "apriori", field + ".apriori"), field + ".apriori");
   const bool has_leg = j.contains("odometry") && !j["odometry"].is_null();
   if (index == 0) {
@@ -120,6 +128,10 @@ TraverseSite readSite(const JsonFieldReader& r, const Json& j, std::size_t index
 }
 
 }  // namespace
+
+const char* siteKindName(SiteKind kind) {
+  return kind == SiteKind::kStop ? "stop" : "panorama";
+}
 
 Eigen::Matrix3d SitePose::rotation() const {
   return Eigen::AngleAxisd(heading_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -203,7 +215,9 @@ void writeTraverse(const Traverse& t, const std::string& dir) {
   root["distance_m"] = t.distanceDrivenM();
   OrderedJson sites = OrderedJson::array();
   for (const TraverseSite& s : t.sites) {
-    OrderedJson j = {{"id", s.id}, {"path", s.path}, {"apriori", poseJson(s.apriori)}};
+    OrderedJson j = {{"id", s.id}, {"path", s.path}};
+    if (s.kind != SiteKind::kPanorama) j["kind"] = siteKindName(s.kind);
+    j["apriori"] = poseJson(s.apriori);
     if (s.odometry) {
       const OdometryLeg& leg = *s.odometry;
       j["odometry"] = {{"from", leg.from},

@@ -45,10 +45,16 @@ struct OdometryLeg {
   double sigma_heading_rad = 0.0;
 };
 
+// What the rover did at a site: a whole panorama, or a traversing stop on the way (a few stereo pairs
+// looking forward, README "Traversing stops"). Both are mapped alike; a stop ties the sites around it.
+enum class SiteKind { kPanorama, kStop };
+const char* siteKindName(SiteKind kind);  // "panorama", "stop"
+
 struct TraverseSite {
-  std::string id;    // "site01"
-  std::string path;  // as written, relative to the traverse folder ("sites/site01")
-  std::string dir;   // resolved: the traverse folder / path
+  std::string id;                       // "site01"
+  std::string path;                     // as written, relative to the traverse folder ("sites/site01")
+  std::string dir;                      // resolved: the traverse folder / path
+  SiteKind kind = SiteKind::kPanorama;  // traverse.json "kind" (optional, default "panorama")
   SitePose apriori;
   std::optional<OdometryLeg> odometry;  // absent for the first site
 };

@@ -1,5 +1,6 @@
 #include "ground/sim/TraversePlan.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -40,6 +41,12 @@ std::string traverseSiteId(int index) {
   return buffer;
 }
 
+std::string traverseStopId(int index, int stop) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "stop%02d-%d", index + 1, stop);
+  return buffer;
+}
+
 void validateTraverse(const TraverseSettings& s) {
   auto fail = [](const std::string& option, const std::string& what) {
     throw cli::UsageError("impossible traverse: " + option + ": " + what);
@@ -55,6 +62,15 @@ void validateTraverse(const TraverseSettings& s) {
     fail("--vertical-drift-pct", "outside (0, 50]");
   if (!(s.heading_drift_deg > 0.0 && s.heading_drift_deg <= 45.0))
     fail("--heading-drift-deg", "outside (0, 45]");
+  if (!(s.stop_spacing_m == 0.0 || (s.stop_spacing_m >= 1.0 && s.stop_spacing_m <= 200.0)))
+    fail("--stop-spacing-m", num(s.stop_spacing_m) + ": 0 (no stops) or 1..200 m");
+  if (s.stop_spacing_m > 0.0 && s.sites > 1) {
+    const int parts = static_cast<int>(std::ceil(s.leg_max_m / s.stop_spacing_m - 1e-9));
+    if ((s.sites - 1) * parts + 1 > kMaxTraverseSites) {
+      fail("--stop-spacing-m", "up to " + std::to_string((s.sites - 1) * parts + 1) +
+                                   " sites and stops, more than " + std::to_string(kMaxTraverseSites));
+    }
+  }
 }
 
 SitePose composePose(const SitePose& from, const Eigen::Vector3d& delta_m, double delta_heading_rad) {
@@ -71,33 +87,48 @@ TraversePlan planTraverse(const TraverseSettings& s, uint64_t seed,
   const double e0 = height(0.0, 0.0);
   TraversePlan plan;
   plan.ids.push_back(traverseSiteId(0));
+  plan.kinds.push_back(SiteKind::kPanorama);
   plan.truth.push_back(SitePose{});
   plan.apriori.push_back(SitePose{});
   for (int k = 1; k < s.sites; ++k) {
     const uint64_t h = hash3(seed, kPathStream, k);
     const double distance = s.leg_min_m + unit(mix64(h + 1)) * (s.leg_max_m - s.leg_min_m);
     const double turn = (2.0 * unit(mix64(h + 2)) - 1.0) * s.max_turn_deg * kDeg;
-    const SitePose& before = plan.truth.back();
-    SitePose after;
-    after.heading_rad = before.heading_rad + turn;
-    after.position_m.x() = before.position_m.x() + distance * std::cos(after.heading_rad);
-    after.position_m.y() = before.position_m.y() + distance * std::sin(after.heading_rad);
-    after.position_m.z() = e0 - height(after.position_m.x(), after.position_m.y());
+    const SitePose start = plan.truth.back();
+    const double heading = start.heading_rad + turn;
+    // The leg in equal parts, none longer than the stop spacing: a stop at the end of each but the last.
+    const int parts = s.stop_spacing_m > 0.0
+                          ? std::max(1, static_cast<int>(std::ceil(distance / s.stop_spacing_m - 1e-9)))
+                          : 1;
+    for (int part = 1; part <= parts; ++part) {
+      const SitePose& before = plan.truth.back();
+      const double along = distance * part / parts;
+      SitePose after;
+      after.heading_rad = heading;
+      after.position_m.x() = start.position_m.x() + along * std::cos(heading);
+      after.position_m.y() = start.position_m.y() + along * std::sin(heading);
+      after.position_m.z() = e0 - height(after.position_m.x(), after.position_m.y());
 
-    OdometryLeg leg;
-    leg.from = plan.ids.back();
-    leg.distance_m = distance;
-    leg.sigma_m = Eigen::Vector3d(s.drift_fraction * distance, s.drift_fraction * distance,
-                                  s.vertical_drift_fraction * distance);
-    leg.sigma_heading_rad = s.heading_drift_deg * kDeg;
-    const Eigen::Vector3d true_delta = before.toSite(after.position_m);
-    for (int a = 0; a < 3; ++a) leg.delta_m[a] = true_delta[a] + leg.sigma_m[a] * odometryNoise(seed, k, a);
-    leg.delta_heading_rad = turn + leg.sigma_heading_rad * odometryNoise(seed, k, 3);
+      OdometryLeg leg;
+      leg.from = plan.ids.back();
+      leg.distance_m = distance / parts;
+      leg.sigma_m = Eigen::Vector3d(s.drift_fraction * leg.distance_m, s.drift_fraction * leg.distance_m,
+                                    s.vertical_drift_fraction * leg.distance_m);
+      leg.sigma_heading_rad = s.heading_drift_deg * kDeg;
+      const Eigen::Vector3d true_delta = before.toSite(after.position_m);
+      const int noise = 4 * (part - 1);  // part 1 draws what a leg without stops draws
+      for (int a = 0; a < 3; ++a)
+        leg.delta_m[a] = true_delta[a] + leg.sigma_m[a] * odometryNoise(seed, k, noise + a);
+      leg.delta_heading_rad = (after.heading_rad - before.heading_rad) +
+                              leg.sigma_heading_rad * odometryNoise(seed, k, noise + 3);
 
-    plan.ids.push_back(traverseSiteId(k));
-    plan.truth.push_back(after);
-    plan.apriori.push_back(composePose(plan.apriori.back(), leg.delta_m, leg.delta_heading_rad));
-    plan.legs.push_back(leg);
+      const bool stop = part < parts;
+      plan.ids.push_back(stop ? traverseStopId(k - 1, part) : traverseSiteId(k));
+      plan.kinds.push_back(stop ? SiteKind::kStop : SiteKind::kPanorama);
+      plan.truth.push_back(after);
+      plan.apriori.push_back(composePose(plan.apriori.back(), leg.delta_m, leg.delta_heading_rad));
+      plan.legs.push_back(leg);
+    }
   }
   return plan;
 }

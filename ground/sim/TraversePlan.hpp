@@ -11,7 +11,14 @@
 // true ones plus independent Gaussian errors: sigma drift_fraction * d per horizontal axis,
 // vertical_drift_fraction * d vertically (d the leg's distance) and heading_drift_deg in heading. The
 // a-priori poses are these measurements chained from site 1 (a random walk: errors accumulate).
-// Every random number is a hash of the seed and the leg (ground/sim/Noise.hpp): deterministic and portable.
+// Traversing stops (stop_spacing_m > 0): on the way, the rover stops every stop_spacing_m or less (the leg
+// cut into equal parts, none longer) and takes a few stereo pairs looking forward (ground/sim/TraverseSim).
+// A stop is a site of the plan like any other, kind kStop, id "stopNN-M" (the M-th stop after site NN),
+// on the straight line of its leg, facing the way the rover drives; the odometry then runs from stop to
+// stop, each part with its own errors (sigmas by its own distance). The panorama sites' true path does not
+// depend on the stops.
+// Every random number is a hash of the seed and the leg (ground/sim/Noise.hpp): deterministic and portable;
+// without stops a plan is the same as before stops existed.
 #pragma once
 
 #include <cstdint>
@@ -31,10 +38,12 @@ struct TraverseSettings {
   double drift_fraction = 0.05;           // --odometry-drift-pct / 100
   double vertical_drift_fraction = 0.01;  // --vertical-drift-pct / 100
   double heading_drift_deg = 2.0;         // --heading-drift-deg
+  double stop_spacing_m = 0.0;            // --stop-spacing-m: a traversing stop at least this often; 0 none
 };
 
 struct TraversePlan {
-  std::vector<std::string> ids;   // "site01", "site02", ... in driving order
+  std::vector<std::string> ids;   // "site01", "stop01-1", "site02", ... in driving order
+  std::vector<SiteKind> kinds;    // kPanorama or kStop, per site
   std::vector<SitePose> truth;    // true poses in the traverse frame
   std::vector<SitePose> apriori;  // dead-reckoned from the odometry
   std::vector<OdometryLeg> legs;  // legs[k - 1]: from site k - 1 to site k (0-based sites)
@@ -44,8 +53,10 @@ struct TraversePlan {
 // Up to 99 sites (two-digit ids).
 constexpr int kMaxTraverseSites = 99;
 
-// The id of the site at 0-based `index`: "site01" for 0.
+// The id of the panorama site at 0-based `index`: "site01" for 0.
 std::string traverseSiteId(int index);
+// The id of the `stop`-th (1-based) traversing stop after panorama site `index`: "stop01-1" for 0, 1.
+std::string traverseStopId(int index, int stop);
 
 // Checks the settings; throws cli::UsageError naming the option.
 void validateTraverse(const TraverseSettings& settings);

@@ -43,6 +43,20 @@ SimConfig traverseTerrainConfig(const TraverseSimConfig& config, const TraverseP
   return t;
 }
 
+SimConfig stopConfig(const SimConfig& site) {
+  SimConfig c = site;
+  c.tiers.clear();
+  for (const TierPlan& tier : site.tiers) {
+    if (tier.left_only || tier.pan_step_deg <= 0.0) continue;
+    TierPlan t = tier;
+    t.pairs = 1 + static_cast<int>(
+                      std::ceil(std::max(0.0, kStopSectorDeg - site.hfov_deg) / t.pan_step_deg - 1e-9));
+    t.pan0_deg = -0.5 * (t.pairs - 1) * t.pan_step_deg;
+    c.tiers.push_back(t);
+  }
+  return c;
+}
+
 uint64_t traverseSiteSeed(uint64_t seed, int index) {
   return hash3(seed, kSiteSeedStream, index);
 }
@@ -80,14 +94,15 @@ TraversePlan writeTraverseDataset(const TraverseSimConfig& config, const std::st
   TraverseTruth truth;
   for (std::size_t k = 0; k < plan.truth.size(); ++k) {
     const int index = static_cast<int>(k);
-    SimConfig site_config = terrain_config;
+    const bool stop = plan.kinds[k] == SiteKind::kStop;
+    SimConfig site_config = stop ? stopConfig(terrain_config) : terrain_config;
     site_config.seed = traverseSiteSeed(config.seed, index);
     SimGeometry g = makeGeometry(site_config, terrain, plan.truth[k]);
     g.dem_half_extent_m = Terrain::kMinCoverHalfM;
     g.name = traverse.name + "-" + plan.ids[k];
-    stage(plan.ids[k] + " (" + std::to_string(k + 1) + " of " + std::to_string(plan.truth.size()) +
-          "): " + std::to_string(g.cameras().size()) + " images, " + std::to_string(g.points.size()) +
-          " check points");
+    stage(plan.ids[k] + (stop ? " (a traversing stop, " : " (") + std::to_string(k + 1) + " of " +
+          std::to_string(plan.truth.size()) + "): " + std::to_string(g.cameras().size()) + " images, " +
+          std::to_string(g.points.size()) + " check points");
     if (static_cast<int>(g.points.size()) < site_config.check_points) {
       stage("warning: " + plan.ids[k] + ": only " + std::to_string(g.points.size()) + " of " +
             std::to_string(site_config.check_points) + " check points are seen by two or more images");
@@ -98,7 +113,8 @@ TraversePlan writeTraverseDataset(const TraverseSimConfig& config, const std::st
     }
     WriteOptions write;
     write.images = options.images;
-    if (options.on_image) write.on_image = [&](int done, int total) { options.on_image(index, done, total); };
+    if (options.on_image)
+      write.on_image = [&](int done, int total) { options.on_image(plan.ids[k], done, total); };
     const std::string path = "sites/" + plan.ids[k];
     writeSimDataset(g, terrain, out + "/" + path, write);
 
@@ -106,6 +122,7 @@ TraversePlan writeTraverseDataset(const TraverseSimConfig& config, const std::st
     site.id = plan.ids[k];
     site.path = path;
     site.dir = out + "/" + path;
+    site.kind = plan.kinds[k];
     site.apriori = plan.apriori[k];
     if (k > 0) site.odometry = plan.legs[k - 1];
     traverse.sites.push_back(site);

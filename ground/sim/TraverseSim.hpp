@@ -42,9 +42,9 @@ struct TraverseSimConfig {
 
 struct TraverseSimOptions {
   bool images = true;
-  // Progress: a line per stage, and (site index, images done, images of the site) after each image.
+  // Progress: a line per stage, and (site id, images done, images of the site) after each image.
   std::function<void(const std::string&)> on_stage;
-  std::function<void(int, int, int)> on_image;
+  std::function<void(const std::string&, int, int)> on_image;
 };
 
 // The camera presets a traverse takes its sites from ("navcam", "tiny", ...): presetConfig(name) with the
@@ -54,6 +54,12 @@ TraverseSimConfig traversePreset(const std::string& camera_preset);
 // The configuration of the shared terrain for a plan: the site preset's statistics, the fine square about
 // the middle of the path, the rovers' positions.
 SimConfig traverseTerrainConfig(const TraverseSimConfig& config, const TraversePlan& plan);
+
+// A traversing stop's camera plan (--stop-spacing-m): each tier of the site preset that is not a single
+// left image keeps its tilt and pan step, as few pairs as cover a forward sector of kStopSectorDeg (field
+// of view included), centred on the rover's heading (pan 0 in the site frame).
+constexpr double kStopSectorDeg = 90.0;
+SimConfig stopConfig(const SimConfig& site);
 
 // The seed of site `index` (its pointing errors, check points and image noise).
 uint64_t traverseSiteSeed(uint64_t seed, int index);

@@ -47,10 +47,17 @@ json poseJson(const RelativePose& p) {
 
 }  // namespace
 
-std::vector<std::pair<int, int>> sitePairs(const std::vector<int>& chosen, bool all_pairs) {
+std::vector<std::pair<int, int>> sitePairs(const Traverse& traverse, const std::vector<int>& chosen,
+                                           bool all_pairs) {
   std::vector<std::pair<int, int>> pairs;
   for (std::size_t j = 1; j < chosen.size(); ++j) {
-    for (std::size_t i = all_pairs ? 0 : j - 1; i < j; ++i) pairs.emplace_back(chosen[i], chosen[j]);
+    std::size_t first = j - 1;
+    if (all_pairs) {
+      first = 0;
+    } else {
+      while (first > 0 && traverse.sites[chosen[first]].kind == SiteKind::kStop) --first;
+    }
+    for (std::size_t i = first; i < j; ++i) pairs.emplace_back(chosen[i], chosen[j]);
   }
   return pairs;
 }

@@ -21,8 +21,11 @@
 namespace areomap::traverse {
 
 // The pairs (i, j), i < j, of the sites `chosen` (indices into traverse.sites, in driving order): each
-// site with the one before it, or with every one before it when all_pairs.
-std::vector<std::pair<int, int>> sitePairs(const std::vector<int>& chosen, bool all_pairs);
+// site with the one before it and, across traversing stops, with every one back to the last panorama site
+// (a stop ties the sites around it, and the sites on either side of a stop are matched too); or with every
+// one before it when all_pairs.
+std::vector<std::pair<int, int>> sitePairs(const Traverse& traverse, const std::vector<int>& chosen,
+                                           bool all_pairs);
 
 struct SitePairMatch {
   int a = -1, b = -1;  // site indices, a < b

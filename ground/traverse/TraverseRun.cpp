@@ -206,8 +206,8 @@ std::vector<CrossSiteTie> matchSites(const Traverse& traverse, const std::option
     return std::make_shared<const SiteProducts>(loadSiteProducts(traverse.sites[k], result.sites[k].out_dir));
   };
   if (o.progress) cli::info("cross-site tie points between neighbouring sites");
-  const TraverseMatching matching = matchTraverse(traverse, sitePairs(all, false), load, CrossTieParams{},
-                                                  truth, [&](const SitePairMatch& m) {
+  const TraverseMatching matching = matchTraverse(traverse, sitePairs(traverse, all, false), load,
+                                                  CrossTieParams{}, truth, [&](const SitePairMatch& m) {
                                                     if (o.progress) cli::info(pairMatchLine(traverse, m));
                                                   });
   const std::string json_path = o.out_dir + "/cross_ties.json";
@@ -249,6 +249,7 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
   for (std::size_t k = 0; k < r.sites.size(); ++k) {
     const SiteOutcome& s = r.sites[k];
     json j = poseJson(r.poses.sites[k]);
+    j["kind"] = siteKindName(traverse.sites[k].kind);
     j["mapped"] = s.ok;
     if (!s.ok) j["error"] = s.error;
     j["method1_px"] = s.method1_px;
@@ -267,7 +268,10 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
       ++mapped;
     }
   }
+  const auto stops = std::count_if(traverse.sites.begin(), traverse.sites.end(),
+                                   [](const TraverseSite& s) { return s.kind == SiteKind::kStop; });
   json t = {{"sites", static_cast<int>(traverse.sites.size())},
+            {"stops", stops},
             {"distance_m", traverse.distanceDrivenM()},
             {"cross_site_ties", r.cross_site_ties},
             {"cross_site_ties_source", r.cross_ties_source},
@@ -302,6 +306,21 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
     t["position_error_pct"] = after.rms_pct;
     t["position_error_apriori_m"] = before.rms_m;
     t["position_error_apriori_pct"] = before.rms_pct;
+    if (stops > 0) {  // the same figures over the panorama sites alone
+      std::vector<SitePose> panorama_estimated;
+      std::vector<double> panorama_distance;
+      TraverseTruth panorama_truth;
+      for (std::size_t k = 0; k < traverse.sites.size(); ++k) {
+        if (traverse.sites[k].kind == SiteKind::kStop) continue;
+        panorama_estimated.push_back(estimated[k]);
+        panorama_distance.push_back(distance[k]);
+        panorama_truth.ids.push_back(truth->ids[k]);
+        panorama_truth.poses.push_back(truth->poses[k]);
+      }
+      const PositionErrors panorama = positionErrors(panorama_estimated, panorama_distance, panorama_truth);
+      t["position_error_panorama_sites_m"] = panorama.rms_m;
+      t["position_error_panorama_sites_pct"] = panorama.rms_pct;
+    }
   } else {
     t["position_error_m"] = nullptr;
     t["position_error_pct"] = nullptr;
@@ -319,8 +338,10 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
                  {"method2_m", mapped > 0 ? json(m2 / mapped) : json(nullptr)},
                  {"method3_px", mapped > 0 ? json(m3 / mapped) : json(nullptr)},
                  {"figures",
-                  "traverse.position_error_m: RMS over the sites of |p - p_true|; _pct: RMS over the "
-                  "sites after the first of that error / distance driven to the site x 100; method1..3: "
+                  "traverse.position_error_m: RMS over the sites (traversing stops included) of |p - "
+                  "p_true|; _pct: RMS over the sites after the first of that error / distance driven to the "
+                  "site x 100; position_error_panorama_sites_*: the same over the panorama sites alone; "
+                  "method1..3: "
                   "mean over the mapped sites of each site's own (report.json of sites/<id>)"},
                  {"notes", r.poses.notes},
                  {"warnings", r.warnings}};

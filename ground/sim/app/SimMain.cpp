@@ -1,4 +1,5 @@
 // areomap-sim: synthetic Mars panoramas with known truth.
+#include <algorithm>
 #include <cstdio>
 #include <optional>
 #include <sstream>
@@ -74,6 +75,10 @@ DIR/truth/dem.tif (the terrain in the traverse frame, 10 cm). The options above 
   --vertical-drift-pct P     odometry sigma vertically, % of the leg's distance (default 1)
   --heading-drift-deg D      odometry heading sigma per leg (default 2); the a-priori poses chain the
                              odometry, so their errors grow as a random walk
+  --stop-spacing-m D         traversing stops (default 0: none): on each leg the rover stops at least
+                             every D m (the leg in equal parts) and takes a few stereo pairs looking
+                             forward (a 90-degree sector, each tier's tilt and pan step); a stop is a
+                             site "stopNN-M" (kind "stop") of its own, tying the sites around it
   --help                     this text
 
 Exit codes: 0 done, 2 usage error or impossible plan, 1 other error (e.g. an unwritable folder).
@@ -119,17 +124,18 @@ int simulateTraverse(const areomap::sim::TraverseSimConfig& config, const std::s
     }
     site_start = cli::nowSeconds();
   };
-  options.on_image = [&](int site, int done, int total) {
+  options.on_image = [&](const std::string& site, int done, int total) {
     if (done != total) return;
     char line[160];
-    std::snprintf(line, sizeof(line), "%s: %d images rendered in %.1f s", sim::traverseSiteId(site).c_str(),
-                  total, cli::nowSeconds() - site_start);
+    std::snprintf(line, sizeof(line), "%s: %d images rendered in %.1f s", site.c_str(), total,
+                  cli::nowSeconds() - site_start);
     cli::info(line);
   };
   const sim::TraversePlan plan = sim::writeTraverseDataset(config, out, options);
   char line[200];
-  std::snprintf(line, sizeof(line), "wrote %s: %zu sites, %.1f m driven, in %.1f s", out.c_str(),
-                plan.truth.size(), plan.distanceM(), cli::nowSeconds() - t0);
+  const auto stops = std::count(plan.kinds.begin(), plan.kinds.end(), SiteKind::kStop);
+  std::snprintf(line, sizeof(line), "wrote %s: %zu sites (%td traversing stops), %.1f m driven, in %.1f s",
+                out.c_str(), plan.truth.size(), stops, plan.distanceM(), cli::nowSeconds() - t0);
   cli::info(line);
   return 0;
 }
@@ -165,6 +171,7 @@ int main(int argc, char** argv) {
       tc.traverse.vertical_drift_fraction =
           args.number("--vertical-drift-pct", 100.0 * tc.traverse.vertical_drift_fraction) / 100.0;
       tc.traverse.heading_drift_deg = args.number("--heading-drift-deg", tc.traverse.heading_drift_deg);
+      tc.traverse.stop_spacing_m = args.number("--stop-spacing-m", tc.traverse.stop_spacing_m);
       tc.terrain_margin_m = args.number("--extent-m", tc.terrain_margin_m);
     }
     const std::string out = args.required("--out");

@@ -118,8 +118,8 @@ int main(int argc, char** argv) {
       return std::make_shared<const SiteProducts>(
           truth_products ? loadSiteTruth(s, truth_cell) : loadSiteProducts(s, *products + "/" + s.id));
     };
-    const TraverseMatching matching = matchTraverse(traverse, sitePairs(chosen, all_pairs), load, params,
-                                                    truth, [&](const SitePairMatch& m) {
+    const TraverseMatching matching = matchTraverse(traverse, sitePairs(traverse, chosen, all_pairs), load,
+                                                    params, truth, [&](const SitePairMatch& m) {
                                                       std::printf("%s\n", pairMatchLine(traverse, m).c_str());
                                                       std::fflush(stdout);
                                                     });

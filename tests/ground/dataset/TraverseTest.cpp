@@ -67,6 +67,16 @@ TEST(Traverse, ReadsEveryFieldAndRoundTrips) {
   CHECK_EQUAL(-1, t.indexOf("site03"));
   // The file itself may be named, too.
   CHECK_EQUAL(2, static_cast<int>(readTraverse(dir + "/traverse.json").sites.size()));
+  // Without "kind" a site is a panorama; a traversing stop says so, and keeps it through a write.
+  CHECK(t.sites[1].kind == SiteKind::kPanorama);
+  writeText(dir + "/traverse.json",
+            traverseJson("\"id\": \"site02\",", "\"id\": \"site02\", \"kind\": \"stop\","));
+  const Traverse with_stop = readTraverse(dir);
+  CHECK(with_stop.sites[1].kind == SiteKind::kStop);
+  const std::string stop_copy = test::scratchDir("traverse-write-stop");
+  writeTraverse(with_stop, stop_copy);
+  CHECK(readTraverse(stop_copy).sites[1].kind == SiteKind::kStop);
+  CHECK(readTraverse(stop_copy).sites[0].kind == SiteKind::kPanorama);
 
   const std::string copy = test::scratchDir("traverse-write");
   writeTraverse(t, copy);
@@ -147,6 +157,8 @@ TEST(Traverse, BrokenFilesAreRejectedNamingTheField) {
        "sites[1].odometry.sigma_m[1]: must be"},
       {"\"distance_m\": 11.2,", "", "sites[1].odometry.distance_m: missing"},
       {"\"delta_m\": [10, 5, -0.2]", "\"delta_m\": [10, 5]", "sites[1].odometry.delta_m: expected an array"},
+      {"\"id\": \"site02\",", "\"id\": \"site02\", \"kind\": \"drive\",",
+       "sites[1].kind: 'drive': expected \"panorama\" or \"stop\""},
   };
   for (const auto& c : cases) {
     const std::string error = readError(dir, traverseJson(c.from, c.to));

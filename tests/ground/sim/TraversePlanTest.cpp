@@ -218,3 +218,70 @@ TEST(TraversePlan, ImpossibleTraversesAreRejected) {
   s.heading_drift_deg = -1.0;
   CHECK(error(s).find("--heading-drift-deg") != std::string::npos);
 }
+
+TEST(TraversePlan, TraversingStopsCutEachLegOnItsLineAndLeaveThePanoramaSitesWhereTheyWere) {
+  TraverseSettings plain;
+  plain.sites = 6;
+  TraverseSettings stopping = plain;
+  stopping.stop_spacing_m = 9.0;
+  for (uint64_t seed = 1; seed <= 200; ++seed) {
+    const TraversePlan a = planTraverse(plain, seed, ground), b = planTraverse(stopping, seed, ground);
+    CHECK_EQUAL(b.ids.size(), b.kinds.size());
+    CHECK_EQUAL(b.ids.size(), b.truth.size());
+    CHECK_EQUAL(b.ids.size(), b.legs.size() + 1);
+    DOUBLES_EQUAL(a.distanceM(), b.distanceM(), 1e-9);
+    std::size_t site = 0;  // the panorama site in `a` the stops of `b` lead to
+    int stop = 0;
+    for (std::size_t k = 0; k < b.ids.size(); ++k) {
+      if (k > 0) {
+        const OdometryLeg& leg = b.legs[k - 1];
+        STRCMP_EQUAL(b.ids[k - 1].c_str(), leg.from.c_str());
+        CHECK(leg.distance_m <= stopping.stop_spacing_m + 1e-9);
+        DOUBLES_EQUAL(stopping.drift_fraction * leg.distance_m, leg.sigma_m.x(), 1e-12);
+        // A leg's odometry is its own: the a-priori pose is the one before moved by it.
+        CHECK((toTraverse(b.apriori[k - 1], leg.delta_m) - b.apriori[k].position_m).norm() < 1e-9);
+      }
+      if (b.kinds[k] == SiteKind::kPanorama) {
+        // Every panorama site is where the plan without stops puts it, and has its id.
+        STRCMP_EQUAL(a.ids[site].c_str(), b.ids[k].c_str());
+        CHECK((a.truth[site].position_m - b.truth[k].position_m).norm() < 1e-9);
+        DOUBLES_EQUAL(a.truth[site].heading_rad, b.truth[k].heading_rad, 1e-12);
+        ++site;
+        stop = 0;
+        continue;
+      }
+      // A stop: on the straight line from the site before to the next one, facing along it, legs equal.
+      ++stop;
+      STRCMP_EQUAL(traverseStopId(static_cast<int>(site) - 1, stop).c_str(), b.ids[k].c_str());
+      const Eigen::Vector3d from = a.truth[site - 1].position_m, to = a.truth[site].position_m;
+      const Eigen::Vector2d dir = (to - from).head<2>().normalized();
+      const Eigen::Vector2d off = (b.truth[k].position_m - from).head<2>();
+      DOUBLES_EQUAL(0.0, dir.x() * off.y() - dir.y() * off.x(), 1e-9);
+      CHECK(off.dot(dir) > 0.0 && off.dot(dir) < (to - from).head<2>().norm());
+      DOUBLES_EQUAL(a.truth[site].heading_rad, b.truth[k].heading_rad, 1e-12);
+      DOUBLES_EQUAL(b.legs[k - 1].distance_m, b.legs[k].distance_m, 1e-9);
+      DOUBLES_EQUAL(ground(0, 0) - ground(b.truth[k].position_m.x(), b.truth[k].position_m.y()),
+                    b.truth[k].position_m.z(), 1e-12);
+    }
+    CHECK_EQUAL(a.ids.size(), site);
+  }
+  // Without stops the plan is what it was before stops existed.
+  TraverseSettings none = plain;
+  none.stop_spacing_m = 0.0;
+  const TraversePlan c = planTraverse(none, 7, ground), d = planTraverse(plain, 7, ground);
+  for (std::size_t k = 0; k < c.truth.size(); ++k) CHECK(c.apriori[k].position_m == d.apriori[k].position_m);
+}
+
+TEST(TraversePlan, StopSpacingOutsideItsRangeIsRejected) {
+  TraverseSettings s;
+  s.stop_spacing_m = 0.5;
+  try {
+    validateTraverse(s);
+    FAIL("0.5 m accepted");
+  } catch (const cli::UsageError& e) {
+    CHECK(std::string(e.what()).find("--stop-spacing-m") != std::string::npos);
+  }
+  s.sites = kMaxTraverseSites;
+  s.stop_spacing_m = 5.0;  // 98 legs of up to 6 parts
+  CHECK_THROWS(cli::UsageError, validateTraverse(s));
+}

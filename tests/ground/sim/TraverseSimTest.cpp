@@ -269,6 +269,27 @@ TEST(TraverseSim, SameSeedSameFiles) {
   CHECK(readBytes(dir + "/" + kTraverseFileName) != readBytes(third + "/" + kTraverseFileName));
 }
 
+TEST(TraverseSim, AStopLooksForwardOverAFewPairsOfEachTier) {
+  for (const char* preset : {"navcam", "tiny", "fido", "imp"}) {
+    const SimConfig site = presetConfig(preset);
+    const SimConfig stop = stopConfig(site);
+    int tiers = 0;
+    for (const TierPlan& t : site.tiers) tiers += t.left_only ? 0 : 1;
+    CHECK_EQUAL(tiers, static_cast<int>(stop.tiers.size()));
+    for (const TierPlan& t : stop.tiers) {
+      CHECK(!t.left_only);
+      // Symmetric about the heading, the sector covered (fields included) and no pair more than needed.
+      DOUBLES_EQUAL(0.0, t.pan0_deg + 0.5 * (t.pairs - 1) * t.pan_step_deg, 1e-9);
+      const double covered = (t.pairs - 1) * t.pan_step_deg + site.hfov_deg;
+      CHECK(covered >= kStopSectorDeg - 1e-9);
+      CHECK(t.pairs == 1 || covered - t.pan_step_deg < kStopSectorDeg);
+      CHECK(t.pairs < 360.0 / t.pan_step_deg);
+    }
+    validatePlan(stop);
+  }
+  CHECK_EQUAL(4, stopConfig(presetConfig("navcam")).pairCount());
+}
+
 TEST(TraverseSim, TheToolWritesATraverseAndRejectsBadOptions) {
   const std::string dir = test::scratchDir("traverse-sim-tool");
   CHECK_EQUAL(0, test::runTool("areomap-sim", "--preset traverse --camera tiny --sites 2 --no-images --out " +

@@ -11,6 +11,7 @@
 #include "ground/dataset/Traverse.hpp"
 #include "ground/sim/TraverseSim.hpp"
 #include "ground/traverse/CrossSiteTies.hpp"
+#include "ground/traverse/TraverseMatching.hpp"
 #include "ground/traverse/TruthCheck.hpp"
 #include "tests/support/TestData.hpp"
 
@@ -304,4 +305,26 @@ TEST(CrossSiteTies, TheToolWritesTiesAndRejectsBadInput) {
   CHECK_EQUAL(2, test::runTool("areomap-cross-ties",
                                tinyTraverseDir() + " --truth-products --ncc 2 --out " + out + "/bad"));
   CHECK_EQUAL(1, test::runTool("areomap-cross-ties", out + "/nosuch --truth-products --out " + out + "/bad"));
+}
+
+TEST_GROUP(TraverseMatching){};
+
+TEST(TraverseMatching, NeighboursArePairedAndAcrossStopsBackToThePanoramaSite) {
+  Traverse t;
+  const SiteKind P = SiteKind::kPanorama, S = SiteKind::kStop;
+  for (SiteKind kind : {P, P, S, S, P, S, P}) {
+    TraverseSite site;
+    site.kind = kind;
+    t.sites.push_back(site);
+  }
+  const std::vector<int> all = {0, 1, 2, 3, 4, 5, 6};
+  using Pairs = std::vector<std::pair<int, int>>;
+  const Pairs expected = {{0, 1}, {1, 2}, {1, 3}, {2, 3}, {1, 4}, {2, 4}, {3, 4}, {4, 5}, {4, 6}, {5, 6}};
+  CHECK(expected == sitePairs(t, all, false));
+  CHECK_EQUAL(21u, sitePairs(t, all, true).size());
+  // A chosen subset keeps the rule among the chosen sites.
+  CHECK((Pairs{{1, 3}, {1, 6}, {3, 6}} == sitePairs(t, {1, 3, 6}, false)));
+  // Without stops: each site with the one before it.
+  for (TraverseSite& site : t.sites) site.kind = P;
+  CHECK((Pairs{{0, 1}, {1, 2}, {2, 3}, {3, 4}, {4, 5}, {5, 6}} == sitePairs(t, all, false)));
 }

@@ -126,6 +126,43 @@ TEST(TraverseTool, CrossSiteTiesPlaceTheSites) {
   }
 }
 
+TEST(TraverseTool, ATraversingStopIsASiteOfItsOwnAndTiesTheSitesAroundIt) {
+  // Two tiny sites 10-12 m apart with a traversing stop half way (a forward-looking pair or two): three
+  // sites in driving order, the stop mapped like the others, tied, and reported as a stop; the position
+  // figures over the panorama sites alone besides those over every site.
+  const std::string ds = areomap::test::scratchDir("traverse-tool-stop") + "/ds";
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-sim",
+                                        "--preset traverse --camera tiny --sites 2 --seed 4 "
+                                        "--leg-min-m 10 --leg-max-m 12 --stop-spacing-m 7 "
+                                        "--out " +
+                                            ds));
+  const areomap::Traverse traverse = areomap::readTraverse(ds);
+  CHECK_EQUAL(3u, traverse.sites.size());
+  CHECK_EQUAL(std::string("stop01-1"), traverse.sites[1].id);
+  CHECK_TRUE(traverse.sites[1].kind == areomap::SiteKind::kStop);
+  const std::string out = areomap::test::scratchDir("traverse-tool-stop-out");
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse",
+                                        ds + " --out " + out + " --truth-cross-ties --no-products --quiet"));
+  CHECK_EQUAL(4, lines(out + "/poses.csv"));
+  const json r = readJson(out + "/report.json");
+  const json& t = r["traverse"];
+  CHECK_EQUAL(3, t["sites"].get<int>());
+  CHECK_EQUAL(1, t["stops"].get<int>());
+  CHECK_EQUAL(std::string("stop"), t["site"][1]["kind"].get<std::string>());
+  CHECK_EQUAL(std::string("panorama"), t["site"][2]["kind"].get<std::string>());
+  for (int k = 1; k < 3; ++k) {
+    CHECK_TRUE(t["site"][k]["mapped"].get<bool>());
+    CHECK_EQUAL(std::string("cross_site_ties"), t["site"][k]["source"].get<std::string>());
+  }
+  CHECK_TRUE(t.contains("position_error_panorama_sites_m") &&
+             t.contains("position_error_panorama_sites_pct"));
+  const double after = t["position_error_m"].get<double>(),
+               before = t["position_error_apriori_m"].get<double>();
+  std::printf("\n  with a stop: position error %.3f m after, %.3f m a priori (panorama sites: %.3f m)\n",
+              after, before, t["position_error_panorama_sites_m"].get<double>());
+  CHECK_TRUE(after < 0.5 * before);
+}
+
 TEST(TraverseTool, ABrokenSiteIsReportedAndTheOtherMapped) {
   const std::string ds = traverseDataset();
   CHECK_FALSE(ds.empty());
