@@ -9,7 +9,7 @@ ROOT=$(pwd)
 usage() {
   cat <<'EOF'
 usage: ./run.sh [--dataset DIR | --preset NAME] [--out DIR] [--speed S] [--transport auto|udpm|netns|file]
-       ./run.sh --traverse [--sites N] [--camera C] [--seed S] [--truth-cross-ties] [--out DIR] [--speed S]
+       ./run.sh --traverse [--sites N] [--camera C] [--seed S] [--stop-spacing-m D] [--truth-cross-ties] [--out DIR] [--speed S]
                 [--transport T]
        ./run.sh --dataset TRAVERSE_DIR (a folder with traverse.json: as --traverse on it)
 
@@ -43,6 +43,9 @@ DEM's RMSE against the truth.
                   1 min 40 s on 2 shared cores; a navcam site has up to 5 min of simulation and 10 min of
                   ground pass in the DESIGN.md budgets, so 3 navcam sites would take up to ~45 min
   --seed S        traverse seed (default 1)
+  --stop-spacing-m D  traversing stops (default 0: none): the rover also stops at least every D m on each
+                  leg and takes a few stereo pairs looking forward (areomap-sim --stop-spacing-m); each
+                  stop is a site of its own on the stream (site_t kind KIND_STOP), tying the sites around it
   --truth-cross-ties  the sites' poses from the multi-site adjustment with cross-site ties made from the
                   synthetic traverse's truth (0.3 px noise; areomap-traverse --truth-cross-ties): a check
                   of the adjustment, not a measurement. Without it the ground matches the received
@@ -57,6 +60,7 @@ PRESET=navcam
 TRAVERSE=0
 CROSS_TIES=()
 SITES=3
+STOP_SPACING=0
 CAMERA=tiny
 SEED=1
 OUT=out
@@ -77,6 +81,7 @@ while [[ $# -gt 0 ]]; do
     --sites) SITES=${2:?--sites needs a number}; shift 2 ;;
     --camera) CAMERA=${2:?--camera needs a preset}; shift 2 ;;
     --seed) SEED=${2:?--seed needs a number}; shift 2 ;;
+    --stop-spacing-m) STOP_SPACING=${2:?--stop-spacing-m needs metres}; shift 2 ;;
     --truth-cross-ties) CROSS_TIES=(--truth-cross-ties); shift ;;
     *) echo "run: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
@@ -85,6 +90,7 @@ case "$TRANSPORT" in auto|udpm|netns|file|netns-inner) ;; *) echo "run: --transp
 
 [[ "$SITES" =~ ^[0-9]+$ && "$SITES" -ge 1 ]] || { echo "run: --sites: '$SITES' is not a whole number >= 1" >&2; exit 2; }
 [[ "$SEED" =~ ^[0-9]+$ ]] || { echo "run: --seed: '$SEED' is not a whole number" >&2; exit 2; }
+[[ "$STOP_SPACING" =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "run: --stop-spacing-m: '$STOP_SPACING' is not a number of metres" >&2; exit 2; }
 case "$CAMERA" in tiny|imp|navcam|fido) ;; *) echo "run: --camera: '$CAMERA' (tiny, imp, navcam or fido)" >&2; exit 2 ;; esac
 [[ -n "$DATASET" && -f "$DATASET/traverse.json" ]] && TRAVERSE=1
 
@@ -130,8 +136,9 @@ if [[ -n "$DATASET" ]]; then
   NAME=$(basename "$DATASET")
 elif [[ $TRAVERSE -eq 1 ]]; then
   NAME="traverse-$CAMERA-s$SITES-seed$SEED"
+  [[ "$STOP_SPACING" != 0 ]] && NAME="$NAME-stops$STOP_SPACING"
   DATASET="$OUT/$NAME"
-  SIM_OPTIONS="--preset traverse --camera $CAMERA --sites $SITES --seed $SEED"
+  SIM_OPTIONS="--preset traverse --camera $CAMERA --sites $SITES --seed $SEED --stop-spacing-m $STOP_SPACING"
   simulate
 else
   NAME=$PRESET
@@ -271,8 +278,9 @@ def rss(name):
 print("=" * 78)
 print("transport: %s" % ran)
 mapped = sum(1 for x in t.get("site", []) if x.get("mapped"))
-print("traverse:  %s sites (%d mapped), %s m driven; site announcements %s accepted, rejected %s" % (
-    t.get("sites"), mapped, num(t.get("distance_m"), "%.1f"), s.get("sites_announced"), s.get("rejected") or "none"))
+stops = " (%s traversing stops)" % t["stops"] if t.get("stops") else ""
+print("traverse:  %s sites%s (%d mapped), %s m driven; site announcements %s accepted, rejected %s" % (
+    t.get("sites"), stops, mapped, num(t.get("distance_m"), "%.1f"), s.get("sites_announced"), s.get("rejected") or "none"))
 print("position:  error %s m a priori (%s %% of the distance) -> %s m after (%s %%)" % (
     num(t.get("position_error_apriori_m"), "%.3f"), num(t.get("position_error_apriori_pct"), "%.2f"),
     num(t.get("position_error_m"), "%.3f"), num(t.get("position_error_pct"), "%.2f")))

@@ -104,6 +104,7 @@ site_t siteMessage(const Traverse& traverse, std::size_t k, const std::string& p
   m.site_index = static_cast<int32_t>(k);
   m.sites_planned = static_cast<int32_t>(traverse.sites.size());
   m.panorama = panorama;
+  m.kind = site.kind == SiteKind::kStop ? site_t::KIND_STOP : site_t::KIND_PANORAMA;
   put3(site.apriori.position_m, m.position_m);
   m.heading_deg = site.apriori.heading_rad * kDegPerRad;
   m.has_odometry = site.odometry.has_value();

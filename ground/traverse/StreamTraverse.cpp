@@ -31,6 +31,7 @@ Traverse traverseFromAnnouncements(const std::vector<site_t>& announced, const s
     site.id = m.site_id;
     site.path = "sites/" + m.site_id + "/stream";
     site.dir = root + "/" + site.path;
+    site.kind = m.kind == site_t::KIND_STOP ? SiteKind::kStop : SiteKind::kPanorama;
     site.apriori.position_m = vec(m.position_m);
     site.apriori.heading_rad = m.heading_deg * kRadPerDeg;
     if (k > 0 && m.has_odometry) {

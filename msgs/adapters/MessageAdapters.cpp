@@ -239,6 +239,10 @@ Status checkSite(const site_t& site, const char*& field) {
     field = "panorama";
     return Status::kMissingField;
   }
+  if (site.kind != site_t::KIND_PANORAMA && site.kind != site_t::KIND_STOP) {
+    field = "kind";
+    return Status::kInvalidArgument;
+  }
   if (site.sites_planned < 1 || site.sites_planned > kMaxGroundSites) {
     field = "sites_planned";
     return Status::kInvalidArgument;

@@ -5,7 +5,8 @@
 //   lcm_log/      LCM logs of such pairs, a status and an end-of-panorama marker
 //   jpeg/         gray JPEGs of a textured pattern at several sizes and qualities
 //   camera_file/  the JPL text form of CAHV, CAHVOR and CAHVORE models
-//   site/         site announcements of a 3-site traverse (first, middle, last) and a truncated one
+//   site/         site announcements of a 3-site traverse (first, a traversing stop, last) and a truncated
+//   one
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -26,6 +27,7 @@
 #include "msgs/Channels.hpp"
 #include "msgs/adapters/MessageAdapters.hpp"
 #include "platform/posix/TurboJpegCodec.hpp"
+#include "tests/msgs/SiteFixture.hpp"
 #include "tests/platform/MessageFixtures.hpp"
 
 namespace {
@@ -161,27 +163,8 @@ int main(int argc, char** argv) {
 
   // Site announcements (SiteFuzz.cpp: the encoded site_t alone).
   for (int k = 0; k < 3; ++k) {
-    site_t s{};
-    s.sequence = k;
-    s.traverse = "sim-traverse-1";
-    s.site_id = "site0" + std::to_string(k + 1);
-    s.site_index = k;
-    s.sites_planned = 3;
-    s.panorama = s.traverse + "-" + s.site_id;
-    s.position_m[0] = 12.5 * k;
-    s.position_m[1] = -3.0 * k;
-    s.heading_deg = 20.0 * k;
-    s.has_odometry = k > 0;
-    if (k > 0) {
-      s.odometry_from = "site0" + std::to_string(k);
-      s.delta_m[0] = 12.0;
-      s.delta_heading_deg = 20.0;
-      s.distance_m = 12.2;
-      s.sigma_m[0] = s.sigma_m[1] = 0.6;
-      s.sigma_m[2] = 0.12;
-      s.sigma_heading_deg = 2.0;
-    }
-    s.is_last = k == 2;
+    site_t s = test::makeSite(k, 3);
+    if (k == 1) s.kind = site_t::KIND_STOP;  // a traversing stop between the two panorama sites
     const Bytes bytes = test::encode(s);
     write("site", "site_" + std::to_string(k + 1) + "_of_3", bytes);
     if (k == 1)

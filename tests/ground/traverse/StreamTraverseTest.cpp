@@ -327,9 +327,13 @@ areomap::site_t announcement(int k) {
 // over the two legs it spans, with a warning.
 TEST(StreamTraverseAnnouncements, TraverseRebuiltAndABrokenChainBridged) {
   std::vector<std::string> warnings;
-  const areomap::Traverse whole = areomap::traverse::traverseFromAnnouncements(
-      {announcement(2), announcement(0), announcement(1)}, "/x", warnings);
+  areomap::site_t stop = announcement(1);  // the middle one a traversing stop: its kind comes through
+  stop.kind = areomap::site_t::KIND_STOP;
+  const areomap::Traverse whole =
+      areomap::traverse::traverseFromAnnouncements({announcement(2), announcement(0), stop}, "/x", warnings);
   CHECK_EQUAL(3u, whole.sites.size());
+  CHECK_TRUE(whole.sites[1].kind == areomap::SiteKind::kStop);
+  CHECK_TRUE(whole.sites[2].kind == areomap::SiteKind::kPanorama);
   CHECK_TRUE(warnings.empty());
   STRCMP_EQUAL("site02", whole.sites[1].id.c_str());
   STRCMP_EQUAL("sites/site02/stream", whole.sites[1].path.c_str());

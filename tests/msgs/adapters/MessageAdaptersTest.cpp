@@ -8,6 +8,7 @@
 #include "areomap/stereo_pair_t.hpp"
 #include "msgs/MessageCheck.hpp"
 #include "msgs/adapters/MessageAdapters.hpp"
+#include "tests/msgs/SiteFixture.hpp"
 #include "platform/heap/HeapCounter.hpp"
 
 #include <CppUTest/TestHarness.h>
@@ -189,27 +190,7 @@ TEST(MessageAdapters, PlannedPairsWithinCapacity) {
 namespace {
 
 site_t goodSite(int32_t index, int32_t planned) {
-  site_t s{};
-  s.sequence = index;
-  s.traverse = "sim-traverse-1";
-  s.site_id = "site0" + std::to_string(index + 1);
-  s.site_index = index;
-  s.sites_planned = planned;
-  s.panorama = "sim-traverse-1-" + s.site_id;
-  s.position_m[0] = 10.0 * index;
-  s.heading_deg = 15.0 * index;
-  s.has_odometry = index > 0;
-  if (index > 0) {
-    s.odometry_from = "site0" + std::to_string(index);
-    s.delta_m[0] = 10.0;
-    s.delta_heading_deg = 15.0;
-    s.distance_m = 10.4;
-    s.sigma_m[0] = s.sigma_m[1] = 0.5;
-    s.sigma_m[2] = 0.1;
-    s.sigma_heading_deg = 2.0;
-  }
-  s.is_last = index == planned - 1;
-  return s;
+  return test::makeSite(index, planned);
 }
 
 std::vector<uint8_t> encodeSite(const site_t& s) {
@@ -272,6 +253,8 @@ TEST(MessageAdapters, SiteAnnouncementChecked) {
 
   expectSite(Status::kInvalidArgument, "site_id", [](site_t& s) { s.site_id = "site/02"; });
   expectSite(Status::kMissingField, "panorama", [](site_t& s) { s.panorama = ""; });
+  expectSite(Status::kInvalidArgument, "kind", [](site_t& s) { s.kind = 2; });
+  expectSite(Status::kOk, "", [](site_t& s) { s.kind = site_t::KIND_STOP; });
   expectSite(Status::kInvalidArgument, "sites_planned", [](site_t& s) { s.sites_planned = 0; });
   expectSite(Status::kInvalidArgument, "site_index", [](site_t& s) { s.site_index = 3; });
   expectSite(Status::kInvalidArgument, "is_last", [](site_t& s) { s.is_last = true; });
