@@ -51,6 +51,7 @@ std::vector<Sample> samplesOf(const SiteProducts& b, const DemGrid& dem, double 
 
 struct Moments {
   double w = 0.0, wd = 0.0, wdd = 0.0;
+  double dd = 0.0, ss = 0.0;  // unweighted: the differences' squares, their dem_sigma variances
   int n = 0;
   double mean() const { return wd / w; }
   double variance() const { return std::max(0.0, wdd / w - mean() * mean()); }
@@ -73,6 +74,8 @@ Moments moments(const SiteProducts& a, const DemGrid& dem_a, const std::vector<S
     m.w += w;
     m.wd += w * d;
     m.wdd += w * d * d;
+    m.dd += d * d;
+    m.ss += sa * sa + s.sigma2;
     ++m.n;
   }
   return m;
@@ -141,6 +144,37 @@ double designEffect(const SiteProducts& a, const std::vector<Sample>& samples, c
     factor = std::max(factor, (m2 / count) * per_block / var);
   }
   return factor;
+}
+
+std::string format(const char* fmt, double a, double b = 0.0, double c = 0.0) {
+  char buffer[160];
+  std::snprintf(buffer, sizeof buffer, fmt, a, b, c);
+  return buffer;
+}
+
+// Why a registration was refused, in the data's own figures: how far apart the DEMs are at the solution
+// against their dem_sigma layers; how much the relief they share changes their differences between the
+// coarse search's best pose and its second minimum against the differences at the best (below the signal
+// to noise that max_cost_ratio stands for, sqrt(1 / max_cost_ratio - 1), the DEMs' errors, not their relief,
+// decide where the fit goes); and, when the fit did not converge, how far it drifted from the search's best.
+std::string noiseAgainstRelief(const DemRegistration& r, const RegistrationParams& params) {
+  std::string s;
+  if (r.difference_rms_m > 0.0) {
+    s = format("the DEMs differ by %.1f cm RMS (their dem_sigma layers give %.1f cm); ",
+               100.0 * r.difference_rms_m, 100.0 * r.dem_sigma_rms_m);
+  }
+  if (r.relief_signal_m > 0.0) {
+    s += format("the relief they share changes their differences by %.1f cm RMS", 100.0 * r.relief_signal_m) +
+         format(" between the best pose and a second minimum %.2f m, %.1f deg away", r.second_offset_m,
+                r.second_offset_deg) +
+         format(" against %.1f cm at the best", 100.0 * r.coarse_rms_m);
+    const double snr = r.relief_signal_m / std::max(r.coarse_rms_m, 1e-9);
+    if (snr < std::sqrt(1.0 / params.max_cost_ratio - 1.0))
+      s += format(": the DEMs are too noisy for the relief they share (signal to noise %.2f)", snr);
+  }
+  if (r.status == RegistrationStatus::kNotConverged && r.drift_m + r.drift_deg > 0.0)
+    s += format("; the fit drifted %.2f m and %.1f deg from the search's best", r.drift_m, r.drift_deg);
+  return s;
 }
 
 }  // namespace
@@ -254,6 +288,7 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   }
   // The second minimum: a local minimum of the coarse cost away from the best.
   double second = std::numeric_limits<double>::infinity();
+  Candidate second_at;
   for (int k = 0; k < sh; ++k) {
     for (int j = 0; j < sx; ++j) {
       for (int i = 0; i < sx; ++i) {
@@ -278,11 +313,20 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
             }
           }
         }
-        if (minimum) second = c;
+        if (minimum) {
+          second = c;
+          second_at = {(i - nxy) * step_m, (j - nxy) * step_m, (k - nh) * step_rad, c};
+        }
       }
     }
   }
   out.cost_ratio = std::isfinite(second) && second > 0.0 ? best.cost / second : 0.0;
+  out.coarse_rms_m = std::sqrt(best.cost);
+  if (std::isfinite(second)) {
+    out.relief_signal_m = std::sqrt(std::max(0.0, second - best.cost));
+    out.second_offset_m = std::hypot(second_at.dx - best.dx, second_at.dy - best.dy);
+    out.second_offset_deg = std::fabs(second_at.dh - best.dh) / kDegToRad;
+  }
 
   // Fine: +-1.5 coarse steps in quarter steps, +-1.2 coarse heading steps in fifths, on the full DEMs.
   Candidate fine = best;
@@ -366,15 +410,21 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
     return true;
   };
   bool converged = false;
-  if (!gaussNewton(coarse_a, coarse_samples, coarse_a.cell_m, min_coarse, converged) ||
-      !gaussNewton(a.dem, samples, 2.0 * a.dem.cell_m, min_samples, converged)) {
-    out.message = pair + ": too few common DEM samples after trimming";
+  const RelativePose searched = pose;
+  const bool enough = gaussNewton(coarse_a, coarse_samples, coarse_a.cell_m, min_coarse, converged) &&
+                      gaussNewton(a.dem, samples, 2.0 * a.dem.cell_m, min_samples, converged);
+  out.drift_m = (pose.translation_m - searched.translation_m).head<2>().norm();
+  out.drift_deg = std::fabs(pose.heading_rad - searched.heading_rad) / kDegToRad;
+  if (!enough) {
     out.status = RegistrationStatus::kNotConverged;
+    out.message = pair + ": too few common DEM samples after trimming: " + noiseAgainstRelief(out, params);
     return out;
   }
   // Weighted RMS elevation difference at the solution (every common sample, untrimmed).
   const Moments at_solution = moments(a, a.dem, samples, pose, params);
   out.rms_m = std::sqrt(at_solution.wdd / at_solution.w);
+  out.difference_rms_m = std::sqrt(at_solution.dd / at_solution.n);
+  out.dem_sigma_rms_m = std::sqrt(at_solution.ss / at_solution.n);
   out.correlation_factor = designEffect(a, samples, pose, params, out.rms_m);
   const Eigen::Matrix4d cov = normal.inverse() * s0 * s0 * out.correlation_factor;
   out.covariance = cov;
@@ -394,7 +444,10 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   } else {
     out.status = RegistrationStatus::kOk;
   }
-  if (out.status != RegistrationStatus::kOk) out.a_from_b = apriori;
+  if (out.status != RegistrationStatus::kOk) {
+    out.message += ": " + noiseAgainstRelief(out, params);
+    out.a_from_b = apriori;
+  }
   return out;
 }
 

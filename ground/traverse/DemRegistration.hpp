@@ -13,7 +13,11 @@
 // independent, is inflated by the design effect measured on the residuals themselves: the variance of
 // their means over blocks of side L against the variance of a mean of independent samples, the largest over
 // L from 4 sample spacings to a quarter of the overlap. The match is refused when the overlap is too small,
-// or ambiguous: a second minimum of the coarse search, away from the best, nearly as good.
+// or ambiguous: a second minimum of the coarse search, away from the best, nearly as good. A refusal's
+// message says why in the data's figures: the DEMs' differences against their dem_sigma layers, and the
+// change the relief they share makes to them between the best pose and the second minimum against the
+// differences themselves (on the tiny camera's own products 0.5-2.6 cm against 6-7 cm: the DEMs are too
+// noisy for their relief, and the fit drifts to where they are least noisy).
 #pragma once
 
 #include <string>
@@ -68,6 +72,18 @@ struct DemRegistration {
   int used_cells = 0;               // after trimming
   double rms_m = 0.0;               // weighted RMS elevation difference at the solution
   double cost_ratio = 0.0;          // best / second-best minimum of the coarse search
+  // What a refusal's message states (README "Multi-site traverse", Limits): the differences at the solution
+  // (unweighted, untrimmed) and what the DEMs' dem_sigma layers give for them; the coarse search's RMS
+  // difference at its best pose, and the relief's signal: sqrt(second minimum - best) of its variances, the
+  // second minimum this far away; how far the fit moved from the search's best pose.
+  double difference_rms_m = 0.0;
+  double dem_sigma_rms_m = 0.0;
+  double coarse_rms_m = 0.0;
+  double relief_signal_m = 0.0;  // 0: no second minimum
+  double second_offset_m = 0.0;
+  double second_offset_deg = 0.0;
+  double drift_m = 0.0;
+  double drift_deg = 0.0;
 };
 
 // The search window of sites i < j of a traverse: 3 sigmas of the odometry between them (the legs' sigmas

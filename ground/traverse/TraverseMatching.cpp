@@ -184,7 +184,13 @@ json matchingJson(const Traverse& traverse, const std::string& products, const T
                           {"used_samples", g.used_cells},
                           {"rms_m", g.rms_m},
                           {"correlation_factor", g.correlation_factor},
-                          {"cost_ratio", g.cost_ratio}};
+                          {"cost_ratio", g.cost_ratio},
+                          {"difference_rms_m", g.difference_rms_m},
+                          {"dem_sigma_rms_m", g.dem_sigma_rms_m},
+                          {"coarse_rms_m", g.coarse_rms_m},
+                          {"relief_signal_m", g.relief_signal_m},
+                          {"second_minimum", {{"m", g.second_offset_m}, {"deg", g.second_offset_deg}}},
+                          {"drift", {{"m", g.drift_m}, {"deg", g.drift_deg}}}};
     pj["a_from_b"] = poseJson(r.a_from_b);
     pj["a_from_b_sigma"] = {r.a_from_b_sigma[0], r.a_from_b_sigma[1], r.a_from_b_sigma[2],
                             r.a_from_b_sigma[3] * kRadToDeg};
