@@ -64,7 +64,11 @@ foreach(t IN LISTS AREOMAP_FUZZ_TARGETS)
   else()
     add_test(NAME fuzz_regressions.${t} COMMAND fuzz_${t} ${_inputs})
   endif()
-  set_tests_properties(fuzz_regressions.${t} PROPERTIES LABELS "fuzz-replay" TIMEOUT 300)
+  set(_labels fuzz-replay)
+  if(AREOMAP_TEST_GROUPS AND "fuzz_regressions.${t}" MATCHES "${AREOMAP_TEST_GROUPS}")
+    list(APPEND _labels subset)  # the named subset of a build (cmake/AreomapTesting.cmake)
+  endif()
+  set_tests_properties(fuzz_regressions.${t} PROPERTIES LABELS "${_labels}" TIMEOUT 300)
 endforeach()
 
 # The seed maker: small valid inputs made with the project's own encoders (LCM messages of every type with

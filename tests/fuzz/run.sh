@@ -14,12 +14,13 @@
 # Corpus: BUILD/fuzz/seeds/<target>/ is generated once (fuzz_seeds: every message type, logs, JPEGs, model
 # text; make_corpus.py: the real files of ../shared/data and a tiny simulated panorama); the committed
 # tests/fuzz/seeds/ and tests/fuzz/regressions/ are read too; new inputs go to BUILD/fuzz/corpus/<target>/.
-# AREOMAP_SIM=PATH takes the simulator from another build of this checkout (default BUILD/bin/areomap-sim).
+# AREOMAP_SIM=PATH takes the simulator from another build of this checkout (default BUILD/bin/areomap-sim,
+# built with the fuzz targets; with AREOMAP_SIM it is not built in BUILD).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 src=$(cd "$here/../.." && pwd)
 
-usage() { sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; }
 
 total=60
 each=""
@@ -59,7 +60,13 @@ if [ "$build" = 1 ]; then
         -DAREOMAP_WARNINGS_AS_ERRORS=OFF >/dev/null
     fi
   fi
-  cmake --build "$build_dir" -j2 --target fuzz_targets areomap-sim
+  # The simulator only makes seeds: with AREOMAP_SIM (another build's, e.g. CI's native build/) it is not
+  # built here with the fuzz instrumentation.
+  if [ -n "${AREOMAP_SIM:-}" ]; then
+    cmake --build "$build_dir" -j2 --target fuzz_targets
+  else
+    cmake --build "$build_dir" -j2 --target fuzz_targets areomap-sim
+  fi
 fi
 
 fz="$build_dir/fuzz"

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Compares two golden_rover outputs (tests/golden/GoldenRover.cpp): the tie-point observations must be
 identical lists (pair, point id, image, kind, sample, line: every bit), the final EO equal within a
-tolerance, the final solution's sweeps and stop rule equal.
+tolerance, the final solution's sweeps and stop rule equal, and the pipeline's heap allocations after start-up
+0 in both (`heap,ACTIVE,COUNT`; the candidate, a target build, must have counted them: ACTIVE 1).
 
 Tolerance and its reason (toolchains/README.md, "Same answers"): every build uses -ffp-contract=off, so the
 project's own arithmetic is the same IEEE sequence on every target, but glibc's libm is not: x86-64 picks
@@ -19,7 +20,7 @@ TIE_TOL_PX = 1e-9
 
 
 def read(path):
-    ties, eo, final = [], {}, None
+    ties, eo, final, heap = [], {}, None, None
     with open(path) as f:
         for line in f:
             if line.startswith("#") or not line.strip():
@@ -29,13 +30,17 @@ def read(path):
                 ties.append((int(p[1]), int(p[2]), p[3], int(p[4]), float.fromhex(p[5]), float.fromhex(p[6])))
             elif p[0] == "eo":
                 eo[p[1]] = [float.fromhex(v) for v in p[4:]]
+            elif p[0] == "heap":
+                heap = (int(p[1]), int(p[2]))
             elif p[0] == "final":
                 if final is not None:
                     raise SystemExit("%s: more than one final EO" % path)
                 final = (int(p[1]), int(p[2]), int(p[3]), float.fromhex(p[4]), float.fromhex(p[5]))
     if final is None:
         raise SystemExit("%s: no final EO" % path)
-    return ties, eo, final
+    if heap is None:
+        raise SystemExit("%s: no heap line (golden_rover from before the heap count?)" % path)
+    return ties, eo, final, heap
 
 
 def rel(a, b):
@@ -48,9 +53,15 @@ def main():
     ap.add_argument("candidate")
     ap.add_argument("--label", default="golden")
     a = ap.parse_args()
-    rt, reo, rf = read(a.reference)
-    ct, ceo, cf = read(a.candidate)
+    rt, reo, rf, rh = read(a.reference)
+    ct, ceo, cf, ch = read(a.candidate)
     problems = []
+    # The pipeline after start-up makes no heap allocation (RoverNode.hpp), on the target too.
+    if ch[0] != 1:
+        problems.append("the candidate did not count its heap allocations (no heap counter)")
+    for name, (active, count) in (("reference", rh), ("candidate", ch)):
+        if active and count != 0:
+            problems.append("%s: %d heap allocations after start-up (expected 0)" % (name, count))
     # The list (pair, point id, image, kind, in order) must be identical; intra-pair positions every bit;
     # inter-pair positions (located through the CAHVOR projection of the coarse DEM: libm) within TIE_TOL_PX.
     first = next((i for i, (x, y) in enumerate(zip(rt, ct)) if x[:4] != y[:4] or
@@ -86,10 +97,11 @@ def main():
         problems.append("rms/sigma0 differ by %.3g relative" % fin)
     print("%s: tie observations %d vs %d (%s; %d bit-identical, max position difference %.3g px); EO of %d images, %d bit-identical, max relative difference %.3g "
           "(centre/angles, tolerance %g), %.3g (sigmas, tolerance %g); sweeps %d vs %d, iterations %d vs %d, "
-          "rms %.17g vs %.17g" % (
+          "rms %.17g vs %.17g; heap allocations after start-up %s vs %s" % (
               a.label, len(rt), len(ct), "identical" if rt == ct else "list identical" if not problems or
               not problems[0].startswith("tie") else "DIFFERENT", tie_bits, tie_px, len(reo), identical,
-              max_eo[0], EO_TOL, max_sigma[0], SIGMA_TOL, rf[0], cf[0], rf[1], cf[1], rf[3], cf[3]))
+              max_eo[0], EO_TOL, max_sigma[0], SIGMA_TOL, rf[0], cf[0], rf[1], cf[1], rf[3], cf[3],
+              rh[1] if rh[0] else "not counted", ch[1] if ch[0] else "not counted"))
     if not rt:
         problems.append("no tie points at all (the input gives the matcher nothing to compare)")
     for p in problems:
