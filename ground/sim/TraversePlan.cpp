@@ -27,6 +27,12 @@ double odometryNoise(uint64_t seed, int leg, int n) {
   return gaussian(mix64(h), mix64(h + 1));
 }
 
+// The equal parts a leg of `distance_m` is cut into: none longer than the stop spacing (0: one part).
+int legParts(double distance_m, double stop_spacing_m) {
+  if (stop_spacing_m <= 0.0) return 1;
+  return std::max(1, static_cast<int>(std::ceil(distance_m / stop_spacing_m - 1e-9)));
+}
+
 }  // namespace
 
 double TraversePlan::distanceM() const {
@@ -65,7 +71,7 @@ void validateTraverse(const TraverseSettings& s) {
   if (!(s.stop_spacing_m == 0.0 || (s.stop_spacing_m >= 1.0 && s.stop_spacing_m <= 200.0)))
     fail("--stop-spacing-m", num(s.stop_spacing_m) + ": 0 (no stops) or 1..200 m");
   if (s.stop_spacing_m > 0.0 && s.sites > 1) {
-    const int parts = static_cast<int>(std::ceil(s.leg_max_m / s.stop_spacing_m - 1e-9));
+    const int parts = legParts(s.leg_max_m, s.stop_spacing_m);
     if ((s.sites - 1) * parts + 1 > kMaxTraverseSites) {
       fail("--stop-spacing-m", "up to " + std::to_string((s.sites - 1) * parts + 1) +
                                    " sites and stops, more than " + std::to_string(kMaxTraverseSites));
@@ -97,9 +103,7 @@ TraversePlan planTraverse(const TraverseSettings& s, uint64_t seed,
     const SitePose start = plan.truth.back();
     const double heading = start.heading_rad + turn;
     // The leg in equal parts, none longer than the stop spacing: a stop at the end of each but the last.
-    const int parts = s.stop_spacing_m > 0.0
-                          ? std::max(1, static_cast<int>(std::ceil(distance / s.stop_spacing_m - 1e-9)))
-                          : 1;
+    const int parts = legParts(distance, s.stop_spacing_m);
     for (int part = 1; part <= parts; ++part) {
       const SitePose& before = plan.truth.back();
       const double along = distance * part / parts;

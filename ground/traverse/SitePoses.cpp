@@ -60,21 +60,23 @@ SitePoseSolution odometryPoses(const Traverse& traverse) {
 }
 
 PositionErrors positionErrors(const std::vector<SitePose>& poses, const std::vector<double>& distance_m,
-                              const TraverseTruth& truth) {
+                              const TraverseTruth& truth, const std::vector<bool>& include) {
   PositionErrors e;
   double sum = 0.0, sum_pct = 0.0;
-  int with_distance = 0;
+  int counted = 0, with_distance = 0;
   for (std::size_t k = 0; k < poses.size() && k < truth.poses.size(); ++k) {
     const double d = (poses[k].position_m - truth.poses[k].position_m).norm();
     e.per_site_m.push_back(d);
+    if (k < include.size() && !include[k]) continue;
     sum += d * d;
+    ++counted;
     if (k < distance_m.size() && distance_m[k] > 0.0) {
       const double pct = 100.0 * d / distance_m[k];
       sum_pct += pct * pct;
       ++with_distance;
     }
   }
-  if (!e.per_site_m.empty()) e.rms_m = std::sqrt(sum / static_cast<double>(e.per_site_m.size()));
+  if (counted > 0) e.rms_m = std::sqrt(sum / counted);
   if (with_distance > 0) e.rms_pct = std::sqrt(sum_pct / with_distance);
   return e;
 }

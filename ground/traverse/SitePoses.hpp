@@ -38,14 +38,15 @@ struct SitePoseSolution {
 SitePoseSolution odometryPoses(const Traverse& traverse);
 
 // Position errors against truth: per site |p - p_true| (m); the RMS over the sites, and the RMS over the
-// sites after the first of the error as a percentage of the distance driven to each.
+// sites after the first of the error as a percentage of the distance driven to each. `include` (empty: every
+// site) picks the sites the two RMS figures are taken over.
 struct PositionErrors {
   std::vector<double> per_site_m;
   double rms_m = 0.0;
   double rms_pct = 0.0;
 };
 PositionErrors positionErrors(const std::vector<SitePose>& poses, const std::vector<double>& distance_m,
-                              const TraverseTruth& truth);
+                              const TraverseTruth& truth, const std::vector<bool>& include = {});
 
 // A site-frame camera model in the traverse frame: C' = R C + p, and A, H, V, O turned by R (H and V are
 // linear in the frame's axes, so a rotation carries them); R, E and the image size unchanged.

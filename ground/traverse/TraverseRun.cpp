@@ -307,17 +307,9 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
     t["position_error_apriori_m"] = before.rms_m;
     t["position_error_apriori_pct"] = before.rms_pct;
     if (stops > 0) {  // the same figures over the panorama sites alone
-      std::vector<SitePose> panorama_estimated;
-      std::vector<double> panorama_distance;
-      TraverseTruth panorama_truth;
-      for (std::size_t k = 0; k < traverse.sites.size(); ++k) {
-        if (traverse.sites[k].kind == SiteKind::kStop) continue;
-        panorama_estimated.push_back(estimated[k]);
-        panorama_distance.push_back(distance[k]);
-        panorama_truth.ids.push_back(truth->ids[k]);
-        panorama_truth.poses.push_back(truth->poses[k]);
-      }
-      const PositionErrors panorama = positionErrors(panorama_estimated, panorama_distance, panorama_truth);
+      std::vector<bool> panorama_site;
+      for (const TraverseSite& s : traverse.sites) panorama_site.push_back(s.kind == SiteKind::kPanorama);
+      const PositionErrors panorama = positionErrors(estimated, distance, *truth, panorama_site);
       t["position_error_panorama_sites_m"] = panorama.rms_m;
       t["position_error_panorama_sites_pct"] = panorama.rms_pct;
     }
