@@ -1,6 +1,6 @@
 // A multi-site traverse (issue 21): a folder with `traverse.json` naming the sites in driving order, each a
 // complete single-site dataset (panorama.json, ...) under `sites/<id>/`, and for a synthetic traverse the
-// truth poses in `truth/traverse.json`. Schema: README "traverse.json".
+// truth poses in `truth/traverse.json`. Schema: docs/traverse.md "traverse.json".
 //
 // Frames. Every site's dataset is in that site's own site frame (MER: +X north, +Y east, +Z down, metres),
 // levelled, with its origin at the site: the frame is attached to the rover, so the site's a-priori models,
@@ -46,7 +46,8 @@ struct OdometryLeg {
 };
 
 // What the rover did at a site: a whole panorama, or a traversing stop on the way (a few stereo pairs
-// looking forward, README "Traversing stops"). Both are mapped alike; a stop ties the sites around it.
+// looking forward, docs/traverse.md "Traversing stops"). Both are mapped alike; a stop ties the sites
+// around it.
 enum class SiteKind { kPanorama, kStop };
 const char* siteKindName(SiteKind kind);  // "panorama", "stop"
 

@@ -31,7 +31,7 @@ constexpr int kMaxFootprintTaps = 32;
 // fades octaves below 1.5 pixel footprints); along it the albedo and the Lambert term are averaged over taps
 // spaced at most 0.75 pixel footprints apart (a box filter; a cast shadow is taken at the centre). Without
 // this, grazing ground aliases its texture along the range and each view of a stereo pair aliases it
-// differently, which biased far disparities (BENCHMARKS.md, "Far range on a rendered scene").
+// differently, which biased far disparities (docs/benchmarks-history.md, "Far range").
 double footprintRadiance(const Terrain& terrain, const Eigen::Vector3d& hit, const Eigen::Vector3d& dir,
                          const Eigen::Vector3d& normal, bool on_grid, double t, double ray_rad, double pixel_rad,
                          const Eigen::Vector3d& sun, double shadow) {

@@ -1,6 +1,6 @@
 // A simulated multi-site traverse (issue 21; `areomap-sim --preset traverse`): one continuous terrain under
 // a winding path of sites (ground/sim/TraversePlan.hpp), a complete single-site dataset per site and the
-// traverse description. Layout (README "traverse.json"):
+// traverse description. Layout (docs/traverse.md "traverse.json"):
 //
 //   DIR/traverse.json               the sites in driving order, their a-priori poses, the odometry legs
 //   DIR/sites/<id>/                 one dataset per site, exactly as `areomap-sim --preset navcam` writes it

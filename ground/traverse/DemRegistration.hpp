@@ -72,7 +72,7 @@ struct DemRegistration {
   int used_cells = 0;               // after trimming
   double rms_m = 0.0;               // weighted RMS elevation difference at the solution
   double cost_ratio = 0.0;          // best / second-best minimum of the coarse search
-  // What a refusal's message states (README "Multi-site traverse", Limits): the differences at the solution
+  // What a refusal's message states (docs/traverse.md "Limits"): the differences at the solution
   // (unweighted, untrimmed) and what the DEMs' dem_sigma layers give for them; the coarse search's RMS
   // difference at its best pose, and the relief's signal: sqrt(second minimum - best) of its variances, the
   // second minimum this far away; how far the fit moved from the search's best pose.

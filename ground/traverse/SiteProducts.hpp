@@ -1,7 +1,8 @@
 // One site of a traverse as the cross-site tie finder sees it: its images (with a small Gaussian pyramid
-// for patches seen at another scale), its camera models and its DEM, all in the site's own frame (README
-// "Multi-site traverse"). Loaded from the site's ground products (areomap-ground --out: models/<stem>.cahvor,
-// dem.tif, dem_sigma.tif) or, for tests and checks, from the site's truth (truth/models, truth/dem.tif).
+// for patches seen at another scale), its camera models and its DEM, all in the site's own frame
+// (docs/traverse.md "Frames"). Loaded from the site's ground products (areomap-ground --out:
+// models/<stem>.cahvor, dem.tif, dem_sigma.tif) or, for tests and checks, from the site's truth
+// (truth/models, truth/dem.tif).
 #pragma once
 
 #include <map>

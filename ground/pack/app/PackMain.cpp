@@ -21,7 +21,7 @@ constexpr const char* kUsage =
     "marker (kind END_OF_PANORAMA, sequence = number of pairs). Images: PNG/JPEG/PGM, 8/16-bit PDS3 .IMG;\n"
     "left-only pairs are sent with has_right false.\n"
     "\n"
-    "A traverse folder (traverse.json, README \"Multi-site traverse\") gives one log of the whole traverse:\n"
+    "A traverse folder (traverse.json, docs/traverse.md) gives one log of the whole traverse:\n"
     "for each site in driving order an AREOMAP_SITE announcement (site_t: id, index, a-priori pose, the "
     "odometry\n"
     "leg from the previous site, the panorama name its pairs carry, a last-site flag), then that site's "

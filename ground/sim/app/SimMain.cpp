@@ -61,7 +61,7 @@ Options (each overrides the preset):
   --threads N                worker threads (default: all cores)
   --no-images                geometry and truth only (no rendering)
 
-Traverse (--preset traverse; README "traverse.json"): writes DIR/traverse.json (the sites in driving
+Traverse (--preset traverse; docs/traverse.md): writes DIR/traverse.json (the sites in driving
 order, their a-priori poses in the traverse frame = the first site's frame, the odometry of each leg and
 its sigmas), DIR/sites/<id>/ (one complete dataset per site, as the --camera preset writes it, in that
 site's own frame: every single-site tool runs on it), DIR/truth/traverse.json (the true poses) and

@@ -25,7 +25,7 @@ constexpr const char* kUsage =
     "usage: areomap-cross-ties TRAVERSE --products DIR --out DIR [--sites ID,...] [--all-pairs] "
     "[--truth-products]\n"
     "\n"
-    "Cross-site tie points between the sites of a traverse (README \"Multi-site traverse\"): for each pair "
+    "Cross-site tie points between the sites of a traverse (docs/cross-site-ties.md): for each pair "
     "of\n"
     "neighbouring sites (driving order), their DEMs are registered to refine the a-priori relative pose\n"
     "(traverse.json; searched over 3 odometry sigmas), then Förstner points of the later site's images are "

@@ -163,7 +163,7 @@ TEST(GrazingPlaneBias, SlantInRowsBelowTheSkyIsUnbiased) {
   // below it) AND the surface is slanted, low signal-to-noise rows are pulled towards the nearer, better
   // textured rows (+0.35 px at d 5-7 px here, 2026-12-02); without the slant there is no bias. The
   // FarRange scene's bias is NOT this one (it is there with good texture, in every matcher tried, and
-  // shrinks with the renderer's supersampling: BENCHMARKS.md, far range).
+  // shrinks with the renderer's supersampling: docs/benchmarks-history.md).
   Look fade = noisy;
   fade.contrast = 255.0;
   fade.fade_rows = 200.0;

@@ -1,5 +1,5 @@
-// How a point cloud's height errors are correlated on the ground (BENCHMARKS.md "DEM accuracy and DEM
-// sigma"): point_error_check DATASET POINTS.ply [--range LO,HI]
+// How a point cloud's height errors are correlated on the ground (docs/benchmarks-history.md "DEM
+// accuracy and DEM sigma"): point_error_check DATASET POINTS.ply [--range LO,HI]
 // Every point of POINTS.ply (site frame, products' points.ply) between LO and HI metres from the site origin
 // (default 2,5) against DATASET/truth/dem.tif, after the common datum rotation of the adjusted models beside
 // it (POINTS.ply's folder/models; TruthDatum.hpp) is removed; errors over 5 cm are left out (mismatches,

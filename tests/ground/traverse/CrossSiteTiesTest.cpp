@@ -26,11 +26,12 @@ constexpr double kPi = 3.14159265358979323846;
 
 // Three tiny sites 7-9 m apart, rendered once per process. The tiny camera (256 x 192 px, 60 degrees: 4
 // mrad a pixel, 3-4 cm on the ground between the sites) is the coarsest that the cross-site matcher is
-// tested on; the navcam figures are in README "Cross-site ties". Its top row looks 6.6 degrees below the
-// horizon, 13 m out on level ground from its 1.5 m mast, so the fine terrain reaches 14 m beyond the
-// outermost site (the preset's 20 m rendered ground no image sees); beyond it the coarse grid goes on.
+// tested on; the navcam figures are in BENCHMARKS.md "Multi-site traverse". Its top row looks 6.6
+// degrees below the horizon, 13 m out on level ground from its 1.5 m mast, so the fine terrain reaches 14 m
+// beyond the outermost site (the preset's 20 m rendered ground no image sees); beyond it the coarse grid
+// goes on.
 // The tiny camera cannot see a 25-30 m leg at all (its views meet only within ~26 m); that reach is
-// measured on navcam and imp traverses (README).
+// measured on navcam and imp traverses (BENCHMARKS.md).
 const std::string& tinyTraverseDir() {
   static const std::string dir = [] {
     sim::TraverseSimConfig c = sim::traversePreset("tiny");

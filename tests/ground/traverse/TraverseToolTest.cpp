@@ -87,7 +87,7 @@ TEST(TraverseTool, MapsEverySiteAndWritesThePosesAndTheReport) {
     std::printf("  %s\n", pair["message"].get<std::string>().c_str());
     // A refused DEM registration says why in the data's figures: on the tiny camera's own products the DEMs
     // differ by about twice what their dem_sigma layers give, and the relief they share changes their
-    // differences by a fraction of that (README "Multi-site traverse", Limits).
+    // differences by a fraction of that (docs/traverse.md "Limits").
     if (pair["status"] == "registration_failed") {
       const std::string message = pair["message"].get<std::string>();
       CHECK_TRUE(message.find("dem_sigma layers give") != std::string::npos ||

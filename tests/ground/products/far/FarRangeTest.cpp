@@ -8,7 +8,7 @@
 // both filled and over those of them that a camera sees in truth (the DEM criterion; cells behind
 // relief are extrapolations for both methods). Both are printed; equi-parallax must win over the cells seen
 // in truth in every band 20-30, 30-45, 45-60 m and over 20-60 m.
-// Three causes made it fail before (BENCHMARKS.md, far range): the renderer aliased the texture along the
+// Three causes made it fail before (benchmarks history): the renderer aliased the texture along the
 // range at grazing incidence (sim: radiance integrated over each ray's footprint), the matcher carried
 // disparities into the sky (dense: census-cost test), and the products cut the points at the DEM's edge,
 // keeping only the outer rows' points measured too near (products: support points out to where the
@@ -117,7 +117,7 @@ void printGroups(const char* key, std::vector<std::pair<double, double>>& v, std
 // ABOVE a depth edge of the true surface (the true disparity 3 rows below exceeds the point's by > 1 px:
 // a nearer surface there that the 7-row census window reaches, foreground fattening); then the mean error
 // by quintile of that 3-row disparity step (the surface's slant in rows: grazing back slopes have large
-// steps) and by quartile of the image texture around the point. BENCHMARKS.md, far range, has the result
+// steps) and by quartile of the image texture around the point. The benchmarks history has the result
 // (the bias follows the slant in every matcher tried and shrinks with the renderer's supersampling).
 void printDisparityErrors(const products::ProductInputs& in, const DemGrid& truth,
                           const std::vector<dem::DemPoint>& far) {
