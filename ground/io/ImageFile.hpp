@@ -24,7 +24,7 @@ constexpr long kMaxImageSidePx = 1L << 20;
 struct Pds3ImageInfo {
   int lines = 0;
   int samples = 0;
-  int sample_bits = 0;   // 8 or 16
+  int sample_bits = 0;  // 8 or 16
   bool big_endian = true;
   bool is_signed = false;
   int bands = 1;
