@@ -13,6 +13,7 @@
 
 #include "ground/dataset/Dataset.hpp"
 #include "ground/io/CameraFileParts.hpp"
+#include "ground/io/ImageFile.hpp"
 #include "ground/io/Pds3Label.hpp"
 
 namespace areomap::io {
@@ -233,18 +234,12 @@ cv::Mat readGdalImage8(const std::string& path) {
   if (GDALRasterIO(band, GF_Read, 0, 0, w, h, values.data, w, h, GDT_Float32, 0, 0) != CE_None) {
     throw cli::InputError(path, "image", "GDAL cannot read its pixels");
   }
-  double top = 255.0;
-  if (GDALGetRasterDataType(band) != GDT_Byte) {
-    double lo = 0.0, hi = 0.0;
-    cv::minMaxLoc(values, &lo, &hi);
-    for (int bits = 8; bits <= 16; bits += 2) {
-      top = std::ldexp(1.0, bits) - 1.0;
-      if (hi <= top) break;
-    }
+  if (GDALGetRasterDataType(band) == GDT_Byte) {
+    cv::Mat out;
+    values.convertTo(out, CV_8U);
+    return out;
   }
-  cv::Mat out;
-  values.convertTo(out, CV_8U, 255.0 / top);  // saturating: below 0 -> 0, above top -> 255
-  return out;
+  return toGrey8(values);
 }
 
 }  // namespace areomap::io

@@ -31,10 +31,8 @@ bool isGdalLabelFile(const std::string& path);
 CameraFile readVicarCamera(const std::string& path, int width = 0, int height = 0);
 CameraFile readPds4Camera(const std::string& path, int width = 0, int height = 0);
 
-// The pixels of a VICAR or PDS4 product (first band) as 8-bit grey: 8-bit data as they are; wider integer
-// data scaled by 255 / (2^k - 1) with k the smallest of 8, 10, 12, 14, 16 whose range holds the image's
-// largest value (12-bit data in 16-bit words -> 4095), values below 0 clamped. The rule is fixed per bit
-// depth, not a per-image stretch, so that both eyes of a pair stay comparable.
+// The pixels of a VICAR or PDS4 product (first band) as 8-bit grey: 8-bit data as they are, wider data by
+// toGrey8's rule (ImageFile.hpp: 255 / (2^k - 1), 12-bit data in 16-bit words -> 4095).
 cv::Mat readGdalImage8(const std::string& path);
 
 }  // namespace areomap::io

@@ -287,6 +287,23 @@ cv::Mat readPds3Image8(const Pds3ImageInfo& info) {
   return out;
 }
 
+cv::Mat toGrey8(const cv::Mat& decoded) {
+  cv::Mat grey = decoded;
+  if (decoded.channels() == 3) cv::cvtColor(decoded, grey, cv::COLOR_BGR2GRAY);
+  if (decoded.channels() == 4) cv::cvtColor(decoded, grey, cv::COLOR_BGRA2GRAY);
+  if (grey.depth() == CV_8U) return grey;
+  double lo = 0.0, hi = 0.0;
+  cv::minMaxLoc(grey, &lo, &hi);
+  double top = 255.0;
+  for (int bits = 8; bits <= 16; bits += 2) {
+    top = std::ldexp(1.0, bits) - 1.0;
+    if (hi <= top) break;
+  }
+  cv::Mat out;
+  grey.convertTo(out, CV_8U, 255.0 / top);  // saturating
+  return out;
+}
+
 cv::Mat loadImage8(const std::string& path) {
   if (isPds3File(path)) return readPds3Image8(readPds3ImageInfo(path));  // the label read once
   cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
