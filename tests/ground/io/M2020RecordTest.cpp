@@ -29,7 +29,9 @@ namespace {
 
 const char* const kPairs = "m2020-navcam-stereo-pairs";
 
-std::string pairsDir() { return test::sharedDataDir() + "/" + kPairs; }
+std::string pairsDir() {
+  return test::sharedDataDir() + "/" + kPairs;
+}
 
 std::vector<std::string> servedRecords() {
   std::vector<std::string> out;
@@ -82,8 +84,8 @@ json servedRecord(const CameraModel& m, const char* instrument, int w, int h, in
                 {"camera_model_type", "CAHVORE"}}},
               {"extended",
                {{"scaleFactor", std::to_string(s)},
-                {"subframeRect", "(" + std::to_string(x0) + "," + std::to_string(y0) + "," + std::to_string(s * w) +
-                                     "," + std::to_string(s * h) + ")"},
+                {"subframeRect", "(" + std::to_string(x0) + "," + std::to_string(y0) + "," +
+                                     std::to_string(s * w) + "," + std::to_string(s * h) + ")"},
                 {"dimension", "(" + std::to_string(w) + "," + std::to_string(h) + ")"},
                 {"sclk", "702014201.641"},
                 {"xyz", "(1,2,3)"}}},
@@ -155,7 +157,9 @@ TEST(M2020Record, ServedRecordsAsGiven) {
     std::printf("\n  %s: pp (%.1f, %.1f) in %dx%d", a.product_id.c_str(), in.hc_px, in.vc_px, f.model.width,
                 f.model.height);
     if (f.model.width == 1288) CHECK(in.hc_px > f.model.width && in.vc_px > f.model.height);
-    if (f.model.width == 1280) CHECK(std::fabs(in.hc_px - 640.0) < 20.0 && std::fabs(in.vc_px - 480.0) < 20.0);
+    if (f.model.width == 1280)
+      CHECK(std::fabs(in.hc_px - 640.0) < 20.0 && std::fabs(in.vc_px - 480.0) < 20.0);
+    CHECK_EQUAL(0, test::runTool("areomap-camera", "'" + path + "' --json"));
   }
   std::printf("\n");
 }
@@ -250,9 +254,18 @@ TEST(M2020Record, SyntheticNavcamFramesOverSeeds) {
     std::mt19937 rng(static_cast<unsigned>(seed));
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     const double f = 2950.0 * (1.0 + 0.02 * u(rng));
-    test::ModelSpec spec{f, f * (1.0 + 0.001 * u(rng)), 2559.5 + 0.015 * 5120 * u(rng),
-                         1919.5 + 0.015 * 3840 * u(rng), 0.0005, M_PI * u(rng), 0.8 * u(rng), M_PI * u(rng),
-                         0.1 * M_PI / 180.0, Vec3(1.7e-6, 0.05, -0.017), 5120, 3840};
+    test::ModelSpec spec{f,
+                         f * (1.0 + 0.001 * u(rng)),
+                         2559.5 + 0.015 * 5120 * u(rng),
+                         1919.5 + 0.015 * 3840 * u(rng),
+                         0.0005,
+                         M_PI * u(rng),
+                         0.8 * u(rng),
+                         M_PI * u(rng),
+                         0.1 * M_PI / 180.0,
+                         Vec3(1.7e-6, 0.05, -0.017),
+                         5120,
+                         3840};
     CameraModel detector = test::modelFromSpec(spec, Vec3(u(rng), u(rng), -1.9));
     detector.type = CameraType::kCahvore;
     detector.cahvore_kind = CahvoreKind::kFisheye;
@@ -269,8 +282,8 @@ TEST(M2020Record, SyntheticNavcamFramesOverSeeds) {
       const CameraModel truth =
           io::rescaledModel(detector, c.s, Vec2(c.ox, c.oy) + Vec2::Constant(0.5 * (c.s - 1)), c.w, c.h);
       const CameraModel& written = c.written_in_detector ? detector : truth;
-      const json record = servedRecord(written, seed % 2 ? "NAVCAM_LEFT" : "NAVCAM_RIGHT", c.w, c.h, c.s, c.ox + 1,
-                                       c.oy + 1);
+      const json record =
+          servedRecord(written, seed % 2 ? "NAVCAM_LEFT" : "NAVCAM_RIGHT", c.w, c.h, c.s, c.ox + 1, c.oy + 1);
       const io::CameraFile read = io::readCameraFile(write(dir + "/record.json", record.dump()));
       const double px = disagreementPx(read.model, truth);
       char what[128];
