@@ -92,6 +92,7 @@ Frame readFrame(const std::string& path, Kind kind, std::set<std::string>& consu
   if (kind == Kind::kRecord) {
     frame.image_path = io::imageBeside(path);
     if (frame.image_path.empty()) {
+      (void)io::readCameraFile(path);  // a corrupt record is named for its own field first
       throw cli::InputError(path, "image", "no image beside the record (X.png, X.jpg, ... for X.json)");
     }
     consumed.insert(canonical(frame.image_path));

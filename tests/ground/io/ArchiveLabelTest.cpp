@@ -20,6 +20,7 @@
 #include "ground/io/ImageFile.hpp"
 #include "ground/io/Pds3Label.hpp"
 #include "tests/firmware_core/camera/TestModels.hpp"
+#include "tests/ground/io/GdalTestFiles.hpp"
 #include "tests/support/TestData.hpp"
 
 #include <CppUTest/TestHarness.h>
@@ -94,48 +95,6 @@ std::string parmsLabel(const CameraModel& m, bool ids_name_type) {
   return t;
 }
 
-struct Closer {
-  void operator()(void* ds) const {
-    if (ds) GDALClose(ds);
-  }
-};
-
-cv::Mat rampImage(int w, int h, int depth, double top) {
-  cv::Mat img(h, w, depth);
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const double v = top * ((x * 7 + y * 13) % 97) / 96.0;
-      if (depth == CV_8U)
-        img.at<uint8_t>(y, x) = static_cast<uint8_t>(v);
-      else
-        img.at<uint16_t>(y, x) = static_cast<uint16_t>(v);
-    }
-  }
-  return img;
-}
-
-// Writes `img` with GDAL's `driver` and the label set through SetMetadata(label, domain) before the pixels
-// (or the TEMPLATE creation option for PDS4).
-void writeWithGdal(const std::string& path, const char* driver, const cv::Mat& img, const char* domain,
-                   const std::string& label, const char* const* options = nullptr) {
-  GDALAllRegister();
-  GDALDriverH d = GDALGetDriverByName(driver);
-  CHECK(d != nullptr);
-  const GDALDataType type = img.depth() == CV_8U ? GDT_Byte : GDT_UInt16;
-  // VICAR's 16-bit words (HALF) are signed: 12-bit data fit.
-  const GDALDataType stored = type == GDT_UInt16 && std::string(driver) == "VICAR" ? GDT_Int16 : type;
-  std::unique_ptr<void, Closer> ds(
-      GDALCreate(d, path.c_str(), img.cols, img.rows, 1, stored, const_cast<char**>(options)));
-  CHECK(ds != nullptr);
-  if (domain != nullptr) {
-    const char* md[] = {label.c_str(), nullptr};
-    CHECK(GDALSetMetadata(ds.get(), const_cast<char**>(md), domain) == CE_None);
-  }
-  cv::Mat data = img.clone();
-  CHECK(GDALRasterIO(GDALGetRasterBand(ds.get(), 1), GF_Write, 0, 0, img.cols, img.rows, data.data, img.cols,
-                     img.rows, type, 0, 0) == CE_None);
-}
-
 }  // namespace
 
 TEST_GROUP(ArchiveLabels){};
@@ -206,31 +165,11 @@ TEST(ArchiveLabels, MerVicarEqualsPds3) {
 // readCameraFile (told by its content), with its 16-bit pixels by the 12-bit rule.
 TEST(ArchiveLabels, VicarWrittenByGdal) {
   const CameraModel truth = navcam();
-  nlohmann::json cm{{"MODEL_TYPE", "CAHVORE"},
-                    {"MODEL_COMPONENT_ID", {"C", "A", "H", "V", "O", "R", "E"}},
-                    {"REFERENCE_COORD_SYSTEM_NAME", "ROVER_NAV_FRAME"},
-                    {"MODEL_COMPONENT_8", 2.0},
-                    {"MODEL_COMPONENT_9", 0.0}};
-  const Vec3* v[] = {&truth.c, &truth.a, &truth.h, &truth.v, &truth.o, &truth.r, &truth.e};
-  for (int k = 0; k < 7; ++k)
-    cm["MODEL_COMPONENT_" + std::to_string(k + 1)] = {v[k]->x(), v[k]->y(), v[k]->z()};
-  const nlohmann::json label{
-      {"PROPERTY",
-       {{"IDENTIFICATION",
-         {{"INSTRUMENT_HOST_ID", "M20"},
-          {"INSTRUMENT_ID", "NAVCAM_RIGHT"},
-          {"PRODUCT_ID", "NRF_0395_0702014201_058ECM_N0171064NCAM03395_01_195J01"},
-          {"PLANET_DAY_NUMBER", 395},
-          {"ROVER_MOTION_COUNTER", {17, 1064}},
-          {"ROVER_MOTION_COUNTER_NAME", {"SITE", "DRIVE"}}}},
-        {"ROVER_COORDINATE_SYSTEM",
-         {{"COORDINATE_SYSTEM_NAME", "ROVER_NAV_FRAME"},
-          {"ORIGIN_OFFSET_VECTOR", {-21.1874, -196.367, -6.30818}},
-          {"ORIGIN_ROTATION_QUATERNION", {0.60998, 0.00355556, 0.0310792, -0.791799}}}},
-        {"GEOMETRIC_CAMERA_MODEL", cm}}}};
+  const nlohmann::json label = test::vicarLabel(
+      truth, "NAVCAM_RIGHT", "NRF_0395_0702014201_058ECM_N0171064NCAM03395_01_195J01", "ROVER_NAV_FRAME");
   const std::string path = test::scratchDir("vicar-written") + "/NRF.VIC";
-  const cv::Mat img = rampImage(64, 48, CV_16U, 4000.0);
-  writeWithGdal(path, "VICAR", img, "json:VICAR", label.dump());
+  const cv::Mat img = test::rampImage(64, 48, CV_16U, 4000.0);
+  test::writeWithGdal(path, "VICAR", img, "json:VICAR", label.dump());
   CHECK(io::isGdalLabelFile(path));
   const io::CameraFile f = io::readCameraFile(path);
   CHECK(f.format == io::CameraFileFormat::kVicar);
@@ -314,9 +253,9 @@ TEST(ArchiveLabels, Pds4WrittenByGdal) {
       "VAR_TARGET=Mars",
       "VAR_TARGET_TYPE=Planet",
       nullptr};
-  const cv::Mat img = rampImage(64, 48, CV_8U, 250.0);
+  const cv::Mat img = test::rampImage(64, 48, CV_8U, 250.0);
   const std::string path = dir + "/NLF.xml";
-  writeWithGdal(path, "PDS4", img, nullptr, "", options);
+  test::writeWithGdal(path, "PDS4", img, nullptr, "", options);
   CHECK(io::isGdalLabelFile(path));
   const io::CameraFile f = io::readCameraFile(path);
   CHECK(f.format == io::CameraFileFormat::kPds4);
