@@ -34,7 +34,7 @@ const char* missionName(Mission mission) {
 
 Mission missionFromHost(const std::string& host_in) {
   const std::string host = upper(host_in);
-  if (has(host, "2020") || has(host, "PERSEVERANCE")) return Mission::kM2020;
+  if (host == "M20" || has(host, "2020") || has(host, "PERSEVERANCE")) return Mission::kM2020;
   if (has(host, "MSL") || has(host, "SCIENCE LABORATORY") || has(host, "CURIOSITY")) return Mission::kMsl;
   if (has(host, "MER") || has(host, "EXPLORATION ROVER") || has(host, "SPIRIT") || has(host, "OPPORTUNITY")) {
     return Mission::kMer;

@@ -18,7 +18,7 @@ enum class Mission { kUnknown, kMer, kMsl, kM2020 };
 // "MER", "MSL", "M2020" ("" for kUnknown).
 const char* missionName(Mission mission);
 // The mission of a record or label from what it says of itself: INSTRUMENT_HOST_ID / MISSION_NAME
-// ("MER1", "MER2", "MSL", "M2020", "MARS 2020", "MARS SCIENCE LABORATORY", "MARS EXPLORATION ROVER").
+// ("MER1", "MER2", "MSL", "M20", "M2020", "MARS 2020", "MARS SCIENCE LABORATORY", "MARS EXPLORATION ROVER").
 Mission missionFromHost(const std::string& host);
 // The mission that a product id's form implies: M2020 ids are a 3-letter camera code, the 4-digit sol and
 // the clock ("NLF_0395_0702014201_..."), MSL ids the camera code and the clock ("NLB_424748435EDR_..."),
