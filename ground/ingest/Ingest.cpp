@@ -56,7 +56,8 @@ cv::Mat pixels(const Frame& f) {
   return io::toGrey8(decoded);
 }
 
-void writeEye(const Frame& f, const CameraModel& site_model, const std::string& folder) {
+// The frame's pixels, checked against its model's image size.
+cv::Mat eyePixels(const Frame& f, const CameraModel& site_model) {
   const cv::Mat grey = pixels(f);
   if (grey.cols != site_model.width || grey.rows != site_model.height) {
     throw cli::InputError(f.image_path, "image",
@@ -64,6 +65,12 @@ void writeEye(const Frame& f, const CameraModel& site_model, const std::string& 
                               ", the model's image " + std::to_string(site_model.width) + "x" +
                               std::to_string(site_model.height));
   }
+  return grey;
+}
+
+void writeEye(const Frame& f, const cv::Mat& grey, const CameraModel& site_model, const std::string& folder) {
+  fs::create_directories(folder + "/images");
+  fs::create_directories(folder + "/models");
   const std::string image = folder + "/images/" + f.stem + ".png";
   const std::string partial = image + ".partial.png";
   if (!cv::imwrite(partial, grey)) throw cli::InputError(image, "image", "cannot write");
@@ -93,8 +100,11 @@ void assignTiers(const std::vector<ReadyPair>& pairs, std::vector<int>& tier) {
   }
 }
 
+// Writes the dataset of one position; a pair whose pixels cannot be read is left out (in `skipped`, as an
+// error) and the others written. No pair written: no panorama.json, out.pairs empty.
 IngestedDataset writeDataset(const std::vector<Frame>& frames, std::vector<ReadyPair>& pairs,
-                             const Position& where, const std::string& out_dir) {
+                             const Position& where, const std::string& out_dir,
+                             std::vector<Skipped>& skipped) {
   std::sort(pairs.begin(), pairs.end(), [&](const ReadyPair& a, const ReadyPair& b) {
     return std::tie(a.clock, frames[static_cast<std::size_t>(a.left)].source) <
            std::tie(b.clock, frames[static_cast<std::size_t>(b.left)].source);
@@ -108,8 +118,6 @@ IngestedDataset writeDataset(const std::vector<Frame>& frames, std::vector<Ready
   out.name = datasetName(where.mission, std::max(first_sol, 0), where.site, where.drive);
   out.folder = out.name;
   const std::string folder = out_dir + "/" + out.folder;
-  fs::create_directories(folder + "/images");
-  fs::create_directories(folder + "/models");
   std::vector<int> tier;
   assignTiers(pairs, tier);
   json list = json::array();
@@ -119,21 +127,34 @@ IngestedDataset writeDataset(const std::vector<Frame>& frames, std::vector<Ready
     const ReadyPair& p = pairs[k];
     const Frame& l = frames[static_cast<std::size_t>(p.left)];
     const Frame& r = frames[static_cast<std::size_t>(p.right)];
-    cli::info(out.name + ": pair " + std::to_string(k) + " " + l.stem + " + " + r.stem);
-    writeEye(l, p.left_site, folder);
-    writeEye(r, p.right_site, folder);
+    const int id = static_cast<int>(out.pairs.size());
+    cli::info(out.name + ": pair " + std::to_string(id) + " " + l.stem + " + " + r.stem);
+    try {
+      const cv::Mat left = eyePixels(l, p.left_site), right = eyePixels(r, p.right_site);
+      writeEye(l, left, p.left_site, folder);
+      writeEye(r, right, p.right_site, folder);
+    } catch (const cli::InputError& e) {
+      cli::warn(e.what());
+      const std::string bad = e.file();
+      for (const Frame* f : {&l, &r}) {
+        const bool this_one = bad == f->image_path || bad == f->source;
+        skipped.push_back(
+            {f->source,
+             this_one ? e.what() : "its partner's image could not be read: " + std::string(e.what()), true});
+      }
+      continue;
+    }
     for (const CameraModel* m : {&p.left_site, &p.right_site}) {
       if (width < 0) width = m->width, height = m->height;
       one_size = one_size && m->width == width && m->height == height;
     }
-    list.push_back(json{{"id", static_cast<int>(k)},
+    list.push_back(json{{"id", id},
                         {"sol", l.camera.acquisition.sol.value_or(0)},
                         {"tier", tier[k]},
                         {"left", eyeJson(l)},
                         {"right", eyeJson(r)}});
-    out.pairs.push_back({static_cast<int>(k),
-                         {l.camera.acquisition.product_id, l.source},
-                         {r.camera.acquisition.product_id, r.source}});
+    out.pairs.push_back(
+        {id, {l.camera.acquisition.product_id, l.source}, {r.camera.acquisition.product_id, r.source}});
   }
   json panorama{{"name", out.name},
                 {"mission", io::missionName(where.mission)},
@@ -142,6 +163,7 @@ IngestedDataset writeDataset(const std::vector<Frame>& frames, std::vector<Ready
                 {"frame", "SITE_FRAME (+X north, +Y east, +Z down, metres)"},
                 {"pairs", list}};
   if (one_size && width > 0) panorama["image_size"] = json::array({width, height});
+  if (out.pairs.empty()) return out;
   cli::writeFileAtomic(folder + "/panorama.json", panorama.dump(2) + "\n");
   return out;
 }
@@ -198,9 +220,11 @@ IngestResult makeDatasets(const std::vector<std::string>& inputs, const std::str
   fs::create_directories(out_dir);
   for (auto& [where, pairs] : groups) {
     try {
-      result.datasets.push_back(writeDataset(frames, pairs, where, out_dir));
+      IngestedDataset written = writeDataset(frames, pairs, where, out_dir, result.skipped);
+      if (written.pairs.empty()) continue;
+      result.datasets.push_back(std::move(written));
       cli::info("wrote " + out_dir + "/" + result.datasets.back().folder + " (" +
-                std::to_string(pairs.size()) + " pairs)");
+                std::to_string(result.datasets.back().pairs.size()) + " pairs)");
     } catch (const std::exception& e) {
       cli::warn(e.what());
       for (const ReadyPair& p : pairs) {

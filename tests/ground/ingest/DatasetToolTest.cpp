@@ -14,7 +14,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include <Eigen/Geometry>
+
 #include "ground/dataset/Dataset.hpp"
+#include "ground/ingest/SiteFrame.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "tests/firmware_core/camera/TestModels.hpp"
 #include "tests/ground/io/GdalTestFiles.hpp"
@@ -121,6 +124,20 @@ TEST(DatasetTool, MixedFolderWithBadFiles) {
                       test::vicarLabel(left, "NAVCAM_LEFT", "NLF" + tail, "ROVER_NAV_FRAME", 5, 10).dump());
   test::writeWithGdal(in + "/vicar/NRF" + tail + ".VIC", "VICAR", img, "json:VICAR",
                       test::vicarLabel(right, "NAVCAM_RIGHT", "NRF" + tail, "ROVER_NAV_FRAME", 5, 10).dump());
+  // A second pointing at the same position, 30 deg lower: the next tier.
+  // (Turning A about A x down moves it towards +Z, down.)
+  const Mat3 pitch =
+      Eigen::AngleAxisd(30.0 * M_PI / 180.0, left.a.cross(Vec3::UnitZ()).normalized()).toRotationMatrix();
+  CHECK(std::asin(-(pitch * left.a).z()) < std::asin(-left.a.z()) - 25.0 * M_PI / 180.0);
+  const std::string low = "_0100_0690000100_000ECM_N0050010NCAM00001_01_095J01";
+  test::writeWithGdal(in + "/vicar/NLF" + low + ".VIC", "VICAR", img, "json:VICAR",
+                      test::vicarLabel(ingest::transformedModel(left, pitch, Vec3::Zero()), "NAVCAM_LEFT",
+                                       "NLF" + low, "ROVER_NAV_FRAME", 5, 10)
+                          .dump());
+  test::writeWithGdal(in + "/vicar/NRF" + low + ".VIC", "VICAR", img, "json:VICAR",
+                      test::vicarLabel(ingest::transformedModel(right, pitch, Vec3::Zero()), "NAVCAM_RIGHT",
+                                       "NRF" + low, "ROVER_NAV_FRAME", 5, 10)
+                          .dump());
   const std::string mech = "_0101_0690100000_000ECM_N0050010NCAM00001_01_095J01";
   test::writeWithGdal(in + "/vicar/NLF" + mech + ".VIC", "VICAR", img, "json:VICAR",
                       test::vicarLabel(left, "NAVCAM_LEFT", "NLF" + mech, "ROVER_MECH_FRAME", 5, 11).dump());
@@ -138,6 +155,15 @@ TEST(DatasetTool, MixedFolderWithBadFiles) {
       fs::copy_file(pairs + f + ".json", in + "/" + f + ".json");
       fs::copy_file(pairs + f + ".png", in + "/" + f + ".png");
     }
+    // The sol-395 position: one good pair, one whose left image is truncated (its header intact).
+    for (const char* f : {"NLF_0395_0702014201_058ECM_N0171064NCAM03395_01_195J",
+                          "NRF_0395_0702014201_058ECM_N0171064NCAM03395_01_195J",
+                          "NLF_0395_0702014384_287ECM_N0171064NCAM03395_01_195J",
+                          "NRF_0395_0702014384_287ECM_N0171064NCAM03395_01_195J"}) {
+      fs::copy_file(pairs + f + ".json", in + "/" + f + ".json");
+      fs::copy_file(pairs + f + ".png", in + "/" + f + ".png");
+    }
+    fs::resize_file(in + "/NLF_0395_0702014384_287ECM_N0171064NCAM03395_01_195J.png", 4000);
     fs::copy_file(pairs + "NRF_0380_0700686262_301ECM_N0112472NCAM03380_01_195J.json",
                   in + "/NRF_0380_0700686262_301ECM_N0112472NCAM03380_01_195J.json");  // no image
     fs::copy_file(test::sharedDataDir() + "/mer-opportunity-navcam-sol4087/1N491020376ILFCNY9P0706L0M1.IMG",
@@ -150,7 +176,9 @@ TEST(DatasetTool, MixedFolderWithBadFiles) {
   CHECK(names.count("m2020_sol0395_site005_drive0010") == 1);
   checkDataset(out + "/m2020_sol0395_site005_drive0010", 0.0);
   const Dataset vicar = readDataset(out + "/m2020_sol0395_site005_drive0010");
-  CHECK_EQUAL(1, static_cast<int>(vicar.pairs.size()));
+  CHECK_EQUAL(2, static_cast<int>(vicar.pairs.size()));
+  CHECK_EQUAL(0, vicar.pairs[0].tier);  // the same clock: in source order, the level pair first
+  CHECK_EQUAL(1, vicar.pairs[1].tier);
   // 12-bit data in 16-bit words -> x 255 / 4095.
   const cv::Mat grey = cv::imread(vicar.pairs[0].left.image_path, cv::IMREAD_UNCHANGED);
   DOUBLES_EQUAL(std::round(img.at<uint16_t>(5, 7) * 255.0 / 4095.0), grey.at<uint8_t>(5, 7), 0.0);
@@ -163,7 +191,13 @@ TEST(DatasetTool, MixedFolderWithBadFiles) {
         std::string::npos);
   if (real) {
     CHECK(names.count("m2020_sol0340_site009_drive0364") == 1);
-    CHECK_EQUAL(2, static_cast<int>(names.size()));
+    CHECK_EQUAL(3, static_cast<int>(names.size()));
+    const Dataset sol395 = readDataset(out + "/m2020_sol0395_site017_drive1064");
+    CHECK_EQUAL(1, static_cast<int>(sol395.pairs.size()));
+    CHECK(reason("NLF_0395_0702014384_287ECM_N0171064NCAM03395_01_195J.json").find("image") !=
+          std::string::npos);
+    CHECK(reason("NRF_0395_0702014384_287ECM_N0171064NCAM03395_01_195J.json").find("its partner's image") ==
+          0);
     CHECK(reason("NLF_0380_0700686262_301ECM_N0112472NCAM03380_01_195J.json")
               .find("an eye without its partner") == 0);
     CHECK(reason("NRF_0380_0700686262_301ECM_N0112472NCAM03380_01_195J.json").find("no image beside") !=
