@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <stdexcept>
 
 #include <cpl_string.h>
 #include <gdal.h>
@@ -23,6 +24,11 @@ namespace fs = std::filesystem;
 
 enum class Kind { kRecord, kPds3, kGdal, kImage, kOther };
 
+// An input that is readable but no frame to map (left out with the reason, not an error).
+struct LeftOut : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -37,8 +43,8 @@ Kind kindOf(const std::string& path) {
   const std::size_t first = text.find_first_not_of(" \t\r\n");
   if (first != std::string::npos && text[first] == '{') return Kind::kRecord;
   if (io::isGdalLabelFile(path)) return Kind::kGdal;
-  if (text.find("PDS_VERSION_ID") != std::string::npos) return Kind::kPds3;
   const std::string ext = lower(fs::path(path).extension().string());
+  if (text.find("PDS_VERSION_ID") != std::string::npos || ext == ".lbl") return Kind::kPds3;
   for (const char* e : {".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".tif", ".tiff", ".img"}) {
     if (ext == e) return Kind::kImage;
   }
@@ -99,6 +105,9 @@ Frame readFrame(const std::string& path, Kind kind, std::set<std::string>& consu
     frame.camera = io::readCameraFileForImage(path, frame.image_path);
   } else if (kind == Kind::kPds3) {
     const io::Pds3Label label = io::Pds3Label::read(path);
+    if (!label.hasScope("IMAGE") && label.find("^IMAGE", "") == nullptr) {
+      throw LeftOut("a label without its image (no IMAGE object): nothing to map");
+    }
     frame.image_path = io::readPds3ImageInfo(label).data_file;
     consumed.insert(canonical(frame.image_path));
     frame.camera = io::readPds3Camera(label);
@@ -131,6 +140,8 @@ FrameScan scanInputs(const std::vector<std::string>& inputs) {
     } else {
       try {
         scan.frames.push_back(readFrame(path, kind, consumed));
+      } catch (const LeftOut& e) {
+        scan.skipped.push_back({path, e.what(), false});
       } catch (const cli::InputError& e) {
         cli::warn(e.what());
         scan.skipped.push_back({path, e.what(), true});
