@@ -1,20 +1,47 @@
 // Camera models from files, for the ground side and the tools: the JPL text form (.cahvor, .cahvore, …),
-// PDS3 labels (.IMG with an attached label, .LBL; GROUP = GEOMETRIC_CAMERA_MODEL), and the JSON of the
-// Mars 2020 raw-image service (camera_model_component_list = "C;A;H;V;O;R;E;type;parameter").
+// PDS3 labels (.IMG with an attached label, .LBL; GROUP = GEOMETRIC_CAMERA_MODEL as MER writes it,
+// GEOMETRIC_CAMERA_MODEL_PARMS as MSL and Mars 2020 write it, CAHVORE type and parameter as components 8
+// and 9), VICAR labels (PROPERTY = 'GEOMETRIC_CAMERA_MODEL') and PDS4 labels (geom:CAHVORE_Model, …) read
+// through GDAL (GdalLabel.hpp), and the record of the Mars 2020 raw-image service, as served (the model
+// under "camera", the pixel frame under "extended", tuples written as strings) or flattened
+// (camera_model_component_list = "C;A;H;V;O;R;E;type;parameter" at the top level).
 // The format is told by the content, not the extension. Errors: cli::InputError naming file and field.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "firmware_core/camera/CameraModel.hpp"
+#include "ground/io/Detector.hpp"
 
 namespace areomap::io {
 
 class Pds3Label;
 
-enum class CameraFileFormat { kJplText, kPds3, kM2020Json };
-const char* formatName(CameraFileFormat format);  // "jpl-text", "pds3", "m2020-json"
+enum class CameraFileFormat { kJplText, kPds3, kM2020Json, kVicar, kPds4 };
+const char* formatName(CameraFileFormat format);  // "jpl-text", "pds3", "m2020-json", "vicar", "pds4"
+
+// What a record or label says of the exposure and of the rover, where it says it (absent: not given).
+struct Acquisition {
+  Mission mission = Mission::kUnknown;
+  std::string instrument;  // "NAVCAM_LEFT", "NAV_LEFT_B", ... ("" when not given)
+  std::string product_id;  // the record's imageid, the label's PRODUCT_ID (else the file's stem)
+  std::optional<int> sol;
+  std::optional<double> sclk_s;  // spacecraft clock of the exposure, seconds
+  std::optional<int> site;       // rover motion counter: site and drive
+  std::optional<int> drive;
+  // The rover's attitude (s, v1, v2, v3): the rotation that takes rover-frame vectors into the site frame
+  // (X_site = R(attitude) X_rover + xyz_m), as MIPL writes ORIGIN_ROTATION_QUATERNION and the raw-image
+  // service "attitude".
+  std::optional<Eigen::Vector4d> attitude;
+  std::optional<Vec3> xyz_m;  // the rover frame's origin in the site frame, metres
+  std::string rover_frame;    // the frame that attitude and xyz_m place ("ROVER_FRAME", "ROVER_NAV_FRAME")
+  std::optional<double> mast_az_deg;  // the record's mast azimuth and elevation (relative to the rover)
+  std::optional<double> mast_el_deg;
+};
 
 struct CameraFile {
   CameraFileFormat format = CameraFileFormat::kJplText;
@@ -26,8 +53,14 @@ struct CameraFile {
   Vec2 offset_px = Vec2::Zero();
   // false: width/height came from the caller's fallback (or are 0); true: from the file or its image.
   bool size_from_file = false;
-  std::string reference_frame;  // PDS3 REFERENCE_COORD_SYSTEM_NAME ("ROVER_FRAME", …); "" if not given
-  std::string frame;            // the M2020 model's pixel frame (PixelFrame::name); "" for the other formats
+  // The model's reference frame: the label's REFERENCE_COORD_SYSTEM_NAME ("ROVER_FRAME", "ROVER_NAV_FRAME",
+  // "SITE_FRAME", ...; PDS4 its coordinate_space_frame_type), "ROVER_NAV_FRAME" for the M2020 raw-image
+  // record (which does not state it: its models are in the rover navigation frame of its site and drive);
+  // "" when not known. reference_frame_stated: the file says it.
+  std::string reference_frame;
+  bool reference_frame_stated = false;
+  Acquisition acquisition;
+  std::string frame;  // the M2020 model's pixel frame (PixelFrame::name); "" for the other formats
   std::vector<std::string> warnings;  // e.g. the image's size differs from the JSON's "dimension"
 };
 
@@ -61,6 +94,7 @@ void writeCameraModelFile(const std::string& path, const CameraModel& model);
 
 // The same camera in a resampled pixel frame: pixel' = (pixel - offset) / scale, size width x height.
 // Exact for CAHV, CAHVOR and CAHVORE (H' = (H - offset_x A) / scale, V' likewise; O, R, E unchanged).
-CameraModel rescaledModel(const CameraModel& model, double scale, const Vec2& offset_px, int width, int height);
+CameraModel rescaledModel(const CameraModel& model, double scale, const Vec2& offset_px, int width,
+                          int height);
 
 }  // namespace areomap::io

@@ -140,7 +140,9 @@ bool isPds3File(const std::string& path) {
   return std::strstr(head, "PDS_VERSION_ID") != nullptr;
 }
 
-Pds3ImageInfo readPds3ImageInfo(const std::string& path) { return readPds3ImageInfo(Pds3Label::read(path)); }
+Pds3ImageInfo readPds3ImageInfo(const std::string& path) {
+  return readPds3ImageInfo(Pds3Label::read(path));
+}
 
 Pds3ImageInfo readPds3ImageInfo(const Pds3Label& label) {
   const std::string& path = label.file();
@@ -153,7 +155,8 @@ Pds3ImageInfo readPds3ImageInfo(const Pds3Label& label) {
     throw cli::InputError(path, "IMAGE.LINES", "image size must be positive");
   }
   if (lines > kMaxImageSidePx || samples > kMaxImageSidePx || bands > kMaxImageSidePx) {
-    throw cli::InputError(path, "IMAGE.LINES", "image size above " + std::to_string(kMaxImageSidePx) + " px per side");
+    throw cli::InputError(path, "IMAGE.LINES",
+                          "image size above " + std::to_string(kMaxImageSidePx) + " px per side");
   }
   info.lines = static_cast<int>(lines);
   info.samples = static_cast<int>(samples);
@@ -161,7 +164,8 @@ Pds3ImageInfo readPds3ImageInfo(const Pds3Label& label) {
   const long bits = label.integer("SAMPLE_BITS", "IMAGE");
   info.sample_bits = bits == 8 || bits == 16 ? static_cast<int>(bits) : 0;
   if (info.sample_bits == 0) {
-    throw cli::InputError(path, "IMAGE.SAMPLE_BITS", "only 8 and 16 are supported, found " + std::to_string(bits));
+    throw cli::InputError(path, "IMAGE.SAMPLE_BITS",
+                          "only 8 and 16 are supported, found " + std::to_string(bits));
   }
   const std::string type = Pds3Label::unquote(label.required("SAMPLE_TYPE", "IMAGE"));
   if (type.rfind("LSB", 0) == 0 || type.rfind("PC_", 0) == 0 || type.rfind("VAX", 0) == 0) {
@@ -187,8 +191,8 @@ Pds3ImageInfo readPds3ImageInfo(const Pds3Label& label) {
   // A detached data file is a plain file name beside the label (safe inputs: no folder, no "..").
   auto detached = [&](const std::string& name) {
     if (name.empty() || name == "." || name == ".." || name.find('/') != std::string::npos) {
-      throw cli::InputError(path, "^IMAGE", "a detached data file must be a file name beside the label, found '" +
-                                                name + "'");
+      throw cli::InputError(
+          path, "^IMAGE", "a detached data file must be a file name beside the label, found '" + name + "'");
     }
     return (std::filesystem::path(path).parent_path() / name).string();
   };
@@ -217,16 +221,19 @@ Pds3ImageInfo readPds3ImageInfo(const Pds3Label& label) {
                              static_cast<double>(info.sample_bits / 8);
   if (offset + image_bytes > static_cast<double>(have)) {
     char what[200];
-    std::snprintf(what, sizeof what, "file truncated: the label's image (LINES %d x LINE_SAMPLES %d x %d bit at byte %.0f) "
-                  "needs %.0f bytes, the file has %zu", info.lines, info.samples, info.sample_bits, offset,
-                  offset + image_bytes, have);
+    std::snprintf(what, sizeof what,
+                  "file truncated: the label's image (LINES %d x LINE_SAMPLES %d x %d bit at byte %.0f) "
+                  "needs %.0f bytes, the file has %zu",
+                  info.lines, info.samples, info.sample_bits, offset, offset + image_bytes, have);
     throw cli::InputError(info.data_file, "^IMAGE", what);
   }
   info.offset_bytes = static_cast<std::size_t>(offset);
   return info;
 }
 
-cv::Mat readPds3Image(const std::string& path) { return readPds3Image(readPds3ImageInfo(path)); }
+cv::Mat readPds3Image(const std::string& path) {
+  return readPds3Image(readPds3ImageInfo(path));
+}
 
 cv::Mat readPds3Image(const Pds3ImageInfo& info) {
   const std::size_t bytes_per = static_cast<std::size_t>(info.sample_bits / 8);
@@ -247,7 +254,8 @@ cv::Mat readPds3Image(const Pds3ImageInfo& info) {
   uint16_t* out = img.ptr<uint16_t>(0);
   for (std::size_t i = 0; i < n; ++i) {
     const unsigned char b0 = raw[2 * i], b1 = raw[2 * i + 1];
-    const uint16_t v = info.big_endian ? static_cast<uint16_t>((b0 << 8) | b1) : static_cast<uint16_t>((b1 << 8) | b0);
+    const uint16_t v =
+        info.big_endian ? static_cast<uint16_t>((b0 << 8) | b1) : static_cast<uint16_t>((b1 << 8) | b0);
     out[i] = info.is_signed && (v & 0x8000u) != 0 ? 0 : v;
   }
   return img;
@@ -276,6 +284,23 @@ cv::Mat readPds3Image8(const Pds3ImageInfo& info) {
   if (img.type() == CV_8UC1) return img;
   cv::Mat out;
   img.convertTo(out, CV_8UC1, 255.0 / static_cast<double>(info.valid_max));  // rounds and saturates
+  return out;
+}
+
+cv::Mat toGrey8(const cv::Mat& decoded) {
+  cv::Mat grey = decoded;
+  if (decoded.channels() == 3) cv::cvtColor(decoded, grey, cv::COLOR_BGR2GRAY);
+  if (decoded.channels() == 4) cv::cvtColor(decoded, grey, cv::COLOR_BGRA2GRAY);
+  if (grey.depth() == CV_8U) return grey;
+  double lo = 0.0, hi = 0.0;
+  cv::minMaxLoc(grey, &lo, &hi);
+  double top = 255.0;
+  for (int bits = 8; bits <= 16; bits += 2) {
+    top = std::ldexp(1.0, bits) - 1.0;
+    if (hi <= top) break;
+  }
+  cv::Mat out;
+  grey.convertTo(out, CV_8U, 255.0 / top);  // saturating
   return out;
 }
 

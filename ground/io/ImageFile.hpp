@@ -24,7 +24,7 @@ constexpr long kMaxImageSidePx = 1L << 20;
 struct Pds3ImageInfo {
   int lines = 0;
   int samples = 0;
-  int sample_bits = 0;   // 8 or 16
+  int sample_bits = 0;  // 8 or 16
   bool big_endian = true;
   bool is_signed = false;
   int bands = 1;
@@ -60,6 +60,13 @@ ImageSize readImageSize(const std::string& path);
 // Any supported image as 8-bit grey (colour is converted to grey; 16-bit PDS3 by the rule above,
 // 16-bit PNG by >> 8). Throws cli::InputError(path, "image", …).
 cv::Mat loadImage8(const std::string& path);
+// A decoded image (8-bit, 16-bit or float; 1, 3 or 4 channels) as 8-bit grey. Colour: the ITU-R BT.601
+// luma 0.299 R + 0.587 G + 0.114 B (OpenCV's cvtColor). Wider data: scaled by 255 / (2^k - 1) with k the
+// smallest of 8, 10, 12, 14, 16 whose range holds the image's largest value (12-bit data in 16-bit words
+// -> 4095), saturating; a fixed rule per bit depth, not a per-image stretch, so that the two eyes of a pair
+// stay comparable.
+cv::Mat toGrey8(const cv::Mat& decoded);
+
 // Any supported image as 16-bit grey with its native values (8-bit images are widened, not scaled).
 cv::Mat loadImage16(const std::string& path);
 

@@ -102,7 +102,8 @@ Pds3Label Pds3Label::parse(const std::string& text, const std::string& file, Pds
       continue;
     }
     if (key == "END_GROUP" || key == "END_OBJECT") {
-      if (scopes.empty()) throw cli::InputError(file, key, "closes a " + key.substr(4) + " that was not opened");
+      if (scopes.empty())
+        throw cli::InputError(file, key, "closes a " + key.substr(4) + " that was not opened");
       scopes.pop_back();
       continue;
     }
@@ -117,8 +118,9 @@ Pds3Label Pds3Label::parse(const std::string& text, const std::string& file, Pds
     label.statements_.push_back({scopes.empty() ? "" : scopes.back(), key, value});
   }
   if (!ended) {
-    throw cli::InputError(file, "END", pending_key.empty() ? "the PDS3 label has no END (truncated file?)"
-                                                           : "the value of " + pending_key + " is not closed");
+    throw cli::InputError(file, "END",
+                          pending_key.empty() ? "the PDS3 label has no END (truncated file?)"
+                                              : "the value of " + pending_key + " is not closed");
   }
   return label;
 }
@@ -131,7 +133,8 @@ Pds3Label Pds3Label::read(const std::string& path) {
   // In chunks of at most 64 KiB, up to the first NUL (the label is text; the image data of an attached
   // label may follow END): a 40 kB label of a 2 MB image reads one chunk, a fuzz input of 100 bytes
   // allocates 100 bytes (no 1 MiB buffer zeroed per file).
-  const std::size_t have = ec ? kMaxBytes : static_cast<std::size_t>(std::min<std::uintmax_t>(size, kMaxBytes));
+  const std::size_t have =
+      ec ? kMaxBytes : static_cast<std::size_t>(std::min<std::uintmax_t>(size, kMaxBytes));
   constexpr std::size_t kChunk = std::size_t{1} << 16;
   std::string text;
   while (text.size() < have) {
@@ -168,7 +171,8 @@ std::string Pds3Label::unquote(const std::string& value) {
   std::string v = trim(value);
   const std::size_t unit = v.find('<');
   if (unit != std::string::npos && v.find('(') == std::string::npos) v = trim(v.substr(0, unit));
-  if (v.size() >= 2 && (v.front() == '"' || v.front() == '\'') && v.back() == v.front()) v = v.substr(1, v.size() - 2);
+  if (v.size() >= 2 && (v.front() == '"' || v.front() == '\'') && v.back() == v.front())
+    v = v.substr(1, v.size() - 2);
   return v;
 }
 
@@ -204,7 +208,8 @@ double Pds3Label::number(const std::string& key, const std::string& scope) const
 long Pds3Label::integer(const std::string& key, const std::string& scope) const {
   const double x = number(key, scope);
   if (x != std::floor(x) || std::fabs(x) > 1e12) {
-    throw cli::InputError(file_, scope.empty() || scope == "*" ? key : scope + "." + key, "expected an integer");
+    throw cli::InputError(file_, scope.empty() || scope == "*" ? key : scope + "." + key,
+                          "expected an integer");
   }
   return static_cast<long>(x);
 }

@@ -83,6 +83,42 @@ std::string sizeOf(const FrameEvidence& e, double scale) {
 
 }  // namespace
 
+namespace {
+
+// The rule without the detector: 0 given full, 1 metadata full, 2 another down-sampling full (nearest the
+// image centre first, by centre_offset), 3 metadata subframe, 4 given subframe, 5 no fit.
+int rank(const Candidate& c, const Candidate* given, const Candidate* meta) {
+  if (c.full) return &c == given ? 0 : (&c == meta ? 1 : 2);
+  if (c.fits && &c == meta) return 3;
+  if (c.fits && &c == given) return 4;
+  return 5;
+}
+
+bool rankedBefore(const Candidate& a, const Candidate& b, const Candidate* given, const Candidate* meta) {
+  const int ra = rank(a, given, meta), rb = rank(b, given, meta);
+  if (ra != rb) return ra < rb;
+  return ra == 2 && a.centre_offset < b.centre_offset;
+}
+
+// The principal point in detector pixels (0-based) and the larger of its offsets from the detector's
+// centre over both axes, as a fraction of the detector's size; false when the candidate is not physical.
+bool physical(const FrameEvidence& e, const Candidate& c, double& offset_px) {
+  const Vec2 origin = e.meta_origin_px - Vec2(1.0, 1.0);
+  const double size[2] = {static_cast<double>(e.width), static_cast<double>(e.height)};
+  offset_px = 0.0;
+  for (int k = 0; k < 2; ++k) {
+    const double s = c.placement_scale;
+    const double detector_pp = origin(k) + s * c.principal_px(k) + 0.5 * (s - 1.0);
+    const double off = std::fabs(detector_pp - 0.5 * (e.detector_px(k) - 1.0));
+    if (off > kPrincipalPointTolerance * e.detector_px(k)) return false;
+    if (origin(k) + s * size[k] > (1.0 + kPrincipalPointTolerance) * e.detector_px(k)) return false;
+    offset_px = std::fmax(offset_px, off);
+  }
+  return true;
+}
+
+}  // namespace
+
 bool choosePixelFrame(const FrameEvidence& e, PixelFrame& frame, std::string& tried) {
   Candidate given;
   given.frame.name = "as given";
@@ -96,23 +132,44 @@ bool choosePixelFrame(const FrameEvidence& e, PixelFrame& frame, std::string& tr
     scaled.push_back(fullResolution(e, s));
     if (sameMap(scaled.back().frame, given.frame)) scaled.pop_back();
   }
+  std::vector<const Candidate*> all = {&given};
+  if (meta_distinct) all.push_back(&meta);
+  for (const Candidate& c : scaled) all.push_back(&c);
+  const Candidate* meta_ptr = meta_distinct ? &meta : nullptr;
 
-  // 1. A full frame: as given, then the metadata's, then the integer down-sampling nearest the centre.
+  // The known detector: the physical candidate nearest its centre, ties by the rule.
+  const bool detector_known = e.detector_px.x() > 0.0 && e.detector_px.y() > 0.0;
   const Candidate* pick = nullptr;
-  if (given.full) {
-    pick = &given;
-  } else if (meta_distinct && meta.full) {
-    pick = &meta;
-  } else {
-    for (const Candidate& c : scaled) {
-      if (c.full && (pick == nullptr || c.centre_offset < pick->centre_offset)) pick = &c;
+  double pick_offset = 0.0;
+  if (detector_known) {
+    for (const Candidate* c : all) {
+      double offset = 0.0;
+      if (!physical(e, *c, offset)) continue;
+      if (pick == nullptr || offset < pick_offset - 0.5 ||
+          (offset <= pick_offset + 0.5 && rankedBefore(*c, *pick, &given, meta_ptr))) {
+        pick = c;
+        pick_offset = offset;
+      }
+    }
+    if (pick != nullptr) {
+      frame = pick->frame;
+      return true;
     }
   }
-  // 2. A subframe at the metadata's scale: full resolution, then as given.
-  if (pick == nullptr && meta_distinct && meta.fits) pick = &meta;
-  if (pick == nullptr && given.fits) pick = &given;
+  // The rule: full frames (as given, the metadata's, the down-sampling nearest the centre), then subframes
+  // at the metadata's scale (full resolution, then as given).
+  for (const Candidate* c : all) {
+    if (rank(*c, &given, meta_ptr) < 5 && (pick == nullptr || rankedBefore(*c, *pick, &given, meta_ptr)))
+      pick = c;
+  }
   if (pick != nullptr) {
     frame = pick->frame;
+    if (detector_known) {
+      frame.note =
+          format("no frame puts the principal point within %.0f %% of the %.0f",
+                 100.0 * kPrincipalPointTolerance, e.detector_px.x()) +
+          format("x%.0f detector's centre: read by the principal point alone", e.detector_px.y(), 0.0);
+    }
     return true;
   }
 

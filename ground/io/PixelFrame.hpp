@@ -28,6 +28,16 @@
 // whole smaller detector at some scale when its principal point then falls near the image centre (rule 1),
 // or of a cut-out at the metadata's scale (rule 2) -- and that reading wins: the principal point alone
 // cannot tell them apart without the detector's size.
+//
+// When the detector's size is known (the instrument's, knownDetector in Detector.hpp), that reading is
+// settled on physical grounds instead: a candidate places the image in the detector (first pixel at the
+// subframe origin, placement_scale detector pixels per delivered pixel) and so puts the principal point at a
+// detector pixel; it is physical when that pixel lies within kPrincipalPointTolerance of the detector's size
+// from the detector's centre and the image lies inside the detector (the same tolerance past its far edge).
+// The physical candidate whose principal point lies nearest the detector's centre wins; candidates that put
+// it at the same detector pixel (within half a pixel: a full-resolution model of a thumbnail whose
+// metadata omits its scale reads the same as a full-resolution model of a cut-out) are ranked by the rule
+// above. No physical candidate: the rule above, with a note that the detector disagrees.
 #pragma once
 
 #include <string>
@@ -49,6 +59,7 @@ struct PixelFrame {
   double scale = 1.0;
   Vec2 offset_px = Vec2::Zero();
   std::string name;  // "as given", "1/4 of the detector from (1, 1)", ...
+  std::string note;  // non-empty when the known detector fits no candidate and the rule above decided
 };
 
 struct FrameEvidence {
@@ -57,6 +68,7 @@ struct FrameEvidence {
   int height = 0;
   int meta_scale = 1;                    // the metadata's down-sampling (M2020 scale_factor)
   Vec2 meta_origin_px = Vec2(1.0, 1.0);  // the subframe's first sample and line, 1-based detector pixels
+  Vec2 detector_px = Vec2::Zero();       // the detector's full-resolution size; zero = unknown
 };
 
 // The frame by the rule above: true and `frame`; false and `tried`, one clause per candidate with the size

@@ -46,7 +46,8 @@ std::string pdsLabel(const std::string& c, const std::string& a, const std::stri
     t += "  MODEL_COMPONENT_" + std::to_string(i + 1) + " = " + comps[i] + "\n";
   }
   t += "  REFERENCE_COORD_SYSTEM_NAME = ROVER_FRAME\nEND_GROUP = GEOMETRIC_CAMERA_MODEL\n";
-  t += "OBJECT = IMAGE\n  LINES = 1024\n  LINE_SAMPLES = 1024\n  SAMPLE_TYPE = MSB_INTEGER\n  SAMPLE_BITS = 16\n"
+  t += "OBJECT = IMAGE\n  LINES = 1024\n  LINE_SAMPLES = 1024\n  SAMPLE_TYPE = MSB_INTEGER\n  SAMPLE_BITS = "
+       "16\n"
        "END_OBJECT = IMAGE\n";
   if (end) t += "END\n";
   return t;
@@ -88,7 +89,8 @@ TEST(CameraFile, JplTextRoundTripsThroughAFile) {
     CHECK_EQUAL(nm.model.width, back.width);
   }
   // A file without a size takes the caller's.
-  const std::string bare = writeFile(dir, "bare.cahvor", "C = 0 0 0\nA = 1 0 0\nH = 500 1000 0\nV = 500 0 1000\n");
+  const std::string bare =
+      writeFile(dir, "bare.cahvor", "C = 0 0 0\nA = 1 0 0\nH = 500 1000 0\nV = 500 0 1000\n");
   const io::CameraFile f = io::readCameraFile(bare, 640, 480);
   CHECK(!f.size_from_file);
   CHECK_EQUAL(640, f.model.width);
@@ -142,7 +144,8 @@ TEST(CameraFile, MalformedLabelsNameTheField) {
   std::string huge_lines = pdsLabel(kC, kA, kH, kV, kO, kR);
   huge_lines.replace(huge_lines.find("  LINES = 1024"), 14, "  LINES = 4294967304");  // 2^32 + 8
   const std::string cahv_json =
-      "{\"camera_model_type\": \"CAHV\", \"camera_model_component_list\": \"(0,0,0);(1,0,0);(500,1000,0);(500,0,1000)\", ";
+      "{\"camera_model_type\": \"CAHV\", \"camera_model_component_list\": "
+      "\"(0,0,0);(1,0,0);(500,1000,0);(500,0,1000)\", ";
   const Case cases[] = {
       {"lines.lbl", huge_lines, "IMAGE.LINES"},
       {"json-huge-size.json", cahv_json + "\"dimension\": [1e300, 1e300]}", "dimension"},
@@ -161,10 +164,12 @@ TEST(CameraFile, MalformedLabelsNameTheField) {
       {"text-nan.cahvor", "C = 0 0 0\nA = 1 0 0\nH = 500 1000 0\nV = 500 0 nan\n", "V"},
       {"text-trunc.cahvor", "C = 0 0 0\nA = 1 0 0\nH = 500 1000 0\nV = 500 0", "V"},
       {"text-norm.cahvor", "C = 0 0 0\nA = 1 1 0\nH = 500 1000 0\nV = 500 0 1000\n", "A"},
-      {"json-short.json", "{\"camera_model_type\": \"CAHVOR\", \"camera_model_component_list\": \"(0,0,0);(1,0,0)\"}",
+      {"json-short.json",
+       "{\"camera_model_type\": \"CAHVOR\", \"camera_model_component_list\": \"(0,0,0);(1,0,0)\"}",
        "camera_model_component_list (H)"},
       {"json-nan.json",
-       "{\"camera_model_type\": \"CAHV\", \"camera_model_component_list\": \"(0,0,0);(1,0,0);(x,1000,0);(500,0,1000)\"}",
+       "{\"camera_model_type\": \"CAHV\", \"camera_model_component_list\": "
+       "\"(0,0,0);(1,0,0);(x,1000,0);(500,0,1000)\"}",
        "camera_model_component_list (H)"},
       {"json-bad.json", "{\"camera_model_type\": ", "json"},
   };

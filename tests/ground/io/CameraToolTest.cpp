@@ -73,8 +73,8 @@ TEST(CameraTool, ExitCodesAndJsonContract) {
   STRCMP_EQUAL("CAHVOR", j["model"]["type"].get<std::string>().c_str());
   for (const char* k : {"C", "A", "H", "V", "O", "R"}) CHECK_EQUAL(3u, j["model"][k].size());
   CHECK(!j["model"].contains("E"));
-  for (const char* k : {"f_px", "x0_px", "y0_px", "omega_deg", "phi_deg", "kappa_deg", "center_m", "distortion",
-                        "R_site_to_camera"}) {
+  for (const char* k : {"f_px", "x0_px", "y0_px", "omega_deg", "phi_deg", "kappa_deg", "center_m",
+                        "distortion", "R_site_to_camera"}) {
     CHECK_TEXT(j["photogrammetric"].contains(k), k);
   }
   CHECK_EQUAL(3u, j["photogrammetric"]["R_site_to_camera"].size());

@@ -25,9 +25,10 @@ std::string writePds3(const std::string& path, int lines, int samples, int bits,
   const int record_bytes = 256, records = 4;
   std::string label = "PDS_VERSION_ID = PDS3\r\nRECORD_TYPE = FIXED_LENGTH\r\nRECORD_BYTES = " +
                       std::to_string(record_bytes) + "\r\n^IMAGE = " + std::to_string(records + 1) +
-                      "\r\nOBJECT = IMAGE\r\n  LINES = " + std::to_string(lines) + "\r\n  LINE_SAMPLES = " +
-                      std::to_string(samples) + "\r\n  SAMPLE_TYPE = " + type + "\r\n  SAMPLE_BITS = " +
-                      std::to_string(bits) + "\r\n  SAMPLE_BIT_MASK = 2#0000111111111111#\r\nEND_OBJECT = IMAGE\r\nEND\r\n";
+                      "\r\nOBJECT = IMAGE\r\n  LINES = " + std::to_string(lines) +
+                      "\r\n  LINE_SAMPLES = " + std::to_string(samples) + "\r\n  SAMPLE_TYPE = " + type +
+                      "\r\n  SAMPLE_BITS = " + std::to_string(bits) +
+                      "\r\n  SAMPLE_BIT_MASK = 2#0000111111111111#\r\nEND_OBJECT = IMAGE\r\nEND\r\n";
   label.resize(static_cast<std::size_t>(record_bytes * records), ' ');
   std::string data;
   for (uint16_t v : pixels) {
@@ -73,15 +74,16 @@ TEST(ImageFile, ReadsRealMer16BitFramesAndMatchesTheLabelStatistics) {
         hi = std::max(hi, v);
       }
     }
-    std::printf("\n%s: min %.0f max %.0f (label %s / %s)", name, lo, hi, label.find("MINIMUM", "IMAGE")->c_str(),
-                label.find("MAXIMUM", "IMAGE")->c_str());
+    std::printf("\n%s: min %.0f max %.0f (label %s / %s)", name, lo, hi,
+                label.find("MINIMUM", "IMAGE")->c_str(), label.find("MAXIMUM", "IMAGE")->c_str());
     DOUBLES_EQUAL(label.number("MINIMUM", "IMAGE"), lo, 0.0);
     DOUBLES_EQUAL(label.number("MAXIMUM", "IMAGE"), hi, 0.0);
     const cv::Mat img8 = io::loadImage8(path);
     CHECK_EQUAL(CV_8UC1, img8.type());
     // The documented rule: round(v * 255 / 4095).
     const uint16_t v = img.at<uint16_t>(500, 600);
-    CHECK_EQUAL(static_cast<int>(std::lround(v * 255.0 / 4095.0)), static_cast<int>(img8.at<uint8_t>(500, 600)));
+    CHECK_EQUAL(static_cast<int>(std::lround(v * 255.0 / 4095.0)),
+                static_cast<int>(img8.at<uint8_t>(500, 600)));
   }
   std::printf("\n");
 }
@@ -142,10 +144,11 @@ TEST(ImageFile, LabelSizesAndPointersAreCheckedBeforeUse) {
   const std::string dir = test::scratchDir("image_file_limits");
   auto image = [&](const std::string& name, const std::string& record_bytes, const std::string& pointer,
                    const std::string& lines) {
-    std::string label = "PDS_VERSION_ID = PDS3\r\nRECORD_TYPE = FIXED_LENGTH\r\nRECORD_BYTES = " + record_bytes +
-                        "\r\n^IMAGE = " + pointer + "\r\nOBJECT = IMAGE\r\n  LINES = " + lines +
-                        "\r\n  LINE_SAMPLES = 8\r\n  SAMPLE_TYPE = UNSIGNED_INTEGER\r\n  SAMPLE_BITS = 8\r\n"
-                        "END_OBJECT = IMAGE\r\nEND\r\n";
+    std::string label =
+        "PDS_VERSION_ID = PDS3\r\nRECORD_TYPE = FIXED_LENGTH\r\nRECORD_BYTES = " + record_bytes +
+        "\r\n^IMAGE = " + pointer + "\r\nOBJECT = IMAGE\r\n  LINES = " + lines +
+        "\r\n  LINE_SAMPLES = 8\r\n  SAMPLE_TYPE = UNSIGNED_INTEGER\r\n  SAMPLE_BITS = 8\r\n"
+        "END_OBJECT = IMAGE\r\nEND\r\n";
     label.resize(512, ' ');
     std::ofstream(dir + "/" + name, std::ios::binary) << label << std::string(64, '\x7f');
     return dir + "/" + name;
@@ -180,8 +183,9 @@ TEST(ImageFile, LabelSizesAndPointersAreCheckedBeforeUse) {
 
 TEST(ImageFile, LoadsPngThroughOpenCv) {
   if (!test::requireSharedData("m2020-navcam-cahvore")) return;
-  const cv::Mat img = io::loadImage8(test::sharedDataDir() +
-                                     "/m2020-navcam-cahvore/NLF_0670_0726421423_362ECM_N0320604NCAM08111_01_095J01.png");
+  const cv::Mat img =
+      io::loadImage8(test::sharedDataDir() +
+                     "/m2020-navcam-cahvore/NLF_0670_0726421423_362ECM_N0320604NCAM08111_01_095J01.png");
   CHECK_EQUAL(CV_8UC1, img.type());
   CHECK_EQUAL(1288, img.cols);
   CHECK_EQUAL(968, img.rows);

@@ -13,7 +13,8 @@ using namespace areomap;
 
 namespace {
 
-constexpr const char* kHead = "PDS_VERSION_ID = PDS3\r\nOBJECT = IMAGE\r\n  LINES = 4\r\nEND_OBJECT = IMAGE\r\n";
+constexpr const char* kHead =
+    "PDS_VERSION_ID = PDS3\r\nOBJECT = IMAGE\r\n  LINES = 4\r\nEND_OBJECT = IMAGE\r\n";
 
 // "KEY = (0,\r\n1,\r\n2,\r\n…" over `lines` lines, closed by ")" or not.
 std::string longTuple(int lines, bool closed) {

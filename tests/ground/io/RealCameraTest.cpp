@@ -23,21 +23,27 @@ using namespace areomap;
 
 namespace {
 
-std::string data(const std::string& rel) { return test::sharedDataDir() + "/" + rel; }
+std::string data(const std::string& rel) {
+  return test::sharedDataDir() + "/" + rel;
+}
 
 const char* const kOpportunity[] = {"mer-opportunity-navcam-sol4087/1N491020376ILFCNY9P0706L0M1.IMG",
                                     "mer-opportunity-navcam-sol4087/1N491020519ILFCNY9P0706L0M1.IMG"};
-const char* const kSpiritLeft = "mer-spirit-navcam-sol767-labels/2N194463440EFFAPA0P0685L0M1_label_excerpt.lbl";
-const char* const kSpiritRight = "mer-spirit-navcam-sol767-labels/2N194463440EFFAPA0P0685R0M1_label_excerpt.lbl";
+const char* const kSpiritLeft =
+    "mer-spirit-navcam-sol767-labels/2N194463440EFFAPA0P0685L0M1_label_excerpt.lbl";
+const char* const kSpiritRight =
+    "mer-spirit-navcam-sol767-labels/2N194463440EFFAPA0P0685R0M1_label_excerpt.lbl";
 const char* const kM2020 =
     "m2020-navcam-cahvore/NLF_0670_0726421423_362ECM_N0320604NCAM08111_01_095J01-metadata.json";
-const char* const kM2020Png = "m2020-navcam-cahvore/NLF_0670_0726421423_362ECM_N0320604NCAM08111_01_095J01.png";
+const char* const kM2020Png =
+    "m2020-navcam-cahvore/NLF_0670_0726421423_362ECM_N0320604NCAM08111_01_095J01.png";
 const char* const kOracle = "cahvor-conversion-oracle/example_vectors.txt";
 
 bool haveAll() {
   return test::requireSharedData("mer-opportunity-navcam-sol4087") &&
          test::requireSharedData("mer-spirit-navcam-sol767-labels") &&
-         test::requireSharedData("m2020-navcam-cahvore") && test::requireSharedData("cahvor-conversion-oracle");
+         test::requireSharedData("m2020-navcam-cahvore") &&
+         test::requireSharedData("cahvor-conversion-oracle");
 }
 
 struct Named {
@@ -148,9 +154,10 @@ TEST(RealCameras, ReproducesTheConversionOracle) {
   const double f_mm = cam.io.f_px * kPixelMm;
   const double x0_mm = (cam.io.x0_px - 762 / 2.0) * kPixelMm;
   const double y0_mm = -(cam.io.y0_px - 506 / 2.0) * kPixelMm;
-  std::printf("\noracle: f %.5f mm (29.47677), x0 %.5f mm (-0.09574), y0 %.5f mm (-0.11072), omega %.4f (-72.2992) "
-              "phi %.4f (44.2841) kappa %.4f (166.5246) deg\n",
-              f_mm, x0_mm, y0_mm, cam.eo.omega_rad * kDeg, cam.eo.phi_rad * kDeg, cam.eo.kappa_rad * kDeg);
+  std::printf(
+      "\noracle: f %.5f mm (29.47677), x0 %.5f mm (-0.09574), y0 %.5f mm (-0.11072), omega %.4f (-72.2992) "
+      "phi %.4f (44.2841) kappa %.4f (166.5246) deg\n",
+      f_mm, x0_mm, y0_mm, cam.eo.omega_rad * kDeg, cam.eo.phi_rad * kDeg, cam.eo.kappa_rad * kDeg);
   DOUBLES_EQUAL(29.476767942900004, f_mm, 0.02);
   DOUBLES_EQUAL(-0.09574393805999998, x0_mm, 0.002);
   DOUBLES_EQUAL(-0.1107169477400001, y0_mm, 0.002);
