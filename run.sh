@@ -17,7 +17,10 @@ Makes (or reuses) a dataset, packs it into an LCM log, starts areomap-ground and
 URL of loopback (ttl=0, 8 MiB receive buffers), replays the log with stock lcm-logplayer, waits for the
 products and prints a summary; the last line is `products: <dir>`.
 
-  --dataset DIR   a real dataset folder (panorama.json); truth figures when DIR/truth exists
+  --dataset DIR   a real dataset folder (panorama.json; truth figures when DIR/truth exists), or a folder
+                  of frames as downloaded (raw-image records with their images, PDS3/VICAR/PDS4
+                  products): areomap-dataset makes a dataset per rover position, each is mapped, and a
+                  summary per position (pairs, ties, method 1, matching noise, DEM coverage) follows
   --preset NAME   areomap-sim preset when no --dataset (default navcam); reused from OUT/NAME when it was
                   made with the same options
   --out DIR       work and product folder (default out/); products in OUT/products-<name>
@@ -111,6 +114,62 @@ command -v lcm-logplayer > /dev/null || { echo "run: lcm-logplayer not found (De
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
 
+# map_frames: $DATASET is a folder of frames as downloaded (raw-image records, PDS3/VICAR/PDS4 products).
+# areomap-dataset turns them into OUT/BASE/datasets/<position>/ (index.json lists them and what it left
+# out); each position is then mapped by this script into OUT/BASE/<position>/products-<position>; a summary
+# per position follows, and the last line names OUT/BASE.
+map_frames() {
+  local base frames_out index rc=0
+  base=$(basename "$(cd "$DATASET" && pwd)")
+  frames_out="$OUT/$base"
+  [[ -x "$BIN/areomap-dataset" ]] || cmake --build "$BUILD" --target areomap-dataset -j2
+  echo "run: areomap-dataset $DATASET --out $frames_out/datasets"
+  "$BIN/areomap-dataset" "$DATASET" --out "$frames_out/datasets" || rc=$?
+  index="$frames_out/datasets/index.json"
+  [[ -f "$index" ]] || { echo "run: areomap-dataset wrote no $index" >&2; return 1; }
+  [[ $rc -eq 0 ]] || echo "run: areomap-dataset exited with $rc: some inputs were left out ($index \"skipped\")"
+  local names
+  mapfile -t names < <(python3 -c 'import json,sys; [print(d["name"]) for d in json.load(open(sys.argv[1]))["datasets"]]' "$index")
+  [[ ${#names[@]} -gt 0 ]] || { echo "run: no dataset could be made from $DATASET" >&2; return 1; }
+  local failed=0 name
+  for name in "${names[@]}"; do
+    echo "run: --- position $name"
+    "$0" --dataset "$frames_out/datasets/$name" --out "$frames_out/$name" --speed "$SPEED" \
+      --transport "$TRANSPORT" --build "$BUILD" | sed '/^products: /d' || { failed=$((failed + 1)); echo "run: position $name failed" >&2; }
+  done
+  python3 - "$frames_out" "${names[@]}" <<'PYEOF'
+import json, os, sys
+root, names = sys.argv[1], sys.argv[2:]
+def num(v, fmt):
+    return fmt % v if isinstance(v, (int, float)) else "n/a"
+print("=" * 78)
+index = json.load(open(os.path.join(root, "datasets", "index.json")))
+print("frames:    %d positions; %d inputs left out (%s)" % (
+    len(index.get("datasets", [])), len(index.get("skipped", [])), os.path.join(root, "datasets", "index.json")))
+for name in names:
+    products = os.path.join(root, name, "products-" + name)
+    try:
+        r = json.load(open(os.path.join(products, "report.json")))
+    except Exception as e:
+        print("%s: no products (%s)" % (name, e))
+        continue
+    m1 = r.get("method1_px", {})
+    tp = r.get("tie_points", {})
+    dense = r.get("dense", {})
+    noise = dense.get("match_sigma_px")
+    cov = r.get("dem_coverage", {})
+    print("%s: %s pairs, ties %s intra + %s inter (%s rejected), method 1 %s -> %s px, matching noise %s px, "
+          "DEM coverage %s" % (
+        name, r.get("stream", {}).get("pairs", len(r.get("pairs", [])) or "n/a"), tp.get("intra"), tp.get("inter"),
+        tp.get("rejected"), num(m1.get("before", {}).get("dist"), "%.3f"), num(m1.get("after", {}).get("dist"), "%.3f"),
+        num(noise, "%.3f"), num(cov.get("fraction"), "%.2f") if isinstance(cov, dict) else num(cov, "%.2f")))
+    print("    products: %s" % products)
+print("=" * 78)
+PYEOF
+  echo "products: $frames_out"
+  [[ $failed -eq 0 ]]
+}
+
 # 1. The dataset (INDEX: panorama.json, or traverse.json for a traverse).
 INDEX=panorama.json
 [[ $TRAVERSE -eq 1 ]] && INDEX=traverse.json
@@ -130,6 +189,13 @@ simulate() {
   echo "$SIM_OPTIONS" > "$DATASET.options"
   echo "run: dataset made in $(( $(date +%s) - start )) s"
 }
+# A folder of downloaded frames (no panorama.json, no traverse.json): areomap-dataset makes one dataset per
+# rover position, and each is mapped by the job below (a run of this script per position).
+if [[ -n "$DATASET" && -d "$DATASET" && ! -f "$DATASET/panorama.json" && ! -f "$DATASET/traverse.json" \
+      && "$TRANSPORT" != netns-inner ]]; then
+  map_frames
+  exit $?
+fi
 if [[ -n "$DATASET" ]]; then
   [[ -f "$DATASET/$INDEX" ]] || { echo "run: $DATASET/$INDEX: no such file" >&2; exit 1; }
   DATASET=$(cd "$DATASET" && pwd)

@@ -1,0 +1,396 @@
+// Real Mars stereo pairs end to end, checked by independent consistency (no truth exists for them):
+// areomap-dataset on ../shared/data/m2020-navcam-stereo-pairs (the raw-image service's records as served),
+// then areomap-ground --dataset on every rover position it makes. For each position:
+//  - the tie points, triangulated here from their observations through the adjusted models (a least-squares
+//    intersection of this file's own, not the pass's), reproject with an RMS of at most 0.3 px; the same
+//    figure through the a-priori models is printed beside it;
+//  - the DEM agrees with those independently triangulated tie points: median |dz| <= 2 cm at 2-5 m and
+//    <= 5 cm at 5-10 m from the cameras (horizontal range);
+//  - the DEM covers >= 90 % of the cells that both cameras of a pair see at 2-10 m (a cell is seen when its
+//    centre, on the plane fitted to the triangulated ties, projects into both images);
+//  - mapped back into the rover's own frame with the record's attitude and xyz, the terrain 2-4 m in front
+//    of the rover lies within 0.3 m of the rover frame's ground level (z = 0: the rover stands on what it
+//    sees; a check of the frames, of the attitude's convention and of the site-frame transform).
+// Skipped (SKIP line, pass) when ../shared/data is absent.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include "firmware_core/camera/CameraModel.hpp"
+#include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/DemRaster.hpp"
+#include "ground/io/CameraFile.hpp"
+#include "tests/support/TestData.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+namespace {
+
+using areomap::CameraModel;
+using areomap::Vec2;
+using areomap::Vec3;
+using json = nlohmann::json;
+
+struct Observation {
+  std::string stem;
+  Vec2 pixel;
+};
+
+struct Position {
+  std::string name;
+  std::string dataset;   // the dataset folder areomap-dataset wrote
+  std::string products;  // areomap-ground --dataset's output folder
+  int ground_rc = -1;
+  std::map<std::string, CameraModel> apriori;   // stem -> a-priori model (site frame)
+  std::map<std::string, CameraModel> adjusted;  // stem -> adjusted model
+  std::vector<std::pair<std::string, std::string>> pairs;  // left stem, right stem
+  std::map<long long, std::vector<Observation>> ties;      // the adjustment's tie points
+  Eigen::Matrix3d rover_to_site = Eigen::Matrix3d::Identity();
+  Vec3 rover_in_site = Vec3::Zero();
+  bool has_rover_pose = false;
+};
+
+json readJson(const std::string& path) {
+  std::ifstream in(path);
+  return json::parse(in, nullptr, false);
+}
+
+// "(a,b,c,...)" or a JSON array -> numbers.
+std::vector<double> tupleOf(const json& value) {
+  std::vector<double> out;
+  if (value.is_array()) {
+    for (const json& v : value) out.push_back(v.get<double>());
+    return out;
+  }
+  if (!value.is_string()) return out;
+  std::string s = value.get<std::string>();
+  std::replace(s.begin(), s.end(), '(', ' ');
+  std::replace(s.begin(), s.end(), ')', ' ');
+  std::replace(s.begin(), s.end(), ',', ' ');
+  std::istringstream in(s);
+  double d = 0.0;
+  while (in >> d) out.push_back(d);
+  return out;
+}
+
+// The rover's pose in its site frame from the raw-image record the left image came from: attitude
+// (s, v1, v2, v3) rotates rover-frame vectors into the site frame, xyz is the rover's origin in the site.
+bool roverPoseOf(const std::string& record_path, Eigen::Matrix3d& rover_to_site, Vec3& rover_in_site) {
+  const json r = readJson(record_path);
+  if (r.is_discarded()) return false;
+  const json& ext = r.contains("extended") ? r["extended"] : r;
+  const std::vector<double> q = r.contains("attitude") ? tupleOf(r["attitude"]) : std::vector<double>{};
+  const std::vector<double> xyz = ext.contains("xyz") ? tupleOf(ext["xyz"]) : std::vector<double>{};
+  if (q.size() != 4 || xyz.size() != 3) return false;
+  rover_to_site = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+  rover_in_site = Vec3(xyz[0], xyz[1], xyz[2]);
+  return true;
+}
+
+// tiepoints.csv: point,image,sample_px,line_px[,kind[,status]]; observations whose status says the
+// adjustment left them out are skipped.
+std::map<long long, std::vector<Observation>> readTies(const std::string& path) {
+  std::map<long long, std::vector<Observation>> ties;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  {
+    std::istringstream h(line);
+    std::string f;
+    while (std::getline(h, f, ',')) header.push_back(f);
+  }
+  const auto status_col = std::find(header.begin(), header.end(), "status") - header.begin();
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::istringstream l(line);
+    std::string x;
+    while (std::getline(l, x, ',')) f.push_back(x);
+    if (f.size() < 4) continue;
+    if (status_col < static_cast<long>(f.size()) && f[status_col] != "kept") continue;
+    ties[std::stoll(f[0])].push_back({f[1], Vec2(std::stod(f[2]), std::stod(f[3]))});
+  }
+  return ties;
+}
+
+// Least-squares intersection of a tie point's rays through `models`: Gauss-Newton on the reprojection
+// error from the midpoint of the first two rays. false when fewer than two observations have a model or
+// the rays do not meet in front of the cameras.
+bool triangulate(const std::vector<Observation>& obs, const std::map<std::string, CameraModel>& models, Vec3& x) {
+  std::vector<std::pair<const CameraModel*, Vec2>> rays;
+  for (const Observation& o : obs) {
+    auto it = models.find(o.stem);
+    if (it != models.end()) rays.push_back({&it->second, o.pixel});
+  }
+  if (rays.size() < 2) return false;
+  Vec3 o0, d0, o1, d1;
+  if (areomap::unproject(*rays[0].first, rays[0].second, o0, d0) != areomap::Status::kOk ||
+      areomap::unproject(*rays[1].first, rays[1].second, o1, d1) != areomap::Status::kOk)
+    return false;
+  // Closest points of the two rays.
+  const Vec3 w = o0 - o1;
+  const double b = d0.dot(d1), d = d0.dot(w), e = d1.dot(w), den = 1.0 - b * b;
+  if (den < 1e-12) return false;
+  const double s = (b * e - d) / den, t = (e - b * d) / den;
+  if (s <= 0.0 || t <= 0.0) return false;
+  x = 0.5 * ((o0 + s * d0) + (o1 + t * d1));
+  for (int iter = 0; iter < 20; ++iter) {
+    Eigen::Matrix3d n = Eigen::Matrix3d::Zero();
+    Vec3 g = Vec3::Zero();
+    for (const auto& [model, pixel] : rays) {
+      Vec2 p;
+      areomap::Mat2x3 j;
+      if (areomap::project(*model, x, p, &j) != areomap::Status::kOk) return false;
+      n += j.transpose() * j;
+      g += j.transpose() * (pixel - p);
+    }
+    const Vec3 step = n.ldlt().solve(g);
+    x += step;
+    if (step.norm() < 1e-9) break;
+  }
+  return std::isfinite(x.norm());
+}
+
+// Reprojection residuals (px) of every observation of every point that triangulates through `models`.
+std::vector<double> residuals(const Position& p, const std::map<std::string, CameraModel>& models) {
+  std::vector<double> r;
+  for (const auto& [id, obs] : p.ties) {
+    Vec3 x;
+    if (!triangulate(obs, models, x)) continue;
+    for (const Observation& o : obs) {
+      auto it = models.find(o.stem);
+      Vec2 px;
+      if (it == models.end() || areomap::project(it->second, x, px) != areomap::Status::kOk) continue;
+      r.push_back((px - o.pixel).norm());
+    }
+  }
+  return r;
+}
+
+double rms(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v) s += x * x;
+  return v.empty() ? NAN : std::sqrt(s / static_cast<double>(v.size()));
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+bool inImage(const CameraModel& m, const Vec3& x) {
+  Vec2 p;
+  return areomap::project(m, x, p) == areomap::Status::kOk && p.x() >= -0.5 && p.y() >= -0.5 &&
+         p.x() <= m.width - 0.5 && p.y() <= m.height - 0.5;
+}
+
+// The elevation (up) of the DEM cell that holds site point (x north, y east); false for nodata or outside.
+bool demAt(const areomap::DemGrid& dem, double north, double east, double& elevation) {
+  const int col = static_cast<int>(std::floor((east - dem.east0_m) / dem.cell_m));
+  const int row = static_cast<int>(std::floor((dem.north0_m - north) / dem.cell_m));
+  if (col < 0 || row < 0 || col >= dem.cols || row >= dem.rows) return false;
+  const float v = dem.at(col, row);
+  if (v == dem.nodata || !std::isfinite(v)) return false;
+  elevation = v;
+  return true;
+}
+
+// Every rover position of the shared pairs, made once per process.
+const std::vector<Position>& positions() {
+  static std::vector<Position> all;
+  static bool made = false;
+  if (made) return all;
+  made = true;
+  const std::string shared = areomap::test::sharedDataDir() + "/m2020-navcam-stereo-pairs";
+  const std::string scratch = areomap::test::scratchDir("real-pairs");
+  const int rc = areomap::test::runTool("areomap-dataset", "'" + shared + "' --out '" + scratch + "/datasets'");
+  if (rc != 0) {
+    std::printf("\n  areomap-dataset exited %d\n", rc);
+    return all;
+  }
+  const json index = readJson(scratch + "/datasets/index.json");
+  if (index.is_discarded() || !index.contains("datasets")) return all;
+  for (const json& d : index["datasets"]) {
+    Position p;
+    p.name = d.value("name", "");
+    std::string folder = d.value("folder", p.name);
+    p.dataset = folder.rfind('/', 0) == 0 ? folder : scratch + "/datasets/" + folder;
+    p.products = scratch + "/products-" + p.name;
+    p.ground_rc = areomap::test::runTool("areomap-ground", "--dataset '" + p.dataset + "' --out '" + p.products + "'");
+    const areomap::Dataset ds = areomap::readDataset(p.dataset);
+    const json pano = readJson(p.dataset + "/panorama.json");
+    for (std::size_t k = 0; k < ds.pairs.size(); ++k) {
+      const areomap::Pair& pair = ds.pairs[k];
+      if (!pair.right) continue;
+      p.pairs.push_back({pair.left.stem, pair.right->stem});
+      for (const areomap::ImageRef* ref : {&pair.left, &*pair.right}) {
+        p.apriori[ref->stem] = areomap::io::readCameraModelForImage(ref->model_path, ref->image_path);
+        const std::string adjusted = p.products + "/models/" + ref->stem + ".cahvor";
+        if (areomap::test::fileExists(adjusted))
+          p.adjusted[ref->stem] = areomap::io::readCameraModelFile(adjusted, p.apriori[ref->stem].width,
+                                                                   p.apriori[ref->stem].height);
+      }
+      const json& left = pano["pairs"][k]["left"];
+      if (!p.has_rover_pose && left.contains("source")) {
+        std::string src = left["source"].get<std::string>();
+        if (src.rfind('/', 0) != 0) src = shared + "/" + src.substr(src.find_last_of('/') + 1);
+        p.has_rover_pose = roverPoseOf(src, p.rover_to_site, p.rover_in_site);
+      }
+    }
+    p.ties = readTies(p.products + "/tiepoints.csv");
+    all.push_back(std::move(p));
+  }
+  return all;
+}
+
+bool haveData() { return areomap::test::requireSharedData("m2020-navcam-stereo-pairs"); }
+
+}  // namespace
+
+TEST_GROUP(RealPairs){};
+
+TEST(RealPairs, EveryPositionIsMappedWithProducts) {
+  if (!haveData()) return;
+  const std::vector<Position>& all = positions();
+  CHECK_TEXT(!all.empty(), "areomap-dataset made no dataset of the shared pairs");
+  for (const Position& p : all) {
+    CHECK_EQUAL_TEXT(0, p.ground_rc, ("areomap-ground --dataset " + p.dataset).c_str());
+    for (const char* f : {"dem.tif", "dem_sigma.tif", "ortho.tif", "report.json", "tiepoints.csv"})
+      CHECK_TEXT(areomap::test::fileExists(p.products + "/" + f), (p.name + ": " + f).c_str());
+    CHECK_EQUAL_TEXT(p.apriori.size(), p.adjusted.size(), (p.name + ": an adjusted model per image").c_str());
+  }
+}
+
+TEST(RealPairs, TiesReprojectAfterTheAdjustment) {
+  if (!haveData()) return;
+  for (const Position& p : positions()) {
+    if (p.ground_rc != 0) continue;
+    const std::vector<double> after = residuals(p, p.adjusted);
+    const std::vector<double> before = residuals(p, p.apriori);
+    std::printf("\n  %s: %zu tie points; reprojection RMS %.3f px a priori, %.3f px adjusted (%zu observations)",
+                p.name.c_str(), p.ties.size(), rms(before), rms(after), after.size());
+    CHECK_TEXT(after.size() >= 20, (p.name + ": fewer than 20 tie observations triangulate").c_str());
+    CHECK_TEXT(rms(after) <= 0.3, (p.name + ": tie reprojection RMS after the adjustment above 0.3 px").c_str());
+  }
+}
+
+TEST(RealPairs, DemAgreesWithIndependentlyTriangulatedTies) {
+  if (!haveData()) return;
+  for (const Position& p : positions()) {
+    if (p.ground_rc != 0) continue;
+    const areomap::DemGrid dem = areomap::readDemGeoTiff(p.products + "/dem.tif");
+    Vec3 centre = Vec3::Zero();
+    for (const auto& [stem, m] : p.adjusted) centre += m.c;
+    centre /= static_cast<double>(p.adjusted.size());
+    std::vector<double> near, far;
+    for (const auto& [id, obs] : p.ties) {
+      Vec3 x;
+      double z = 0.0;
+      if (!triangulate(obs, p.adjusted, x) || !demAt(dem, x.x(), x.y(), z)) continue;
+      const double range = std::hypot(x.x() - centre.x(), x.y() - centre.y());
+      const double dz = std::abs(z - (-x.z()));
+      if (range >= 2.0 && range < 5.0) near.push_back(dz);
+      if (range >= 5.0 && range <= 10.0) far.push_back(dz);
+    }
+    std::printf("\n  %s: DEM - tie points median |dz| %.3f m at 2-5 m (%zu), %.3f m at 5-10 m (%zu)", p.name.c_str(),
+                median(near), near.size(), median(far), far.size());
+    CHECK_TEXT(near.size() + far.size() >= 10, (p.name + ": fewer than 10 tie points on the DEM at 2-10 m").c_str());
+    if (near.size() >= 5) CHECK_TEXT(median(near) <= 0.02, (p.name + ": DEM vs ties at 2-5 m").c_str());
+    if (far.size() >= 5) CHECK_TEXT(median(far) <= 0.05, (p.name + ": DEM vs ties at 5-10 m").c_str());
+  }
+}
+
+TEST(RealPairs, DemCoversWhatBothCamerasSee) {
+  if (!haveData()) return;
+  for (const Position& p : positions()) {
+    if (p.ground_rc != 0) continue;
+    const areomap::DemGrid dem = areomap::readDemGeoTiff(p.products + "/dem.tif");
+    // The ground plane of the triangulated ties (least squares z = a + b x + c y, twice with the points
+    // beyond 3 robust sigmas left out), on which unseen-by-the-DEM cells are placed.
+    std::vector<Vec3> pts;
+    for (const auto& [id, obs] : p.ties) {
+      Vec3 x;
+      if (triangulate(obs, p.adjusted, x)) pts.push_back(x);
+    }
+    CHECK_TEXT(pts.size() >= 10, (p.name + ": too few tie points for the ground plane").c_str());
+    Eigen::Vector3d plane(0, 0, 0);
+    std::vector<bool> use(pts.size(), true);
+    for (int round = 0; round < 3; ++round) {
+      Eigen::Matrix3d n = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      for (std::size_t k = 0; k < pts.size(); ++k) {
+        if (!use[k]) continue;
+        const Eigen::Vector3d a(1.0, pts[k].x(), pts[k].y());
+        n += a * a.transpose();
+        g += a * pts[k].z();
+      }
+      plane = n.ldlt().solve(g);
+      std::vector<double> res;
+      for (const Vec3& x : pts) res.push_back(std::abs(x.z() - plane.dot(Eigen::Vector3d(1.0, x.x(), x.y()))));
+      const double s = 1.4826 * median(res);
+      for (std::size_t k = 0; k < pts.size(); ++k) use[k] = res[k] <= std::max(3.0 * s, 0.05);
+    }
+    long seen = 0, filled = 0;
+    for (const auto& [ls, rs] : p.pairs) {
+      const CameraModel& l = p.adjusted.at(ls);
+      const CameraModel& r = p.adjusted.at(rs);
+      const double cell = dem.cell_m;
+      for (double dn = -10.0; dn <= 10.0; dn += cell) {
+        for (double de = -10.0; de <= 10.0; de += cell) {
+          const double range = std::hypot(dn, de);
+          if (range < 2.0 || range > 10.0) continue;
+          // Cell centres of the DEM's own lattice.
+          const double north = dem.north0_m - (std::floor((dem.north0_m - (l.c.x() + dn)) / cell) + 0.5) * cell;
+          const double east = dem.east0_m + (std::floor(((l.c.y() + de) - dem.east0_m) / cell) + 0.5) * cell;
+          const Vec3 x(north, east, plane.dot(Eigen::Vector3d(1.0, north, east)));
+          if (!inImage(l, x) || !inImage(r, x)) continue;
+          ++seen;
+          double z = 0.0;
+          if (demAt(dem, north, east, z)) ++filled;
+        }
+      }
+    }
+    const double coverage = seen > 0 ? static_cast<double>(filled) / static_cast<double>(seen) : 0.0;
+    std::printf("\n  %s: DEM covers %.1f %% of %ld cells both cameras see at 2-10 m", p.name.c_str(), 100 * coverage, seen);
+    CHECK_TEXT(seen > 0, (p.name + ": no cell seen by both cameras").c_str());
+    CHECK_TEXT(coverage >= 0.9, (p.name + ": DEM coverage below 90 %").c_str());
+  }
+}
+
+TEST(RealPairs, TerrainLiesAtTheRoverFramesGroundLevel) {
+  if (!haveData()) return;
+  int checked = 0;
+  for (const Position& p : positions()) {
+    if (p.ground_rc != 0 || !p.has_rover_pose) continue;
+    const areomap::DemGrid dem = areomap::readDemGeoTiff(p.products + "/dem.tif");
+    std::vector<double> z_rover;
+    for (int row = 0; row < dem.rows; ++row) {
+      for (int col = 0; col < dem.cols; ++col) {
+        const float v = dem.at(col, row);
+        if (v == dem.nodata || !std::isfinite(v)) continue;
+        const Vec3 site(dem.northOfRow(row), dem.eastOfCol(col), -static_cast<double>(v));
+        const Vec3 rover = p.rover_to_site.transpose() * (site - p.rover_in_site);
+        if (rover.x() >= 2.0 && rover.x() <= 4.0 && std::abs(rover.y()) <= 2.0) z_rover.push_back(rover.z());
+      }
+    }
+    if (z_rover.size() < 20) {
+      std::printf("\n  %s: no terrain 2-4 m in front of the rover in its DEM (its cameras look elsewhere)", p.name.c_str());
+      continue;
+    }
+    const double zm = median(z_rover);
+    std::printf("\n  %s: terrain 2-4 m in front of the rover at rover z %.3f m (median of %zu cells)", p.name.c_str(),
+                zm, z_rover.size());
+    CHECK_TEXT(std::abs(zm) <= 0.3, (p.name + ": the terrain in front is not at the rover's ground level").c_str());
+    ++checked;
+  }
+  CHECK_TEXT(checked >= 1, "no position sees the terrain in front of the rover");
+}
