@@ -80,7 +80,8 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
   t0 = now();
   DenseOptions dopt;
   dopt.min_disparity_px = 0;
-  dopt.max_disparity_px = options.max_disparity_px;
+  dopt.max_disparity_px = std::max(options.max_disparity_px,
+                                   static_cast<int>(std::ceil(disparityAtRange(rect, options.min_range_m))));
   std::vector<RowRange> ranges;
   if (ties.size() >= 3)
     ranges = parallaxRowRanges(ties, l.rows, dopt.min_disparity_px, dopt.max_disparity_px);

@@ -16,7 +16,10 @@
 namespace areomap::dense {
 
 struct PairCloudOptions {
+  // The disparity search reaches at least this, and at least the disparity of min_range_m in the rectified
+  // pair (disparityAtRange): a larger or wider frame than the rover's needs more than a fixed bound.
   int max_disparity_px = 192;
+  double min_range_m = 1.0;  // the nearest surface searched, as the tie matcher's (StereoParams::min_range_m)
   double match_sigma_px = 0.15;        // the fine matcher's sub-pixel sigma (DenseMatcher.hpp kMatchSigmaPx)
   double max_range_m = 60.0;           // the DEM's range: support_range_m is computed for it
   double min_matched_fraction = 0.02;  // fewer valid matches: the pair has no texture (an error)

@@ -152,6 +152,10 @@ RectifiedPair rectifyPair(const CameraModel& left, const CameraModel& right) {
   return out;
 }
 
+double disparityAtRange(const RectifiedPair& rectified, double range_m) {
+  return cahvInternal(rectified.left).hs_px * rectified.baseline_m / range_m;
+}
+
 cv::Mat remapToRectified(const cv::Mat& image, const cv::Mat& map) {
   cv::Mat out;
   cv::remap(image, out, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));

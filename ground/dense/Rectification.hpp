@@ -35,6 +35,9 @@ struct RectifiedPair {
 // baseline, baseline along the optical axis, missing size, no common row).
 RectifiedPair rectifyPair(const CameraModel& left, const CameraModel& right);
 
+// The disparity (rectified pixels) of a point at `range_m` straight ahead: hs b / range.
+double disparityAtRange(const RectifiedPair& rectified, double range_m);
+
 // Resamples an 8-bit image through a map of rectifyPair (bilinear; 0 outside the original).
 cv::Mat remapToRectified(const cv::Mat& image, const cv::Mat& map);
 

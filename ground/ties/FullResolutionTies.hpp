@@ -9,12 +9,16 @@
 //      and inter-stereo ties, each 11 x 11 template covering k x 11 full-resolution pixels;
 //   2. refinement: each tie point's first observation (the left image of the pair that found it) is taken
 //      to the nearest full-resolution pixel, and every other observation of the point is matched again at
-//      full resolution to that pixel's 11 x 11 template: NCC at every integer offset within k + 1 pixels of
-//      the binned match mapped up, sub-pixel peak (parabolas), and the match searched back must land within
-//      the matcher's left-right tolerance of the template's pixel. An observation whose peak lies on the
-//      search window's border (the binned match was not the same surface point), scores below the
-//      matcher's min_ncc or fails the back-match is left out, and a point left with fewer than two
-//      observations is left out whole.
+//      full resolution to that pixel's template of k x 11 pixels a side (the surface the binned template
+//      compared, now at full detail): normalised correlation at every integer offset within k + 1 pixels of
+//      the binned match mapped up, its sub-pixel peak, the match searched back (it must land within the
+//      matcher's left-right tolerance of the template's pixel), then least-squares matching with an affine
+//      map and a radiometric gain and offset from that peak (the foreshortening between the views over a
+//      template of k x 11 pixels biases a plain correlation peak by tenths of a pixel at near range). An
+//      observation whose peak lies on the search window's border (the binned match was not the same surface
+//      point), scores below the matcher's min_ncc, fails the back-match or whose least-squares fit does not
+//      converge near the peak is left out, and a point left with fewer than two observations is left out
+//      whole.
 // Binning rather than windows of the full frame keeps one matcher run over the whole frame (one parallax
 // curve, one gridding, inter-stereo prediction through one coarse DEM per pair) and every tie at full
 // resolution precision; with k = 1 (every image within capacity) nothing is binned or refined.

@@ -10,6 +10,7 @@
 
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -226,6 +227,99 @@ RectificationCover rectificationCover(const CameraModel& left, const CameraModel
   }
   c.inside = c.overlap > 0 ? static_cast<double>(kept) / c.overlap : 0.0;
   return c;
+}
+
+namespace {
+
+double lattice(int64_t i, int64_t j, unsigned seed) {
+  uint64_t h = static_cast<uint64_t>(i) * 0x9E3779B97F4A7C15ull ^
+               static_cast<uint64_t>(j) * 0xC2B2AE3D27D4EB4Full ^ (static_cast<uint64_t>(seed) << 32);
+  h ^= h >> 31;
+  h *= 0xBF58476D1CE4E5B9ull;
+  h ^= h >> 29;
+  return static_cast<double>(h & 0xFFFFFF) / 0xFFFFFF;
+}
+
+double valueNoise(double x, double y, unsigned seed) {
+  const double fx = std::floor(x), fy = std::floor(y);
+  const int64_t i = static_cast<int64_t>(fx), j = static_cast<int64_t>(fy);
+  double u = x - fx, v = y - fy;
+  u = u * u * (3.0 - 2.0 * u);
+  v = v * v * (3.0 - 2.0 * v);
+  return (1 - v) * ((1 - u) * lattice(i, j, seed) + u * lattice(i + 1, j, seed)) +
+         v * ((1 - u) * lattice(i, j + 1, seed) + u * lattice(i + 1, j + 1, seed));
+}
+
+// An octave finer than two pixel footprints fades to its mean (0.5): a camera integrates over its pixel,
+// and point samples of finer detail would alias differently in each view.
+double texture(double x, double y, double footprint_m, unsigned seed) {
+  const double cells_m[4] = {0.01, 0.03, 0.1, 0.3};
+  const double weight[4] = {0.35, 0.3, 0.2, 0.15};
+  double t = 0.0;
+  for (int o = 0; o < 4; ++o) {
+    const double keep = std::clamp(cells_m[o] / (2.0 * footprint_m) - 1.0, 0.0, 1.0);
+    t += weight[o] * (keep * valueNoise(x / cells_m[o], y / cells_m[o], seed + o) + (1.0 - keep) * 0.5);
+  }
+  return t;
+}
+
+}  // namespace
+
+bool planePoint(const CameraModel& model, const Vec2& pixel, double plane_z_m, Vec3& point) {
+  Vec3 o, d;
+  if (!ok(unproject(model, pixel, o, d)) || d.z() * (plane_z_m - o.z()) <= 0.0) return false;
+  const double t = (plane_z_m - o.z()) / d.z();
+  if (t > 200.0) return false;  // beyond the scene
+  point = o + t * d;
+  return true;
+}
+
+cv::Mat renderPlane(const CameraModel& model, double plane_z_m, unsigned seed) {
+  constexpr int kStep = 4;
+  const int gw = model.width / kStep + 2, gh = model.height / kStep + 2;
+  cv::Mat grid(gh, gw, CV_64FC2, cv::Scalar(NAN, NAN));
+  cv::parallel_for_(cv::Range(0, gh), [&](const cv::Range& r) {
+    for (int gy = r.start; gy < r.end; ++gy) {
+      for (int gx = 0; gx < gw; ++gx) {
+        Vec3 p;
+        if (planePoint(model, Vec2(gx * kStep, gy * kStep), plane_z_m, p))
+          grid.at<cv::Vec2d>(gy, gx) = cv::Vec2d(p.x(), p.y());
+      }
+    }
+  });
+  cv::Mat image(model.height, model.width, CV_8U);
+  cv::parallel_for_(cv::Range(0, model.height), [&](const cv::Range& r) {
+    for (int y = r.start; y < r.end; ++y) {
+      for (int x = 0; x < model.width; ++x) {
+        const int gx = x / kStep, gy = y / kStep;
+        const double u = static_cast<double>(x - gx * kStep) / kStep,
+                     v = static_cast<double>(y - gy * kStep) / kStep;
+        const cv::Vec2d a = grid.at<cv::Vec2d>(gy, gx), b = grid.at<cv::Vec2d>(gy, gx + 1);
+        const cv::Vec2d c = grid.at<cv::Vec2d>(gy + 1, gx), d = grid.at<cv::Vec2d>(gy + 1, gx + 1);
+        double px = 0.0, py = 0.0;
+        // The ground size of a pixel, from the grid cell's sides (2 cm where the cell leaves the plane).
+        const double footprint =
+            std::isnan(a[0]) || std::isnan(b[0]) || std::isnan(c[0])
+                ? 0.02
+                : std::max(std::hypot(b[0] - a[0], b[1] - a[1]), std::hypot(c[0] - a[0], c[1] - a[1])) /
+                      kStep;
+        if (std::isnan(a[0]) || std::isnan(b[0]) || std::isnan(c[0]) || std::isnan(d[0])) {
+          Vec3 p;
+          if (!planePoint(model, Vec2(x, y), plane_z_m, p)) {
+            image.at<uint8_t>(y, x) = 200;  // sky
+            continue;
+          }
+          px = p.x();
+          py = p.y();
+        } else {
+          px = (1 - v) * ((1 - u) * a[0] + u * b[0]) + v * ((1 - u) * c[0] + u * d[0]);
+          py = (1 - v) * ((1 - u) * a[1] + u * b[1]) + v * ((1 - u) * c[1] + u * d[1]);
+        }
+        image.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(30.0 + 180.0 * texture(px, py, footprint, seed));
+      }
+    }
+  });
+  return image;
 }
 
 }  // namespace areomap::test

@@ -52,6 +52,16 @@ ModelComparison compareModels(const FeatureMatches& m, const CameraModel& a_left
 double demCoverage(const DemGrid& dem, const CameraModel& left, const CameraModel& right, double lo_m,
                    double hi_m);
 
+// A synthetic image of the textured plane Z = plane_z_m (site frame, Z down) through `model`
+// (model.width x model.height, 8-bit): value noise of four octaves (1 cm to 30 cm) from `seed`, the same
+// surface for every camera; rays that miss the plane (above the horizon) see a flat sky. Each pixel's
+// ground point is exact on a grid of every 4th pixel and bilinear between (smooth at that scale), so that
+// a 5120 x 3840 frame renders in seconds.
+cv::Mat renderPlane(const CameraModel& model, double plane_z_m, unsigned seed);
+
+// The point of the plane Z = plane_z_m on the ray of `pixel`; false when the ray misses it.
+bool planePoint(const CameraModel& model, const Vec2& pixel, double plane_z_m, Vec3& point);
+
 struct RectificationCover {
   int width = 0, height = 0;  // of the rectified pair
   int overlap = 0;      // original left pixels (every 4th) whose ray at `range_m` falls in the right image
