@@ -105,22 +105,36 @@ bool leastSquaresMatch(const cv::Mat& t, const cv::Mat& image, Vec2& xy) {
 }
 
 // One observation matched again at full resolution to the reference template `t` (centred on (rx, ry) of
-// `ref`); false when it is left out.
+// `ref`); false when it is left out, with the reason counted in `counts`.
 bool refineOne(const cv::Mat& t, const cv::Mat& ref, int32_t rx, int32_t ry, const cv::Mat& image,
-               const Vec2& predicted_px, int32_t radius, const RefineParams& params, Vec2& refined_px) {
+               const Vec2& predicted_px, int32_t radius, const RefineParams& params, Vec2& refined_px,
+               RefineCounts& counts) {
   const int32_t cx = static_cast<int32_t>(std::lround(predicted_px.x()));
   const int32_t cy = static_cast<int32_t>(std::lround(predicted_px.y()));
   const Peak p = bestWithin(t, image, cx, cy, radius);
-  if (!p.found || p.score < params.min_ncc) return false;
-  if (std::abs(p.x - cx) == radius || std::abs(p.y - cy) == radius) return false;  // not a peak inside
+  if (!p.found || p.score < params.min_ncc) {
+    ++counts.low_score;
+    return false;
+  }
+  if (std::abs(p.x - cx) == radius || std::abs(p.y - cy) == radius) {  // not a peak inside
+    ++counts.border;
+    return false;
+  }
   cv::Mat back;
   cv::getRectSubPix(image, t.size(), cv::Point2f(static_cast<float>(p.sub_x), static_cast<float>(p.sub_y)),
                     back);
   const Peak b = bestWithin(back, ref, rx, ry, radius);
-  if (!b.found || std::abs(b.x - rx) > params.lr_tolerance_px || std::abs(b.y - ry) > params.lr_tolerance_px)
+  if (!b.found || std::abs(b.x - rx) > params.lr_tolerance_px ||
+      std::abs(b.y - ry) > params.lr_tolerance_px) {
+    ++counts.back_match;
     return false;
+  }
   refined_px = Vec2(p.sub_x, p.sub_y);
-  return leastSquaresMatch(t, image, refined_px);
+  if (!leastSquaresMatch(t, image, refined_px)) {
+    ++counts.least_squares;
+    return false;
+  }
+  return true;
 }
 
 // The reference template of a point: the square of k times the matcher's template side about (x, y) (the
@@ -193,6 +207,35 @@ RefineCounts refineAtFullResolution(const std::vector<cv::Mat>& images, int32_t 
       refined[first[p]] = reference[p].cast<double>();
     }
   }
+  // The correlation floor at full resolution. Every match here was verified at the binned scale (the
+  // matcher's min_ncc, left-right and parallax checks); full resolution adds detail and sensor noise, which
+  // lower the same surface's score by an amount the data show: the floor is the lower of min_ncc and the
+  // peak scores' median less 4 robust standard deviations (1.4826 MAD), so that only the scores that stand
+  // out below the rest are left out.
+  std::vector<double> scores;
+  for (std::size_t i = 0; i < n_obs; ++i) {
+    const TieObservation& o = observations[i];
+    const int32_t p = o.point;
+    if (p < 0 || p >= static_cast<int32_t>(points.size()) || first[p] == static_cast<int32_t>(i) ||
+        !usable[p])
+      continue;
+    const cv::Mat* im = imageOf(o.image);
+    if (im == nullptr) continue;
+    const Peak peak =
+        bestWithin(templates[p], *im, static_cast<int32_t>(std::lround(fullResolutionPx(o.sample_px, k))),
+                   static_cast<int32_t>(std::lround(fullResolutionPx(o.line_px, k))), radius);
+    if (peak.found) scores.push_back(peak.score);
+  }
+  RefineParams used = params;
+  if (!scores.empty()) {
+    std::vector<double> dev(scores.size());
+    std::nth_element(scores.begin(), scores.begin() + scores.size() / 2, scores.end());
+    const double median = scores[scores.size() / 2];
+    for (std::size_t i = 0; i < scores.size(); ++i) dev[i] = std::fabs(scores[i] - median);
+    std::nth_element(dev.begin(), dev.begin() + dev.size() / 2, dev.end());
+    used.min_ncc = std::max(0.0, std::min(params.min_ncc, median - 4.0 * 1.4826 * dev[dev.size() / 2]));
+  }
+  counts.score_floor = used.min_ncc;
   for (std::size_t i = 0; i < n_obs; ++i) {
     const TieObservation& o = observations[i];
     const int32_t p = o.point;
@@ -202,8 +245,8 @@ RefineCounts refineAtFullResolution(const std::vector<cv::Mat>& images, int32_t 
     Vec2 px;
     if (usable[p] && im != nullptr && ref != nullptr &&
         refineOne(templates[p], *ref, reference[p].x(), reference[p].y(), *im,
-                  Vec2(fullResolutionPx(o.sample_px, k), fullResolutionPx(o.line_px, k)), radius, params,
-                  px)) {
+                  Vec2(fullResolutionPx(o.sample_px, k), fullResolutionPx(o.line_px, k)), radius, used, px,
+                  counts)) {
       keep[i] = true;
       refined[i] = px;
       ++counts.refined;

@@ -16,9 +16,10 @@
 //      map and a radiometric gain and offset from that peak (the foreshortening between the views over a
 //      template of k x 11 pixels biases a plain correlation peak by tenths of a pixel at near range). An
 //      observation whose peak lies on the search window's border (the binned match was not the same surface
-//      point), scores below the matcher's min_ncc, fails the back-match or whose least-squares fit does not
-//      converge near the peak is left out, and a point left with fewer than two observations is left out
-//      whole.
+//      point), scores below the floor (the matcher's min_ncc, lowered to what the full-resolution scores of
+//      this run show for the same surfaces: median - 4 robust sd), fails the back-match or whose
+//      least-squares fit does not converge near the peak is left out, and a point left with fewer than two
+//      observations is left out whole.
 // Binning rather than windows of the full frame keeps one matcher run over the whole frame (one parallax
 // curve, one gridding, inter-stereo prediction through one coarse DEM per pair) and every tie at full
 // resolution precision; with k = 1 (every image within capacity) nothing is binned or refined.
@@ -57,9 +58,14 @@ struct RefineParams {
 };
 
 struct RefineCounts {
-  int32_t refined = 0;  // observations matched again at full resolution
-  int32_t dropped = 0;  // observations left out (border peak, low score, back-match, template off image)
+  int32_t refined = 0;         // observations matched again at full resolution
+  int32_t dropped = 0;         // observations left out, of which:
+  int32_t low_score = 0;       // the correlation peak scored below score_floor (or its window left the image)
+  int32_t border = 0;          // the peak lay on the search window's border
+  int32_t back_match = 0;      // the match searched back missed the template's pixel
+  int32_t least_squares = 0;   // the least-squares fit did not converge near the peak
   int32_t points_dropped = 0;  // points left with fewer than two observations
+  double score_floor = 0.0;    // the correlation floor used (from the data, at most min_ncc)
 };
 
 // Step 2 above. `observations` and `points` are the matcher's list in binned pixels (TieList order: every

@@ -121,7 +121,11 @@ TieRun runTiePoints(const io::Panorama& panorama, bool progress, TieNetwork* net
     run.refine = refineAtFullResolution(full, run.binning, params, obs, points, kept_obs, kept_points);
     if (progress) {
       cli::info("full-resolution refinement: " + std::to_string(run.refine.refined) +
-                " observations refined, " + std::to_string(run.refine.dropped) + " left out, " +
+                " observations refined, " + std::to_string(run.refine.dropped) + " left out (score below " +
+                std::to_string(run.refine.score_floor).substr(0, 4) + " " +
+                std::to_string(run.refine.low_score) + ", window border " +
+                std::to_string(run.refine.border) + ", back-match " + std::to_string(run.refine.back_match) +
+                ", least squares " + std::to_string(run.refine.least_squares) + "), " +
                 std::to_string(run.refine.points_dropped) + " points left out");
     }
   }

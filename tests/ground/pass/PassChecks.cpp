@@ -172,13 +172,16 @@ bool inside(const CameraModel& m, const Vec3& x) {
 
 double demCoverage(const DemGrid& dem, const CameraModel& left, const CameraModel& right, double lo_m,
                    double hi_m) {
-  // Plane z_up = a + b north + c east through the filled cells.
+  // Plane z_up = a + b north + c east through the filled cells within twice hi_m of the camera (the
+  // ground of the band, not a far field that slopes otherwise).
   Eigen::Matrix3d n = Eigen::Matrix3d::Zero();
   Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
   for (int row = 0; row < dem.rows; ++row) {
     for (int col = 0; col < dem.cols; ++col) {
       const float v = dem.at(col, row);
       if (v == dem.nodata || !std::isfinite(v)) continue;
+      if (std::hypot(dem.northOfRow(row) - left.c.x(), dem.eastOfCol(col) - left.c.y()) > 2.0 * hi_m)
+        continue;
       const Eigen::Vector3d a(1.0, dem.northOfRow(row), dem.eastOfCol(col));
       n += a * a.transpose();
       rhs += a * v;

@@ -47,7 +47,8 @@ ModelComparison compareModels(const FeatureMatches& m, const CameraModel& a_left
 
 // The fraction of the cells (of the DEM's grid, extended beyond its bounds) that both cameras see, with
 // horizontal range from the left camera in [lo_m, hi_m), that hold an elevation in the DEM. A cell is seen
-// when its centre, at the elevation of the plane fitted (least squares) to the DEM's filled cells, projects
+// when its centre, at the elevation of the plane fitted (least squares) to the DEM's filled cells within
+// 2 hi_m of the camera, projects
 // inside both images (occlusion is not modelled). -1 when no cell is seen.
 double demCoverage(const DemGrid& dem, const CameraModel& left, const CameraModel& right, double lo_m,
                    double hi_m);
