@@ -248,7 +248,9 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   for (int32_t k = 0; k < net.observationCount(); ++k) rejected[k] = net.observation(k).rejected;
   net.resetToApriori();
   for (int32_t k = 0; k < net.observationCount(); ++k) net.observation(k).rejected = rejected[k];
+  const double t_check = cli::nowSeconds();
   result.holdout = holdOutCheck(net, FastAdjustOptions{});  // wrong ties rejected in net
+  report.seconds.emplace_back("adjust_holdout_check", cli::nowSeconds() - t_check);
   result.rejected_observations += result.holdout.wrong_observations;
   int32_t failed = 0;
   (void)net.triangulateAll(failed);
