@@ -93,7 +93,9 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
     return out;
   }
   const long long good = keepInside(rect, d.disparity);
-  out.matched_fraction = static_cast<double>(good) / (static_cast<double>(d.disparity.total()) + 1e-9);
+  // Of the rectified pixels that show the left original (the rectified image may be larger than it).
+  const double shown = static_cast<double>(cv::countNonZero(insideMask(rect.left_map)));
+  out.matched_fraction = static_cast<double>(good) / (shown + 1e-9);
   out.seconds_dense = now() - t0;
   if (out.matched_fraction < options.min_matched_fraction) {
     out.error = "no valid dense matches (" + std::to_string(out.matched_fraction * 100) +

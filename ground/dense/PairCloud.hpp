@@ -29,7 +29,7 @@ struct PairCloud {
   std::string error;  // empty: matched; else why not (e.g. "cannot rectify (...)")
   std::vector<CloudPoint> points;
   std::size_t ties = 0;           // tie points that set the parallax ranges
-  double matched_fraction = 0.0;  // valid matches inside both images / left pixels
+  double matched_fraction = 0.0;  // valid matches inside both images / rectified pixels showing the left image
   TriangulationStats stats;
   // Points are kept beyond max_range_m as support for the DEM, which stops at max_range_m: out to the
   // range whose disparity is kSupportDisparityPx below that of max_range_m (about 3 sd of the far matches'
