@@ -80,7 +80,8 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
   t0 = now();
   DenseOptions dopt;
   dopt.min_disparity_px = 0;
-  dopt.max_disparity_px = options.max_disparity_px;
+  dopt.max_disparity_px = std::max(options.max_disparity_px,
+                                   static_cast<int>(std::ceil(disparityAtRange(rect, options.min_range_m))));
   std::vector<RowRange> ranges;
   if (ties.size() >= 3)
     ranges = parallaxRowRanges(ties, l.rows, dopt.min_disparity_px, dopt.max_disparity_px);
@@ -92,7 +93,9 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
     return out;
   }
   const long long good = keepInside(rect, d.disparity);
-  out.matched_fraction = static_cast<double>(good) / (static_cast<double>(d.disparity.total()) + 1e-9);
+  // Of the rectified pixels that show the left original (the rectified image may be larger than it).
+  const double shown = static_cast<double>(cv::countNonZero(insideMask(rect.left_map)));
+  out.matched_fraction = static_cast<double>(good) / (shown + 1e-9);
   out.seconds_dense = now() - t0;
   if (out.matched_fraction < options.min_matched_fraction) {
     out.error = "no valid dense matches (" + std::to_string(out.matched_fraction * 100) +

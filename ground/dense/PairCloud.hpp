@@ -16,7 +16,10 @@
 namespace areomap::dense {
 
 struct PairCloudOptions {
+  // The disparity search reaches at least this, and at least the disparity of min_range_m in the rectified
+  // pair (disparityAtRange): a larger or wider frame than the rover's needs more than a fixed bound.
   int max_disparity_px = 192;
+  double min_range_m = 1.0;  // the nearest surface searched, as the tie matcher's (StereoParams::min_range_m)
   double match_sigma_px = 0.15;        // the fine matcher's sub-pixel sigma (DenseMatcher.hpp kMatchSigmaPx)
   double max_range_m = 60.0;           // the DEM's range: support_range_m is computed for it
   double min_matched_fraction = 0.02;  // fewer valid matches: the pair has no texture (an error)
@@ -26,7 +29,7 @@ struct PairCloud {
   std::string error;  // empty: matched; else why not (e.g. "cannot rectify (...)")
   std::vector<CloudPoint> points;
   std::size_t ties = 0;           // tie points that set the parallax ranges
-  double matched_fraction = 0.0;  // valid matches inside both images / left pixels
+  double matched_fraction = 0.0;  // valid matches inside both images / rectified pixels showing the left image
   TriangulationStats stats;
   // Points are kept beyond max_range_m as support for the DEM, which stops at max_range_m: out to the
   // range whose disparity is kSupportDisparityPx below that of max_range_m (about 3 sd of the far matches'

@@ -28,10 +28,15 @@ struct RectifiedPair {
   double max_rotation_rad = 0.0;  // the larger rotation of either camera into the common orientation
 };
 
-// Builds the common rectified CAHV pair and the resampling maps. Rectified images have the size of the
-// originals (`left.width` x `left.height`, which must be set). Throws std::invalid_argument for a
-// degenerate pair (zero baseline, baseline along the optical axis, missing size).
+// Builds the common rectified CAHV pair and the resampling maps. The rectified images (both of one size,
+// the models' width x height) cover every column either original shows and every row both show, at the
+// originals' mean scale, or at a smaller one that keeps them within twice the left original's pixel
+// count (the models' sizes must be set). Throws std::invalid_argument for a degenerate pair (zero
+// baseline, baseline along the optical axis, missing size, no common row).
 RectifiedPair rectifyPair(const CameraModel& left, const CameraModel& right);
+
+// The disparity (rectified pixels) of a point at `range_m` straight ahead: hs b / range.
+double disparityAtRange(const RectifiedPair& rectified, double range_m);
 
 // Resamples an 8-bit image through a map of rectifyPair (bilinear; 0 outside the original).
 cv::Mat remapToRectified(const cv::Mat& image, const cv::Mat& map);

@@ -201,6 +201,24 @@ TieRun tiePointsStage(const Dataset& dataset, const std::function<const io::Pano
   return run;
 }
 
+// The pairs that the hold-out check (ground/ties/HoldOutCheck.hpp) gave no evidence of improvement go back
+// to their a-priori models, each said on the console and in report.json's warnings.
+void keepAprioriWhere(const HoldOutResult& check, Network& net, bool progress,
+                      std::vector<std::string>& warnings) {
+  for (const PairVerdict& v : check.pairs) {
+    const std::string line = "pair " + std::to_string(v.pair) + ": " + std::to_string(v.ties) +
+                             " tie points, " + std::to_string(v.wrong_ties) + " wrong; " + v.reason;
+    if (v.adjusted) {
+      if (progress) cli::info(line + ": adjusted cameras kept");
+      continue;
+    }
+    warnings.push_back("Pair " + std::to_string(v.pair) + " keeps its a-priori camera models: " + v.reason +
+                       ".");
+    cli::warn(line + ": the a-priori models are kept");
+  }
+  (void)keepAprioriWhereRejected(net, check);
+}
+
 // Step 2: the fast adjustment (rejection, figures), then the integrated reference from the a-priori EO;
 // the report's precision, rig and truth figures of the integrated solution.
 AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& options, Network& net,
@@ -230,6 +248,10 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   for (int32_t k = 0; k < net.observationCount(); ++k) rejected[k] = net.observation(k).rejected;
   net.resetToApriori();
   for (int32_t k = 0; k < net.observationCount(); ++k) net.observation(k).rejected = rejected[k];
+  const double t_check = cli::nowSeconds();
+  result.holdout = holdOutCheck(net, FastAdjustOptions{});  // wrong ties rejected in net
+  report.seconds.emplace_back("adjust_holdout_check", cli::nowSeconds() - t_check);
+  result.rejected_observations += result.holdout.wrong_observations;
   int32_t failed = 0;
   (void)net.triangulateAll(failed);
   report.method1_before = precisionMethod1(net);
@@ -248,6 +270,7 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   if (!integrated.converged)
     report.warnings.push_back("The integrated adjustment did not report convergence.");
   if (!integrated.covariance_note.empty()) report.warnings.push_back(integrated.covariance_note);
+  keepAprioriWhere(result.holdout, net, options.progress, report.warnings);
   report.solver = "ceres (integrated reference; outliers rejected by the fast adjustment first)";
   report.stop_rule = integrated.converged ? "converged" : "not_converged";
   report.iterations = integrated.iterations;
@@ -430,6 +453,26 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
 
 namespace {
 
+// report.json "adjustment_check": the hold-out check's figures per pair (HoldOutCheck.hpp).
+json holdOutJson(const HoldOutResult& check) {
+  json pairs = json::array();
+  for (const PairVerdict& v : check.pairs) {
+    pairs.push_back({{"pair", v.pair},
+                     {"ties", v.ties},
+                     {"wrong_ties", v.wrong_ties},
+                     {"heldout_apriori_rms_px", v.apriori_rms_px},
+                     {"heldout_adjusted_rms_px", v.adjusted_rms_px},
+                     {"improvement_px2", v.improvement_px2},
+                     {"standard_error_px2", v.standard_error_px2},
+                     {"adjusted", v.adjusted},
+                     {"reason", v.reason}});
+  }
+  return json{{"method", "k-fold cross-validation of the tie points (held-out residuals)"},
+              {"folds", check.folds},
+              {"wrong_observations", check.wrong_observations},
+              {"pairs", pairs}};
+}
+
 // report.json: ground/adjust's report, then the node's keys added to it.
 void writeNodeReport(const std::string& out, const AdjustReport& report, const StreamCounts* stream,
                      const RoverInputs* rover, const json& rover_json, const AdjustOutcome& fast,
@@ -459,6 +502,7 @@ void writeNodeReport(const std::string& out, const AdjustReport& report, const S
                  {"fast_sweeps", fast.result.sweeps_total},
                  {"fast_vs_integrated_px", *result.fast_vs_ground_px}};
   if (result.truth_eo_fast_px) j["truth"]["eo_px_fast"] = *result.truth_eo_fast_px;
+  j["adjustment_check"] = holdOutJson(result.holdout);
   cli::writeFileAtomic(out + "/report.json", j.dump(2) + "\n");
 }
 

@@ -9,9 +9,12 @@
 //      runTiePoints) run again on the ground's images, with a warning in report.json saying why;
 //   2. the fast adjustment (its outlier rejection and method-1 figures), then the INTEGRATED adjustment
 //      (Ceres sparse Schur, ground/adjust) from the a-priori EO with the same rejections: the reference;
+//      between them the hold-out check (ground/ties/HoldOutCheck.hpp) rejects wrong ties, and every pair
+//      whose cameras the adjustment does not improve on held-out ties keeps its a-priori models;
 //   3. products: models/<stem>.cahvor (integrated), eo.csv, tiepoints.csv, rover_models/<stem>.cahvor (the
-//      rover's last EO), rover_tiepoints.csv (the rover's TIEPOINTS), report.json with `stream`, `rover` (incl. eo_vs_ground_px) and `truth` when truth
-//      exists; then the products hook (DEM, ortho, previews: ground/products) when one is set.
+//      rover's last EO), rover_tiepoints.csv (the rover's TIEPOINTS), report.json with `stream`, `rover`
+//      (incl. eo_vs_ground_px) and `truth` when truth exists; then the products hook (DEM, ortho, previews:
+//      ground/products) when one is set.
 #pragma once
 
 #include <cstdint>
@@ -31,6 +34,7 @@
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/Panorama.hpp"
 #include "ground/node/StreamCollector.hpp"
+#include "ground/ties/HoldOutCheck.hpp"
 
 namespace areomap::ground {
 
@@ -93,9 +97,12 @@ struct GroundPassResult {
   int32_t integrated_iterations = 0;
   double rms_px = 0.0;
   bool rover_ties_used = false;  // the adjusted ties are the rover's (else the ground's own matching)
+  // The hold-out check of the adjustment per pair (ground/ties/HoldOutCheck.hpp): wrong ties rejected
+  // (counted in rejected_observations), pairs without evidence of improvement back to their a-priori models.
+  HoldOutResult holdout;
   std::optional<double> truth_eo_before_px, truth_eo_after_px, truth_eo_fast_px;
-  std::optional<double> rover_vs_ground_px;   // rover's last EO against the integrated solution
-  std::optional<double> fast_vs_ground_px;    // the ground's own fast solution against it
+  std::optional<double> rover_vs_ground_px;  // rover's last EO against the integrated solution
+  std::optional<double> fast_vs_ground_px;   // the ground's own fast solution against it
   std::vector<std::pair<std::string, double>> seconds;
   std::vector<std::string> warnings;
   std::vector<ManifestEntry> files;

@@ -28,18 +28,34 @@ void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_in
     y.segment<3>(3 * i) = im.center_apriori_m;
   }
   const Eigen::VectorXd x = a.completeOrthogonalDecomposition().solve(y);
-  const bool offsets_given = dataset.rig.left_offset_m.has_value() && (!has_right || dataset.rig.right_offset_m);
+  const bool offsets_given =
+      dataset.rig.left_offset_m.has_value() && (!has_right || dataset.rig.right_offset_m);
   rig.left_offset_m = offsets_given ? *dataset.rig.left_offset_m : Vec3(x.segment<3>(3 * nsol));
-  rig.right_offset_m = offsets_given && has_right ? *dataset.rig.right_offset_m : Vec3(x.segment<3>(3 * nsol + 3));
+  rig.right_offset_m =
+      offsets_given && has_right ? *dataset.rig.right_offset_m : Vec3(x.segment<3>(3 * nsol + 3));
   if (!offsets_given) notes.push_back("camera offsets estimated from the a-priori models");
+  // Pairs per sol: the gimbal centre of a sol seen by one pair alone cannot be estimated (its two camera
+  // centres fix the offsets' sum, not where the mast turns). Eq. 3 stays, with the minimum-norm centre
+  // (between the cameras): it then holds only the pair's position (the network's free translation, which
+  // nothing else fixes) and couples a rotation of a camera to a shift of its centre by the ~0.2 m lever,
+  // 0.2 mm per mrad; the stereo base (Eq. 4) is the pair's real constraint. Said in the report.
+  std::vector<int> pairs_of_sol(static_cast<std::size_t>(nsol), 0);
+  for (int32_t p = 0; p < net.pairCount(); ++p) ++pairs_of_sol[net.image(net.pair(p).left).sol];
   for (int s = 0; s < nsol; ++s) {
     auto it = dataset.rig.gimbal_m.find(sol_of_index[s]);
     rig.gimbal_set[s] = true;
+    if (it == dataset.rig.gimbal_m.end() && pairs_of_sol[s] < 2) {
+      notes.push_back(
+          "sol " + std::to_string(sol_of_index[s]) +
+          ": one pair alone: its gimbal centre cannot be estimated; the minimum-norm centre between "
+          "its cameras only holds the pair's position (Eq. 3), the stereo base is its constraint");
+    }
     if (it != dataset.rig.gimbal_m.end() && offsets_given) {
       rig.gimbal_m[s] = it->second;
     } else {
       rig.gimbal_m[s] = x.segment<3>(3 * s);
-      notes.push_back("gimbal centre of sol " + std::to_string(sol_of_index[s]) + " estimated from the a-priori models");
+      notes.push_back("gimbal centre of sol " + std::to_string(sol_of_index[s]) +
+                      " estimated from the a-priori models");
     }
   }
   rig.use_base = has_right;
