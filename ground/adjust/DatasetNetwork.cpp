@@ -196,14 +196,19 @@ void estimateGimbalAndOffsets(const Rig& given, Network& net, NetworkSource& sou
   if (cols > 0 && n_img > 0) {
     Eigen::MatrixXd a = Eigen::MatrixXd::Zero(3 * n_img, cols);
     Eigen::VectorXd b(3 * n_img);
+    // Fitted relative to the mean camera centre: the minimum-norm choice below must not depend on where
+    // the frame's origin lies (a site frame's origin can be hundreds of metres from the rover).
+    Vec3 mean_center = Vec3::Zero();
+    for (int i = 0; i < n_img; ++i) mean_center += net.image(i).center_apriori_m;
+    mean_center /= static_cast<double>(n_img);
     for (int i = 0; i < n_img; ++i) {
       const NetImage& im = net.image(i);
       const int side = im.side == Side::kLeft ? 0 : 1;
-      Vec3 rhs = im.center_apriori_m;
+      Vec3 rhs = im.center_apriori_m - mean_center;
       if (col_gimbal[im.sol] >= 0) {
         a.block<3, 3>(3 * i, col_gimbal[im.sol]) = Mat3::Identity();
       } else {
-        rhs -= rig.gimbal_m[im.sol];
+        rhs -= rig.gimbal_m[im.sol] - mean_center;
       }
       if (col_offset[side] >= 0) {
         a.block<3, 3>(3 * i, col_offset[side]) = im.m_apriori.transpose();
@@ -219,7 +224,7 @@ void estimateGimbalAndOffsets(const Rig& given, Network& net, NetworkSource& sou
     const double rms = std::sqrt((a * x - b).squaredNorm() / std::max(1, 3 * n_img));
     for (int s = 0; s < n_sols; ++s) {
       if (col_gimbal[s] < 0) continue;
-      rig.gimbal_m[s] = x.segment<3>(col_gimbal[s]);
+      rig.gimbal_m[s] = x.segment<3>(col_gimbal[s]) + mean_center;
       source.estimated.push_back("rig.gimbal_m[" + std::to_string(source.sol_of_index[s]) +
                                  "]: absent, fitted to the a-priori camera centres as " +
                                  vecText(rig.gimbal_m[s]) + ".");

@@ -99,6 +99,26 @@ void writeOrthoTif(const std::string& path, const ortho::OrthoResult& o, const d
   });
 }
 
+// Of what each pair's cameras see at 2-5 m and 5-10 m, how much the DEM covers; the ground under empty
+// cells from the plane of the DEM's cells within twice the outer range of the panorama's centre.
+void coverageStage(Context& ctx, const DemGrid& dem, const DemGrid& sigma) {
+  constexpr double kNear = 2.0, kMid = 5.0, kFar = 10.0;
+  constexpr double kSampleM = 0.1;  // a lattice of 10 cm: a band's figure in a small part of the DEM's time
+  GroundPlane plane;
+  if (!groundPlane(dem, ctx.in.gimbal_site_m, 2.0 * kFar, plane)) return;
+  for (const ProductPair& p : ctx.in.pairs) {
+    if (p.left < 0 || p.right < 0) continue;
+    const ProductImage& l = ctx.in.images[p.left];
+    const ProductImage& r = ctx.in.images[p.right];
+    if (l.grey.empty() || r.grey.empty()) continue;
+    ProductsResult::PairCoverage c;
+    c.pair_id = p.id;
+    c.near = demCoverage(dem, &sigma, sized(l), sized(r), plane, kNear, kMid, kSampleM);
+    c.far = demCoverage(dem, &sigma, sized(l), sized(r), plane, kMid, kFar, kSampleM);
+    ctx.result.coverage.push_back(c);
+  }
+}
+
 // Step 2: the DEMs (ground/dem SiteDem) from the cloud's DEM points, written; the cloud is freed.
 void demStage(Context& ctx, Cloud& cloud) {
   const double t0 = cli::nowSeconds();
@@ -120,6 +140,7 @@ void demStage(Context& ctx, Cloud& cloud) {
     if (dems.dem) {
       const dem::KrigingResult& kr = *dems.dem;
       ctx.result.dem = kr.elevation;
+      coverageStage(ctx, kr.elevation, kr.sigma);
       try {
         dem::writeDemProducts(ctx.out_dir, kr, ctx.meta);
         ctx.result.files.push_back(ctx.out_dir + "/dem.tif");

@@ -36,6 +36,7 @@
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/adjust/AdjustProducts.hpp"
 #include "ground/dataset/DemRaster.hpp"
+#include "ground/products/DemCoverage.hpp"
 
 namespace areomap::products {
 
@@ -110,6 +111,13 @@ struct ProductsResult {
   std::optional<double> dem_rmse_m;   // against truth_dem over cells present in both
   double ortho_seam_px = -1.0;        // median geometric disagreement at ortho seams, px (-1: no seams)
   std::vector<double> residuals_px;   // tie back-projection residuals plotted in report.html
+  // Per stereo pair (in ProductInputs::pairs order, matched pairs only): of the cells both cameras see at
+  // 2-5 m and at 5-10 m horizontal range, how many the DEM fills (DemCoverage.hpp).
+  struct PairCoverage {
+    int pair_id = 0;
+    CoverageCount near, far;
+  };
+  std::vector<PairCoverage> coverage;
   std::vector<std::pair<std::string, double>> seconds;  // stage timings (rectify, dense, ..., previews)
 };
 

@@ -13,21 +13,27 @@ void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_in
                        std::vector<std::string>& notes) {
   RigConstraints& rig = net.rig;
   // Least squares for (G per sol, c_L, c_R): C_i = G_sol + M_i^T c_side, minimum norm (a rotation about a
-  // single axis leaves the offset along it free).
+  // single axis leaves the offset along it free). The centres are taken relative to their mean, so that the
+  // minimum-norm choice does not depend on where the frame's origin lies (a site frame's origin can be
+  // hundreds of metres from the rover).
   const int nsol = static_cast<int>(sol_of_index.size());
   const int unknowns = 3 * nsol + 6;
   Eigen::MatrixXd a = Eigen::MatrixXd::Zero(3 * net.imageCount(), unknowns);
   Eigen::VectorXd y(3 * net.imageCount());
   bool has_right = false;
+  Vec3 mean_center = Vec3::Zero();
+  for (int32_t i = 0; i < net.imageCount(); ++i) mean_center += net.image(i).center_apriori_m;
+  if (net.imageCount() > 0) mean_center /= static_cast<double>(net.imageCount());
   for (int32_t i = 0; i < net.imageCount(); ++i) {
     const NetImage& im = net.image(i);
     const int side = im.side == Side::kLeft ? 0 : 1;
     has_right = has_right || side == 1;
     a.block<3, 3>(3 * i, 3 * im.sol) = Eigen::Matrix3d::Identity();
     a.block<3, 3>(3 * i, 3 * nsol + 3 * side) = im.m_apriori.transpose();
-    y.segment<3>(3 * i) = im.center_apriori_m;
+    y.segment<3>(3 * i) = im.center_apriori_m - mean_center;
   }
-  const Eigen::VectorXd x = a.completeOrthogonalDecomposition().solve(y);
+  Eigen::VectorXd x = a.completeOrthogonalDecomposition().solve(y);
+  for (int s = 0; s < nsol; ++s) x.segment<3>(3 * s) += mean_center;
   const bool offsets_given =
       dataset.rig.left_offset_m.has_value() && (!has_right || dataset.rig.right_offset_m);
   rig.left_offset_m = offsets_given ? *dataset.rig.left_offset_m : Vec3(x.segment<3>(3 * nsol));

@@ -1,6 +1,7 @@
 #include "tests/ground/pass/PassChecks.hpp"
 
 #include "ground/dense/Rectification.hpp"
+#include "ground/products/DemCoverage.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -16,71 +17,6 @@
 #include <opencv2/imgproc.hpp>
 
 namespace areomap::test {
-namespace {
-
-std::vector<std::string> splitOn(const std::string& s, char c) {
-  std::vector<std::string> out(1);
-  for (char ch : s) {
-    if (ch == c) {
-      out.emplace_back();
-    } else if (ch != '(' && ch != ')' && ch != ' ') {
-      out.back() += ch;
-    }
-  }
-  return out;
-}
-
-// The record's "C;A;H;V;O;R;E;type;parameter" as JPL text.
-void writeRecordModel(const nlohmann::json& record, int width, int height, const std::string& path) {
-  const std::vector<std::string> parts =
-      splitOn(record["camera"]["camera_model_component_list"].get<std::string>(), ';');
-  const char* names[] = {"C", "A", "H", "V", "O", "R", "E"};
-  std::ofstream o(path);
-  o << "Model = CAHVORE\nDimensions = " << width << " " << height << "\n";
-  for (int k = 0; k < 7; ++k) {
-    const std::vector<std::string> v = splitOn(parts[k], ',');
-    o << names[k] << " = " << v[0] << " " << v[1] << " " << v[2] << "\n";
-  }
-  o << "T = " << parts[7] << "\nP = " << parts[8] << "\n";
-}
-
-}  // namespace
-
-std::vector<std::string> writeRecordDatasets(const std::string& records_dir, const std::string& out_dir) {
-  namespace fs = std::filesystem;
-  std::map<std::string, std::vector<std::string>> lefts;  // "site_drive" -> left image ids
-  for (const fs::directory_entry& e : fs::directory_iterator(records_dir)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("NLF_", 0) != 0 || e.path().extension() != ".json") continue;
-    const nlohmann::json j = nlohmann::json::parse(std::ifstream(e.path()));
-    lefts["site" + std::to_string(j["site"].get<int>()) + "_drive" + j["drive"].get<std::string>()].push_back(
-        e.path().stem().string());
-  }
-  std::vector<std::string> dirs;
-  for (auto& [position, ids] : lefts) {
-    std::sort(ids.begin(), ids.end());
-    const std::string dir = out_dir + "/" + position;
-    fs::create_directories(dir);
-    nlohmann::json pano = {{"name", position}, {"pairs", nlohmann::json::array()}};
-    for (const std::string& left_id : ids) {
-      nlohmann::json pair = {{"id", pano["pairs"].size()}};
-      for (const char* side : {"left", "right"}) {
-        const std::string id = side[0] == 'l' ? left_id : "NRF" + left_id.substr(3);
-        const nlohmann::json j = nlohmann::json::parse(std::ifstream(records_dir + "/" + id + ".json"));
-        cv::Mat grey = cv::imread(records_dir + "/" + id + ".png", cv::IMREAD_GRAYSCALE);
-        cv::imwrite(dir + "/" + id + ".png", grey);
-        writeRecordModel(j, grey.cols, grey.rows, dir + "/" + id + ".cahvor");
-        pair["sol"] = j["sol"];
-        pair[side] = {{"image", id + ".png"}, {"model", id + ".cahvor"}};
-      }
-      pano["pairs"].push_back(pair);
-    }
-    std::ofstream(dir + "/panorama.json") << pano.dump(2);
-    dirs.push_back(dir);
-  }
-  return dirs;
-}
-
 FeatureMatches siftMatches(const cv::Mat& left, const cv::Mat& right) {
   const cv::Ptr<cv::SIFT> sift = cv::SIFT::create(6000);
   std::vector<cv::KeyPoint> kl, kr;
@@ -172,42 +108,10 @@ bool inside(const CameraModel& m, const Vec3& x) {
 
 double demCoverage(const DemGrid& dem, const CameraModel& left, const CameraModel& right, double lo_m,
                    double hi_m) {
-  // Plane z_up = a + b north + c east through the filled cells within twice hi_m of the camera (the
-  // ground of the band, not a far field that slopes otherwise).
-  Eigen::Matrix3d n = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
-  for (int row = 0; row < dem.rows; ++row) {
-    for (int col = 0; col < dem.cols; ++col) {
-      const float v = dem.at(col, row);
-      if (v == dem.nodata || !std::isfinite(v)) continue;
-      if (std::hypot(dem.northOfRow(row) - left.c.x(), dem.eastOfCol(col) - left.c.y()) > 2.0 * hi_m)
-        continue;
-      const Eigen::Vector3d a(1.0, dem.northOfRow(row), dem.eastOfCol(col));
-      n += a * a.transpose();
-      rhs += a * v;
-    }
-  }
-  if (n(0, 0) < 3.0) return -1.0;
-  const Eigen::Vector3d plane = n.ldlt().solve(rhs);
-  // Every cell of the DEM's grid, extended as far as needed, within hi_m of the camera.
-  int seen = 0, filled = 0;
-  const int reach = static_cast<int>(std::ceil(hi_m / dem.cell_m)) + 1;
-  const int col0 = static_cast<int>(std::floor((left.c.y() - dem.east0_m) / dem.cell_m));
-  const int row0 = static_cast<int>(std::floor((dem.north0_m - left.c.x()) / dem.cell_m));
-  for (int row = row0 - reach; row <= row0 + reach; ++row) {
-    for (int col = col0 - reach; col <= col0 + reach; ++col) {
-      const double north = dem.northOfRow(row), east = dem.eastOfCol(col);
-      const double range = std::hypot(north - left.c.x(), east - left.c.y());
-      if (range < lo_m || range >= hi_m) continue;
-      const Vec3 x(north, east, -(plane(0) + plane(1) * north + plane(2) * east));
-      if (!inside(left, x) || !inside(right, x)) continue;
-      ++seen;
-      if (row < 0 || col < 0 || row >= dem.rows || col >= dem.cols) continue;
-      const float v = dem.at(col, row);
-      if (v != dem.nodata && std::isfinite(v)) ++filled;
-    }
-  }
-  return seen > 0 ? static_cast<double>(filled) / seen : -1.0;
+  // The ground of the band, not a far field that slopes otherwise.
+  products::GroundPlane plane;
+  if (!products::groundPlane(dem, left.c, 2.0 * hi_m, plane)) return -1.0;
+  return products::demCoverage(dem, nullptr, left, right, plane, lo_m, hi_m).fraction();
 }
 
 RectificationCover rectificationCover(const CameraModel& left, const CameraModel& right, double range_m) {

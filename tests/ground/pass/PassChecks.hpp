@@ -15,12 +15,6 @@
 
 namespace areomap::test {
 
-// Datasets of the Mars 2020 raw-image records in `records_dir` (X.json beside X.png, nested "camera" and
-// "extended" keys as the service serves them), one folder per rover position (site, drive) under `out_dir`:
-// panorama.json, 8-bit grey images, and the records' models as .cahvor text, as given (they are in the
-// delivered images' pixels and the rover navigation frame, which both eyes share). Returns the folders.
-std::vector<std::string> writeRecordDatasets(const std::string& records_dir, const std::string& out_dir);
-
 struct FeatureMatches {
   std::vector<Vec2> left_px, right_px;
 };
@@ -45,11 +39,8 @@ struct ModelComparison {
 ModelComparison compareModels(const FeatureMatches& m, const CameraModel& a_left, const CameraModel& a_right,
                               const CameraModel& b_left, const CameraModel& b_right, double gross_px = 2.0);
 
-// The fraction of the cells (of the DEM's grid, extended beyond its bounds) that both cameras see, with
-// horizontal range from the left camera in [lo_m, hi_m), that hold an elevation in the DEM. A cell is seen
-// when its centre, at the elevation of the plane fitted (least squares) to the DEM's filled cells within
-// 2 hi_m of the camera, projects
-// inside both images (occlusion is not modelled). -1 when no cell is seen.
+// ground/products demCoverage of the band [lo_m, hi_m) with the plane of the DEM's cells within 2 hi_m of
+// the camera and no sigma tolerance on hidden cells; -1 when no cell is seen.
 double demCoverage(const DemGrid& dem, const CameraModel& left, const CameraModel& right, double lo_m,
                    double hi_m);
 
