@@ -79,6 +79,16 @@ void writeReportJson(const std::string& path, const AdjustReport& r) {
                      {"max_base_misfit_m", r.max_base_misfit_m},
                      {"sigma_gimbal_m", r.sigma_gimbal_m},
                      {"sigma_base_m", r.sigma_base_m}};
+  if (!r.dense_pairs.empty()) {
+    nlohmann::json pairs = nlohmann::json::array();
+    for (const DensePairNoise& p : r.dense_pairs) {
+      pairs.push_back({{"pair", p.pair},
+                       {"match_sigma_px", p.match_sigma_px},
+                       {"match_sigma_source", p.match_sigma_source},
+                       {"match_sigma_samples", p.samples}});
+    }
+    j["dense"] = {{"pairs", pairs}};
+  }
   writeTextProduct(path, j.dump(2) + "\n");
 }
 

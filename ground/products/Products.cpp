@@ -203,6 +203,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
 void mergeIntoReport(const ProductsResult& products, ground::AdjustReport& report) {
   for (const auto& stage : products.seconds) report.seconds.push_back(stage);
   for (const std::string& w : products.warnings) report.warnings.push_back(w);
+  report.dense_pairs = products.dense_pairs;
   if (report.truth) report.truth->dem_rmse_m = products.dem_rmse_m;
 }
 

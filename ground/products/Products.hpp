@@ -105,11 +105,12 @@ struct ProductsResult {
   std::vector<std::string> write_errors;
   long long points = 0;               // cloud size
   int pairs_matched = 0;
-  std::optional<DemGrid> dem;         // the DEM written (absent when no points)
-  std::optional<DemGrid> dem_near;    // the finer near-rover DEM (absent when dem.tif is already that fine)
-  std::optional<double> dem_rmse_m;   // against truth_dem over cells present in both
-  double ortho_seam_px = -1.0;        // median geometric disagreement at ortho seams, px (-1: no seams)
-  std::vector<double> residuals_px;   // tie back-projection residuals plotted in report.html
+  std::vector<ground::DensePairNoise> dense_pairs;  // each matched pair's matching noise (report.json dense)
+  std::optional<DemGrid> dem;                       // the DEM written (absent when no points)
+  std::optional<DemGrid> dem_near;   // the finer near-rover DEM (absent when dem.tif is already that fine)
+  std::optional<double> dem_rmse_m;  // against truth_dem over cells present in both
+  double ortho_seam_px = -1.0;       // median geometric disagreement at ortho seams, px (-1: no seams)
+  std::vector<double> residuals_px;  // tie back-projection residuals plotted in report.html
   std::vector<std::pair<std::string, double>> seconds;  // stage timings (rectify, dense, ..., previews)
 };
 
@@ -120,8 +121,9 @@ struct ProductsResult {
 ProductsResult makeProducts(const ProductInputs& inputs, const ProductOptions& options,
                             const std::string& out_dir, const ground::AdjustReport* adjustment = nullptr);
 
-// What the products add to report.json: their stage timings after the adjustment's, their warnings and
-// truth.dem_rmse_m (when the report has a truth section). Call before writeReportJson.
+// What the products add to report.json: their stage timings after the adjustment's, their warnings,
+// dense.pairs (each pair's matching noise) and truth.dem_rmse_m (when the report has a truth section). Call
+// before writeReportJson.
 void mergeIntoReport(const ProductsResult& products, ground::AdjustReport& report);
 
 }  // namespace areomap::products
