@@ -155,14 +155,14 @@ for name in names:
         continue
     m1 = r.get("method1_px", {})
     tp = r.get("tie_points", {})
-    dense = r.get("dense", {})
-    noise = dense.get("match_sigma_px")
+    sigmas = [p.get("match_sigma_px") for p in r.get("dense", {}).get("pairs", [])]
+    noise = " / ".join("%.3f" % v for v in sigmas if isinstance(v, (int, float))) or None
     cov = r.get("dem_coverage", {})
     print("%s: %s pairs, ties %s intra + %s inter (%s rejected), method 1 %s -> %s px, matching noise %s px, "
           "DEM coverage %s" % (
         name, r.get("stream", {}).get("pairs", len(r.get("pairs", [])) or "n/a"), tp.get("intra"), tp.get("inter"),
         tp.get("rejected"), num(m1.get("before", {}).get("dist"), "%.3f"), num(m1.get("after", {}).get("dist"), "%.3f"),
-        num(noise, "%.3f"), num(cov.get("fraction"), "%.2f") if isinstance(cov, dict) else num(cov, "%.2f")))
+        noise or "n/a", num(cov.get("fraction"), "%.2f") if isinstance(cov, dict) else num(cov, "%.2f")))
     print("    products: %s" % products)
 print("=" * 78)
 PYEOF
@@ -409,6 +409,12 @@ if rv.get("heap_allocs_after_init") is not None:
     print("rover:     EO vs the ground's integrated adjustment %s px (datum removed)" % ("%.4f" % ev if ev is not None else "n/a"))
 else:
     print("rover:     no rover figures arrived")
+dp = r.get("dense", {}).get("pairs", [])
+if dp:
+    v = [p.get("match_sigma_px", float("nan")) for p in dp]
+    fb = [str(p.get("pair")) for p in dp if p.get("match_sigma_source") != "left_right"]
+    print("dense:     matching noise %.3f-%.3f px over %d pairs (left-right estimate%s)" % (
+        min(v), max(v), len(dp), "; the constant for pair(s) " + ", ".join(fb) if fb else ""))
 print("ground:    stage seconds %s" % ", ".join("%s %.1f" % (k, v) for k, v in r.get("seconds", {}).items()))
 print("memory:    peak RSS ground %s, rover %s" % (rss("ground"), rss("rover")))
 for w in r.get("warnings", [])[:6]:

@@ -79,6 +79,34 @@ void writeReportJson(const std::string& path, const AdjustReport& r) {
                      {"max_base_misfit_m", r.max_base_misfit_m},
                      {"sigma_gimbal_m", r.sigma_gimbal_m},
                      {"sigma_base_m", r.sigma_base_m}};
+  if (!r.dense_pairs.empty()) {
+    nlohmann::json pairs = nlohmann::json::array();
+    for (const DensePairNoise& p : r.dense_pairs) {
+      pairs.push_back({{"pair", p.pair},
+                       {"match_sigma_px", p.match_sigma_px},
+                       {"match_sigma_source", p.match_sigma_source},
+                       {"match_sigma_samples", p.samples}});
+    }
+    j["dense"] = {{"pairs", pairs}};
+  }
+  if (!r.dem_coverage.empty()) {
+    // A fraction is null where the band holds no cell both cameras see.
+    auto fraction = [](long filled, long seen) {
+      return seen > 0 ? nlohmann::json(static_cast<double>(filled) / static_cast<double>(seen)) : nlohmann::json();
+    };
+    nlohmann::json pairs = nlohmann::json::array();
+    long seen = 0, filled = 0;
+    for (const DemCoverageFigure& c : r.dem_coverage) {
+      pairs.push_back({{"pair", c.pair},
+                       {"fraction_2_5m", fraction(c.filled_2_5m, c.seen_2_5m)},
+                       {"fraction_5_10m", fraction(c.filled_5_10m, c.seen_5_10m)},
+                       {"cells_seen_2_5m", c.seen_2_5m},
+                       {"cells_seen_5_10m", c.seen_5_10m}});
+      seen += c.seen_2_5m + c.seen_5_10m;
+      filled += c.filled_2_5m + c.filled_5_10m;
+    }
+    j["dem_coverage"] = {{"fraction_2_10m", fraction(filled, seen)}, {"pairs", pairs}};
+  }
   writeTextProduct(path, j.dump(2) + "\n");
 }
 

@@ -28,6 +28,24 @@ struct TruthFigures {
   std::optional<double> eo_px_before;  // a-priori, aligned
 };
 
+// One stereo pair's matching noise as the dense products estimated it (ground/dense/MatchNoise.hpp):
+// report.json dense.pairs[].
+struct DensePairNoise {
+  int pair = 0;                    // the pair's id
+  double match_sigma_px = 0.0;     // the matching sigma its points and the DEM sigma carry
+  std::string match_sigma_source;  // "left_right" | "fallback_constant" | "constant"
+  long long samples = 0;           // left-right differences the estimate used
+};
+
+// One stereo pair's DEM coverage as the products measured it (ground/products/DemCoverage.hpp): of the
+// DEM cells both cameras see at 2-5 m and at 5-10 m horizontal range, how many hold an elevation.
+// report.json dem_coverage.
+struct DemCoverageFigure {
+  int pair = 0;
+  long seen_2_5m = 0, filled_2_5m = 0;
+  long seen_5_10m = 0, filled_5_10m = 0;
+};
+
 struct AdjustReport {
   ImageDifferences method1_before, method1_after, method3_before, method3_after;
   GroundDifferences method2_before, method2_after;
@@ -47,6 +65,8 @@ struct AdjustReport {
   double max_base_misfit_m = 0.0;
   double sigma_gimbal_m = 0.0;  // the constraint sigmas of the solution (after the held-sigma rule)
   double sigma_base_m = 0.0;
+  std::vector<DensePairNoise> dense_pairs;  // filled by the products (empty: no dense matching ran)
+  std::vector<DemCoverageFigure> dem_coverage;  // filled by the products (empty: no DEM)
 };
 
 // The rig figures of the network's current solution: the largest Eq. 3 / Eq. 4 misfits, the sigmas used and

@@ -270,14 +270,33 @@ cv::Mat textureMask(const cv::Mat& left, const DenseOptions& o) {
   return (hi_img - lo_img) >= o.min_texture_grey;
 }
 
+// The right image's sub-pixel disparity at right pixel xr with integer winner dr, from the same aggregated
+// volume: the parabola through S(xr + d, d) for d = dr - 1, dr, dr + 1 (the costs of that right pixel at
+// those disparities). NaN where a neighbour lies outside the image or its band, or the costs are flat.
+float rightSubpixel(const BandVolume& v, const std::vector<uint16_t>& sum, int y, int xr, int dr) {
+  double c[3];
+  for (int k = -1; k <= 1; ++k) {
+    const int x = xr + dr + k, d = dr + k;
+    if (x < 0 || x >= v.cols) return std::numeric_limits<float>::quiet_NaN();
+    const std::size_t p = static_cast<std::size_t>(y) * v.cols + x;
+    if (d < v.lo[p] || d >= v.lo[p] + v.count[p]) return std::numeric_limits<float>::quiet_NaN();
+    c[k + 1] = sum[static_cast<std::size_t>(v.offset[p]) + (d - v.lo[p])];
+  }
+  const double denom = c[0] + c[2] - 2.0 * c[1];
+  if (!(denom > 0.0)) return std::numeric_limits<float>::quiet_NaN();
+  return static_cast<float>(dr + (c[0] - c[2]) / (2.0 * denom));
+}
+
 // Winner per left pixel into res.disparity and res.valid, and the right image's winner from the same
-// aggregated volume for the left-right check; `occluded` marks the pixels that check finds occluded.
+// aggregated volume for the left-right check; `occluded` marks the pixels that check finds occluded. Where
+// the check passes, res.lr_diff_px gets the left sub-pixel disparity less the right one (rightSubpixel).
 void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const std::vector<uint8_t>& no_band,
                    const cv::Mat& texture, const DenseOptions& o, DenseResult& res, cv::Mat& occluded) {
   const int rows = v.rows, cols = v.cols;
   res.disparity = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   res.valid = cv::Mat::zeros(rows, cols, CV_8UC1);
   res.filled = cv::Mat::zeros(rows, cols, CV_8UC1);
+  res.lr_diff_px = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   std::vector<int> left_int(static_cast<std::size_t>(cols));
   std::vector<uint16_t> right_cost(static_cast<std::size_t>(cols));
   std::vector<int> right_disp(static_cast<std::size_t>(cols));
@@ -316,7 +335,9 @@ void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const 
         drow[x] = std::numeric_limits<float>::quiet_NaN();
         // Hirschmüller: the right pixel belongs to a nearer surface -> this pixel is occluded.
         if (dr > dl) occluded.at<uint8_t>(y, x) = 255;
+        continue;
       }
+      res.lr_diff_px.at<float>(y, x) = drow[x] - rightSubpixel(v, sum, y, xr, dr);
     }
   }
 }
@@ -399,6 +420,7 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
   res.fine_seconds = t2 - t1;
 
   removeSpeckles(o, res);
+  res.lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
   if (o.refine_subpixel) {
     res.subpixel = refineSubpixel(left, right, res.disparity, res.valid, o.subpixel, &res.sigma_px);
   }

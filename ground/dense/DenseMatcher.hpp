@@ -22,10 +22,10 @@
 
 namespace areomap::dense {
 
-// Standard deviation (px) of a fine match's position that the products propagate into each point's
-// covariance through the intersection (Triangulation.hpp, all four image coordinates): calibrated against
-// truth on the navcam preset (tests/ground/products/NavcamAccuracyTest.cpp, PointSigmaAgainstTruth,
-// prints the ratio of the actual height errors to these sigmas per range band).
+// Standard deviation (px) of a fine match's position, propagated into each point's covariance through the
+// intersection (Triangulation.hpp, all four image coordinates), for a pair whose own estimate
+// (MatchNoise.hpp) has too few samples: calibrated against truth on the navcam preset
+// (tests/ground/products/NavcamAccuracyTest.cpp, PointSigmaAgainstTruth).
 inline constexpr double kMatchSigmaPx = 0.15;
 
 // Correlation length (px) of the fine matcher's disparity errors in the image: rho(lag) = exp(-lag / L)
@@ -65,6 +65,11 @@ struct DenseResult {
   cv::Mat filled;     // CV_8U, 255 where the value was filled rather than matched
   cv::Mat coarse;     // CV_32F, the coarse-grid disparities (grid rows x grid cols)
   cv::Mat sigma_px;   // CV_32F, least-squares matching's a-posteriori sd per match (empty without it)
+  // CV_32F: where a match passed the left-right check, its parabola sub-pixel disparity less the right
+  // image's at the matched right pixel (from the same aggregated costs); NaN elsewhere. The input of the
+  // pair's matching-noise estimate (MatchNoise.hpp). Refers to the parabola's disparities, also when
+  // least-squares matching replaces them.
+  cv::Mat lr_diff_px;
   SubpixelStats subpixel;
   double coarse_seconds = 0.0;
   double fine_seconds = 0.0;

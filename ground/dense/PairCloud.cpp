@@ -93,6 +93,14 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
     return out;
   }
   const long long good = keepInside(rect, d.disparity);
+  // The noise estimate from the kept matches only.
+  for (int y = 0; y < d.disparity.rows; ++y) {
+    const float* dr = d.disparity.ptr<float>(y);
+    float* lr = d.lr_diff_px.ptr<float>(y);
+    for (int x = 0; x < d.disparity.cols; ++x) {
+      if (!std::isfinite(dr[x])) lr[x] = NAN;
+    }
+  }
   // Of the rectified pixels that show the left original (the rectified image may be larger than it).
   const double shown = static_cast<double>(cv::countNonZero(insideMask(rect.left_map)));
   out.matched_fraction = static_cast<double>(good) / (shown + 1e-9);
@@ -102,9 +110,15 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
                 " % of pixels; no texture?)";
     return out;
   }
+  if (options.estimate_match_sigma) {
+    out.match_noise = estimateMatchNoise(d.lr_diff_px, options.match_sigma_px);
+  } else {
+    out.match_noise.sigma_px = options.match_sigma_px;
+    out.match_noise.source = "constant";
+  }
   t0 = now();
-  out.points =
-      triangulateDisparity(rect.left, rect.right, d.disparity, options.match_sigma_px, pair_id, l, out.stats);
+  out.points = triangulateDisparity(rect.left, rect.right, d.disparity, out.match_noise.sigma_px, pair_id, l,
+                                    out.stats);
   out.support_range_m = supportRangeM(rect, options.max_range_m);
   out.seconds_triangulate = now() - t0;
   return out;

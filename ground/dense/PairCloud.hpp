@@ -1,8 +1,9 @@
 // One stereo pair to a point cloud (paper 4.1), the products' first stage: rectification with the
 // adjusted models, parallax ranges from the pair's tie points, dense coarse-to-fine matching, matches kept
 // only inside both original images, and space intersection through the models (per-point covariance from
-// the matcher's sub-pixel sigma). Errors of one pair (it cannot be rectified, the matcher fails, too few
-// valid matches: no texture) are returned as a message, never thrown: the other pairs go on.
+// the pair's own sub-pixel matching noise, MatchNoise.hpp). Errors of one pair (it cannot be rectified, the
+// matcher fails, too few valid matches: no texture) are returned as a message, never thrown: the other pairs
+// go on.
 #pragma once
 
 #include <string>
@@ -11,6 +12,8 @@
 #include <opencv2/core.hpp>
 
 #include "firmware_core/camera/CameraModel.hpp"
+#include "ground/dense/DenseMatcher.hpp"
+#include "ground/dense/MatchNoise.hpp"
 #include "ground/dense/Triangulation.hpp"
 
 namespace areomap::dense {
@@ -20,7 +23,10 @@ struct PairCloudOptions {
   // pair (disparityAtRange): a larger or wider frame than the rover's needs more than a fixed bound.
   int max_disparity_px = 192;
   double min_range_m = 1.0;  // the nearest surface searched, as the tie matcher's (StereoParams::min_range_m)
-  double match_sigma_px = 0.15;        // the fine matcher's sub-pixel sigma (DenseMatcher.hpp kMatchSigmaPx)
+  // The points' matching sigma is the pair's own estimate (MatchNoise.hpp) when estimate_match_sigma, else
+  // (and where the estimate has too few samples) this one.
+  bool estimate_match_sigma = true;
+  double match_sigma_px = kMatchSigmaPx;
   double max_range_m = 60.0;           // the DEM's range: support_range_m is computed for it
   double min_matched_fraction = 0.02;  // fewer valid matches: the pair has no texture (an error)
 };
@@ -32,6 +38,7 @@ struct PairCloud {
   double matched_fraction = 0.0;  // valid matches inside both images / rectified pixels showing the left image
   TriangulationStats stats;
   // Points are kept beyond max_range_m as support for the DEM, which stops at max_range_m: out to the
+  MatchNoise match_noise;  // the matching sigma the points carry, and where it came from
   // range whose disparity is kSupportDisparityPx below that of max_range_m (about 3 sd of the far matches'
   // disparity error, 0.33-0.36 px in tests/ground/products/far/FarRangeTest.cpp), at most twice
   // max_range_m. Cut at max_range_m itself, the outermost rows would keep only their points measured nearer

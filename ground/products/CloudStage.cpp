@@ -12,10 +12,6 @@ namespace areomap::products {
 
 namespace {
 
-// Standard deviation of a dense match (pixels) for the intersection's covariance: the matcher's
-// sub-pixel precision, calibrated against truth (ground/dense/DenseMatcher.hpp).
-constexpr double kMatchSigmaPx = dense::kMatchSigmaPx;
-
 // Drops gross outliers before gridding: points whose height sigma exceeds `max_sigma_m`, and points far
 // from the median height of their polar bin (1 m in range x 2 degrees in azimuth about the gimbal centre):
 // more than max(0.3 m, 6 MAD-sigmas) away. Mismatches at depth edges and near the horizon are such points.
@@ -106,7 +102,7 @@ Cloud denseCloud(Context& ctx) {
       }
       dense::PairCloudOptions popt;
       popt.max_disparity_px = ctx.options.dense_max_disparity_px;
-      popt.match_sigma_px = kMatchSigmaPx;
+      popt.match_sigma_px = dense::kMatchSigmaPx;  // where a pair's own estimate has too few samples
       popt.max_range_m = ctx.options.max_range_m;
       const dense::PairCloud pc = dense::pairCloud(sized(L), sized(R), L.grey, R.grey, lp, rp, pair.id, popt);
       t_rect += pc.seconds_rectify;
@@ -115,6 +111,8 @@ Cloud denseCloud(Context& ctx) {
         ctx.warn(name + ": " + pc.error);
         continue;
       }
+      ctx.result.dense_pairs.push_back(ground::DensePairNoise{pair.id, pc.match_noise.sigma_px,
+                                                              pc.match_noise.source, pc.match_noise.samples});
       const double t0 = cli::nowSeconds();
       long long kept = 0;
       for (const dense::CloudPoint& p : pc.points) {
@@ -125,12 +123,13 @@ Cloud denseCloud(Context& ctx) {
       }
       t_tri += pc.seconds_triangulate + cli::nowSeconds() - t0;
       {
-        char b[200];
+        char b[300];
         std::snprintf(b, sizeof b,
                       "%s: %zu ties, %.1f %% matched, %lld triangulated (%lld geometry, %lld residual "
-                      "rejected), %lld kept",
+                      "rejected), %lld kept; matching noise %.3f px (%s, %lld samples)",
                       name.c_str(), pc.ties, 100 * pc.matched_fraction, pc.stats.triangulated,
-                      pc.stats.rejected_geometry, pc.stats.rejected_residual, kept);
+                      pc.stats.rejected_geometry, pc.stats.rejected_residual, kept, pc.match_noise.sigma_px,
+                      pc.match_noise.source.c_str(), pc.match_noise.samples);
         cli::info(b);
       }
       if (kept == 0) {

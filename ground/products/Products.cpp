@@ -1,5 +1,6 @@
 #include "ground/products/Products.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -116,6 +117,10 @@ void coverageStage(Context& ctx, const DemGrid& dem, const DemGrid& sigma) {
     c.near = demCoverage(dem, &sigma, sized(l), sized(r), plane, kNear, kMid, kSampleM);
     c.far = demCoverage(dem, &sigma, sized(l), sized(r), plane, kMid, kFar, kSampleM);
     ctx.result.coverage.push_back(c);
+    char b[200];
+    std::snprintf(b, sizeof b, "pair %d: the DEM covers %.1f %% (2-5 m) and %.1f %% (5-10 m) of what both cameras see",
+                  p.id, 100 * std::max(0.0, c.near.fraction()), 100 * std::max(0.0, c.far.fraction()));
+    cli::info(b);
   }
 }
 
@@ -224,6 +229,12 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
 void mergeIntoReport(const ProductsResult& products, ground::AdjustReport& report) {
   for (const auto& stage : products.seconds) report.seconds.push_back(stage);
   for (const std::string& w : products.warnings) report.warnings.push_back(w);
+  report.dense_pairs = products.dense_pairs;
+  report.dem_coverage.clear();
+  for (const ProductsResult::PairCoverage& c : products.coverage) {
+    report.dem_coverage.push_back(
+        {c.pair_id, c.near.seen, c.near.filled, c.far.seen, c.far.filled});
+  }
   if (report.truth) report.truth->dem_rmse_m = products.dem_rmse_m;
 }
 

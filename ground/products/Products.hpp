@@ -106,13 +106,14 @@ struct ProductsResult {
   std::vector<std::string> write_errors;
   long long points = 0;               // cloud size
   int pairs_matched = 0;
-  std::optional<DemGrid> dem;         // the DEM written (absent when no points)
-  std::optional<DemGrid> dem_near;    // the finer near-rover DEM (absent when dem.tif is already that fine)
-  std::optional<double> dem_rmse_m;   // against truth_dem over cells present in both
-  double ortho_seam_px = -1.0;        // median geometric disagreement at ortho seams, px (-1: no seams)
-  std::vector<double> residuals_px;   // tie back-projection residuals plotted in report.html
-  // Per stereo pair (in ProductInputs::pairs order, matched pairs only): of the cells both cameras see at
-  // 2-5 m and at 5-10 m horizontal range, how many the DEM fills (DemCoverage.hpp).
+  std::vector<ground::DensePairNoise> dense_pairs;  // each matched pair's matching noise (report.json dense)
+  std::optional<DemGrid> dem;                       // the DEM written (absent when no points)
+  std::optional<DemGrid> dem_near;   // the finer near-rover DEM (absent when dem.tif is already that fine)
+  std::optional<double> dem_rmse_m;  // against truth_dem over cells present in both
+  double ortho_seam_px = -1.0;       // median geometric disagreement at ortho seams, px (-1: no seams)
+  std::vector<double> residuals_px;  // tie back-projection residuals plotted in report.html
+  // Per stereo pair (in ProductInputs::pairs order, both images present): of the cells both cameras see
+  // at 2-5 m and at 5-10 m horizontal range, how many the DEM fills (DemCoverage.hpp).
   struct PairCoverage {
     int pair_id = 0;
     CoverageCount near, far;
@@ -128,8 +129,9 @@ struct ProductsResult {
 ProductsResult makeProducts(const ProductInputs& inputs, const ProductOptions& options,
                             const std::string& out_dir, const ground::AdjustReport* adjustment = nullptr);
 
-// What the products add to report.json: their stage timings after the adjustment's, their warnings and
-// truth.dem_rmse_m (when the report has a truth section). Call before writeReportJson.
+// What the products add to report.json: their stage timings after the adjustment's, their warnings,
+// dense.pairs (each pair's matching noise) and truth.dem_rmse_m (when the report has a truth section). Call
+// before writeReportJson.
 void mergeIntoReport(const ProductsResult& products, ground::AdjustReport& report);
 
 }  // namespace areomap::products

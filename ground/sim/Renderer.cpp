@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "ground/sim/Noise.hpp"
 #include "ground/sim/Parallel.hpp"
@@ -70,6 +71,8 @@ RenderedImage renderImage(const Terrain& terrain, const SimConfig& config, const
   const double far_elevation = terrain.farElevation();
   const double pixel_rad = 1.0 / config.focalPx();
 
+  // The pixels before the optical blur and the sensor noise.
+  std::vector<double> radiance_dn(image.pixels.size(), 0.0);
   parallelFor(image.height, config.threads, [&](int row) {
     for (int col = 0; col < image.width; ++col) {
       double sum = 0.0;
@@ -108,7 +111,16 @@ RenderedImage renderImage(const Terrain& terrain, const SimConfig& config, const
           sum += kExposureDn * footprintRadiance(terrain, hit, dir, normal, on_grid, t, pixel_rad / s, pixel_rad, sun, shadow);
         }
       }
-      double dn = sum / (s * s);
+      radiance_dn[static_cast<std::size_t>(row) * image.width + col] = sum / (s * s);
+    }
+  });
+  if (config.blur_px > 0.0) {
+    cv::Mat view(image.height, image.width, CV_64FC1, radiance_dn.data());
+    cv::GaussianBlur(view, view, cv::Size(0, 0), config.blur_px, config.blur_px, cv::BORDER_REFLECT);
+  }
+  parallelFor(image.height, config.threads, [&](int row) {
+    for (int col = 0; col < image.width; ++col) {
+      double dn = radiance_dn[static_cast<std::size_t>(row) * image.width + col];
       if (config.noise_dn > 0.0) {
         const uint64_t h = hash3(noise_seed, row, col);
         dn += config.noise_dn * gaussian(mix64(h), mix64(h + 1));

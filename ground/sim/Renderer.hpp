@@ -1,8 +1,8 @@
 // Renders 8-bit grayscale images of the terrain through CAHVOR models: per supersampled pixel the CAHVOR
 // ray (unproject) is cast into the height field (occlusion), shaded Lambertian from the sun with cast
 // shadows and a sky/ambient term, its radiance integrated over the ray's footprint along the surface (long at
-// grazing incidence), then sensor noise and an optional JPEG round trip. Rows are shared among
-// threads; every random number is a hash of (seed, image, pixel), so the bytes do not depend on the thread
+// grazing incidence), then an optional Gaussian optical blur (SimConfig::blur_px), sensor noise and an
+// optional JPEG round trip. Rows are shared among threads; every random number is a hash of (seed, image, pixel), so the bytes do not depend on the thread
 // count.
 #pragma once
 

@@ -209,6 +209,7 @@ void validatePlan(const SimConfig& c) {
   if (!(c.min_rock_m > 0.0)) planError("--min-rock-m", "must be positive");
   if (c.supersample < 1 || c.supersample > 4) planError("--supersample", "outside 1..4");
   if (!(c.noise_dn >= 0.0 && c.noise_dn <= 50.0)) planError("--noise-dn", "outside 0..50");
+  if (!(c.blur_px >= 0.0 && c.blur_px <= 20.0)) planError("--blur-px", "outside 0..20 (0 = none)");
   if (c.jpeg_quality < 0 || c.jpeg_quality > 100) planError("--jpeg-quality", "outside 0..100 (0 = none)");
   if (!(c.sun_elevation_deg > 0.0 && c.sun_elevation_deg <= 90.0))
     planError("--sun-el-deg", "outside (0, 90]");

@@ -69,7 +69,9 @@ struct SimConfig {
   // Rendering.
   int supersample = 2;    // s x s rays per pixel
   double noise_dn = 1.5;  // sensor noise sigma
-  int jpeg_quality = 0;   // 0 = no JPEG round trip
+  double blur_px =
+      0.0;  // sigma of a Gaussian optical blur of the rendered image (0 = none), before the noise
+  int jpeg_quality = 0;  // 0 = no JPEG round trip
   double sun_azimuth_deg = 120.0;
   double sun_elevation_deg = 40.0;
   bool shadows = true;

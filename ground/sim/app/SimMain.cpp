@@ -53,6 +53,8 @@ Options (each overrides the preset):
   --rock-k K                 Golombek rock abundance k (cumulative fractional area)
   --supersample S            S x S rays per pixel (1..4)
   --noise-dn N               sensor noise sigma in DN
+  --blur-px S                Gaussian blur (sigma S pixels) of each rendered image before the sensor
+                             noise (default 0 = none)
   --jpeg-quality Q           JPEG round trip at quality Q before saving (0 = none)
   --sun-az-deg A --sun-el-deg E   sun direction
   --no-shadows               no cast shadows
@@ -236,6 +238,7 @@ int main(int argc, char** argv) {
     c.rock_k = args.number("--rock-k", c.rock_k);
     c.supersample = integerOption(args, "--supersample", c.supersample);
     c.noise_dn = args.number("--noise-dn", c.noise_dn);
+    c.blur_px = args.number("--blur-px", c.blur_px);
     c.jpeg_quality = integerOption(args, "--jpeg-quality", c.jpeg_quality);
     c.sun_azimuth_deg = args.number("--sun-az-deg", c.sun_azimuth_deg);
     c.sun_elevation_deg = args.number("--sun-el-deg", c.sun_elevation_deg);
