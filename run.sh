@@ -157,12 +157,12 @@ for name in names:
     tp = r.get("tie_points", {})
     sigmas = [p.get("match_sigma_px") for p in r.get("dense", {}).get("pairs", [])]
     noise = " / ".join("%.3f" % v for v in sigmas if isinstance(v, (int, float))) or None
-    cov = r.get("dem_coverage", {})
+    cov = r.get("dem_coverage", {}).get("fraction_2_10m")
     print("%s: %s pairs, ties %s intra + %s inter (%s rejected), method 1 %s -> %s px, matching noise %s px, "
-          "DEM coverage %s" % (
+          "DEM coverage %s of what both cameras see at 2-10 m" % (
         name, r.get("stream", {}).get("pairs", len(r.get("pairs", [])) or "n/a"), tp.get("intra"), tp.get("inter"),
         tp.get("rejected"), num(m1.get("before", {}).get("dist"), "%.3f"), num(m1.get("after", {}).get("dist"), "%.3f"),
-        noise or "n/a", num(cov.get("fraction"), "%.2f") if isinstance(cov, dict) else num(cov, "%.2f")))
+        noise or "n/a", num(100 * cov, "%.1f %%") if isinstance(cov, (int, float)) else "n/a"))
     print("    products: %s" % products)
 print("=" * 78)
 PYEOF
@@ -415,6 +415,9 @@ if dp:
     fb = [str(p.get("pair")) for p in dp if p.get("match_sigma_source") != "left_right"]
     print("dense:     matching noise %.3f-%.3f px over %d pairs (left-right estimate%s)" % (
         min(v), max(v), len(dp), "; the constant for pair(s) " + ", ".join(fb) if fb else ""))
+cov = r.get("dem_coverage", {}).get("fraction_2_10m")
+if isinstance(cov, (int, float)):
+    print("dem:       covers %.1f %% of the cells both cameras of a pair see at 2-10 m" % (100 * cov))
 print("ground:    stage seconds %s" % ", ".join("%s %.1f" % (k, v) for k, v in r.get("seconds", {}).items()))
 print("memory:    peak RSS ground %s, rover %s" % (rss("ground"), rss("rover")))
 for w in r.get("warnings", [])[:6]:
