@@ -103,27 +103,36 @@ cv::Mat coarsePass(const cv::Mat& left, const cv::Mat& cl, const cv::Mat& cr, co
   v.finishLayout();
   const int half = step / 2;
   const int area = (2 * half + 1) * (2 * half + 1);
+  // Per node, the window's Hamming distances are summed disparity by disparity with the window pixel fixed
+  // (the inner loop over disparities has no branch: the disparities whose right pixel lies outside the image
+  // take kNoMatchCost in bulk). The same integer sums as pixel by pixel per disparity.
+  std::vector<int> total;
   for (int gy = 0; gy < gh; ++gy) {
     const int y = off + gy * step;
     for (int gx = 0; gx < gw; ++gx) {
       const int x = off + gx * step;
       const std::size_t p = static_cast<std::size_t>(gy) * gw + gx;
-      uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
-      for (int j = 0; j < v.count[p]; ++j) {
-        const int d = v.lo[p] + j;
-        int total = 0;
-        for (int dy = -half; dy <= half; ++dy) {
-          const int yy = std::clamp(y + dy, 0, left.rows - 1);
-          const uint64_t* a = censusRow(cl, yy);
-          const uint64_t* b = censusRow(cr, yy);
-          for (int dx = -half; dx <= half; ++dx) {
-            const int xl = std::clamp(x + dx, 0, left.cols - 1);
-            const int xr = xl - d;
-            total += (xr >= 0 && xr < left.cols) ? hamming(a[xl], b[xr]) : kNoMatchCost;
-          }
+      const int lo = v.lo[p], n = v.count[p];
+      total.assign(static_cast<std::size_t>(n), 0);
+      int* t = total.data();
+      for (int dy = -half; dy <= half; ++dy) {
+        const int yy = std::clamp(y + dy, 0, left.rows - 1);
+        const uint64_t* a = censusRow(cl, yy);
+        const uint64_t* b = censusRow(cr, yy);
+        for (int dx = -half; dx <= half; ++dx) {
+          const int xl = std::clamp(x + dx, 0, left.cols - 1);
+          const uint64_t ca = a[xl];
+          // xr = xl - lo - j lies in [0, cols) for j in [xl - lo - cols + 1, xl - lo].
+          const int j_begin = std::clamp(xl - lo - left.cols + 1, 0, n);
+          const int j_end = std::clamp(xl - lo + 1, j_begin, n);
+          for (int j = 0; j < j_begin; ++j) t[j] += kNoMatchCost;
+          const int xr0 = xl - lo;
+          for (int j = j_begin; j < j_end; ++j) t[j] += hamming(ca, b[xr0 - j]);
+          for (int j = j_end; j < n; ++j) t[j] += kNoMatchCost;
         }
-        c[j] = static_cast<uint16_t>((total + area / 2) / area);
       }
+      uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
+      for (int j = 0; j < n; ++j) c[j] = static_cast<uint16_t>((t[j] + area / 2) / area);
     }
   }
   cv::Mat smooth;

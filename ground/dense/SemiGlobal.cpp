@@ -1,6 +1,7 @@
 #include "ground/dense/SemiGlobal.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -16,6 +17,10 @@ void BandVolume::finishLayout() {
 }
 
 namespace {
+
+// The path cost of a disparity that the predecessor's band lacks: above any jump (the predecessor's minimum
+// + P2), so it never wins, and adding P1 to it cannot overflow.
+constexpr int kUnreachable = INT32_MAX / 4;
 
 struct Direction {
   int dy;
@@ -38,6 +43,9 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
   std::vector<std::vector<uint16_t>> cur(nd, std::vector<uint16_t>(max_row_cells));
   std::vector<std::vector<uint16_t>> prev_min(nd, std::vector<uint16_t>(cols));
   std::vector<std::vector<uint16_t>> cur_min(nd, std::vector<uint16_t>(cols));
+  int max_count = 0;
+  for (int32_t n : v.count) max_count = std::max(max_count, static_cast<int>(n));
+  std::vector<int> step_buf(static_cast<std::size_t>(max_count) + 2);
 
   for (int iy = 0; iy < rows; ++iy) {
     const int y = forward ? iy : rows - 1 - iy;
@@ -80,13 +88,18 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
         const int di = std::abs(static_cast<int>(g[x]) - gq);
         const int p2 = std::max(prm.p1 + 1, prm.p2 * 16 / (16 + di));
         const int jump = pmin + p2;
+        // The predecessor's path costs at this pixel's disparities lo - 1 .. lo + n, kUnreachable where its
+        // band has none: the step below then needs no range test per disparity (and vectorises).
+        int* at = step_buf.data();
+        const int first = std::clamp(plo - lo + 1, 0, n + 2);
+        const int last = std::clamp(plo + pn - lo + 1, first, n + 2);
+        std::fill(at, at + first, kUnreachable);
+        for (int i = first; i < last; ++i) at[i] = pl[i - 1 + lo - plo];
+        std::fill(at + last, at + n + 2, kUnreachable);
+        const int p1 = prm.p1;
         uint16_t m = UINT16_MAX;
         for (int j = 0; j < n; ++j) {
-          const int jj = lo + j - plo;  // index of the same disparity in the predecessor's band
-          int best = jump;
-          if (jj >= 0 && jj < pn) best = std::min(best, static_cast<int>(pl[jj]));
-          if (jj - 1 >= 0 && jj - 1 < pn) best = std::min(best, pl[jj - 1] + prm.p1);
-          if (jj + 1 >= 0 && jj + 1 < pn) best = std::min(best, pl[jj + 1] + prm.p1);
+          const int best = std::min(std::min(jump, at[j + 1]), std::min(at[j], at[j + 2]) + p1);
           const int val = c[j] + best - pmin;
           out[j] = static_cast<uint16_t>(val);
           s[j] = static_cast<uint16_t>(s[j] + val);
