@@ -35,6 +35,7 @@ packages=(
   libcpputest-dev cpputest libopencv-dev libgdal-dev gdal-bin libceres-dev nlohmann-json3-dev
   libpng-dev iproute2 util-linux procps python3 time
   chromium  # tests/ground/products ReportHtmlTest: report.html rendered in headless Chromium
+  libmrcal-dev  # tests/ground/io/mrcal: our CAHVOR/CAHVORE projection against mrcal's
 )
 
 # --fuzz: Debian bookworm's clang 14 with its runtime (libFuzzer, ASan, UBSan: libclang-rt-14-dev) and llvm

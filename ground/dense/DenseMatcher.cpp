@@ -103,27 +103,36 @@ cv::Mat coarsePass(const cv::Mat& left, const cv::Mat& cl, const cv::Mat& cr, co
   v.finishLayout();
   const int half = step / 2;
   const int area = (2 * half + 1) * (2 * half + 1);
+  // Per node, the window's Hamming distances are summed disparity by disparity with the window pixel fixed
+  // (the inner loop over disparities has no branch: the disparities whose right pixel lies outside the image
+  // take kNoMatchCost in bulk). The same integer sums as pixel by pixel per disparity.
+  std::vector<int> total;
   for (int gy = 0; gy < gh; ++gy) {
     const int y = off + gy * step;
     for (int gx = 0; gx < gw; ++gx) {
       const int x = off + gx * step;
       const std::size_t p = static_cast<std::size_t>(gy) * gw + gx;
-      uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
-      for (int j = 0; j < v.count[p]; ++j) {
-        const int d = v.lo[p] + j;
-        int total = 0;
-        for (int dy = -half; dy <= half; ++dy) {
-          const int yy = std::clamp(y + dy, 0, left.rows - 1);
-          const uint64_t* a = censusRow(cl, yy);
-          const uint64_t* b = censusRow(cr, yy);
-          for (int dx = -half; dx <= half; ++dx) {
-            const int xl = std::clamp(x + dx, 0, left.cols - 1);
-            const int xr = xl - d;
-            total += (xr >= 0 && xr < left.cols) ? hamming(a[xl], b[xr]) : kNoMatchCost;
-          }
+      const int lo = v.lo[p], n = v.count[p];
+      total.assign(static_cast<std::size_t>(n), 0);
+      int* t = total.data();
+      for (int dy = -half; dy <= half; ++dy) {
+        const int yy = std::clamp(y + dy, 0, left.rows - 1);
+        const uint64_t* a = censusRow(cl, yy);
+        const uint64_t* b = censusRow(cr, yy);
+        for (int dx = -half; dx <= half; ++dx) {
+          const int xl = std::clamp(x + dx, 0, left.cols - 1);
+          const uint64_t ca = a[xl];
+          // xr = xl - lo - j lies in [0, cols) for j in [xl - lo - cols + 1, xl - lo].
+          const int j_begin = std::clamp(xl - lo - left.cols + 1, 0, n);
+          const int j_end = std::clamp(xl - lo + 1, j_begin, n);
+          for (int j = 0; j < j_begin; ++j) t[j] += kNoMatchCost;
+          const int xr0 = xl - lo;
+          for (int j = j_begin; j < j_end; ++j) t[j] += hamming(ca, b[xr0 - j]);
+          for (int j = j_end; j < n; ++j) t[j] += kNoMatchCost;
         }
-        c[j] = static_cast<uint16_t>((total + area / 2) / area);
       }
+      uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
+      for (int j = 0; j < n; ++j) c[j] = static_cast<uint16_t>((t[j] + area / 2) / area);
     }
   }
   cv::Mat smooth;
@@ -222,13 +231,18 @@ BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOption
   v.lo.resize(static_cast<std::size_t>(rows) * cols);
   v.count.resize(v.lo.size());
   no_band.assign(v.lo.size(), 0);
+  std::vector<int> gx_of_x(static_cast<std::size_t>(cols));  // the grid column of each image column
+  for (int x = 0; x < cols; ++x)
+    gx_of_x[x] = std::clamp((x - off) / step - (x < off ? 1 : 0), 0, coarse.cols - 1);
   for (int y = 0; y < rows; ++y) {
     const int gy = std::clamp((y - off) / step - (y < off ? 1 : 0), 0, coarse.rows - 1);
+    const float* min_row = cmin.ptr<float>(gy);
+    const float* max_row = cmax.ptr<float>(gy);
     for (int x = 0; x < cols; ++x) {
-      const int gx = std::clamp((x - off) / step - (x < off ? 1 : 0), 0, coarse.cols - 1);
+      const int gx = gx_of_x[x];
       const std::size_t p = static_cast<std::size_t>(y) * cols + x;
-      int lo = static_cast<int>(cmin.at<float>(gy, gx)) - o.fine_margin_px;
-      int hi = static_cast<int>(cmax.at<float>(gy, gx)) + o.fine_margin_px;
+      int lo = static_cast<int>(min_row[gx]) - o.fine_margin_px;
+      int hi = static_cast<int>(max_row[gx]) + o.fine_margin_px;
       lo = std::max(lo, o.min_disparity_px);
       hi = std::min({hi, o.max_disparity_px, x});
       if (hi < lo) {
@@ -252,8 +266,14 @@ void fineCosts(const cv::Mat& cl, const cv::Mat& cr, const std::vector<uint8_t>&
     for (int x = 0; x < cols; ++x) {
       const std::size_t p = static_cast<std::size_t>(y) * cols + x;
       uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
-      for (int j = 0; j < v.count[p]; ++j) {
-        const int xr = x - (v.lo[p] + j);
+      const int n = v.count[p];
+      const int x_first = x - v.lo[p];  // the right column of the band's first disparity
+      if (!no_band[p] && x_first < cols && x_first - (n - 1) >= 0) {
+        for (int j = 0; j < n; ++j) c[j] = hamming(a[x], b[x_first - j]);
+        continue;
+      }
+      for (int j = 0; j < n; ++j) {
+        const int xr = x_first - j;
         c[j] = (xr >= 0 && xr < cols && !no_band[p]) ? hamming(a[x], b[xr]) : kNoMatchCost;
       }
     }
@@ -374,19 +394,30 @@ cv::Mat censusTransform(const cv::Mat& image) {
   cv::copyMakeBorder(image, padded, kCensusHalfHeight, kCensusHalfHeight, kCensusHalfWidth, kCensusHalfWidth,
                      cv::BORDER_REPLICATE);
   cv::Mat out(image.rows, image.cols, CV_32SC2);
+  const int cols = image.cols;
+  // Row by row, neighbour by neighbour (dy, then dx, the centre skipped), the first neighbour in the highest
+  // bit: the comparisons of 8 neighbours are gathered in a byte per pixel (loops over the row that the
+  // compiler vectorises), then shifted into the pixel's 64 bits.
+  std::vector<uint8_t> chunk(static_cast<std::size_t>(cols));
   for (int y = 0; y < image.rows; ++y) {
     uint64_t* o = out.ptr<uint64_t>(y);
-    for (int x = 0; x < image.cols; ++x) {
-      const uint8_t centre = padded.at<uint8_t>(y + kCensusHalfHeight, x + kCensusHalfWidth);
-      uint64_t bits = 0;
-      for (int dy = -kCensusHalfHeight; dy <= kCensusHalfHeight; ++dy) {
-        const uint8_t* row = padded.ptr<uint8_t>(y + kCensusHalfHeight + dy) + x + kCensusHalfWidth;
-        for (int dx = -kCensusHalfWidth; dx <= kCensusHalfWidth; ++dx) {
-          if (dx == 0 && dy == 0) continue;
-          bits = (bits << 1) | (row[dx] < centre ? 1u : 0u);
+    std::fill(o, o + cols, uint64_t{0});
+    const uint8_t* centre = padded.ptr<uint8_t>(y + kCensusHalfHeight) + kCensusHalfWidth;
+    int in_chunk = 0;
+    std::fill(chunk.begin(), chunk.end(), uint8_t{0});
+    for (int dy = -kCensusHalfHeight; dy <= kCensusHalfHeight; ++dy) {
+      for (int dx = -kCensusHalfWidth; dx <= kCensusHalfWidth; ++dx) {
+        if (dx == 0 && dy == 0) continue;
+        const uint8_t* row = padded.ptr<uint8_t>(y + kCensusHalfHeight + dy) + kCensusHalfWidth + dx;
+        uint8_t* c = chunk.data();
+        for (int x = 0; x < cols; ++x)
+          c[x] = static_cast<uint8_t>((c[x] << 1) | (row[x] < centre[x] ? 1 : 0));
+        if (++in_chunk == 8 || (dy == kCensusHalfHeight && dx == kCensusHalfWidth)) {
+          for (int x = 0; x < cols; ++x) o[x] = (o[x] << in_chunk) | c[x];
+          std::fill(chunk.begin(), chunk.end(), uint8_t{0});
+          in_chunk = 0;
         }
       }
-      o[x] = bits;
     }
   }
   return out;

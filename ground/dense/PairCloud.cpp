@@ -27,8 +27,9 @@ double supportRangeM(const RectifiedPair& rect, double max_range_m) {
                                             : 2.0 * max_range_m;
 }
 
-// Pixels of a rectified image that come from inside the original, eroded by the matching window.
-cv::Mat insideMask(const cv::Mat& map) {
+}  // namespace
+
+cv::Mat insideOriginal(const cv::Mat& map) {
   cv::Mat m(map.rows, map.cols, CV_8U);
   for (int y = 0; y < map.rows; ++y) {
     const cv::Vec2f* row = map.ptr<cv::Vec2f>(y);
@@ -38,10 +39,12 @@ cv::Mat insideMask(const cv::Mat& map) {
   return m;
 }
 
+namespace {
+
 // Only matches inside both original images count: the rectified images are black where no original pixel
 // maps, and those borders (eroded by the matching window) must not make matches. Returns the valid count.
 long long keepInside(const RectifiedPair& rect, cv::Mat& disparity) {
-  const cv::Mat left_in = insideMask(rect.left_map), right_in = insideMask(rect.right_map);
+  const cv::Mat left_in = insideOriginal(rect.left_map), right_in = insideOriginal(rect.right_map);
   long long good = 0;
   for (int y = 0; y < disparity.rows; ++y) {
     float* row = disparity.ptr<float>(y);
@@ -60,39 +63,54 @@ long long keepInside(const RectifiedPair& rect, cv::Mat& disparity) {
 
 }  // namespace
 
+PairMatchSetup pairMatchSetup(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
+                              const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
+                              const std::vector<Vec2>& right_ties_px, const PairCloudOptions& options) {
+  PairMatchSetup s;
+  s.rect = rectifyPair(left, right);
+  s.left = remapToRectified(left_grey, s.rect.left_map);
+  s.right = remapToRectified(right_grey, s.rect.right_map);
+  s.ties = rectifiedTies(left, right, s.rect, left_ties_px, right_ties_px);
+  s.options.min_disparity_px = 0;
+  s.options.max_disparity_px = std::max(
+      options.max_disparity_px, static_cast<int>(std::ceil(disparityAtRange(s.rect, options.min_range_m))));
+  if (s.ties.size() >= 3)
+    s.ranges = parallaxRowRanges(s.ties, s.left.rows, s.options.min_disparity_px, s.options.max_disparity_px);
+  return s;
+}
+
+double keepMatchesInside(const RectifiedPair& rect, cv::Mat& disparity) {
+  const long long good = keepInside(rect, disparity);
+  const double shown = static_cast<double>(cv::countNonZero(insideOriginal(rect.left_map)));
+  return static_cast<double>(good) / (shown + 1e-9);
+}
+
 PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
                     const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
                     const std::vector<Vec2>& right_ties_px, int pair_id, const PairCloudOptions& options) {
   PairCloud out;
   double t0 = now();
-  RectifiedPair rect;
+  PairMatchSetup s;
   try {
-    rect = rectifyPair(left, right);
+    s = pairMatchSetup(left, right, left_grey, right_grey, left_ties_px, right_ties_px, options);
   } catch (const std::exception& e) {
     out.error = std::string("cannot rectify (") + e.what() + ")";
     return out;
   }
-  const cv::Mat l = remapToRectified(left_grey, rect.left_map);
-  const cv::Mat r = remapToRectified(right_grey, rect.right_map);
-  const std::vector<TieDisparity> ties = rectifiedTies(left, right, rect, left_ties_px, right_ties_px);
-  out.ties = ties.size();
+  const RectifiedPair& rect = s.rect;
+  const cv::Mat& l = s.left;
+  out.ties = s.ties.size();
   out.seconds_rectify = now() - t0;
   t0 = now();
-  DenseOptions dopt;
-  dopt.min_disparity_px = 0;
-  dopt.max_disparity_px = std::max(options.max_disparity_px,
-                                   static_cast<int>(std::ceil(disparityAtRange(rect, options.min_range_m))));
-  std::vector<RowRange> ranges;
-  if (ties.size() >= 3)
-    ranges = parallaxRowRanges(ties, l.rows, dopt.min_disparity_px, dopt.max_disparity_px);
   DenseResult d;
   try {
-    d = matchRectified(l, r, dopt, ranges.empty() ? nullptr : &ranges);
+    d = matchRectified(l, s.right, s.options, s.ranges.empty() ? nullptr : &s.ranges);
   } catch (const std::exception& e) {
     out.error = std::string("dense matching failed (") + e.what() + ")";
     return out;
   }
-  const long long good = keepInside(rect, d.disparity);
+  // Of the rectified pixels that show the left original (the rectified image may be larger than it).
+  out.matched_fraction = keepMatchesInside(rect, d.disparity);
   // The noise estimate from the kept matches only.
   for (int y = 0; y < d.disparity.rows; ++y) {
     const float* dr = d.disparity.ptr<float>(y);
@@ -101,9 +119,6 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
       if (!std::isfinite(dr[x])) lr[x] = NAN;
     }
   }
-  // Of the rectified pixels that show the left original (the rectified image may be larger than it).
-  const double shown = static_cast<double>(cv::countNonZero(insideMask(rect.left_map)));
-  out.matched_fraction = static_cast<double>(good) / (shown + 1e-9);
   out.seconds_dense = now() - t0;
   if (out.matched_fraction < options.min_matched_fraction) {
     out.error = "no valid dense matches (" + std::to_string(out.matched_fraction * 100) +

@@ -14,6 +14,7 @@
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/dense/DenseMatcher.hpp"
 #include "ground/dense/MatchNoise.hpp"
+#include "ground/dense/Rectification.hpp"
 #include "ground/dense/Triangulation.hpp"
 
 namespace areomap::dense {
@@ -34,8 +35,9 @@ struct PairCloudOptions {
 struct PairCloud {
   std::string error;  // empty: matched; else why not (e.g. "cannot rectify (...)")
   std::vector<CloudPoint> points;
-  std::size_t ties = 0;           // tie points that set the parallax ranges
-  double matched_fraction = 0.0;  // valid matches inside both images / rectified pixels showing the left image
+  std::size_t ties = 0;  // tie points that set the parallax ranges
+  double matched_fraction =
+      0.0;  // valid matches inside both images / rectified pixels showing the left image
   TriangulationStats stats;
   // Points are kept beyond max_range_m as support for the DEM, which stops at max_range_m: out to the
   MatchNoise match_noise;  // the matching sigma the points carry, and where it came from
@@ -53,6 +55,29 @@ inline constexpr double kSupportDisparityPx = 1.0;
 // left/right: the adjusted models in the pixel frames of left_grey/right_grey (CV_8U); left_ties_px and
 // right_ties_px: the measured pixels of the pair's tie points, one entry per point in both; pair_id names
 // the points' rectified lines (LineId.hpp).
+// What pairCloud hands the dense matcher: the rectified pair, the tie disparities, the matcher's options
+// (disparity search from PairCloudOptions) and the per-row parallax ranges from the ties (empty with fewer
+// than 3 ties: the whole range). Throws std::exception when the pair cannot be rectified.
+struct PairMatchSetup {
+  RectifiedPair rect;
+  cv::Mat left, right;  // rectified grey
+  std::vector<TieDisparity> ties;
+  DenseOptions options;
+  std::vector<RowRange> ranges;
+};
+PairMatchSetup pairMatchSetup(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
+                              const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
+                              const std::vector<Vec2>& right_ties_px, const PairCloudOptions& options);
+
+// The pixels of a rectified image (map: rectifyPair's left_map or right_map) that show the original, eroded
+// by the matching window (255; else 0).
+cv::Mat insideOriginal(const cv::Mat& map);
+
+// Sets to NaN the matches that are not inside both original images (eroded by the matching window) and
+// returns the valid matches left over the rectified pixels that show the left original (the same erosion):
+// PairCloud::matched_fraction.
+double keepMatchesInside(const RectifiedPair& rect, cv::Mat& disparity);
+
 PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
                     const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
                     const std::vector<Vec2>& right_ties_px, int pair_id, const PairCloudOptions& options);

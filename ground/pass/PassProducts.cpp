@@ -59,8 +59,7 @@ std::optional<products::EoUncertainty> eoUncertainty(const Network& solved,
   return eo;
 }
 
-// The products of ground/products (dense matching, DEM, ortho, previews, report.html) from the pass.
-void makePassProducts(const ProductContext& c) {
+products::ProductInputs passProductInputs(const ProductContext& c) {
   products::ProductInputs in;
   const Dataset& dataset = c.panorama->dataset;
   in.site = dataset.name;
@@ -99,12 +98,21 @@ void makePassProducts(const ProductContext& c) {
     in.ties.push_back(t);
   }
   in.gimbal_site_m = c.net->rig.gimbal_m[0];
+  return in;
+}
+
+products::ProductOptions passProductOptions() {
+  return products::ProductOptions{};
+}
+
+// The products of ground/products (dense matching, DEM, ortho, previews, report.html) from the pass.
+void makePassProducts(const ProductContext& c) {
+  products::ProductInputs in = passProductInputs(c);
   in.eo_uncertainty = eoUncertainty(*c.net, c.report->warnings, in.pairs);
   if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
     in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
   }
-  const products::ProductsResult made =
-      products::makeProducts(in, products::ProductOptions{}, c.out_dir, c.report);
+  const products::ProductsResult made = products::makeProducts(in, passProductOptions(), c.out_dir, c.report);
   products::mergeIntoReport(made, *c.report);
   if (c.write_errors != nullptr)
     c.write_errors->insert(c.write_errors->end(), made.write_errors.begin(), made.write_errors.end());

@@ -14,6 +14,12 @@
 
 namespace areomap::ground {
 
+// The products' inputs from the pass: the network's images (grey shared with the panorama) with their
+// adjusted models, the dataset's pairs and the pass's tie observations; without the EO covariance and the
+// truth DEM, which makePassProducts adds. And the options makePassProducts makes the products with.
+products::ProductInputs passProductInputs(const ProductContext& c);
+products::ProductOptions passProductOptions();
+
 // Makes the products of the pass in c.out_dir and merges their part into c.report.
 void makePassProducts(const ProductContext& c);
 

@@ -59,10 +59,30 @@ void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long lon
 
 }  // namespace
 
+PairDenseInputs pairDenseInputs(const ProductInputs& inputs, const ProductOptions& options,
+                                const ProductPair& pair) {
+  PairDenseInputs out;
+  out.left = sized(inputs.images[pair.left]);
+  out.right = sized(inputs.images[pair.right]);
+  // Tie observations of the two images per point: pixels for the parallax ranges.
+  std::map<int, Vec2> left_px, right_px;
+  for (const ProductTie& t : inputs.ties) {
+    if (t.image == pair.left) left_px[t.point] = t.pixel_px;
+    if (t.image == pair.right) right_px[t.point] = t.pixel_px;
+  }
+  for (const auto& kv : left_px) {
+    const auto it = right_px.find(kv.first);
+    if (it == right_px.end()) continue;
+    out.left_ties_px.push_back(kv.second);
+    out.right_ties_px.push_back(it->second);
+  }
+  out.options.max_disparity_px = options.dense_max_disparity_px;
+  out.options.match_sigma_px = dense::kMatchSigmaPx;  // where a pair's own estimate has too few samples
+  out.options.max_range_m = options.max_range_m;
+  return out;
+}
+
 Cloud denseCloud(Context& ctx) {
-  // Tie observations per image and point: pixels for the parallax ranges.
-  std::map<std::pair<int, int>, Vec2> tie_px;  // (image, point) -> pixel
-  for (const ProductTie& t : ctx.in.ties) tie_px[{t.image, t.point}] = t.pixel_px;
   Cloud cloud;
   {
     // Reserved for the largest possible cloud (address space only: pages are touched as points arrive), so
@@ -92,19 +112,9 @@ Cloud denseCloud(Context& ctx) {
         ctx.warn(name + ": not matched (image or model unusable)");
         continue;
       }
-      std::vector<Vec2> lp, rp;
-      for (const auto& kv : tie_px) {
-        if (kv.first.first != pair.left) continue;
-        auto it = tie_px.find({pair.right, kv.first.second});
-        if (it == tie_px.end()) continue;
-        lp.push_back(kv.second);
-        rp.push_back(it->second);
-      }
-      dense::PairCloudOptions popt;
-      popt.max_disparity_px = ctx.options.dense_max_disparity_px;
-      popt.match_sigma_px = dense::kMatchSigmaPx;  // where a pair's own estimate has too few samples
-      popt.max_range_m = ctx.options.max_range_m;
-      const dense::PairCloud pc = dense::pairCloud(sized(L), sized(R), L.grey, R.grey, lp, rp, pair.id, popt);
+      const PairDenseInputs p = pairDenseInputs(ctx.in, ctx.options, pair);
+      const dense::PairCloud pc = dense::pairCloud(p.left, p.right, L.grey, R.grey, p.left_ties_px,
+                                                   p.right_ties_px, pair.id, p.options);
       t_rect += pc.seconds_rectify;
       t_dense += pc.seconds_dense;
       if (!pc.error.empty()) {

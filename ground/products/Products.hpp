@@ -36,6 +36,7 @@
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/adjust/AdjustProducts.hpp"
 #include "ground/dataset/DemRaster.hpp"
+#include "ground/dense/PairCloud.hpp"
 #include "ground/products/DemCoverage.hpp"
 
 namespace areomap::products {
@@ -121,6 +122,17 @@ struct ProductsResult {
   std::vector<PairCoverage> coverage;
   std::vector<std::pair<std::string, double>> seconds;  // stage timings (rectify, dense, ..., previews)
 };
+
+// One pair's dense matching inputs as the cloud stage hands them to dense::pairCloud: the adjusted models
+// with their images' sizes, the measured pixels of the pair's tie points seen in both images (in point
+// order, one entry per point) and the pair options from `options`. The pair's images must be present.
+struct PairDenseInputs {
+  CameraModel left, right;
+  std::vector<Vec2> left_ties_px, right_ties_px;
+  dense::PairCloudOptions options;
+};
+PairDenseInputs pairDenseInputs(const ProductInputs& inputs, const ProductOptions& options,
+                                const ProductPair& pair);
 
 // Makes every product above in `out_dir` (created if needed). Progress lines on stderr.
 // Throws only for an out_dir that cannot be created (cli::InputError naming the path); products that
