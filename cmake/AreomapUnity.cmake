@@ -1,7 +1,8 @@
-# Unity builds (CMAKE_UNITY_BUILD=ON: the presets whose binaries are only tested, never shipped, CMakePresets.json):
-# each target's sources are compiled a few at a time as one translation unit, so the heavy headers (Eigen,
-# OpenCV, CppUTest) are parsed once per batch instead of once per file. The native preset stays one file per
-# translation unit: it is the developers' build, where a file that compiles alone is what is checked.
+# Unity builds (CMAKE_UNITY_BUILD=ON in the presets whose binaries are only tested, never shipped:
+# asan-ci and fuzz, CMakePresets.json): each target's sources are compiled a few at a time as one translation
+# unit, so the heavy headers (Eigen, OpenCV, CppUTest) are parsed once per batch instead of once per file.
+# The native preset stays one file per translation unit: it is the developers' build, where a file that
+# compiles alone is what is checked.
 #
 # Files that cannot share a translation unit with the others of their target, and why. The path is
 # relative to the source tree; the property is set on every target that compiles the file.
@@ -27,8 +28,8 @@ set(AREOMAP_UNITY_OFF_TARGETS platform_tests)
 set(AREOMAP_UNITY_CPPUTEST_BEFORE_INCLUDE "#ifdef CPPUTEST_USE_NEW_MACROS\n#undef new\n#endif")
 
 # Sets UNITY_BUILD OFF on the targets of AREOMAP_UNITY_OFF_TARGETS and SKIP_UNITY_BUILD_INCLUSION on the
-# files of AREOMAP_UNITY_SKIP, in the scope of each target that has
-# them (a source file property is per directory). Deferred to the end of the configure, after every target,
+# files of AREOMAP_UNITY_SKIP, in the scope of each target that has them (a source file property is per
+# directory). Deferred to the end of the configure, after every target,
 # the fuzz targets included.
 function(_areomap_unity_skip_dir dir)
   get_property(_targets DIRECTORY ${dir} PROPERTY BUILDSYSTEM_TARGETS)
