@@ -21,6 +21,15 @@ class JpegCodec {
   [[nodiscard]] virtual Status decodeGray(const uint8_t* jpeg, std::size_t jpeg_bytes, uint8_t* out,
                                           std::size_t capacity_bytes, int32_t& width, int32_t& height) = 0;
 
+  // decodeGray binned by `bin` (1..kMaxBinning) while it decodes (firmware_core/base/LineBinner.hpp):
+  // floor(width / bin) x floor(height / bin) pixels, each the rounded mean of a bin x bin block, into out;
+  // width/height are the header's (full-resolution) size. kInvalidArgument for a bin outside
+  // 1..kMaxBinning; kCapacityExceeded when the binned image exceeds capacity_bytes or kMaxImageWidth
+  // columns (nothing decoded then). bin 1 is decodeGray.
+  [[nodiscard]] virtual Status decodeGrayBinned(const uint8_t* jpeg, std::size_t jpeg_bytes, int32_t bin,
+                                                uint8_t* out, std::size_t capacity_bytes, int32_t& width,
+                                                int32_t& height) = 0;
+
   // Encodes width x height 8-bit gray pixels at quality 1..100 into out (capacity_bytes); sets
   // encoded_bytes. kCapacityExceeded when out is too small (maxEncodedBytes() is always enough).
   [[nodiscard]] virtual Status encodeGray(const uint8_t* pixels, int32_t width, int32_t height,

@@ -7,11 +7,18 @@
 
 namespace areomap {
 
-// Images: MER/MSL Navcam and Hazcam frames are 1024x1024 8-bit after companding; larger frames are
-// downsampled on the ground before uplink.
+// Images: MER/MSL Navcam and Hazcam frames are 1024x1024 8-bit after companding.
 constexpr int32_t kMaxImageWidth = 1024;
 constexpr int32_t kMaxImageHeight = 1024;
 constexpr int32_t kMaxImagePixels = kMaxImageWidth * kMaxImageHeight;
+// A larger frame is binned by the smallest integer factor b that fits it (b x b box mean, its model
+// rescaled exactly: firmware_core/camera/Binning.hpp), up to this factor: Perseverance Navcam's full
+// 5120 x 3840 frame bins by 5, its 1288 x 968 tiles by 2; 8 covers frames up to 8199 px a side. The
+// decoder bins while it decodes, one line at a time (a line of at most kMaxBinning (kMaxImageWidth + 1)
+// pixels), so no full-size buffer exists. A frame beyond it is rejected (kCapacityExceeded).
+constexpr int32_t kMaxBinning = 8;
+constexpr int32_t kMaxBinnedSourceWidth = kMaxBinning * (kMaxImageWidth + 1) - 1;
+constexpr int32_t kMaxBinnedSourceHeight = kMaxBinning * (kMaxImageHeight + 1) - 1;
 
 // A panorama: the paper's IMP panorama has 64 pairs + 1 single image; a full two-tier Navcam 360 with
 // overlap is well under 128 pairs.

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "firmware_core/camera/Binning.hpp"
 #include "msgs/MessageCheck.hpp"
 
 namespace areomap {
@@ -216,13 +217,17 @@ bool RoverNode::endOfRun() const {
   return last_site_announced_ && std::strcmp(ended_panorama_, site_panorama_) == 0;
 }
 
-Status RoverNode::decodeSide(const stereo_image_t& side, uint8_t* pixels, int32_t& width, int32_t& height) {
+Status RoverNode::decodeSide(const stereo_image_t& side, int32_t bin, uint8_t* pixels, int32_t& width,
+                             int32_t& height) {
   if (side.jpeg_bytes <= 0) return Status::kMissingField;
-  const Status s = codec_->decodeGray(side.jpeg.data(), static_cast<std::size_t>(side.jpeg_bytes), pixels,
-                                      static_cast<std::size_t>(kMaxImagePixels), width, height);
+  int32_t full_w = 0, full_h = 0;
+  const Status s = codec_->decodeGrayBinned(side.jpeg.data(), static_cast<std::size_t>(side.jpeg_bytes), bin,
+                                            pixels, static_cast<std::size_t>(kMaxImagePixels), full_w, full_h);
   if (!ok(s)) return s;
+  if (full_w != side.width_px || full_h != side.height_px) return Status::kCorruptData;
+  width = full_w / bin;
+  height = full_h / bin;
   if (width > kMaxImageWidth || height > kMaxImageHeight) return Status::kCapacityExceeded;
-  if (width != side.width_px || height != side.height_px) return Status::kCorruptData;
   return Status::kOk;
 }
 
@@ -242,6 +247,9 @@ void RoverNode::processPair(int64_t sequence) {
   }
   int32_t w[2] = {0, 0}, h[2] = {0, 0};
   if (!decodeImages(sequence, pair_id, w, h)) return;
+  // The matcher and the network work in the binned pixel frame.
+  models[0] = binnedModel(models[0], binning_);
+  models[1] = binnedModel(models[1], binning_);
   int32_t sol_index = -1;
   if (!findSol(sequence, pair_id, sol_index)) return;
   int32_t first_observation = 0;
@@ -315,26 +323,49 @@ bool RoverNode::rigValuesFinite(int64_t sequence, int32_t pair_id) {
   return true;
 }
 
-// Sizes read from the message, checked before anything is decoded into the fixed buffers.
+// Sizes read from the message, checked before anything is decoded into the fixed buffers; the pair's
+// binning factor: the largest of its images' (one factor for both, so that their templates match).
 bool RoverNode::imageSizesFit(int64_t sequence, int32_t pair_id) {
+  binning_ = 1;
   for (int32_t side = 0; side < (in_.has_right ? 2 : 1); ++side) {
+    const stereo_image_t& image = side == 0 ? in_.left : in_.right;
     const char* field = "";
-    const Status s = checkImageSizes(side == 0 ? in_.left : in_.right, field);
+    const Status s = checkImageSizes(image, field);
     if (!ok(s)) {
-      char what[96];
-      std::snprintf(what, sizeof(what), "%s image: %s", side == 0 ? "left" : "right", field);
+      char what[192];
+      if (s == Status::kCapacityExceeded) {
+        std::snprintf(what, sizeof(what),
+                      "%s image: %s: %dx%d is beyond binning by %d into the rover's %dx%d capacity (refused)",
+                      side == 0 ? "left" : "right", field, static_cast<int>(image.width_px),
+                      static_cast<int>(image.height_px), static_cast<int>(kMaxBinning),
+                      static_cast<int>(kMaxImageWidth), static_cast<int>(kMaxImageHeight));
+      } else {
+        std::snprintf(what, sizeof(what), "%s image: %s", side == 0 ? "left" : "right", field);
+      }
       rejectAndPublish(s, sequence, pair_id, what);
       return false;
     }
+    const int32_t b = binningFactor(image.width_px, image.height_px);
+    if (b > binning_) binning_ = b;
   }
   return true;
 }
 
 bool RoverNode::decodeImages(int64_t sequence, int32_t pair_id, int32_t w[2], int32_t h[2]) {
   const double t = now();
-  Status s = decodeSide(in_.left, left_pixels_, w[0], h[0]);
-  if (ok(s) && in_.has_right) s = decodeSide(in_.right, right_pixels_, w[1], h[1]);
+  Status s = decodeSide(in_.left, binning_, left_pixels_, w[0], h[0]);
+  if (ok(s) && in_.has_right) s = decodeSide(in_.right, binning_, right_pixels_, w[1], h[1]);
   counters_.stage_seconds[stageIndex(RoverStage::kDecode)] += now() - t;
+  if (ok(s) && binning_ > 1) {
+    counters_.pairs_binned += 1;
+    if (options_.log_to_stderr) {
+      std::fprintf(stderr, "areomap-rover: pair %d: %dx%d frames binned %dx%d to %dx%d (capacity %dx%d)\n",
+                   static_cast<int>(pair_id), static_cast<int>(in_.left.width_px),
+                   static_cast<int>(in_.left.height_px), static_cast<int>(binning_), static_cast<int>(binning_),
+                   static_cast<int>(w[0]), static_cast<int>(h[0]), static_cast<int>(kMaxImageWidth),
+                   static_cast<int>(kMaxImageHeight));
+    }
+  }
   if (ok(s)) return true;
   rejectAndPublish(s, sequence, pair_id, "JPEG image");
   return false;
@@ -380,6 +411,8 @@ bool RoverNode::matchPair(int64_t sequence, int32_t pair_id, const CameraModel m
   copyText(in_.left.stem.c_str(), stem_of_matcher_image_[2 * matcher_pair], kMaxMessageStringChars + 1);
   copyText(in_.has_right ? in_.right.stem.c_str() : "", stem_of_matcher_image_[2 * matcher_pair + 1],
            kMaxMessageStringChars + 1);
+  binning_of_matcher_image_[2 * matcher_pair] = binning_;
+  binning_of_matcher_image_[2 * matcher_pair + 1] = binning_;
   if (report.overflow > 0 && (matcher_.points().size() + 1 >= kMaxTiePoints ||
                               matcher_.observations().size() + 2 > kMaxObservations)) {
     // The matcher's lists ran full inside this pair: its ties are incomplete, so it stays out of the
@@ -422,6 +455,10 @@ bool RoverNode::enterNetwork(int64_t sequence, int32_t pair_id, int32_t sol_inde
     copyText(stem_of_matcher_image_[2 * matcher_pair + side], stem_of_image_[image],
              kMaxMessageStringChars + 1);
     pair_id_of_image_[image] = pair_id;
+    const stereo_image_t& sent = side == 0 ? in_.left : in_.right;
+    binning_of_image_[image] = binning_;
+    full_size_of_image_[image][0] = sent.width_px;
+    full_size_of_image_[image][1] = sent.height_px;
   }
   return true;
 }

@@ -1,5 +1,7 @@
 // The rover pipeline: one AREOMAP_STEREO_PAIR message in, per pair: JPEG decode into fixed
-// buffers, tie points and coarse DEM (PanoramaMatcher), inter-stereo ties with the pairs already seen, an
+// buffers (a frame above the image capacity binned by the smallest integer factor that fits it, up to
+// kMaxBinning, while it decodes; its model rescaled exactly: firmware_core/camera/Binning.hpp; counted as
+// pairs_binned; ties and models are published in the pixel frame of the frames as sent), tie points and coarse DEM (PanoramaMatcher), inter-stereo ties with the pairs already seen, an
 // incremental fast adjustment warm-started from the previous solution (FastAdjuster); a final adjustment at
 // the end-of-panorama marker. Publishes AREOMAP_TIEPOINTS, AREOMAP_COARSE_DEM, AREOMAP_EO_SOLUTION and
 // AREOMAP_ROVER_STATUS through the output Transport (per pair, and heartbeat() for the 1 Hz status).
@@ -100,6 +102,7 @@ struct RoverCounters {
   int32_t pairs_seen = 0;
   int32_t pairs_accepted = 0;
   int32_t pairs_rejected = 0;
+  int32_t pairs_binned = 0;  // pairs decoded binned (frames above the image capacity), accepted or not
   int32_t rejected_by_cause[static_cast<int32_t>(Status::kCount)] = {};
   int32_t sequence_gaps = 0;
   int32_t duplicates = 0;
@@ -178,6 +181,7 @@ class RoverNode {
   bool readModels(int64_t sequence, int32_t pair_id, CameraModel models[2]);
   bool rigValuesFinite(int64_t sequence, int32_t pair_id);
   bool imageSizesFit(int64_t sequence, int32_t pair_id);
+  // Decodes both images, binned by the pair's factor when a frame exceeds the capacity (binning_ set).
   bool decodeImages(int64_t sequence, int32_t pair_id, int32_t w[2], int32_t h[2]);
   bool findSol(int64_t sequence, int32_t pair_id, int32_t& sol_index);
   bool matchPair(int64_t sequence, int32_t pair_id, const CameraModel models[2], const int32_t w[2],
@@ -185,7 +189,7 @@ class RoverNode {
   bool enterNetwork(int64_t sequence, int32_t pair_id, int32_t sol_index, const CameraModel models[2]);
   void setRigFromMessage(int32_t sol_index);
   void finishPanorama();
-  Status decodeSide(const stereo_image_t& side, uint8_t* pixels, int32_t& width, int32_t& height);
+  Status decodeSide(const stereo_image_t& side, int32_t bin, uint8_t* pixels, int32_t& width, int32_t& height);
   Status adjustNow(bool final_solve);
   // Publications (RoverNodePublishing.cpp).
   void publishTiePoints(int32_t pair_id, int32_t first_observation);
@@ -231,6 +235,12 @@ class RoverNode {
   char stem_of_matcher_image_[kMaxImages][kMaxMessageStringChars + 1] = {};
   char stem_of_image_[kMaxImages][kMaxMessageStringChars + 1] = {};
   int32_t pair_id_of_image_[kMaxImages] = {};
+  // Binning of the pair being processed (1: none), and per image the factor and the full-resolution size:
+  // ties and models are published in the pixel frame of the frames as sent.
+  int32_t binning_ = 1;
+  int32_t binning_of_matcher_image_[kMaxImages] = {};
+  int32_t binning_of_image_[kMaxImages] = {};
+  int32_t full_size_of_image_[kMaxImages][2] = {};
   int32_t sols_[kMaxSols] = {};
   int32_t sol_count_ = 0;
   bool workspace_full_ = false;  // the matcher's point or observation list ran full: later pairs rejected

@@ -5,6 +5,7 @@
 
 #include <cstring>
 
+#include "firmware_core/camera/Binning.hpp"
 #include "firmware_core/camera/CameraConversion.hpp"
 #include "firmware_core/camera/Photogrammetric.hpp"
 #include "msgs/Channels.hpp"
@@ -51,8 +52,10 @@ void RoverNode::publishTiePoints(int32_t pair_id, int32_t first_observation) {
     const auto k = static_cast<std::size_t>(n++);
     tiepoints_.point_id[k] = obs[i].point;
     tiepoints_.image_index[k] = static_cast<int16_t>(obs[i].image);
-    tiepoints_.sample_px[k] = obs[i].sample_px;
-    tiepoints_.line_px[k] = obs[i].line_px;
+    // In the pixel frame of the image as sent (the matcher's is binned when the frame was).
+    const int32_t b = binning_of_matcher_image_[obs[i].image];
+    tiepoints_.sample_px[k] = fullResolutionPx(obs[i].sample_px, b);
+    tiepoints_.line_px[k] = fullResolutionPx(obs[i].line_px, b);
     tiepoints_.kind[k] = obs[i].kind == TieKind::kIntra ? tiepoints_t::KIND_INTRA : tiepoints_t::KIND_INTER;
   }
   tiepoints_.num_observations = n;
@@ -106,7 +109,10 @@ void RoverNode::publishEo(int32_t pair_id, bool final_solution) {
       e.sigma_angles_rad[k] = im.sigma[3 + k];
     }
     opkFromRotation(im.m, e.omega_rad, e.phi_rad, e.kappa_rad);
-    toMessage(adjustedModel(network_builder_.model(i), im.m_apriori, im.m, im.center_m), e.model);
+    // The adjusted model in the pixel frame of the image as sent (rigid moves commute with binning).
+    toMessage(unbinnedModel(adjustedModel(network_builder_.model(i), im.m_apriori, im.m, im.center_m),
+                            binning_of_image_[i], full_size_of_image_[i][0], full_size_of_image_[i][1]),
+              e.model);
   }
   publishMessage(channels::kEoSolution, eo_);
 }
@@ -120,6 +126,7 @@ void RoverNode::publishStatus() {
   status_.pairs_seen = counters_.pairs_seen;
   status_.pairs_accepted = counters_.pairs_accepted;
   status_.pairs_rejected = counters_.pairs_rejected;
+  status_.pairs_binned = counters_.pairs_binned;
   for (int32_t i = 0; i < rover_status_t::NUM_CAUSES; ++i) {
     status_.rejected_by_cause[i] =
         i < static_cast<int32_t>(Status::kCount) ? counters_.rejected_by_cause[i] : 0;

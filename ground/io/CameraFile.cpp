@@ -77,16 +77,6 @@ const char* formatName(CameraFileFormat format) {
   return "unknown";
 }
 
-CameraModel rescaledModel(const CameraModel& model, double scale, const Vec2& offset_px, int width,
-                          int height) {
-  CameraModel m = model;
-  m.h = (model.h - offset_px.x() * model.a) / scale;
-  m.v = (model.v - offset_px.y() * model.a) / scale;
-  m.width = width;
-  m.height = height;
-  return m;
-}
-
 namespace {
 
 bool looksLikeJson(const std::string& text) {

@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 
+#include "firmware_core/camera/Binning.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/io/Detector.hpp"
 
@@ -92,9 +93,7 @@ CameraFile readPds3Camera(const Pds3Label& label, int width = 0, int height = 0)
 // naming `path` if it cannot. A dataset's models/ and truth/models/ are written and read here.
 void writeCameraModelFile(const std::string& path, const CameraModel& model);
 
-// The same camera in a resampled pixel frame: pixel' = (pixel - offset) / scale, size width x height.
-// Exact for CAHV, CAHVOR and CAHVORE (H' = (H - offset_x A) / scale, V' likewise; O, R, E unchanged).
-CameraModel rescaledModel(const CameraModel& model, double scale, const Vec2& offset_px, int width,
-                          int height);
+// The same camera in a resampled pixel frame (firmware_core/camera/Binning.hpp, shared with the rover).
+using ::areomap::rescaledModel;
 
 }  // namespace areomap::io

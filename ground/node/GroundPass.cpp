@@ -137,6 +137,12 @@ std::string roverTiesIncomplete(const Dataset& dataset, const RoverInputs& rover
     if (rover.tie_pairs.count(p.id) == 0) missing += (missing.empty() ? "" : ", ") + std::to_string(p.id);
   }
   if (!missing.empty()) return "none came for pair(s) " + missing;
+  if (rover.status && rover.status->pairs_binned > 0) {
+    // The rover's ties are in the frames' pixels, at the precision of its binned matching; the ground holds
+    // the full-resolution frames and refines its own binned matches on them (FullResolutionTies.hpp).
+    return "the rover matched " + std::to_string(rover.status->pairs_binned) +
+           " pair(s) on frames binned to its capacity; the ground matches at full resolution";
+  }
   return std::string();
 }
 
@@ -353,6 +359,7 @@ json roverFigures(const RoverInputs* rover, const Network& net, const std::vecto
       rover_json["pairs_seen"] = s.pairs_seen;
       rover_json["pairs_accepted"] = s.pairs_accepted;
       rover_json["pairs_rejected"] = s.pairs_rejected;
+      rover_json["pairs_binned"] = s.pairs_binned;  // frames above the rover's capacity, binned to fit it
       rover_json["sequence_gaps"] = s.sequence_gaps;
       if (!s.last_error.empty()) report.warnings.push_back("The rover reported: " + s.last_error);
     }

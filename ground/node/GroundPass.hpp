@@ -111,7 +111,8 @@ struct GroundPassResult {
   std::vector<std::string> write_errors;
 };
 
-// Whether the rover's tie points can stand for the panorama's: "" when they can, else the reason.
+// Whether the rover's tie points can stand for the panorama's: "" when they can, else the reason (also
+// when the rover binned frames above its capacity: the ground then matches at full resolution).
 std::string roverTiesIncomplete(const Dataset& dataset, const RoverInputs& rover);
 
 // Runs the pass and writes the products. Throws cli::InputError on bad input or an unsolvable network; a

@@ -229,14 +229,19 @@ std::string StreamCollector::decodeImage(const stereo_image_t& side, ReceivedIma
   if (side.jpeg_bytes <= 0 || side.jpeg.empty()) {
     return "missing_image";
   }
-  const std::size_t capacity = static_cast<std::size_t>(kMaxImagePixels);
-  std::vector<uint8_t> pixels(capacity);
+  // The header's size first (a decode into no room stops at the size and reports it): frames up to what
+  // the rover maps binned (kMaxBinnedSourceWidth x kMaxBinnedSourceHeight) are kept at full resolution,
+  // larger ones are refused as the rover refuses them.
   int32_t width = 0, height = 0;
-  const Status s =
-      codec->decodeGray(side.jpeg.data(), side.jpeg.size(), pixels.data(), capacity, width, height);
-  if (s == Status::kCapacityExceeded || (ok(s) && (width > kMaxImageWidth || height > kMaxImageHeight))) {
-    codec.reset();
+  uint8_t none = 0;
+  Status s = codec->decodeGray(side.jpeg.data(), side.jpeg.size(), &none, 0, width, height);
+  if (s == Status::kCapacityExceeded && (width > kMaxBinnedSourceWidth || height > kMaxBinnedSourceHeight)) {
     return "capacity_exceeded";
+  }
+  std::vector<uint8_t> pixels;
+  if (s == Status::kCapacityExceeded && width > 0 && height > 0) {
+    pixels.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+    s = codec->decodeGray(side.jpeg.data(), side.jpeg.size(), pixels.data(), pixels.size(), width, height);
   }
   if (!ok(s)) {
     // Measured: after a damaged JPEG the TurboJPEG handle refused the next, intact images as corrupt; a

@@ -1,8 +1,10 @@
 // The ground node's receiving side: the camera stream (AREOMAP_STEREO_PAIR) and the rover's results
 // (AREOMAP_TIEPOINTS, AREOMAP_EO_SOLUTION, AREOMAP_COARSE_DEM, AREOMAP_ROVER_STATUS) as raw bytes from any
 // platform::Transport. Every message is checked before it is decoded (msgs/MessageCheck.hpp); a message
-// that does not decode, a JPEG that does not decode, an image larger than the rover's capacity or a bad
-// model is counted under its cause and dropped, and the stream goes on ("no silent loss").
+// that does not decode, a JPEG that does not decode, an image larger than the rover can map (beyond
+// kMaxBinning x its capacity: kMaxBinnedSourceWidth x kMaxBinnedSourceHeight; frames above the capacity
+// but within that are kept at full resolution, as sent) or a bad model is counted under its cause and
+// dropped, and the stream goes on ("no silent loss").
 //
 // Sequence numbers (per channel): a message whose sequence was already seen is a duplicate (dropped); one
 // that arrives after a later one is `reordered` (kept); the sequences never seen between 0 and the last one

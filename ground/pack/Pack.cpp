@@ -359,12 +359,16 @@ std::vector<LogEvent> injectFaults(const std::vector<LogEvent>& events, const st
         reencode(i, p);
       } else if (name == "oversize") {
         Encoder enc;
-        cv::Mat big(1100, 1100, CV_8U);
+        // One column wider than the rover can bin into its capacity (a frame within kMaxBinning of the
+        // capacity is mapped binned, not refused); a model of the same size, so the size is the only fault.
+        cv::Mat big(16, kMaxBinnedSourceWidth + 1, CV_8U);
         cv::randu(big, 0, 255);
         p.left.jpeg = enc.encode(big, 90, "oversize");
         p.left.jpeg_bytes = static_cast<int32_t>(p.left.jpeg.size());
-        p.left.width_px = 1100;
-        p.left.height_px = 1100;
+        p.left.width_px = big.cols;
+        p.left.height_px = big.rows;
+        p.left.model.width_px = big.cols;
+        p.left.model.height_px = big.rows;
         reencode(i, p);
       } else if (name == "nan-model") {
         p.left.model.a[0] = std::numeric_limits<double>::quiet_NaN();

@@ -10,7 +10,8 @@
 //   swap:S           swap the pairs with sequences S and S+1 (S+1 arrives out of order)
 //   truncate:S       cut that pair's message to half its bytes (cause truncated)
 //   corrupt-jpeg:S   damage the left JPEG's header of that pair (cause corrupt_data)
-//   oversize:S       replace that pair's left image with a 1100 x 1100 one (cause capacity_exceeded)
+//   oversize:S       replace that pair's left image with one wider than the rover can bin into its
+//                    capacity, kMaxBinnedSourceWidth + 1 px (cause capacity_exceeded)
 //   nan-model:S      a NaN in that pair's left a-priori model (cause not_finite)
 //   unknown-channel  an extra event on channel AREOMAP_UNKNOWN (not subscribed: ignored)
 //   wrong-type       an extra rover_status_t on the AREOMAP_STEREO_PAIR channel (cause unsupported)

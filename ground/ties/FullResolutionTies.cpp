@@ -8,7 +8,6 @@
 
 #include "firmware_core/base/Capacities.hpp"
 #include "firmware_core/match/Ncc.hpp"
-#include "ground/io/CameraFile.hpp"
 
 namespace areomap {
 namespace {
@@ -150,12 +149,6 @@ cv::Mat referenceTemplate(const cv::Mat& image, int32_t x, int32_t y, int32_t ha
 
 }  // namespace
 
-int32_t binningFactor(int32_t width, int32_t height) {
-  int32_t k = 1;
-  while (width / k > kMaxImageWidth || height / k > kMaxImageHeight) ++k;  // ends by k = max(width, height)
-  return k;
-}
-
 cv::Mat binImage(const cv::Mat& grey, int32_t k) {
   if (k <= 1) return grey;
   const cv::Mat whole = grey(cv::Rect(0, 0, (grey.cols / k) * k, (grey.rows / k) * k));
@@ -163,12 +156,6 @@ cv::Mat binImage(const cv::Mat& grey, int32_t k) {
   // INTER_AREA with an integer factor is the k x k box mean.
   cv::resize(whole, binned, cv::Size(grey.cols / k, grey.rows / k), 0.0, 0.0, cv::INTER_AREA);
   return binned;
-}
-
-CameraModel binnedModel(const CameraModel& model, int32_t k) {
-  if (k <= 1) return model;
-  const double offset = 0.5 * (k - 1);
-  return io::rescaledModel(model, k, Vec2(offset, offset), model.width / k, model.height / k);
 }
 
 RefineCounts refineAtFullResolution(const std::vector<cv::Mat>& images, int32_t k, const RefineParams& params,

@@ -4,7 +4,7 @@
 //   1. binning: every image is reduced by the smallest integer factor k that brings the largest image of
 //      the panorama within the matcher's capacity (k x k box mean; the last W mod k columns and H mod k
 //      lines, which no whole bin covers, are left out), and every model is rescaled EXACTLY to that pixel
-//      frame (io::rescaledModel: a binned pixel's centre is the full-resolution point k b + (k - 1) / 2).
+//      frame (binnedModel: a binned pixel's centre is the full-resolution point k b + (k - 1) / 2).
 //      The matcher then runs unchanged: the same epipolar search, left-right and parallax checks, gridding
 //      and inter-stereo ties, each 11 x 11 template covering k x 11 full-resolution pixels;
 //   2. refinement: each tie point's first observation (the left image of the pair that found it) is taken
@@ -30,27 +30,18 @@
 
 #include <opencv2/core.hpp>
 
+#include "firmware_core/camera/Binning.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
 #include "firmware_core/match/TieList.hpp"
 
 namespace areomap {
 
-// The smallest integer k with floor(width / k) <= kMaxImageWidth and floor(height / k) <= kMaxImageHeight
-// (1 for an image within capacity). width, height >= 1.
-int32_t binningFactor(int32_t width, int32_t height);
+// The binning factor, the binned model and the full-resolution position of a binned pixel:
+// binningFactor, binnedModel, fullResolutionPx (firmware_core/camera/Binning.hpp, shared with the rover).
 
 // The image binned by k (k x k box mean, rounded), floor(cols / k) x floor(rows / k); the image itself (no
 // copy) for k = 1.
 cv::Mat binImage(const cv::Mat& grey, int32_t k);
-
-// The model in the pixel frame of binImage(., k): exact (io::rescaledModel with scale k and offset
-// (k - 1) / 2 in x and y), size floor(width / k) x floor(height / k).
-CameraModel binnedModel(const CameraModel& model, int32_t k);
-
-// The full-resolution position of a binned pixel: k b + (k - 1) / 2.
-inline double fullResolutionPx(double binned_px, int32_t k) {
-  return k * binned_px + 0.5 * (k - 1);
-}
 
 struct RefineParams {
   double min_ncc = 0.8;         // the matcher's (StereoParams::min_ncc)

@@ -165,10 +165,10 @@ Status checkImageSizes(const stereo_image_t& side, const char*& field) {
   field = "jpeg_bytes";
   if (side.jpeg_bytes <= 0) return Status::kMissingField;
   field = "width_px";
-  if (side.width_px > kMaxImageWidth) return Status::kCapacityExceeded;
+  if (side.width_px > kMaxBinnedSourceWidth) return Status::kCapacityExceeded;
   if (side.width_px <= 0) return Status::kInvalidArgument;
   field = "height_px";
-  if (side.height_px > kMaxImageHeight) return Status::kCapacityExceeded;
+  if (side.height_px > kMaxBinnedSourceHeight) return Status::kCapacityExceeded;
   if (side.height_px <= 0) return Status::kInvalidArgument;
   field = "model.width_px";
   if (side.model.width_px != side.width_px) return Status::kInvalidArgument;

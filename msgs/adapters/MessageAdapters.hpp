@@ -59,9 +59,10 @@ uint64_t encodedFingerprint(const uint8_t* data, std::size_t size);
 // (<= 0) or above the capacity: kMaxPairs.
 int32_t plannedPairs(int32_t pairs_planned);
 
-// The message's image and model sizes, before any decoding: a JPEG present (kMissingField), 1..kMaxImageWidth
-// x 1..kMaxImageHeight (kCapacityExceeded above, kInvalidArgument at or below 0), the model's size equal to
-// the image's (kInvalidArgument). `field` names what.
+// The message's image and model sizes, before any decoding: a JPEG present (kMissingField), 1..
+// kMaxBinnedSourceWidth x 1..kMaxBinnedSourceHeight, the largest frames that binning by at most kMaxBinning
+// brings within kMaxImageWidth x kMaxImageHeight (kCapacityExceeded above, kInvalidArgument at or below 0),
+// the model's size equal to the image's (kInvalidArgument). `field` names what.
 [[nodiscard]] Status checkImageSizes(const stereo_image_t& side, const char*& field);
 
 // Reserves the strings of a site_t (kMaxMessageStringChars each) so that decodeSite never allocates.

@@ -9,6 +9,8 @@
 // jerror.h after jpeglib.h: message codes and ERREXIT.
 #include <jerror.h>
 
+#include "firmware_core/base/LineBinner.hpp"
+
 namespace areomap::platform {
 
 // Lives in the arena's first bytes: no heap for the decoder's own state either.
@@ -26,6 +28,7 @@ struct ArenaJpegDecoder::State {
                           // the end; kept for the decoder's life
   std::size_t high_water;
   bool exhausted;
+  LineBinner binner;  // decodeGrayBinned's block sums
   // libjpeg's own methods, kept for self_destruct.
   void (*original_free_pool)(j_common_ptr, int);
 };
@@ -181,7 +184,12 @@ Status ArenaJpegDecoder::open() {
 
 Status ArenaJpegDecoder::decodeGray(const uint8_t* jpeg, std::size_t jpeg_bytes, uint8_t* out,
                                     std::size_t capacity_bytes, int32_t& width, int32_t& height) {
-  if (jpeg == nullptr || out == nullptr) return Status::kInvalidArgument;
+  return decodeGrayBinned(jpeg, jpeg_bytes, 1, out, capacity_bytes, width, height);
+}
+
+Status ArenaJpegDecoder::decodeGrayBinned(const uint8_t* jpeg, std::size_t jpeg_bytes, int32_t bin, uint8_t* out,
+                                          std::size_t capacity_bytes, int32_t& width, int32_t& height) {
+  if (jpeg == nullptr || out == nullptr || bin < 1 || bin > kMaxBinning) return Status::kInvalidArgument;
   if (state_ == nullptr) return Status::kUnsupported;
   State* s = state_;
   s->truncated = false;
@@ -202,16 +210,24 @@ Status ArenaJpegDecoder::decodeGray(const uint8_t* jpeg, std::size_t jpeg_bytes,
   }
   width = static_cast<int32_t>(cinfo->image_width);
   height = static_cast<int32_t>(cinfo->image_height);
-  if (static_cast<std::size_t>(width) * static_cast<std::size_t>(height) > capacity_bytes) {
+  const bool fits = bin == 1 ? static_cast<std::size_t>(width) * static_cast<std::size_t>(height) <= capacity_bytes
+                             : s->binner.begin(width, height, bin, out, capacity_bytes);
+  if (!fits) {
     jpeg_abort_decompress(cinfo);
     return Status::kCapacityExceeded;
   }
   cinfo->out_color_space = JCS_GRAYSCALE;
   jpeg_start_decompress(cinfo);
   const std::size_t stride = static_cast<std::size_t>(width);
+  // Binned: each line is decoded into one line of the arena (image pool, released with the image) and
+  // added to the block sums; unbinned: straight into the caller's buffer.
+  JSAMPROW line = bin == 1 ? nullptr
+                           : static_cast<JSAMPROW>((*cinfo->mem->alloc_small)(
+                                 reinterpret_cast<j_common_ptr>(cinfo), JPOOL_IMAGE, stride));
   while (cinfo->output_scanline < cinfo->output_height) {
-    JSAMPROW row = out + static_cast<std::size_t>(cinfo->output_scanline) * stride;
+    JSAMPROW row = bin == 1 ? out + static_cast<std::size_t>(cinfo->output_scanline) * stride : line;
     if (jpeg_read_scanlines(cinfo, &row, 1) != 1) break;
+    if (bin != 1) s->binner.addLine(line);
   }
   const bool truncated = s->truncated;
   jpeg_finish_decompress(cinfo);

@@ -35,6 +35,10 @@ class ArenaJpegDecoder final : public JpegCodec {
 
   [[nodiscard]] Status decodeGray(const uint8_t* jpeg, std::size_t jpeg_bytes, uint8_t* out,
                                   std::size_t capacity_bytes, int32_t& width, int32_t& height) override;
+  // Binned line by line: each decoded line goes into one line of the arena and into the block sums (the
+  // decoder's state in the arena), never a full-size buffer.
+  [[nodiscard]] Status decodeGrayBinned(const uint8_t* jpeg, std::size_t jpeg_bytes, int32_t bin, uint8_t* out,
+                                        std::size_t capacity_bytes, int32_t& width, int32_t& height) override;
   [[nodiscard]] Status encodeGray(const uint8_t* pixels, int32_t width, int32_t height, int32_t quality,
                                   uint8_t* out, std::size_t capacity_bytes, std::size_t& encoded_bytes) override;
   std::size_t maxEncodedBytes(int32_t width, int32_t height) const override;

@@ -4,6 +4,9 @@
 
 #include <climits>
 #include <cstdio>
+#include <vector>
+
+#include "firmware_core/base/LineBinner.hpp"
 
 namespace areomap::platform {
 namespace {
@@ -61,6 +64,25 @@ Status TurboJpegCodec::decodeGray(const uint8_t* jpeg, std::size_t jpeg_bytes, u
     rememberError(decompressor_);
     return endsWithEoi(jpeg, jpeg_bytes) ? Status::kCorruptData : Status::kTruncated;
   }
+  return Status::kOk;
+}
+
+Status TurboJpegCodec::decodeGrayBinned(const uint8_t* jpeg, std::size_t jpeg_bytes, int32_t bin, uint8_t* out,
+                                        std::size_t capacity_bytes, int32_t& width, int32_t& height) {
+  width = 0;
+  height = 0;
+  if (jpeg == nullptr || out == nullptr || bin < 1 || bin > kMaxBinning) return Status::kInvalidArgument;
+  if (bin == 1) return decodeGray(jpeg, jpeg_bytes, out, capacity_bytes, width, height);
+  // The header first (a decode into no room fails on the size and reports it), then the binned size.
+  uint8_t none = 0;
+  Status s = decodeGray(jpeg, jpeg_bytes, &none, 0, width, height);
+  if (s != Status::kCapacityExceeded || width <= 0 || height <= 0) return ok(s) ? Status::kCorruptData : s;
+  LineBinner binner;
+  if (!binner.begin(width, height, bin, out, capacity_bytes)) return Status::kCapacityExceeded;
+  std::vector<uint8_t> full(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+  s = decodeGray(jpeg, jpeg_bytes, full.data(), full.size(), width, height);
+  if (!ok(s)) return s;
+  for (int32_t y = 0; y < height; ++y) binner.addLine(full.data() + static_cast<std::size_t>(y) * width);
   return Status::kOk;
 }
 

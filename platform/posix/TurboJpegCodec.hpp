@@ -20,6 +20,10 @@ class TurboJpegCodec final : public JpegCodec {
 
   [[nodiscard]] Status decodeGray(const uint8_t* jpeg, std::size_t jpeg_bytes, uint8_t* out,
                                   std::size_t capacity_bytes, int32_t& width, int32_t& height) override;
+  // Decodes the whole frame into a temporary full-size buffer (heap), then bins it: the ground's and the
+  // packer's codec; the rover's ArenaJpegDecoder bins line by line instead.
+  [[nodiscard]] Status decodeGrayBinned(const uint8_t* jpeg, std::size_t jpeg_bytes, int32_t bin, uint8_t* out,
+                                        std::size_t capacity_bytes, int32_t& width, int32_t& height) override;
   [[nodiscard]] Status encodeGray(const uint8_t* pixels, int32_t width, int32_t height, int32_t quality,
                                   uint8_t* out, std::size_t capacity_bytes,
                                   std::size_t& encoded_bytes) override;

@@ -77,6 +77,62 @@ TEST(ArenaJpegDecoder, DecodesLikeTurboJpegWithoutHeap) {
   CHECK(decoder.arenaHighWater() < sizeof(g_arena) / 2);
 }
 
+// Binned while decoding: frames above the capacity (up to kMaxBinning times it) decode into the
+// capacity-sized buffer as the b x b block means of TurboJPEG's full decode (computed here directly), with
+// no heap; TurboJpegCodec's binned decode (the ground's) gives the same pixels. A binned image larger than
+// the buffer, or a factor outside 1..kMaxBinning, is refused before decoding.
+TEST(ArenaJpegDecoder, BinsWhileDecodingWithoutHeap) {
+  ArenaJpegDecoder decoder(g_arena, sizeof(g_arena));
+  CHECK_EQUAL(code(Status::kOk), code(decoder.open()));
+  TurboJpegCodec turbo;
+  CHECK(ok(turbo.open()));
+  const int cases[][3] = {{2050, 1537, 3}, {1288, 968, 2}, {5120, 64, 5}, {8199, 40, 8}};
+  std::vector<uint8_t> turbo_out(sizeof(g_out));
+  for (const auto& c : cases) {
+    const int width = c[0], height = c[1], b = c[2];
+    std::vector<uint8_t> full;
+    const std::vector<uint8_t> jpeg = makeJpeg(width, height, 90, &full);
+    int32_t w = 0, h = 0;
+    CHECK_EQUAL(code(Status::kOk),
+                code(decoder.decodeGrayBinned(jpeg.data(), jpeg.size(), b, g_out, sizeof(g_out), w, h)));
+    areomap::HeapAllocationScope scope;
+    CHECK_EQUAL(code(Status::kOk),
+                code(decoder.decodeGrayBinned(jpeg.data(), jpeg.size(), b, g_out, sizeof(g_out), w, h)));
+    CHECK_EQUAL(0u, scope.allocations());
+    CHECK_EQUAL(width, w);
+    CHECK_EQUAL(height, h);
+    const int bw = width / b, bh = height / b;
+    int wrong = 0;
+    for (int yb = 0; yb < bh; ++yb) {
+      for (int xb = 0; xb < bw; ++xb) {
+        int sum = 0;
+        for (int dy = 0; dy < b; ++dy)
+          for (int dx = 0; dx < b; ++dx) sum += full[static_cast<std::size_t>(yb * b + dy) * width + xb * b + dx];
+        const int expected = (2 * sum + b * b) / (2 * b * b);
+        wrong += g_out[static_cast<std::size_t>(yb) * bw + xb] != expected ? 1 : 0;
+      }
+    }
+    CHECK_EQUAL(0, wrong);
+    CHECK_EQUAL(code(Status::kOk), code(turbo.decodeGrayBinned(jpeg.data(), jpeg.size(), b, turbo_out.data(),
+                                                                turbo_out.size(), w, h)));
+    CHECK_EQUAL(0, std::memcmp(turbo_out.data(), g_out, static_cast<std::size_t>(bw) * bh));
+  }
+  const std::vector<uint8_t> jpeg = makeJpeg(2050, 40, 90, nullptr);
+  int32_t w = 0, h = 0;
+  CHECK_EQUAL(code(Status::kCapacityExceeded), code(decoder.decodeGrayBinned(jpeg.data(), jpeg.size(), 2, g_out,
+                                                                             sizeof(g_out), w, h)));  // 1025 wide
+  CHECK_EQUAL(2050, w);
+  CHECK_EQUAL(code(Status::kCapacityExceeded),
+              code(decoder.decodeGrayBinned(jpeg.data(), jpeg.size(), 3, g_out, 100, w, h)));
+  CHECK_EQUAL(code(Status::kInvalidArgument),
+              code(decoder.decodeGrayBinned(jpeg.data(), jpeg.size(), 0, g_out, sizeof(g_out), w, h)));
+  CHECK_EQUAL(code(Status::kInvalidArgument), code(decoder.decodeGrayBinned(jpeg.data(), jpeg.size(), areomap::kMaxBinning + 1,
+                                                                            g_out, sizeof(g_out), w, h)));
+  // The decoder goes on: the next decode works.
+  CHECK_EQUAL(code(Status::kOk),
+              code(decoder.decodeGrayBinned(jpeg.data(), jpeg.size(), 3, g_out, sizeof(g_out), w, h)));
+}
+
 // A second thread that decodes makes no heap allocation after its warm-up: libjpeg-turbo detects its SIMD
 // support once per thread (thread-local), and on 64-bit ARM that detection mallocs and reads /proc/cpuinfo
 // (the 3 allocations the rover's pipeline thread made under qemu-aarch64). Natively this holds without

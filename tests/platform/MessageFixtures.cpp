@@ -144,6 +144,7 @@ areomap::rover_status_t makeRoverStatus(int seed) {
   r.pairs_seen = 10;
   r.pairs_accepted = 8;
   r.pairs_rejected = 2;
+  r.pairs_binned = 1;
   for (int i = 0; i < areomap::rover_status_t::NUM_CAUSES; ++i) r.rejected_by_cause[i] = 0;
   r.rejected_by_cause[areomap::rover_status_t::CAUSE_CORRUPT_DATA] = 1;
   r.rejected_by_cause[areomap::rover_status_t::CAUSE_CAPACITY_EXCEEDED] = 1;

@@ -226,9 +226,10 @@ int main(int argc, char** argv) {
         if (r.rover.status) {
           const rover_status_t& st = *r.rover.status;
           std::printf(
-              "rover: %d pairs seen, %d accepted, %d rejected, %d sequence gaps; %d tie-point messages "
-              "(%d lost); heap allocations after start-up %lld; final EO %s\n",
-              st.pairs_seen, st.pairs_accepted, st.pairs_rejected, st.sequence_gaps, r.rover.tie_messages,
+              "rover: %d pairs seen, %d accepted, %d rejected, %d binned, %d sequence gaps; %d tie-point "
+              "messages (%d lost); heap allocations after start-up %lld; final EO %s\n",
+              st.pairs_seen, st.pairs_accepted, st.pairs_rejected, st.pairs_binned, st.sequence_gaps,
+              r.rover.tie_messages,
               r.rover.tie_messages_missing, static_cast<long long>(st.heap_allocs_after_init),
               r.rover.finished ? "arrived" : "missing");
         }

@@ -125,7 +125,7 @@ TEST(RoverNodeStream, SequencesAndBadMessagesCountedWithoutHeap) {
 
 // Numbers read from a message before they are used: a negative sequence is rejected (invalid_argument); a
 // sequence that jumps by ~2^62 counts its gap without overflowing the counter; an image larger than the
-// capacity or a model of another size is rejected before its JPEG is decoded; no heap.
+// largest binnable frame or a model of another size is rejected before its JPEG is decoded; no heap.
 TEST(RoverNodeStream, SequenceAndSizesCheckedBeforeUse) {
   auto withImage = [](int64_t sequence, int32_t width, int32_t model_width) {
     stereo_pair_t p{};
@@ -143,7 +143,8 @@ TEST(RoverNodeStream, SequenceAndSizesCheckedBeforeUse) {
   };
   std::vector<std::vector<uint8_t>> messages;
   messages.push_back(encodeMarker(-3, stereo_pair_t::KIND_PAIR));
-  messages.push_back(withImage(0, kMaxImageWidth + 1, kMaxImageWidth + 1));
+  // Beyond what binning by kMaxBinning brings within the capacity (a frame up to that is binned).
+  messages.push_back(withImage(0, kMaxBinnedSourceWidth + 1, kMaxBinnedSourceWidth + 1));
   messages.push_back(withImage(1, 800, 1000));
   messages.push_back(encodeMarker(int64_t{1} << 62, stereo_pair_t::KIND_PAIR));
   messages.push_back(encodeMarker(INT64_MAX, stereo_pair_t::KIND_PAIR));

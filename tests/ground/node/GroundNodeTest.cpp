@@ -299,7 +299,7 @@ TEST(GroundRecording, AFullDiskIsCountedAndThePanoramaIsStillMade) {
 
 TEST_GROUP(RoverTies){};
 
-// When the rover's ties may stand for the panorama's, and the reason when not.
+// When the rover's ties may stand for the panorama's, and the reason when not (also frames it binned).
 TEST(RoverTies, CompleteOnlyWithTheFinalEoNoLossAndEveryPair) {
   Dataset d;
   for (int id : {0, 1, 2}) {
@@ -319,6 +319,13 @@ TEST(RoverTies, CompleteOnlyWithTheFinalEoNoLossAndEveryPair) {
   r.tie_messages_missing = 0;
   r.tie_pairs = {1};
   STRCMP_EQUAL("none came for pair(s) 0, 2", ground::roverTiesIncomplete(d, r).c_str());
+  // Frames the rover binned: the ground matches the full-resolution frames itself.
+  r.tie_pairs = {0, 1, 2};
+  r.status = rover_status_t{};
+  STRCMP_EQUAL("", ground::roverTiesIncomplete(d, r).c_str());
+  r.status->pairs_binned = 3;
+  STRCMP_EQUAL("the rover matched 3 pair(s) on frames binned to its capacity; the ground matches at full resolution",
+               ground::roverTiesIncomplete(d, r).c_str());
 }
 
 // The rover's numbering goes on across panoramas: after restartAfterHighest the next panorama's messages

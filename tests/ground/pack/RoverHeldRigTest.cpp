@@ -12,11 +12,11 @@
 #include "firmware_core/node/RoverNode.hpp"
 #include "ground/adjust/DatasetNetwork.hpp"
 #include "ground/dataset/Dataset.hpp"
-#include "platform/posix/ArenaJpegDecoder.hpp"
-#include "platform/posix/PosixClock.hpp"
-#include "platform/stub/MemoryTransport.hpp"
 #include "tests/ground/pack/TinyStream.hpp"
 #include "tests/support/TestData.hpp"
+
+// Includes CppUTest: after every STL, Eigen and OpenCV header.
+#include "tests/ground/pack/RoverHarness.hpp"
 
 #include <CppUTest/TestHarness.h>
 
@@ -25,26 +25,12 @@ using namespace areomap;
 namespace {
 
 RoverNode& rover() {
-  static auto* n = new RoverNode();  // ~45 MiB, allocated once as on the rover
-  return *n;
+  return test::harnessRover();
 }
-uint8_t g_arena[platform::ArenaJpegDecoder::kArenaBytes];
-uint8_t g_outbox[4 * 1024 * 1024];
 
 // Every event of the stream straight into the node (its publications go to a memory outbox nobody reads).
 void runRover(const std::vector<LogEvent>& events) {
-  platform::MemoryTransport outbox(g_outbox, sizeof(g_outbox));
-  platform::ArenaJpegDecoder jpeg(g_arena, sizeof(g_arena));
-  CHECK(ok(jpeg.open()));
-  platform::PosixClock clock;
-  RoverOptions options;
-  options.log_to_stderr = false;
-  rover().start(outbox, jpeg, clock, options);
-  for (const LogEvent& e : events) {
-    rover().handleStereoPair(e.data.data(), e.data.size());
-    for (int k = 0; k < 100 && outbox.handle(0) == Status::kOk; ++k) {
-    }
-  }
+  (void)test::feedRover(events, [](platform::MemoryTransport&) {});
   CHECK(rover().counters().finished);
 }
 

@@ -1,5 +1,6 @@
 #include "tests/ground/pass/PassChecks.hpp"
 
+#include "firmware_core/camera/Binning.hpp"
 #include "ground/dense/Rectification.hpp"
 #include "ground/products/DemCoverage.hpp"
 
@@ -179,6 +180,41 @@ bool planePoint(const CameraModel& model, const Vec2& pixel, double plane_z_m, V
   if (t > 200.0) return false;  // beyond the scene
   point = o + t * d;
   return true;
+}
+
+CameraModel navcam(bool right) {
+  CameraModel m;
+  m.type = CameraType::kCahvore;
+  m.cahvore_kind = CahvoreKind::kFisheye;
+  m.linearity = 0.0;
+  m.width = 1280;
+  m.height = 960;
+  if (!right) {
+    m.c = Vec3(0.947337, 0.346457, -1.90383);
+    m.a = Vec3(0.861174, 0.0103048, 0.508221);
+    m.h = Vec3(550.797, 746.26, 327.139);
+    m.v = Vec3(42.1059, 3.07463, 883.465);
+    m.o = Vec3(0.861107, 0.0117207, 0.508305);
+    m.r = Vec3(1.736e-06, 0.0501396, -0.0171254);
+    m.e = Vec3(-8e-09, 1e-08, -2.9e-08);
+  } else {
+    m.c = Vec3(0.942658, 0.770793, -1.90443);
+    m.a = Vec3(0.86198, 0.0100552, 0.506857);
+    m.h = Vec3(547.566, 744.218, 325.295);
+    m.v = Vec3(45.7281, 1.96331, 882.562);
+    m.o = Vec3(0.862372, 0.00968278, 0.506198);
+    m.r = Vec3(4.24e-07, 0.0517186, -0.0187155);
+    m.e = Vec3(1.2e-08, 3e-08, -3e-09);
+  }
+  return m;
+}
+
+CameraModel detector(bool right) {
+  return rescaledModel(navcam(right), 0.25, Vec2(-0.375, -0.375), 5120, 3840);
+}
+
+CameraModel tile(bool right, double x0, double y0) {
+  return rescaledModel(detector(right), 2.0, Vec2(x0 + 0.5, y0 + 0.5), 1288, 968);
 }
 
 cv::Mat renderPlane(const CameraModel& model, double plane_z_m, unsigned seed) {

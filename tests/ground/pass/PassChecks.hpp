@@ -44,6 +44,15 @@ ModelComparison compareModels(const FeatureMatches& m, const CameraModel& a_left
 double demCoverage(const DemGrid& dem, const CameraModel& left, const CameraModel& right, double lo_m,
                    double hi_m);
 
+// The sol-1280 Navcam pair of ../shared/data/m2020-navcam-stereo-pairs (rover navigation frame, 1280 x 960
+// delivered at scale 4: fisheye-linearity CAHVORE with its real R and E), copied here so that the tests that
+// use it need no shared data.
+CameraModel navcam(bool right);
+// The detector (5120 x 3840): a delivered pixel p of the scale-4 frame is detector pixel 4 p + 1.5.
+CameraModel detector(bool right);
+// A half-resolution quarter-sensor tile (1288 x 968) whose first detector pixel is (x0, y0) (0-based).
+CameraModel tile(bool right, double x0, double y0);
+
 // A synthetic image of the textured plane Z = plane_z_m (site frame, Z down) through `model`
 // (model.width x model.height, 8-bit): value noise of four octaves (1 cm to 30 cm) from `seed`, the same
 // surface for every camera; rays that miss the plane (above the horizon) see a flat sky. Each pixel's

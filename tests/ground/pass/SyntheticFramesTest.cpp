@@ -25,44 +25,9 @@ using namespace areomap;
 
 namespace {
 
-// The sol-1280 Navcam pair of ../shared/data/m2020-navcam-stereo-pairs (rover navigation frame, 1280 x 960
-// delivered at scale 4), copied here so that these tests need no shared data.
-CameraModel navcam(bool right) {
-  CameraModel m;
-  m.type = CameraType::kCahvore;
-  m.cahvore_kind = CahvoreKind::kFisheye;
-  m.linearity = 0.0;
-  m.width = 1280;
-  m.height = 960;
-  if (!right) {
-    m.c = Vec3(0.947337, 0.346457, -1.90383);
-    m.a = Vec3(0.861174, 0.0103048, 0.508221);
-    m.h = Vec3(550.797, 746.26, 327.139);
-    m.v = Vec3(42.1059, 3.07463, 883.465);
-    m.o = Vec3(0.861107, 0.0117207, 0.508305);
-    m.r = Vec3(1.736e-06, 0.0501396, -0.0171254);
-    m.e = Vec3(-8e-09, 1e-08, -2.9e-08);
-  } else {
-    m.c = Vec3(0.942658, 0.770793, -1.90443);
-    m.a = Vec3(0.86198, 0.0100552, 0.506857);
-    m.h = Vec3(547.566, 744.218, 325.295);
-    m.v = Vec3(45.7281, 1.96331, 882.562);
-    m.o = Vec3(0.862372, 0.00968278, 0.506198);
-    m.r = Vec3(4.24e-07, 0.0517186, -0.0187155);
-    m.e = Vec3(1.2e-08, 3e-08, -3e-09);
-  }
-  return m;
-}
-
-// The detector (5120 x 3840): a delivered pixel p of the scale-4 frame is detector pixel 4 p + 1.5.
-CameraModel detector(bool right) {
-  return io::rescaledModel(navcam(right), 0.25, Vec2(-0.375, -0.375), 5120, 3840);
-}
-
-// A half-resolution quarter-sensor tile whose first detector pixel is (x0, y0) (0-based).
-CameraModel tile(bool right, double x0, double y0) {
-  return io::rescaledModel(detector(right), 2.0, Vec2(x0 + 0.5, y0 + 0.5), 1288, 968);
-}
+using test::detector;
+using test::navcam;
+using test::tile;
 
 constexpr double kPlaneZ_m = 0.0;  // the rover navigation frame's ground level
 
@@ -122,29 +87,6 @@ TieTruth checkTies(const io::Panorama& p, const TieRun& run) {
 }  // namespace
 
 TEST_GROUP(SyntheticFrames){};
-
-// The binning of the ground's tie matching: the smallest factor within the matcher's capacity, and the
-// binned model exact: a point's full-resolution projection is the binned projection mapped up.
-TEST(SyntheticFrames, BinnedModelIsExact) {
-  LONGS_EQUAL(1, binningFactor(1024, 1024));
-  LONGS_EQUAL(2, binningFactor(1288, 968));
-  LONGS_EQUAL(2, binningFactor(1280, 960));
-  LONGS_EQUAL(5, binningFactor(5120, 3840));
-  LONGS_EQUAL(2, binningFactor(2048, 10));
-  LONGS_EQUAL(3, binningFactor(3073, 10));
-  const CameraModel full = detector(false);
-  for (int32_t k : {2, 3, 5}) {
-    const CameraModel binned = binnedModel(full, k);
-    LONGS_EQUAL(full.width / k, binned.width);
-    for (const Vec3& x : {Vec3(5.0, 0.3, 0.0), Vec3(3.0, -1.0, 0.2), Vec3(20.0, 4.0, -1.0)}) {
-      Vec2 a, b;
-      CHECK(ok(project(full, x, a)));
-      CHECK(ok(project(binned, x, b)));
-      DOUBLES_EQUAL(a.x(), fullResolutionPx(b.x(), k), 1e-6);
-      DOUBLES_EQUAL(a.y(), fullResolutionPx(b.y(), k), 1e-6);
-    }
-  }
-}
 
 // A full-resolution 5120 x 3840 CAHVORE pair: ties over the whole frame, each at full-resolution
 // precision after the binned match (the 5x binned match alone is good to a few tenths of a full pixel).

@@ -136,7 +136,9 @@ TEST(MessageAdapters, LargestAcceptedPairIsTheStatedSize) {
 }
 
 // Sizes read from a message are checked against the capacities before anything is decoded: the JPEG is
-// present, the image is 1..kMaxImageWidth x 1..kMaxImageHeight, the model is of the image's size.
+// present, the image is 1..kMaxBinnedSourceWidth x 1..kMaxBinnedSourceHeight (beyond the capacity as far as
+// binning by at most kMaxBinning reaches: the rover bins it; one pixel more on either side is refused), the
+// model is of the image's size.
 TEST(MessageAdapters, ImageSizesCheckedAgainstCapacities) {
   stereo_image_t side{};
   side.jpeg_bytes = 100;
@@ -154,8 +156,15 @@ TEST(MessageAdapters, ImageSizesCheckedAgainstCapacities) {
   const Case cases[] = {
       {0, 1024, 768, 1024, 768, Status::kMissingField, "jpeg_bytes"},
       {-5, 1024, 768, 1024, 768, Status::kMissingField, "jpeg_bytes"},
-      {100, kMaxImageWidth + 1, 768, kMaxImageWidth + 1, 768, Status::kCapacityExceeded, "width_px"},
-      {100, 1024, kMaxImageHeight + 1, 1024, kMaxImageHeight + 1, Status::kCapacityExceeded, "height_px"},
+      // Above the capacity but within kMaxBinning of it: binned by the rover, so accepted here (kOk).
+      {100, kMaxImageWidth + 1, 768, kMaxImageWidth + 1, 768, Status::kOk, ""},
+      {100, 5120, 3840, 5120, 3840, Status::kOk, ""},
+      {100, kMaxBinnedSourceWidth, kMaxBinnedSourceHeight, kMaxBinnedSourceWidth, kMaxBinnedSourceHeight,
+       Status::kOk, ""},
+      {100, kMaxBinnedSourceWidth + 1, 768, kMaxBinnedSourceWidth + 1, 768, Status::kCapacityExceeded,
+       "width_px"},
+      {100, 1024, kMaxBinnedSourceHeight + 1, 1024, kMaxBinnedSourceHeight + 1, Status::kCapacityExceeded,
+       "height_px"},
       {100, 0, 768, 0, 768, Status::kInvalidArgument, "width_px"},
       {100, 1024, -1, 1024, -1, Status::kInvalidArgument, "height_px"},
       {100, 1024, 768, 2048, 768, Status::kInvalidArgument, "model.width_px"},
