@@ -7,22 +7,25 @@
 #                                          (toolchains/README.md)
 #   ./setup.sh --no-build           packages only
 #   ./setup.sh --fuzz               also clang and libFuzzer for the fuzz targets (tests/fuzz/run.sh)
+#   ./setup.sh --no-benchmarks      the native build without the benchmark programs (CI: no test runs them)
 set -euo pipefail
 cd "$(dirname "$0")"
 
 usage() {
-  sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'
 }
 
 targets=""
 build=1
 fuzz=0
+benchmarks=ON
 while [ $# -gt 0 ]; do
   case "$1" in
     --targets) targets="${2:-}"; shift 2 ;;
     --targets=*) targets="${1#--targets=}"; shift ;;
     --no-build) build=0; shift ;;
     --fuzz) fuzz=1; shift ;;
+    --no-benchmarks) benchmarks=OFF; shift ;;
     -h|--help) usage; exit 0 ;;
     *) echo "setup.sh: unknown option '$1'" >&2; usage >&2; exit 2 ;;
   esac
@@ -73,7 +76,8 @@ fi
 
 if [ "$build" = 1 ]; then
   jobs=$(nproc 2>/dev/null || echo 2)
-  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+  # AREOMAP_BUILD_BENCHMARKS is passed every time: a build folder configured once without them gets them back.
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DAREOMAP_BUILD_BENCHMARKS=$benchmarks
   cmake --build build -j "$jobs"
   echo "setup: built into build/ (tools in build/bin/)"
   # The cross targets: the rover side and its tests (CMakePresets.json; run them with ctest --preset T).

@@ -1,5 +1,5 @@
 # areomap_tests: every executable CTest runs (the CppUTest executables, with the tools their tests run through
-# their add_dependencies, and the fuzz replays) and nothing else: no benchmark. The asan build presets build
+# areomap_test_tools, and the fuzz replays) and nothing else: no benchmark. The asan build presets build
 # this target only (`cmake --build --preset asan`), so the sanitizer build skips the benchmarks.
 add_custom_target(areomap_tests)
 # Sanitizer builds (the asan preset: the C/C++ flags hold -fsanitize=address). The process-level tests
@@ -35,6 +35,14 @@ set(_areomap_test_cost_powerpc
     firmware_adjust_tests.FastAdjuster 260 firmware_adjust_tests.ReducedCameraSystem 199
     firmware_adjust_tests.NetworkBuilder 108 firmware_adjust_tests.SitePoseAdjuster 97
     firmware_match_tests.StereoMatcher 89 firmware_dem_tests.CoarseDem 68)
+# Natively the same holds for the few groups of minutes (the tools on the real pairs, the cross-site matcher,
+# the DEM sigma on rendered scenes): in the order they were added, one of them could start last and run alone
+# on one core while the other waits. Rough seconds on a 2-core machine (only the order matters); the
+# process-level tests set theirs beside their add_test (ground_node_navcam_replay: its first run makes the
+# navcam dataset).
+set(_areomap_test_cost_native
+    ground_pass_tests.RealPairs 300 ground_traverse_tests.CrossSiteTies 200
+    ground_products_calibration_tests.SigmaFollowsNoise 120)
 
 # AREOMAP_TEST_GROUPS (a regular expression over `<executable>.<GROUP>`; empty: every group) builds a named
 # subset of the CppUTest groups, as the `asan-ci` configure preset does: only the sources that define a matching
@@ -43,6 +51,21 @@ set(_areomap_test_cost_powerpc
 # the test preset runs. The CI asan build then compiles none of the test files of groups it does not run
 # (~20 % of that build, BENCHMARKS.md "CI").
 set(AREOMAP_TEST_GROUPS "" CACHE STRING "Regular expression over <executable>.<GROUP>: build and register only these CppUTest groups (label subset); empty: all")
+
+# areomap_test_tools(EXECUTABLE TOOL...): the tools (build/bin/) EXECUTABLE's tests run, built before it.
+# AREOMAP_TEST_TOOLS (a list of tool targets; empty: all) keeps only those: a build of a named subset of groups
+# (AREOMAP_TEST_GROUPS, the `asan-ci` preset) lists the tools its groups run, and the build skips the others.
+set(AREOMAP_TEST_TOOLS "" CACHE STRING "The tools the test executables build first (those their groups run); empty: every tool their tests run")
+function(areomap_test_tools exe)
+  if(NOT TARGET ${exe})
+    return()
+  endif()
+  foreach(tool IN LISTS ARGN)
+    if(NOT AREOMAP_TEST_TOOLS OR tool IN_LIST AREOMAP_TEST_TOOLS)
+      add_dependencies(${exe} ${tool})
+    endif()
+  endforeach()
+endfunction()
 
 # areomap_cpputest(NAME SOURCES... LIBS... [LABELS ...])
 # One CppUTest executable; one CTest entry per TEST_GROUP found in its sources (`-sg GROUP`), so that
@@ -70,7 +93,8 @@ function(areomap_cpputest name)
   list(REMOVE_DUPLICATES _groups)
   add_executable(${name} ${_sources} ${PROJECT_SOURCE_DIR}/tests/support/TestMain.cpp)
   target_link_libraries(${name} PRIVATE areomap_warnings areomap_test_support PkgConfig::CPPUTEST ${T_LIBS})
-  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests
+                        UNITY_BUILD_CODE_BEFORE_INCLUDE "${AREOMAP_UNITY_CPPUTEST_BEFORE_INCLUDE}")
   add_dependencies(areomap_tests ${name})
   set(_labels ${T_LABELS})
   if(AREOMAP_TEST_GROUPS)
@@ -91,12 +115,17 @@ function(areomap_cpputest name)
       set_tests_properties(${name}.${g} PROPERTIES LABELS "${_labels}")
     endif()
     if(CMAKE_CROSSCOMPILING_EMULATOR)
-      list(FIND _areomap_test_cost_${CMAKE_SYSTEM_PROCESSOR} ${name}.${g} _i)
-      if(_i GREATER -1)
-        math(EXPR _i "${_i} + 1")
-        list(GET _areomap_test_cost_${CMAKE_SYSTEM_PROCESSOR} ${_i} _cost)
-        set_tests_properties(${name}.${g} PROPERTIES COST ${_cost})
-      endif()
+      set(_costs ${_areomap_test_cost_${CMAKE_SYSTEM_PROCESSOR}})
+    elseif(NOT CMAKE_CROSSCOMPILING)
+      set(_costs ${_areomap_test_cost_native})
+    else()
+      set(_costs)
+    endif()
+    list(FIND _costs ${name}.${g} _i)
+    if(_i GREATER -1)
+      math(EXPR _i "${_i} + 1")
+      list(GET _costs ${_i} _cost)
+      set_tests_properties(${name}.${g} PROPERTIES COST ${_cost})
     endif()
   endforeach()
 endfunction()
