@@ -117,10 +117,14 @@ void coverageStage(Context& ctx, const DemGrid& dem, const DemGrid& sigma) {
     c.near = demCoverage(dem, &sigma, sized(l), sized(r), plane, kNear, kMid, kSampleM);
     c.far = demCoverage(dem, &sigma, sized(l), sized(r), plane, kMid, kFar, kSampleM);
     ctx.result.coverage.push_back(c);
-    char b[200];
-    std::snprintf(b, sizeof b, "pair %d: the DEM covers %.1f %% (2-5 m) and %.1f %% (5-10 m) of what both cameras see",
-                  p.id, 100 * std::max(0.0, c.near.fraction()), 100 * std::max(0.0, c.far.fraction()));
-    cli::info(b);
+    auto figure = [](const CoverageCount& n) {
+      char f[48];
+      if (n.seen == 0) return std::string("none seen");
+      std::snprintf(f, sizeof f, "%.1f %%", 100 * n.fraction());
+      return std::string(f);
+    };
+    cli::info("pair " + std::to_string(p.id) + ": the DEM covers " + figure(c.near) + " (2-5 m) and " +
+              figure(c.far) + " (5-10 m) of what both cameras see");
   }
 }
 

@@ -35,6 +35,6 @@ cat "$SCRATCH/ground.out"
 pairs=$(python3 -c "import json,sys; print(len(json.load(open(sys.argv[1]))['pairs']))" "$DATASET/panorama.json")
 grep -q "^stream: $pairs pairs, 0 gaps, 0 duplicates, 0 reordered, 0 rejected;" "$SCRATCH/ground.out" \
   || fail "the ground's collector did not get all $pairs pairs without a gap"
-grep -q "^rover: $pairs pairs seen, $pairs accepted, 0 rejected, 0 sequence gaps; $pairs tie-point messages (0 lost); heap allocations after start-up 0; final EO arrived" \
+grep -q "^rover: $pairs pairs seen, $pairs accepted, 0 rejected, 0 binned, 0 sequence gaps; $pairs tie-point messages (0 lost); heap allocations after start-up 0; final EO arrived" \
   "$SCRATCH/ground.out" || fail "the rover did not take all $pairs pairs without a gap"
 echo "navcam replay: ok ($pairs pairs, 0 gaps at the ground and at the rover)"
