@@ -48,6 +48,15 @@ void setRigFigures(AdjustReport& report, const Network& net) {
   heldSigmaOutcome(net.rig, misfit, report.estimated, report.warnings);
 }
 
+void demCoverageTotal(const std::vector<DemCoverageFigure>& figures, long& seen, long& filled) {
+  seen = 0;
+  filled = 0;
+  for (const DemCoverageFigure& c : figures) {
+    seen += c.seen_2_5m + c.seen_5_10m;
+    filled += c.filled_2_5m + c.filled_5_10m;
+  }
+}
+
 void writeReportJson(const std::string& path, const AdjustReport& r) {
   nlohmann::json j;
   j["method1_px"] = {{"before", imageJson(r.method1_before)}, {"after", imageJson(r.method1_after)}};
@@ -95,16 +104,15 @@ void writeReportJson(const std::string& path, const AdjustReport& r) {
       return seen > 0 ? nlohmann::json(static_cast<double>(filled) / static_cast<double>(seen)) : nlohmann::json();
     };
     nlohmann::json pairs = nlohmann::json::array();
-    long seen = 0, filled = 0;
     for (const DemCoverageFigure& c : r.dem_coverage) {
       pairs.push_back({{"pair", c.pair},
                        {"fraction_2_5m", fraction(c.filled_2_5m, c.seen_2_5m)},
                        {"fraction_5_10m", fraction(c.filled_5_10m, c.seen_5_10m)},
                        {"cells_seen_2_5m", c.seen_2_5m},
                        {"cells_seen_5_10m", c.seen_5_10m}});
-      seen += c.seen_2_5m + c.seen_5_10m;
-      filled += c.filled_2_5m + c.filled_5_10m;
     }
+    long seen = 0, filled = 0;
+    demCoverageTotal(r.dem_coverage, seen, filled);
     j["dem_coverage"] = {{"fraction_2_10m", fraction(filled, seen)}, {"pairs", pairs}};
   }
   writeTextProduct(path, j.dump(2) + "\n");

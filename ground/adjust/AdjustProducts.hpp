@@ -45,6 +45,8 @@ struct DemCoverageFigure {
   long seen_2_5m = 0, filled_2_5m = 0;
   long seen_5_10m = 0, filled_5_10m = 0;
 };
+// Over every pair and both bands: the cells seen and, of those, filled.
+void demCoverageTotal(const std::vector<DemCoverageFigure>& figures, long& seen, long& filled);
 
 struct AdjustReport {
   ImageDifferences method1_before, method1_after, method3_before, method3_after;

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -111,14 +112,8 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
   }
   // Of the rectified pixels that show the left original (the rectified image may be larger than it).
   out.matched_fraction = keepMatchesInside(rect, d.disparity);
-  // The noise estimate from the kept matches only.
-  for (int y = 0; y < d.disparity.rows; ++y) {
-    const float* dr = d.disparity.ptr<float>(y);
-    float* lr = d.lr_diff_px.ptr<float>(y);
-    for (int x = 0; x < d.disparity.cols; ++x) {
-      if (!std::isfinite(dr[x])) lr[x] = NAN;
-    }
-  }
+  // The noise estimate from the kept matches only (a NaN disparity is unequal to itself).
+  d.lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), d.disparity != d.disparity);
   out.seconds_dense = now() - t0;
   if (out.matched_fraction < options.min_matched_fraction) {
     out.error = "no valid dense matches (" + std::to_string(out.matched_fraction * 100) +

@@ -6,6 +6,8 @@
 
 #include <Eigen/Dense>
 
+#include "firmware_core/match/ParallaxVerifier.hpp"
+
 namespace areomap::products {
 
 namespace {
@@ -16,12 +18,6 @@ bool seenBy(const CameraModel& m, const Vec3& x) {
          p.y() <= m.height - 0.5;
 }
 
-double medianOf(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 }  // namespace
 
@@ -81,7 +77,9 @@ bool groundPlane(const DemGrid& dem, const Vec3& centre, double radius_m, Ground
     std::vector<double> res(cells.size());
     for (std::size_t k = 0; k < cells.size(); ++k) res[k] = std::abs(cells[k].z - local.dot(cells[k].a));
     // Three robust sigmas, never below a cell's size: a rough but level ground keeps its cells.
-    const double bound = std::max(3.0 * 1.4826 * medianOf(res), dem.cell_m);
+    std::vector<double> scratch = res;
+    const double bound = std::max(3.0 * 1.4826 * medianInPlace(scratch.data(), static_cast<int32_t>(scratch.size())),
+                                  dem.cell_m);
     for (std::size_t k = 0; k < cells.size(); ++k) use[k] = res[k] <= bound;
   }
   // From coordinates relative to the centre back to site coordinates.

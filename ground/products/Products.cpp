@@ -112,19 +112,17 @@ void coverageStage(Context& ctx, const DemGrid& dem, const DemGrid& sigma) {
     const ProductImage& l = ctx.in.images[p.left];
     const ProductImage& r = ctx.in.images[p.right];
     if (l.grey.empty() || r.grey.empty()) continue;
-    ProductsResult::PairCoverage c;
-    c.pair_id = p.id;
-    c.near = demCoverage(dem, &sigma, sized(l), sized(r), plane, kNear, kMid, kSampleM);
-    c.far = demCoverage(dem, &sigma, sized(l), sized(r), plane, kMid, kFar, kSampleM);
-    ctx.result.coverage.push_back(c);
+    const CoverageCount near = demCoverage(dem, &sigma, sized(l), sized(r), plane, kNear, kMid, kSampleM);
+    const CoverageCount far = demCoverage(dem, &sigma, sized(l), sized(r), plane, kMid, kFar, kSampleM);
+    ctx.result.coverage.push_back({p.id, near.seen, near.filled, far.seen, far.filled});
     auto figure = [](const CoverageCount& n) {
       char f[48];
       if (n.seen == 0) return std::string("none seen");
       std::snprintf(f, sizeof f, "%.1f %%", 100 * n.fraction());
       return std::string(f);
     };
-    cli::info("pair " + std::to_string(p.id) + ": the DEM covers " + figure(c.near) + " (2-5 m) and " +
-              figure(c.far) + " (5-10 m) of what both cameras see");
+    cli::info("pair " + std::to_string(p.id) + ": the DEM covers " + figure(near) + " (2-5 m) and " +
+              figure(far) + " (5-10 m) of what both cameras see");
   }
 }
 
@@ -234,11 +232,7 @@ void mergeIntoReport(const ProductsResult& products, ground::AdjustReport& repor
   for (const auto& stage : products.seconds) report.seconds.push_back(stage);
   for (const std::string& w : products.warnings) report.warnings.push_back(w);
   report.dense_pairs = products.dense_pairs;
-  report.dem_coverage.clear();
-  for (const ProductsResult::PairCoverage& c : products.coverage) {
-    report.dem_coverage.push_back(
-        {c.pair_id, c.near.seen, c.near.filled, c.far.seen, c.far.filled});
-  }
+  report.dem_coverage = products.coverage;
   if (report.truth) report.truth->dem_rmse_m = products.dem_rmse_m;
 }
 

@@ -114,12 +114,9 @@ struct ProductsResult {
   double ortho_seam_px = -1.0;       // median geometric disagreement at ortho seams, px (-1: no seams)
   std::vector<double> residuals_px;  // tie back-projection residuals plotted in report.html
   // Per stereo pair (in ProductInputs::pairs order, both images present): of the cells both cameras see
-  // at 2-5 m and at 5-10 m horizontal range, how many the DEM fills (DemCoverage.hpp).
-  struct PairCoverage {
-    int pair_id = 0;
-    CoverageCount near, far;
-  };
-  std::vector<PairCoverage> coverage;
+  // at 2-5 m and at 5-10 m horizontal range, how many the DEM fills (DemCoverage.hpp; report.json
+  // dem_coverage).
+  std::vector<ground::DemCoverageFigure> coverage;
   std::vector<std::pair<std::string, double>> seconds;  // stage timings (rectify, dense, ..., previews)
 };
 

@@ -163,16 +163,12 @@ void previewsAndReport(Context& ctx, const ortho::OrthoResult* ortho,
     std::snprintf(b, sizeof b, "%.4f m", *ctx.result.dem_rmse_m);
     html.summary.emplace_back("DEM RMSE against truth", b);
   }
-  if (!ctx.result.coverage.empty()) {
-    CoverageCount all;
-    for (const ProductsResult::PairCoverage& c : ctx.result.coverage) {
-      all += c.near;
-      all += c.far;
-    }
-    if (all.seen > 0) {
-      std::snprintf(b, sizeof b, "%.1f %% of the cells both cameras of a pair see at 2-10 m", 100 * all.fraction());
-      html.summary.emplace_back("DEM coverage", b);
-    }
+  long seen = 0, filled = 0;
+  ground::demCoverageTotal(ctx.result.coverage, seen, filled);
+  if (seen > 0) {
+    std::snprintf(b, sizeof b, "%.1f %% of the cells both cameras of a pair see at 2-10 m",
+                  100.0 * static_cast<double>(filled) / static_cast<double>(seen));
+    html.summary.emplace_back("DEM coverage", b);
   }
   if (ctx.result.ortho_seam_px >= 0) {
     std::snprintf(b, sizeof b, "%.2f px (median over seam cells)", ctx.result.ortho_seam_px);
