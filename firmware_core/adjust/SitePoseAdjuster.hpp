@@ -1,4 +1,4 @@
-// The multi-site constrained adjustment of a traverse (issue 21, level 1): the rover stops at site after
+// The multi-site constrained adjustment of a traverse (level 1): the rover stops at site after
 // site and takes a panorama at each, adjusted alone by FastAdjuster; here every site is a rigid body that
 // carries its cameras (their EO in the site frame fixed: the gimbal and stereo-base constraints of §3.2 hold
 // within it by construction) and only the sites' poses and the cross-site tie points are unknown.

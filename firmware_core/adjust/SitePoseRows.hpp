@@ -1,4 +1,4 @@
-// The rows of the multi-site (traverse) adjustment (issue 21, level 1; SitePoseAdjuster.hpp): a site's pose,
+// The rows of the multi-site (traverse) adjustment (SitePoseAdjuster.hpp): a site's pose,
 // a camera carried rigidly by it, the collinearity of a cross-site tie observation and the odometry leg
 // between consecutive sites, each with analytic Jacobians over the local pose update.
 //

@@ -88,7 +88,7 @@ static_assert(kMaxTiesPerPair * 2 * kMaxPairs <= kMaxObservations, "intra ties o
 constexpr int32_t kInterOffsetSearchRadiusPx = 48;
 constexpr int32_t kMaxInterOffsetProbes = 24;
 
-// --- Multi-site traverse (issue 21; firmware_core/adjust/SitePoseAdjuster.hpp) ---
+// --- Multi-site traverse (firmware_core/adjust/SitePoseAdjuster.hpp) ---
 // Sites of one traverse adjustment: the rover stops every 10-30 m, a sol's drive (~100 m) is 4-10 sites;
 // 32 sites hold several sols, and the rover's sliding window of the last K sites is a fraction of it. The
 // reduced system is dense over the sites (6 x 6 blocks): (6 x 32)^2 doubles = 288 KiB per copy.

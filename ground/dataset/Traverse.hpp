@@ -1,4 +1,4 @@
-// A multi-site traverse (issue 21): a folder with `traverse.json` naming the sites in driving order, each a
+// A multi-site traverse: a folder with `traverse.json` naming the sites in driving order, each a
 // complete single-site dataset (panorama.json, ...) under `sites/<id>/`, and for a synthetic traverse the
 // truth poses in `truth/traverse.json`. Schema: docs/traverse.md "traverse.json".
 //

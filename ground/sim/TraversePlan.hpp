@@ -1,4 +1,4 @@
-// The poses of a simulated multi-site traverse (issue 21): the true path, the rover's odometry over each
+// The poses of a simulated multi-site traverse: the true path, the rover's odometry over each
 // leg and the a-priori site poses dead-reckoned from it. No terrain and no images: the heights come from a
 // ground-elevation function, so the statistics can be tested on thousands of seeds in milliseconds.
 //

@@ -1,4 +1,4 @@
-// A simulated multi-site traverse (issue 21; `areomap-sim --preset traverse`): one continuous terrain under
+// A simulated multi-site traverse (`areomap-sim --preset traverse`): one continuous terrain under
 // a winding path of sites (ground/sim/TraversePlan.hpp), a complete single-site dataset per site and the
 // traverse description. Layout (docs/traverse.md "traverse.json"):
 //

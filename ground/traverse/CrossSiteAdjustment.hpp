@@ -1,4 +1,4 @@
-// The sites' poses from cross-site tie points and the odometry (issue 21 point 3 on the ground): every
+// The sites' poses from cross-site tie points and the odometry (on the ground): every
 // site a rigid body carrying its cameras as its own pass adjusted them (OUT/sites/<id>/models, site frame),
 // its pose and the cross-site points unknown, the odometry legs weighted observations, site 1 the datum
 // (firmware_core/adjust/SitePoseAdjuster.hpp, the ground's capacity: the whole traverse at once). A site

@@ -1,4 +1,4 @@
-// Cross-site tie points between two neighbouring sites of a traverse (issue 21, point 2): images of site B
+// Cross-site tie points between two neighbouring sites of a traverse: images of site B
 // tied to images of site A that see the same ground from 10-30 m away (large scale and perspective
 // change), found through each site's DEM and the a-priori relative pose.
 //

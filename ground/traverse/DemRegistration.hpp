@@ -1,4 +1,4 @@
-// Coarse relative pose of two neighbouring sites from their DEMs (issue 21, cross-site ties step 1). The
+// Coarse relative pose of two neighbouring sites from their DEMs (cross-site ties, step 1). The
 // a-priori site poses (traverse.json) carry the odometry's drift (~5 % of the leg in position, ~2 deg per
 // leg in heading); registering site B's DEM onto site A's removes most of it, so that the image search
 // windows of the tie matcher stay a few pixels wide.

@@ -1,4 +1,4 @@
-// The cross-site matching of a whole traverse (issue 21, point 2), shared by areomap-cross-ties and
+// The cross-site matching of a whole traverse, shared by areomap-cross-ties and
 // areomap-traverse: which pairs of sites are matched (neighbours in driving order, or every pair), each
 // pair's DEM search window from the odometry between them, findCrossSiteTies on each pair with point ids
 // unique over the traverse, the truth check on a synthetic traverse, and cross_ties.json.

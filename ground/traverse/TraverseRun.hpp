@@ -1,4 +1,4 @@
-// areomap-traverse's work (issue 21): every site of a traverse mapped alone by the ground pass (tie points,
+// areomap-traverse's work: every site of a traverse mapped alone by the ground pass (tie points,
 // fast + integrated adjustment, products with the DEM sigma of its cameras: ground/node, ground/pass),
 // each site placed in the traverse frame (SitePoses.hpp), and one map over the whole traverse: the
 // sites' DEM, DEM sigma and orthoimage merged by the nearest-site rule (TraverseMosaic.hpp), poses.csv
@@ -90,7 +90,7 @@ struct TraverseResult {
   long long truth_dem_cells = -1;
 };
 
-inline constexpr double kTruthDemRadiusM = 10.0;  // issue 21: the merged DEM within 10 m of any site
+inline constexpr double kTruthDemRadiusM = 10.0;  // the merged DEM is judged within 10 m of any site
 
 // What a traverse's truth gives the report: the true poses (truth/traverse.json, in the traverse's site
 // order) and the terrain (truth/dem.tif; "" when absent).

@@ -1,5 +1,5 @@
 // NCC of DEM-warped patches between two images that see the same ground at different scales and from
-// different directions (cross-site ties, issue 21). A local affine map A = d(pixel in J)/d(pixel in I),
+// different directions (cross-site ties). A local affine map A = d(pixel in J)/d(pixel in I),
 // from the ground plane under the point, relates the two views. The comparison runs on the grid of the
 // coarser view: the finer image is sampled through the map from its Gaussian pyramid level of that scale
 // (so that it is low-passed like the coarser one), the other image at full resolution. A (2h+1)^2

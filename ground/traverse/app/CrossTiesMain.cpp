@@ -1,5 +1,5 @@
 // areomap-cross-ties TRAVERSE --products DIR --out DIR: cross-site tie points between neighbouring sites of
-// a traverse (issue 21), from each site's ground products.
+// a traverse, from each site's ground products.
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -54,7 +54,7 @@ constexpr const char* kUsage =
     "  --isotropic        the finer image low-passed by its pyramid level of the mean scale only (for\n"
     "                     comparison)\n"
     "  --no-edge-clip     refuse a point whose search window leaves the image (else the search is clipped\n"
-    "                     at the edge; for comparison). All five: the matcher before issue 21's reach work\n"
+    "                     at the edge; for comparison). All five: the matcher before its reach was extended\n"
     "\n"
     "A pair of sites whose DEMs do not overlap, or match ambiguously, is reported with its status and no\n"
     "ties; that is not an error. Exit: 0 ok, 2 usage error, 1 bad input (the message names the file and\n"

@@ -1,4 +1,4 @@
-// Test-only generator of a multi-site traverse with truth (issue 21) for SitePoseAdjuster: a random winding
+// Test-only generator of a multi-site traverse with truth for SitePoseAdjuster: a random winding
 // path of sites 10-30 m apart, each with a ring of stereo pairs on a mast (EO in the site frame, exact: the
 // single-site adjustment's result), ground points between neighbouring sites seen by the cameras of every
 // site within range, observations = true ideal pixels + Gaussian noise (+ optional gross errors of

@@ -1,4 +1,4 @@
-// The traverse over the LCM stream (issue 21 point 4): areomap-pack of a traverse (each site's announcement,
+// The traverse over the LCM stream: areomap-pack of a traverse (each site's announcement,
 // then its pairs and end marker, in driving order), and areomap-ground --traverse on that log replayed from
 // file: each site's pass in OUT/sites/<id>, then the traverse steps of areomap-traverse (poses.csv, the
 // merged dem.tif, report.json with traverse.sites) and the same figures as areomap-traverse on the dataset
