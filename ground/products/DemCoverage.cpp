@@ -6,7 +6,7 @@
 
 #include <Eigen/Dense>
 
-#include "firmware_core/match/ParallaxVerifier.hpp"
+#include "firmware_core/match/ParallaxVerifier.hpp"  // medianInPlace
 
 namespace areomap::products {
 
@@ -44,12 +44,52 @@ bool terrainHides(const DemGrid& dem, const DemGrid* sigma, const Vec3& c, const
   return false;
 }
 
+double GroundPlane::up(double north_m, double east_m) const {
+  return c(0) + c(1) * (north_m - north0_m) + c(2) * (east_m - east0_m);
+}
+
+double GroundPlane::sigmaUp(double north_m, double east_m) const {
+  const Eigen::Vector3d a(1.0, north_m - north0_m, east_m - east0_m);
+  return std::sqrt(sigma_m * sigma_m + std::max(0.0, a.dot(cov * a)));
+}
+
+bool fitGroundPlane(const std::vector<Vec3>& points, double min_bound_m, GroundPlane& plane) {
+  if (points.size() < 3) return false;
+  GroundPlane p;
+  for (const Vec3& x : points) {
+    p.north0_m += x.x();
+    p.east0_m += x.y();
+  }
+  p.north0_m /= static_cast<double>(points.size());
+  p.east0_m /= static_cast<double>(points.size());
+  std::vector<bool> use(points.size(), true);
+  Eigen::Matrix3d n = Eigen::Matrix3d::Identity();
+  for (int round = 0; round < 3; ++round) {
+    n.setZero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      if (!use[k]) continue;
+      const Eigen::Vector3d a(1.0, points[k].x() - p.north0_m, points[k].y() - p.east0_m);
+      n += a * a.transpose();
+      g += a * points[k].z();
+    }
+    p.c = n.ldlt().solve(g);
+    std::vector<double> res(points.size());
+    for (std::size_t k = 0; k < points.size(); ++k) res[k] = std::abs(points[k].z() - p.up(points[k].x(), points[k].y()));
+    std::vector<double> scratch = res;
+    p.sigma_m = 1.4826 * medianInPlace(scratch.data(), static_cast<int32_t>(scratch.size()));
+    const double bound = std::max(3.0 * p.sigma_m, min_bound_m);
+    for (std::size_t k = 0; k < points.size(); ++k) use[k] = res[k] <= bound;
+  }
+  const Eigen::FullPivLU<Eigen::Matrix3d> lu(n);
+  if (!lu.isInvertible()) return false;
+  p.cov = p.sigma_m * p.sigma_m * lu.inverse();
+  plane = p;
+  return plane.c.allFinite() && std::isfinite(plane.sigma_m);
+}
+
 bool groundPlane(const DemGrid& dem, const Vec3& centre, double radius_m, GroundPlane& plane) {
-  struct Cell {
-    Eigen::Vector3d a;
-    double z;
-  };
-  std::vector<Cell> cells;
+  std::vector<Vec3> cells;
   const int reach = static_cast<int>(std::ceil(radius_m / dem.cell_m)) + 1;
   const int col0 = static_cast<int>(std::floor((centre.y() - dem.east0_m) / dem.cell_m));
   const int row0 = static_cast<int>(std::floor((dem.north0_m - centre.x()) / dem.cell_m));
@@ -59,32 +99,10 @@ bool groundPlane(const DemGrid& dem, const Vec3& centre, double radius_m, Ground
       if (v == dem.nodata || !std::isfinite(v)) continue;
       const double n = dem.northOfRow(row), e = dem.eastOfCol(col);
       if (std::hypot(n - centre.x(), e - centre.y()) > radius_m) continue;
-      cells.push_back({Eigen::Vector3d(1.0, n - centre.x(), e - centre.y()), v});
+      cells.emplace_back(n, e, v);
     }
   }
-  if (cells.size() < 3) return false;
-  std::vector<bool> use(cells.size(), true);
-  Eigen::Vector3d local = Eigen::Vector3d::Zero();
-  for (int round = 0; round < 3; ++round) {
-    Eigen::Matrix3d n = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    for (std::size_t k = 0; k < cells.size(); ++k) {
-      if (!use[k]) continue;
-      n += cells[k].a * cells[k].a.transpose();
-      g += cells[k].a * cells[k].z;
-    }
-    local = n.ldlt().solve(g);
-    std::vector<double> res(cells.size());
-    for (std::size_t k = 0; k < cells.size(); ++k) res[k] = std::abs(cells[k].z - local.dot(cells[k].a));
-    // Three robust sigmas, never below a cell's size: a rough but level ground keeps its cells.
-    std::vector<double> scratch = res;
-    const double bound = std::max(3.0 * 1.4826 * medianInPlace(scratch.data(), static_cast<int32_t>(scratch.size())),
-                                  dem.cell_m);
-    for (std::size_t k = 0; k < cells.size(); ++k) use[k] = res[k] <= bound;
-  }
-  // From coordinates relative to the centre back to site coordinates.
-  plane = GroundPlane(local(0) - local(1) * centre.x() - local(2) * centre.y(), local(1), local(2));
-  return std::isfinite(plane.sum());
+  return fitGroundPlane(cells, dem.cell_m, plane);
 }
 
 CoverageCount demCoverage(const DemGrid& dem, const DemGrid* sigma, const CameraModel& left,
@@ -104,10 +122,17 @@ CoverageCount demCoverage(const DemGrid& dem, const DemGrid* sigma, const Camera
       if (range < lo_m || range >= hi_m) continue;
       double up = 0.0;
       const bool filled = demCellAt(dem, north, east, up);
-      if (!filled) up = plane(0) + plane(1) * north + plane(2) * east;
-      const Vec3 x(north, east, -up);
-      if (!seenBy(left, x) || !seenBy(right, x)) continue;
-      if (terrainHides(dem, sigma, left.c, x, step_m) || terrainHides(dem, sigma, right.c, x, step_m)) continue;
+      // A filled cell at its elevation; an empty one at the plane's and at three sigmas either side.
+      const double spread = filled ? 0.0 : 3.0 * plane.sigmaUp(north, east);
+      if (!filled) up = plane.up(north, east);
+      bool seen = true;
+      for (const double dz : {0.0, -spread, spread}) {
+        const Vec3 x(north, east, -(up + dz));
+        seen = seen && seenBy(left, x) && seenBy(right, x) && !terrainHides(dem, sigma, left.c, x, step_m) &&
+               !terrainHides(dem, sigma, right.c, x, step_m);
+        if (!seen || spread == 0.0) break;
+      }
+      if (!seen) continue;
       ++count.seen;
       if (filled) ++count.filled;
     }

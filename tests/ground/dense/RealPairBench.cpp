@@ -14,14 +14,16 @@
 //  - left-right consistency: of those valid pixels, the fraction whose disparity agrees within 1 px with the
 //    same matcher's disparity of the right view at the matched pixel (the right view matched as a mirrored
 //    pair with the same ranges);
-//  and the ratios areomap / SGBM. A second table (unless --no-blind) runs both without ties: disparity 0 to
+//  each over the pixels that show the left original, over those whose ray meets the level ground within the
+//  DEM's range, and over those of the latter whose terrain lies within that range by either matcher's
+//  parallax (nearTerrain); and the ratios areomap / SGBM. A second table (unless --no-blind) runs both without ties: disparity 0 to
 //  that of a point 1 m away, the whole range on every row.
 // StereoSGBM: MODE_SGBM (8 paths), block 5, P1 = 8 cn b^2, P2 = 32 cn b^2 (cn = 1, grey), uniqueness 10 %,
 // disp12MaxDiff 1 (areomap's own left-right tolerance), speckle window 100 px of range 2, pre-filter cap 63.
 // Usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] [LEFT.json RIGHT.json]  (default:
 // the sol 340 pair of ../shared/data/m2020-navcam-stereo-pairs; N: timed runs of each matcher, the fastest
 // is printed; --dump DIR: areomap's left disparity as the pass matches it, DIR/areomap_disparity.bin, raw
-// float32, for byte checks).
+// float32, for byte checks, and PNGs of the rectified left image, the region and both disparities).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -37,6 +39,7 @@
 #include <opencv2/calib3d.hpp>
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dense/PairCloud.hpp"
@@ -128,7 +131,21 @@ struct Figures {
   double seconds = 0.0;
   double density = 0.0, lr = 0.0;                // over the pixels that show the left original
   double ground_density = 0.0, ground_lr = 0.0;  // over those that see the ground within the DEM range
+  double near_density = 0.0, near_lr = 0.0;      // over the near terrain (nearTerrain)
 };
+
+// Of the level-ground region, the pixels whose terrain lies within the DEM's range by the parallax of
+// either matcher (at least `d_min`): the real ground is not level, and rows that the level ground puts
+// within range may show terrain hundreds of metres away, which no product uses. Either matcher's parallax
+// counts, so that neither is scored only where it matched.
+cv::Mat nearTerrain(const cv::Mat& ground, const cv::Mat& a, const cv::Mat& b, double d_min) {
+  cv::Mat out = cv::Mat::zeros(ground.size(), CV_8U);
+  for (int y = 0; y < ground.rows; ++y)
+    for (int x = 0; x < ground.cols; ++x)
+      if (ground.at<uint8_t>(y, x) && (a.at<float>(y, x) >= d_min || b.at<float>(y, x) >= d_min))
+        out.at<uint8_t>(y, x) = 255;
+  return out;
+}
 
 // Density and left-right consistency of `left` (matches kept inside both originals first) in `region`.
 void score(const cv::Mat& left, const cv::Mat& right, const cv::Mat& region, double& density, double& lr) {
@@ -148,14 +165,14 @@ void score(const cv::Mat& left, const cv::Mat& right, const cv::Mat& region, dou
   lr = valid > 0 ? static_cast<double>(agree) / static_cast<double>(valid) : 0.0;
 }
 
-Figures score(double seconds, const dense::RectifiedPair& rect, const Regions& regions, const cv::Mat& left,
+// `kept`: the left disparities with only the matches inside both originals (dense::keepMatchesInside).
+Figures score(double seconds, const Regions& regions, const cv::Mat& near, const cv::Mat& kept,
               const cv::Mat& right) {
   Figures f;
   f.seconds = seconds;
-  cv::Mat kept = left.clone();
-  dense::keepMatchesInside(rect, kept);
   score(kept, right, regions.shown, f.density, f.lr);
   score(kept, right, regions.ground, f.ground_density, f.ground_lr);
+  score(kept, right, near, f.near_density, f.near_lr);
   return f;
 }
 
@@ -179,22 +196,29 @@ void compare(const char* title, const dense::PairMatchSetup& p, const Regions& r
         last.fine_cells);
   }
   if (areomap_disparity != nullptr) *areomap_disparity = d_areomap.clone();
-  const Figures a = score(t_areomap, p.rect, regions, d_areomap, rightView(p.left, p.right, s, areomap));
-  const Figures g = score(t_sgbm, p.rect, regions, d_sgbm, rightView(p.left, p.right, s, sgbm));
+  dense::keepMatchesInside(p.rect, d_areomap);
+  dense::keepMatchesInside(p.rect, d_sgbm);
+  const double d_min = dense::disparityAtRange(p.rect, range_m);
+  const cv::Mat near = nearTerrain(regions.ground, d_areomap, d_sgbm, d_min);
+  const Figures a = score(t_areomap, regions, near, d_areomap, rightView(p.left, p.right, s, areomap));
+  const Figures g = score(t_sgbm, regions, near, d_sgbm, rightView(p.left, p.right, s, sgbm));
   std::printf("\n%s: SGBM disparity %d..%d (numDisparities %d); areomap %d..%d, %s\n\n", title, s.min_px,
               s.min_px + s.sgbmCount() - 1, s.sgbmCount(), s.areomap_min_px, s.areomap_max_px,
               s.rows ? "per-row parallax ranges from the ties" : "the whole range on every row");
   std::printf(
-      "| matcher | seconds | density %% | LR consistent %% | ground to %.0f m: density %% | LR %% |\n"
-      "|---|---|---|---|---|---|\n",
-      range_m);
-  std::printf("| OpenCV StereoSGBM (MODE_SGBM, block 5) | %.3f | %.2f | %.2f | %.2f | %.2f |\n", g.seconds,
-              100 * g.density, 100 * g.lr, 100 * g.ground_density, 100 * g.ground_lr);
-  std::printf("| areomap | %.3f | %.2f | %.2f | %.2f | %.2f |\n", a.seconds, 100 * a.density, 100 * a.lr,
-              100 * a.ground_density, 100 * a.ground_lr);
-  std::printf("| areomap / SGBM | %.2f | %.3f | %.3f | %.3f | %.3f |\n\n", a.seconds / g.seconds,
+      "| matcher | seconds | density %% | LR consistent %% | level ground to %.0f m: density %% | LR %% | "
+      "terrain to %.0f m (parallax >= %.1f px): density %% | LR %% |\n"
+      "|---|---|---|---|---|---|---|---|\n",
+      range_m, range_m, d_min);
+  const auto row = [](const char* name, const Figures& f) {
+    std::printf("| %s | %.3f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |\n", name, f.seconds, 100 * f.density,
+                100 * f.lr, 100 * f.ground_density, 100 * f.ground_lr, 100 * f.near_density, 100 * f.near_lr);
+  };
+  row("OpenCV StereoSGBM (MODE_SGBM, block 5)", g);
+  row("areomap", a);
+  std::printf("| areomap / SGBM | %.2f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f |\n\n", a.seconds / g.seconds,
               a.density / g.density, a.lr / g.lr, a.ground_density / g.ground_density,
-              a.ground_lr / g.ground_lr);
+              a.ground_lr / g.ground_lr, a.near_density / g.near_density, a.near_lr / g.near_lr);
 }
 
 }  // namespace
@@ -322,6 +346,19 @@ int main(int argc, char** argv) {
     std::ofstream f(dump_dir + "/areomap_disparity.bin", std::ios::binary);
     for (int y = 0; y < d_pass.rows; ++y)
       f.write(reinterpret_cast<const char*>(d_pass.ptr<float>(y)), d_pass.cols * sizeof(float));
+    // For the eye: the rectified left image, the level-ground region and both disparities (2 grey levels
+    // per pixel of parallax above 20; black = no match).
+    const auto grey = [](const cv::Mat& d) {
+      cv::Mat v(d.size(), CV_8U, cv::Scalar(0));
+      for (int y = 0; y < d.rows; ++y)
+        for (int x = 0; x < d.cols; ++x)
+          if (!std::isnan(d.at<float>(y, x))) v.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(2 * d.at<float>(y, x) + 20);
+      return v;
+    };
+    cv::imwrite(dump_dir + "/left.png", p.left);
+    cv::imwrite(dump_dir + "/ground.png", reg.ground);
+    cv::imwrite(dump_dir + "/areomap.png", grey(d_pass));
+    cv::imwrite(dump_dir + "/sgbm.png", grey(sgbm(p.left, p.right, pass_search)));
   }
   return 0;
 }

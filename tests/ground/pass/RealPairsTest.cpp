@@ -378,59 +378,32 @@ TEST(RealPairs, DemAgreesWithIndependentlyTriangulatedPoints) {
   }
 }
 
-// The one shared position whose DEM misses the 90 % goal: its tile looks 12 degrees down, the ground fills
-// only the image's lowest fifth and is seen at grazing incidence from 5 m out, where the DEM leaves wedges
-// empty behind rocks and fills others from the rocks' tops (the occlusion handling that the DEM lacks).
-// Named, not hidden: the check below fails when it starts to pass.
-const char* const kKnownCoverageShortfall = "m2020_sol0340_site009_drive0364";
-
 TEST(RealPairs, DemCoversWhatBothCamerasSee) {
   if (!haveData()) return;
   for (const Position& p : positions()) {
     if (p.ground_rc != 0) continue;
     const areomap::DemGrid dem = areomap::readDemGeoTiff(p.products + "/dem.tif");
     const areomap::DemGrid sigma = areomap::readDemGeoTiff(p.products + "/dem_sigma.tif");
-    // The ground plane of the triangulated ties (least squares z = a + b x + c y, twice with the points
-    // beyond 3 robust sigmas left out), on which unseen-by-the-DEM cells are placed.
+    // The ground plane of the triangulated ties (products::fitGroundPlane: least squares, points beyond 3
+    // robust sigmas left out), on which cells the DEM leaves empty are placed.
     std::vector<Vec3> pts;
     for (const auto& [id, obs] : p.ties) {
       Vec3 x;
-      if (triangulate(obs, p.adjusted, x)) pts.push_back(x);
+      if (triangulate(obs, p.adjusted, x)) pts.emplace_back(x.x(), x.y(), -x.z());
     }
     CHECK_TEXT(pts.size() >= 10, (p.name + ": too few tie points for the ground plane").c_str());
-    Eigen::Vector3d plane(0, 0, 0);
-    std::vector<bool> use(pts.size(), true);
-    for (int round = 0; round < 3; ++round) {
-      Eigen::Matrix3d n = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d g = Eigen::Vector3d::Zero();
-      for (std::size_t k = 0; k < pts.size(); ++k) {
-        if (!use[k]) continue;
-        const Eigen::Vector3d a(1.0, pts[k].x(), pts[k].y());
-        n += a * a.transpose();
-        g += a * pts[k].z();
-      }
-      plane = n.ldlt().solve(g);
-      std::vector<double> res;
-      for (const Vec3& x : pts) res.push_back(std::abs(x.z() - plane.dot(Eigen::Vector3d(1.0, x.x(), x.y()))));
-      const double s = 1.4826 * median(res);
-      for (std::size_t k = 0; k < pts.size(); ++k) use[k] = res[k] <= std::max(3.0 * s, 0.05);
-    }
+    areomap::products::GroundPlane plane;
+    CHECK_TEXT(areomap::products::fitGroundPlane(pts, 0.05, plane), (p.name + ": no ground plane").c_str());
     // The library's count (ground/products DemCoverage) with this independent plane, on every cell.
     areomap::products::CoverageCount count;
     for (const auto& [ls, rs] : p.pairs) {
-      count += areomap::products::demCoverage(dem, &sigma, p.adjusted.at(ls), p.adjusted.at(rs), -plane, 2.0,
+      count += areomap::products::demCoverage(dem, &sigma, p.adjusted.at(ls), p.adjusted.at(rs), plane, 2.0,
                                               10.0);
     }
     const long seen = count.seen, filled = count.filled;
     const double coverage = seen > 0 ? static_cast<double>(filled) / static_cast<double>(seen) : 0.0;
     std::printf("\n  %s: DEM covers %.1f %% of %ld cells both cameras see at 2-10 m", p.name.c_str(), 100 * coverage, seen);
     CHECK_TEXT(seen > 0, (p.name + ": no cell seen by both cameras").c_str());
-    if (p.name == kKnownCoverageShortfall) {
-      // A known failure, kept visible: it must still fail, so that this entry goes once it is mended.
-      std::printf(" (KNOWN SHORTFALL: below 90 %%, see kKnownCoverageShortfall)");
-      CHECK_TEXT(coverage < 0.9, (p.name + ": now covers 90 %; remove it from kKnownCoverageShortfall").c_str());
-      continue;
-    }
     CHECK_TEXT(coverage >= 0.9, (p.name + ": DEM coverage below 90 %").c_str());
   }
 }
