@@ -1,7 +1,8 @@
 // From a dataset (panorama.json + a-priori models) and image observations (stem, measured pixel) to the
 // adjustment Network: models converted to the photogrammetric form, measured pixels mapped once through the
 // exact CAHVOR inverse to ideal pixels, points triangulated from the a-priori EO, and the rig constants taken
-// from panorama.json or, where missing, estimated from the a-priori models (reported in `estimated`).
+// from panorama.json or, where missing, estimated from the a-priori models (ground/dataset/RigEstimate.hpp,
+// reported in `estimated`).
 #pragma once
 
 #include <cstdint>
@@ -41,10 +42,6 @@ struct RigChoice {
 // Loads the models and fills `net` (cleared first). Throws cli::InputError naming the file and field.
 void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& observations,
                   const RigChoice& choice, Network& net, NetworkSource& source);
-
-// Rig constants missing from panorama.json, estimated from the network's a-priori cameras by linear least
-// squares of Eq. 3 (C_i = XG_sol + M_i^T c_side) and Eq. 4; FIDO values by a sphere fit per tier.
-void estimateRig(const Dataset& dataset, Network& net, NetworkSource& source, bool fido);
 
 // DATASET/truth/observations.csv with Gaussian noise of `noise_px` per coordinate (seeded).
 std::vector<ImageObservation> noisyTruthObservations(const Dataset& dataset, double noise_px, uint64_t seed);

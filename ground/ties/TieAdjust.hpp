@@ -1,7 +1,6 @@
 // The fast constrained adjustment (firmware_core/adjust FastAdjuster) of the automatic tie points: the
 // network built pair by pair by NetworkBuilder, the rig constraints from panorama.json or, where missing,
-// estimated from the a-priori models (gimbal centre and camera offsets by least squares over the images
-// of a sol, Eq. 3; stereo base as the mean of C_R - C_L in the left frame, Eq. 4).
+// estimated from the a-priori models (ground/dataset/RigEstimate.hpp).
 #pragma once
 
 #include <memory>
@@ -15,8 +14,9 @@
 
 namespace areomap {
 
-// Fills net.rig (sols of the network images must index dataset.rig.gimbal_m keys in order, as
-// runTiePoints assigns them). `notes` receives what was estimated.
+// Fills net.rig by estimateRig (sols of the network images must index dataset.rig.gimbal_m keys in order,
+// as runTiePoints assigns them) and holds the stereo base where the network has a right image. `notes`
+// receives what was estimated and the fit's warnings.
 void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
                        std::vector<std::string>& notes);
 
