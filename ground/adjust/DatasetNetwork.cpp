@@ -1,12 +1,14 @@
 #include "ground/adjust/DatasetNetwork.hpp"
 
-#include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <random>
 #include <map>
+#include <memory>
+#include <random>
 #include <sstream>
 
+#include "firmware_core/adjust/NetworkBuilder.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/RigEstimate.hpp"
 #include "ground/dataset/RigSigmas.hpp"
@@ -55,46 +57,70 @@ void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& o
     }
     addCamera(dataset, pr.left, field + ".left.model", source);
     if (pr.right) addCamera(dataset, *pr.right, field + ".right.model", source);
-    const PhotogrammetricCamera& l = source.cameras[source.cameras.size() - (pr.right ? 2 : 1)];
-    const PhotogrammetricCamera& r = source.cameras.back();
-    int32_t index = 0;
-    const Status s = net.addPair(sol_index[pr.sol], pr.tier, l.io, l.eo.center_m, l.m,
-                                 pr.right ? &r.io : nullptr, r.eo.center_m, r.m, index);
-    if (!ok(s)) throw cli::InputError(pano, field, std::string("cannot add the pair: ") + statusName(s));
   }
-  std::map<std::string, int> image_of_stem;
-  for (size_t i = 0; i < source.stems.size(); ++i) image_of_stem[source.stems[i]] = static_cast<int>(i);
-
-  // Points in order of first appearance.
+  // The observations as a tie list (image = 2 * pair + side, points in order of first appearance), put
+  // into the network pair by pair by the core's NetworkBuilder, as the rover and the ground's own tie run
+  // build theirs: an observation enters with the pair of its image.
+  std::map<std::string, int> tie_image_of_stem;
+  std::vector<int> net_image_of_tie(2 * dataset.pairs.size(), -1);
+  for (size_t p = 0, i = 0; p < dataset.pairs.size(); ++p) {
+    tie_image_of_stem[dataset.pairs[p].left.stem] = static_cast<int>(2 * p);
+    net_image_of_tie[2 * p] = static_cast<int>(i++);
+    if (dataset.pairs[p].right) {
+      tie_image_of_stem[dataset.pairs[p].right->stem] = static_cast<int>(2 * p + 1);
+      net_image_of_tie[2 * p + 1] = static_cast<int>(i++);
+    }
+  }
   std::map<int64_t, int> point_of_id;
   std::map<std::string, int> unknown_stems;
+  std::vector<TiePoint> points;
+  std::vector<TieObservation> ties;
   for (const ImageObservation& o : observations) {
-    const auto it = image_of_stem.find(o.image);
-    if (it == image_of_stem.end()) {
+    const auto it = tie_image_of_stem.find(o.image);
+    if (it == tie_image_of_stem.end()) {
       ++unknown_stems[o.image];
       ++source.dropped_observations;
       continue;
     }
-    int point = 0;
-    const auto pit = point_of_id.find(o.point);
+    auto pit = point_of_id.find(o.point);
     if (pit == point_of_id.end()) {
-      const Status s = net.addPoint(Vec3::Zero(), point);
-      if (!ok(s)) {
+      if (static_cast<int>(points.size()) >= kMaxTiePoints) {
         ++source.dropped_observations;
         continue;
       }
-      point_of_id[o.point] = point;
+      pit = point_of_id.emplace(o.point, static_cast<int>(points.size())).first;
+      points.emplace_back();
       source.point_ids.push_back(o.point);
-    } else {
-      point = pit->second;
     }
-    Vec2 ideal;
-    const int img = it->second;
-    if (!ok(pixelToIdeal(source.apriori_models[img], source.cameras[img], Vec2(o.sample_px, o.line_px),
-                         ideal)) ||
-        !ok(net.addObservation(point, img, ideal, choice.sigma_px))) {
-      ++source.dropped_observations;
+    TieObservation t;
+    t.point = pit->second;
+    t.image = it->second;
+    t.sample_px = o.sample_px;
+    t.line_px = o.line_px;
+    ties.push_back(t);
+  }
+  std::stable_sort(ties.begin(), ties.end(),
+                   [](const TieObservation& a, const TieObservation& b) { return a.image / 2 < b.image / 2; });
+  auto builder = std::make_unique<NetworkBuilder>();  // fixed tables, too large for the stack
+  builder->reset();
+  builder->sigma_px = choice.sigma_px;
+  TieList list{points.data(), static_cast<int32_t>(points.size()), ties.data(), 0, 0};
+  for (size_t p = 0; p < dataset.pairs.size(); ++p) {
+    const Pair& pr = dataset.pairs[p];
+    while (list.observation_count < static_cast<int32_t>(ties.size()) &&
+           ties[static_cast<std::size_t>(list.observation_count)].image / 2 == static_cast<int32_t>(p))
+      ++list.observation_count;
+    list.pair_count = static_cast<int32_t>(p) + 1;
+    const int left = net_image_of_tie[2 * p];
+    const CameraModel* right = pr.right ? &source.apriori_models[static_cast<std::size_t>(left) + 1] : nullptr;
+    int32_t failed = 0;
+    const Status s = builder->syncPair(list, sol_index[pr.sol], pr.tier, source.apriori_models[left], right,
+                                       net, failed);
+    if (!ok(s)) {
+      throw cli::InputError(pano, "pairs[" + std::to_string(p) + "]",
+                            std::string("cannot add the pair: ") + statusName(s));
     }
+    source.dropped_observations += failed;
   }
   for (const auto& [stem, count] : unknown_stems) {
     source.warnings.push_back(std::to_string(count) + " observations name image '" + stem +
