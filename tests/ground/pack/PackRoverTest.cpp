@@ -1,7 +1,7 @@
-// The rover node fed the packed tiny stream through memq:// in one process (firmware_core/node/RoverNode.hpp):
-// its result equals the offline ties tool with zero heap in the pipeline, injected faults and full
-// capacities are counted with the panorama kept, a two-site traverse maps each site as alone; and two real
-// left-only PDS3 frames packed and mapped.
+// The rover node fed the packed tiny stream through memq:// in one process
+// (firmware_core/node/RoverNode.hpp): its result equals the offline ties tool with zero heap in the pipeline,
+// injected faults and full capacities are counted with the panorama kept, a two-site traverse maps each site
+// as alone; and two real left-only PDS3 frames packed and mapped.
 #include <sys/wait.h>
 
 #include <algorithm>
