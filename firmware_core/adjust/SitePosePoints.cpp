@@ -81,10 +81,10 @@ int32_t BasicSitePoseAdjuster<C>::raysInFront(const CrossSitePoint& pt, const Ve
     const CrossSiteObservation& o = observations_[pt.obs[k]];
     if (o.rejected) continue;
     Vec3 center;
-    Mat3 m;
-    cameraInTraverse(sites_[cameras_[o.camera].site].pose, cameras_[o.camera], center, m);
+    Mat3 camera_from_traverse;
+    cameraInTraverse(sites_[cameras_[o.camera].site].pose, cameras_[o.camera], center, camera_from_traverse);
     Vec3 d;
-    d.noalias() = m * (xyz - center);
+    d.noalias() = camera_from_traverse * (xyz - center);
     front += d.z() < 0.0 ? 1 : 0;
   }
   return front;
@@ -122,9 +122,9 @@ bool BasicSitePoseAdjuster<C>::placePoint(int32_t p) {
       const CrossSiteObservation& o = observations_[pt.obs[k]];
       const SiteCamera& c = cameras_[o.camera];
       if (o.rejected || (!all && c.site != cand)) continue;
-      Mat3 m;
-      cameraInTraverse(sites_[c.site].pose, c, origins[n], m);
-      directions[n] = rayOfIdealPixel(c.io, m, o.ideal_px);
+      Mat3 camera_from_traverse;
+      cameraInTraverse(sites_[c.site].pose, c, origins[n], camera_from_traverse);
+      directions[n] = rayOfIdealPixel(c.io, camera_from_traverse, o.ideal_px);
       ++n;
     }
     Vec3 xyz;
