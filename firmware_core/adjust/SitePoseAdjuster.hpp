@@ -149,7 +149,7 @@ struct TraverseCapacity {
 };
 
 // The adjuster for a capacity; the rover's (SitePoseAdjuster) and the ground's (GroundSitePoseAdjuster)
-// are instantiated in SitePoseAdjuster.cpp.
+// are instantiated in SitePoseAdjuster.cpp, SitePosePoints.cpp and SitePoseSolve.cpp.
 template <typename Capacity>
 class BasicSitePoseAdjuster {
  public:

@@ -5,6 +5,7 @@
 
 #include "firmware_core/match/EpipolarSearch.hpp"
 #include "firmware_core/match/Ncc.hpp"
+#include "firmware_core/match/InterStereoTies.hpp"
 #include "firmware_core/match/PanoramaMatcher.hpp"
 
 namespace areomap {
@@ -18,8 +19,8 @@ Vec3 offsetBasis(const Vec2& px) {
 }
 }  // namespace
 
-void PanoramaMatcher::fitOffsets(int32_t n, double initial_tolerance_px, double tolerance_px, Vec3& fx,
-                                 Vec3& fy) {
+void fitOffsetField(const OffsetCandidate* candidates, int32_t n, double initial_tolerance_px,
+                    double tolerance_px, bool* inlier, Vec3& fx, Vec3& fy) {
   // Start from the offset that most candidates agree with (within the final tolerance; ties: the higher
   // summed score): unlike the median it holds when strays are the majority (narrow overlaps, where many
   // probes find nothing true).
@@ -30,12 +31,12 @@ void PanoramaMatcher::fitOffsets(int32_t n, double initial_tolerance_px, double 
     int32_t support = 0;
     double score = 0.0;
     for (int32_t b = 0; b < n; ++b) {
-      if (std::fabs(candidates_[a].dx - candidates_[b].dx) > tolerance_px ||
-          std::fabs(candidates_[a].dy - candidates_[b].dy) > tolerance_px) {
+      if (std::fabs(candidates[a].dx - candidates[b].dx) > tolerance_px ||
+          std::fabs(candidates[a].dy - candidates[b].dy) > tolerance_px) {
         continue;
       }
       ++support;
-      score += candidates_[b].score;
+      score += candidates[b].score;
     }
     if (support > seed_support || (support == seed_support && score > seed_score)) {
       seed = a;
@@ -43,18 +44,18 @@ void PanoramaMatcher::fitOffsets(int32_t n, double initial_tolerance_px, double 
       seed_score = score;
     }
   }
-  fx = Vec3(candidates_[seed].dx, 0.0, 0.0);
-  fy = Vec3(candidates_[seed].dy, 0.0, 0.0);
+  fx = Vec3(candidates[seed].dx, 0.0, 0.0);
+  fy = Vec3(candidates[seed].dy, 0.0, 0.0);
   double tolerance = initial_tolerance_px;
   for (int32_t iteration = 0; iteration <= kMaxParallaxFitIterations; ++iteration) {
     int32_t inliers = 0;
     bool changed = false;
     for (int32_t c = 0; c < n; ++c) {
-      const Vec3 b = offsetBasis(candidates_[c].px);
-      const bool in = std::fabs(candidates_[c].dx - fx.dot(b)) <= tolerance &&
-                      std::fabs(candidates_[c].dy - fy.dot(b)) <= tolerance;
-      changed = changed || in != inlier_[c] || iteration == 0;
-      inlier_[c] = in;
+      const Vec3 b = offsetBasis(candidates[c].px);
+      const bool in = std::fabs(candidates[c].dx - fx.dot(b)) <= tolerance &&
+                      std::fabs(candidates[c].dy - fy.dot(b)) <= tolerance;
+      changed = changed || in != inlier[c] || iteration == 0;
+      inlier[c] = in;
       inliers += in ? 1 : 0;
     }
     if ((!changed && tolerance == tolerance_px) || iteration == kMaxParallaxFitIterations) break;
@@ -63,11 +64,11 @@ void PanoramaMatcher::fitOffsets(int32_t n, double initial_tolerance_px, double 
     Mat3 normal = Mat3::Zero();
     Vec3 rx = Vec3::Zero(), ry = Vec3::Zero();
     for (int32_t c = 0; c < n; ++c) {
-      if (!inlier_[c]) continue;
-      const Vec3 b = offsetBasis(candidates_[c].px);
+      if (!inlier[c]) continue;
+      const Vec3 b = offsetBasis(candidates[c].px);
       normal.noalias() += b * b.transpose();
-      rx.noalias() += b * candidates_[c].dx;
-      ry.noalias() += b * candidates_[c].dy;
+      rx.noalias() += b * candidates[c].dx;
+      ry.noalias() += b * candidates[c].dy;
     }
     const Eigen::LDLT<Mat3> ldlt(normal);
     if (ldlt.info() != Eigen::Success || ldlt.rcond() < 1e-9) continue;
@@ -76,7 +77,7 @@ void PanoramaMatcher::fitOffsets(int32_t n, double initial_tolerance_px, double 
   }
 }
 
-// Long (~170 lines) for a reason: per earlier pair and image of the new pair, its five steps (predict,
+// Long because: per earlier pair and image of the new pair, its five steps (predict,
 // probe, search or transfer, verify, add) share the prediction, candidate and inlier arrays and the
 // offset field in order; the steps are marked where they start.
 void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], PairTieReport& report) {
@@ -160,11 +161,13 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
                                static_cast<int32_t>(std::lround(pr.px.y())), inter.probe_radius_px, pr.shape);
         // No ambiguity test here: the probes only feed the robust offset field, which drops strays.
         if (hit.score < inter.min_ncc) continue;
-        candidates_[found++] = Candidate{pr.tie, pr.px, hit.score, hit.x - pr.px.x(), hit.y - pr.px.y()};
+        candidates_[found++] =
+            OffsetCandidate{pr.tie, pr.px, hit.score, hit.x - pr.px.x(), hit.y - pr.px.y()};
       }
       if (found < inter.min_group) continue;
       Vec3 field_x, field_y;
-      fitOffsets(found, 2.0 * inter.search_radius_px, inter.search_radius_px, field_x, field_y);
+      fitOffsetField(candidates_, found, 2.0 * inter.search_radius_px, inter.search_radius_px, inlier_,
+                     field_x, field_y);
 
       // Search every prediction around its corrected position.
       int32_t n = 0;
@@ -175,11 +178,13 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
           Vec2 far_px;
           double score = 0.0;
           if (!transferInPair(*images[near_side], *image, target.model[near_side], model, near_px_[pr.tie],
-                              (p - target.model[near_side].c).norm(), far_px, score)) {
+                              (p - target.model[near_side].c).norm(), stereo, stereo_workspace_, far_px,
+                              score)) {
             continue;
           }
           ++report.inter_matched;
-          candidates_[n++] = Candidate{pr.tie, pr.px, score, far_px.x() - pr.px.x(), far_px.y() - pr.px.y()};
+          candidates_[n++] =
+              OffsetCandidate{pr.tie, pr.px, score, far_px.x() - pr.px.x(), far_px.y() - pr.px.y()};
           continue;
         }
         NccTemplate t;
@@ -196,7 +201,7 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
         refinePeakWarped(t, *image, hit.x, hit.y, hit.score, pr.shape, x, y);
         ++report.inter_matched;
         // The match is kept as its offset from the prediction; the position is rebuilt when accepted.
-        candidates_[n++] = Candidate{pr.tie, pr.px, hit.score, x - pr.px.x(), y - pr.px.y()};
+        candidates_[n++] = OffsetCandidate{pr.tie, pr.px, hit.score, x - pr.px.x(), y - pr.px.y()};
       }
       if (n == 0) continue;
       if (n < inter.min_group) {
@@ -205,10 +210,10 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
       }
       // Verification: the offsets from the prediction (a-priori pointing errors) follow one smooth (affine)
       // field over the image.
-      fitOffsets(n, inter.search_radius_px + inter.offset_tolerance_px, inter.offset_tolerance_px, field_x,
-                 field_y);
+      fitOffsetField(candidates_, n, inter.search_radius_px + inter.offset_tolerance_px,
+                     inter.offset_tolerance_px, inlier_, field_x, field_y);
       for (int32_t c = 0; c < n; ++c) {
-        const Candidate& cand = candidates_[c];
+        const OffsetCandidate& cand = candidates_[c];
         if (!inlier_[c]) {
           ++report.inter_rejected;
           continue;
@@ -258,9 +263,9 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
   }
 }
 
-bool PanoramaMatcher::transferInPair(const ImageView& near_image, const ImageView& far_image,
-                                     const CameraModel& near_model, const CameraModel& far_model,
-                                     const Vec2& near_px, double range_m, Vec2& far_px, double& score) {
+bool transferInPair(const ImageView& near_image, const ImageView& far_image, const CameraModel& near_model,
+                    const CameraModel& far_model, const Vec2& near_px, double range_m,
+                    const StereoParams& stereo, StereoWorkspace& workspace, Vec2& far_px, double& score) {
   NccTemplate near_t;
   if (!extractTemplateAt(near_image, near_px.x(), near_px.y(), near_t) || !near_t.textured) return false;
   const double lo = std::fmax(stereo.min_range_m, range_m / kTransferRangeFactor);
@@ -270,7 +275,7 @@ bool PanoramaMatcher::transferInPair(const ImageView& near_image, const ImageVie
   SearchHit hit;
   Vec2 curve_far_px;
   if (matchAlongCurve(near_t, near_image, far_image, near_model, far_model, near_px, lo, hi, stereo,
-                      stereo.lr_tolerance_px + 0.5, stereo_workspace_, hit,
+                      stereo.lr_tolerance_px + 0.5, workspace, hit,
                       curve_far_px) != CurveMatchStage::kMatched) {
     return false;
   }

@@ -116,6 +116,22 @@ double nccWarpedAt(const NccTemplate& t, const ImageView& image, double cx, doub
   return nccFromSums(t, nccTemplateVariance(t), s, s2, st);
 }
 
+double nccOfSamples(const double* t, const double* s, int32_t n, double min_variance) {
+  double st = 0.0, ss = 0.0, stt = 0.0, sss = 0.0, sts = 0.0;
+  for (int32_t k = 0; k < n; ++k) {
+    st += t[k];
+    ss += s[k];
+    stt += t[k] * t[k];
+    sss += s[k] * s[k];
+    sts += t[k] * s[k];
+  }
+  const double count = n;
+  const double var_t = count * stt - st * st;
+  if (var_t <= min_variance) return kNccInvalid;
+  // "At or below min_variance" in nccFromSums' terms: below the next double above it.
+  return nccFromSums(count, st, var_t, ss, sss, sts, std::nextafter(min_variance, INFINITY));
+}
+
 double parabolaOffset(double minus, double centre, double plus) {
   if (minus <= kNccInvalid || plus <= kNccInvalid) return 0.0;
   const double curvature = minus - 2.0 * centre + plus;
@@ -124,8 +140,8 @@ double parabolaOffset(double minus, double centre, double plus) {
   return std::fmax(-0.5, std::fmin(0.5, offset));
 }
 
-void refinePeak(const NccTemplate& t, const ImageView& image, int32_t bx, int32_t by, double best, double& x_px,
-                double& y_px) {
+void refinePeak(const NccTemplate& t, const ImageView& image, int32_t bx, int32_t by, double best,
+                double& x_px, double& y_px) {
   const double l = nccAt(t, image, bx - 1, by);
   const double r = nccAt(t, image, bx + 1, by);
   const double u = nccAt(t, image, bx, by - 1);

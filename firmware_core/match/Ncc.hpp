@@ -30,14 +30,22 @@ inline double nccTemplateVariance(const NccTemplate& t) {
   return n * static_cast<double>(t.sum_sq) - static_cast<double>(t.sum) * static_cast<double>(t.sum);
 }
 
-// The NCC of a window from its sums (pixels, squares, products with the template) and the template's
-// nccTemplateVariance; kNccInvalid when the window is flat. The one formula of nccAt, nccWarpedAt and the
-// line-wise curve search, so that they agree bit for bit.
+// The NCC of n sample pairs from their sums: the template's sum t_sum and var_t = n * sum_sq - sum^2, the
+// window's sum and sum of squares, and the sum of products; kNccInvalid when the window's
+// n * sum_sq - sum^2 is below min_var_s (flat). The one formula of every NCC (nccAt, nccWarpedAt, the
+// line-wise curve search, nccOfSamples), so that they agree bit for bit.
+inline double nccFromSums(double n, double t_sum, double var_t, double sum, double sum_sq, double cross,
+                          double min_var_s) {
+  const double var_s = n * sum_sq - sum * sum;
+  if (var_s < min_var_s) return kNccInvalid;
+  return (n * cross - sum * t_sum) / std::sqrt(var_s * var_t);
+}
+
+// The NCC of a window of the 11 x 11 template from its sums (pixels, squares, products with the template)
+// and the template's nccTemplateVariance; kNccInvalid when the window's variance is below kMinNccVariance.
 inline double nccFromSums(const NccTemplate& t, double var_t, double sum, double sum_sq, double cross) {
   const double n = kNccPixels;
-  const double var_s = n * sum_sq - sum * sum;
-  if (var_s < kMinNccVariance * n * n) return kNccInvalid;
-  return (n * cross - sum * static_cast<double>(t.sum)) / std::sqrt(var_s * var_t);
+  return nccFromSums(n, static_cast<double>(t.sum), var_t, sum, sum_sq, cross, kMinNccVariance * n * n);
 }
 
 // The template centred on pixel (cx, cy); false when the window leaves the image.
@@ -55,6 +63,11 @@ double nccAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t c
 // offsets: template pixel (u, v) is compared with image(cx + a * (u, v)). This is how a patch from another
 // view is compared when perspective changes its shape (rotation, scale, foreshortening).
 double nccWarpedAt(const NccTemplate& t, const ImageView& image, double cx, double cy, const Mat2& a);
+
+// NCC of n sample pairs given as values, template `t` against window `s`, whatever their source (the
+// ground samples float pyramids through a DEM-warped grid of any size); kNccInvalid when either's
+// n * sum_sq - sum^2 is at or below min_variance. No allocation.
+double nccOfSamples(const double* t, const double* s, int32_t n, double min_variance);
 
 // Sub-pixel offset of a peak from the scores left/centre/right (|offset| <= 0.5; 0 when not a peak).
 double parabolaOffset(double minus, double centre, double plus);

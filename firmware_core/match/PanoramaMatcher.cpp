@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "firmware_core/camera/RayIntersection.hpp"
+#include "firmware_core/match/Gridding.hpp"
 #include "firmware_core/match/Ncc.hpp"
 #include "firmware_core/match/ParallaxVerifier.hpp"
 
@@ -244,17 +245,20 @@ void PanoramaMatcher::storeSingleImagePoints(const ImageView& left, const Camera
   }
   // Gridding as for stereo ties: the strongest point per cell.
   const int32_t cell = selectionGridPx(stereo, left.width, left.height);
-  const int32_t cells_x = (left.width + cell - 1) / cell;
-  const int32_t cells_y = (left.height + cell - 1) / cell;
-  if (cell < 1 || cells_x * cells_y > kMaxTiesPerPair) return;
+  if (cell < 1) return;
+  const Gridding grid(cell, left.width, left.height);
+  if (grid.cells() > kMaxTiesPerPair) return;
   int32_t* best = stereo_workspace_.cell_best;
-  for (int32_t c = 0; c < cells_x * cells_y; ++c) best[c] = -1;
-  for (int32_t i = 0; i < count; ++i) {
-    const InterestPoint& p = stereo_workspace_.points[i];
-    const int32_t c = (p.pixel_y / cell) * cells_x + p.pixel_x / cell;
-    if (best[c] < 0 || stereo_workspace_.points[best[c]].weight < p.weight) best[c] = i;
-  }
-  for (int32_t c = 0; c < cells_x * cells_y; ++c) {
+  const InterestPoint* points = stereo_workspace_.points;
+  grid.selectBest(
+      count,
+      [points](int32_t i, int32_t& x, int32_t& y) {
+        x = points[i].pixel_x;
+        y = points[i].pixel_y;
+        return true;
+      },
+      [points](int32_t i) { return points[i].weight; }, best);
+  for (int32_t c = 0; c < grid.cells(); ++c) {
     if (best[c] < 0) continue;
     const InterestPoint& p = stereo_workspace_.points[best[c]];
     const int32_t x = static_cast<int32_t>(std::lround(p.x_px));

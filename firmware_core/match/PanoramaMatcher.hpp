@@ -34,6 +34,7 @@
 #include "firmware_core/base/Status.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
 #include "firmware_core/dem/CoarseDem.hpp"
+#include "firmware_core/match/InterStereoTies.hpp"
 #include "firmware_core/match/StereoMatcher.hpp"
 #include "firmware_core/match/TieList.hpp"
 
@@ -42,19 +43,6 @@ namespace areomap {
 // Stored ties per pair for later pairs (step 4): the selected ties (<= kMaxTiesPerPair) and further
 // inter-stereo candidates.
 constexpr int32_t kMaxStoredTiesPerPair = 352;
-
-struct InterParams {
-  // A single image has no DEM: its interest points are predicted on the plane Z = ground_z_m (site frame,
-  // Z down) at a range clamped to [min, max], which is close enough for frames turned about one mast.
-  double ground_z_m = 0.0;
-  double single_min_range_m = 2.0;
-  double single_max_range_m = 50.0;
-  int32_t probe_radius_px = kInterOffsetSearchRadiusPx;  // offset probe (a-priori pointing differences)
-  int32_t search_radius_px = 4;   // around the prediction corrected by the probed offset, <= kInterSearchRadiusPx
-  double min_ncc = 0.8;
-  double offset_tolerance_px = 1.5;  // departure from the offset field (affine in the image) of the image pair
-  int32_t min_group = 3;             // fewer candidates in an image than this: not verifiable, rejected
-};
 
 struct PairTieReport {
   Status intra_status = Status::kOk;
@@ -133,18 +121,9 @@ class PanoramaMatcher {
     Mat2 shape;  // local affine map of the stored patch into the target view
     bool inside;  // predicted inside the image (not only within the probe radius of it)
   };
-  struct Candidate {
-    int32_t tie;
-    Vec2 px;  // prediction
-    double score;
-    double dx;
-    double dy;
-  };
 
+  // Step 3 (InterStereoTies.cpp): the inter-stereo ties of the new pair with every earlier one.
   void interTies(int32_t new_pair, const ImageView* images[2], PairTieReport& report);
-  // Robust affine field of the offsets (found - predicted) over the image, seeded by the offset most
-  // candidates agree with: inlier_[c] per candidate.
-  void fitOffsets(int32_t n, double initial_tolerance_px, double tolerance_px, Vec3& fx, Vec3& fy);
   void storeSingleImagePoints(const ImageView& left, const CameraModel& model, StoredPair& stored);
   // Patch, predicted ground point and shape of an intra-stereo match (point -1); false when the patch
   // leaves the image.
@@ -155,12 +134,6 @@ class PanoramaMatcher {
                             const CameraModel& right_model, const CoarseDem& dem, StoredPair& stored,
                             PairTieReport& report);
   bool addObservation(int32_t point, int32_t image, double sample_px, double line_px, TieKind kind, float score);
-  // The far image's observation of a point observed at near_px in the near image of the same pair: the
-  // near image's patch there searched along the pair's epipolar curve (ranges within a factor of
-  // kTransferRangeFactor of range_m, InterStereoTies.cpp), left-right checked. False when it fails.
-  bool transferInPair(const ImageView& near_image, const ImageView& far_image, const CameraModel& near_model,
-                      const CameraModel& far_model, const Vec2& near_px, double range_m, Vec2& far_px,
-                      double& score);
 
   StereoWorkspace stereo_workspace_;
   StereoResult stereo_result_;
@@ -171,7 +144,7 @@ class PanoramaMatcher {
   FixedVector<TieObservation, kMaxObservations> observations_;
   FixedVector<TiePoint, kMaxTiePoints> points_;
   Prediction predictions_[kMaxStoredTiesPerPair];
-  Candidate candidates_[kMaxStoredTiesPerPair];
+  OffsetCandidate candidates_[kMaxStoredTiesPerPair];
   bool inlier_[kMaxStoredTiesPerPair];
   // Per stored tie of the source pair in interTies: its observation in the near image, when it has one.
   Vec2 near_px_[kMaxStoredTiesPerPair];

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "firmware_core/match/Gridding.hpp"
 #include "firmware_core/match/Ncc.hpp"
 
 namespace areomap {
@@ -60,10 +61,8 @@ Status matchStereoPair(const ImageView& left, const ImageView& right, const Came
   workspace.match_count = 0;
   if (!left.valid() || !right.valid() || params.grid_cell_px < 0) return Status::kInvalidArgument;
   if (right.width > kMaxImageWidth || right.height > kMaxImageHeight) return Status::kCapacityExceeded;
-  const int32_t grid = selectionGridPx(params, left.width, left.height);
-  const int32_t cells_x = (left.width + grid - 1) / grid;
-  const int32_t cells_y = (left.height + grid - 1) / grid;
-  if (cells_x * cells_y > kMaxTiesPerPair) return Status::kCapacityExceeded;
+  const Gridding grid(selectionGridPx(params, left.width, left.height), left.width, left.height);
+  if (grid.cells() > kMaxTiesPerPair) return Status::kCapacityExceeded;
 
   int32_t point_count = 0;
   ForstnerParams forstner = params.forstner;
@@ -117,17 +116,16 @@ Status matchStereoPair(const ImageView& left, const ImageView& right, const Came
   }
 
   // Gridding: the best verified match per cell.
-  const int32_t cells = cells_x * cells_y;
-  for (int32_t c = 0; c < cells; ++c) workspace.cell_best[c] = -1;
-  for (int32_t i = 0; i < match_count; ++i) {
-    const StereoMatch& m = workspace.matches[i];
-    if (!m.verified) continue;
-    const int32_t cx = static_cast<int32_t>(m.left_px.x()) / grid;
-    const int32_t cy = static_cast<int32_t>(m.left_px.y()) / grid;
-    int32_t& best = workspace.cell_best[cy * cells_x + cx];
-    if (best < 0 || workspace.matches[best].score < m.score) best = i;
-  }
-  for (int32_t c = 0; c < cells; ++c) {
+  const StereoMatch* matches = workspace.matches;
+  grid.selectBest(
+      match_count,
+      [matches](int32_t i, int32_t& x, int32_t& y) {
+        x = static_cast<int32_t>(matches[i].left_px.x());
+        y = static_cast<int32_t>(matches[i].left_px.y());
+        return matches[i].verified;
+      },
+      [matches](int32_t i) { return matches[i].score; }, workspace.cell_best);
+  for (int32_t c = 0; c < grid.cells(); ++c) {
     if (workspace.cell_best[c] >= 0) result.ties[result.tie_count++] = workspace.matches[workspace.cell_best[c]];
   }
   result.counts.selected = result.tie_count;

@@ -1,5 +1,6 @@
 #include "ground/raster/RasterFiles.hpp"
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
@@ -120,6 +121,44 @@ void verifyRaster(const std::string& path, int cols, int rows, bool float32, con
   if (err != CE_None || std::memcmp(back.data(), data, bytes) != 0) {
     throw std::runtime_error(path + ": read back differs from what was written (incomplete?)");
   }
+}
+
+Float32Raster readGeoTiff(const std::string& path) {
+  registerOnce();
+  GDALDataset* ds = static_cast<GDALDataset*>(GDALOpen(path.c_str(), GA_ReadOnly));
+  if (ds == nullptr)
+    throw cli::InputError(path, "", std::string("cannot open raster: ") + CPLGetLastErrorMsg());
+  Float32Raster out;
+  double t[6];
+  if (ds->GetGeoTransform(t) != CE_None) {
+    GDALClose(ds);
+    throw cli::InputError(path, "geotransform", "missing");
+  }
+  if (t[2] != 0.0 || t[4] != 0.0 || !(t[1] > 0.0) || std::fabs(t[5] + t[1]) > 1e-9 * t[1]) {
+    GDALClose(ds);
+    throw cli::InputError(path, "geotransform",
+                          "expected north-up square cells (east0, cell, 0, north0, 0, -cell)");
+  }
+  Geometry& g = out.geometry;
+  g.east0_m = t[0];
+  g.cell_m = t[1];
+  g.north0_m = t[3];
+  const char* aop = ds->GetMetadataItem(GDALMD_AREA_OR_POINT);
+  // For a PixelIsPoint file GDAL already shifts the geotransform to the cell corner; the flag is for callers.
+  out.pixel_is_area = aop == nullptr || !EQUAL(aop, GDALMD_AOP_POINT);
+  g.cols = ds->GetRasterXSize();
+  g.rows = ds->GetRasterYSize();
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  int has_nodata = 0;
+  const double nodata = band->GetNoDataValue(&has_nodata);
+  if (has_nodata != 0) out.nodata = static_cast<float>(nodata);
+  out.values.resize(static_cast<std::size_t>(g.cols) * g.rows);
+  const CPLErr err =
+      band->RasterIO(GF_Read, 0, 0, g.cols, g.rows, out.values.data(), g.cols, g.rows, GDT_Float32, 0, 0);
+  GDALClose(ds);
+  if (err != CE_None)
+    throw cli::InputError(path, "band 1", std::string("read failed: ") + CPLGetLastErrorMsg());
+  return out;
 }
 
 void writePng(const std::string& path, const cv::Mat& image, const std::vector<int>& params) {

@@ -4,12 +4,15 @@
 //    LOCAL_CS; dem.tif, dem_sigma.tif, dem_near*.tif, truth/dem.tif) and 8-bit (ortho.tif);
 //  - the site tags (CRS naming the site, AREOMAP_SITE / _SOLS / _FRAME / _VALUES / _VARIOGRAM) and the
 //    read-back that proves a GDAL write complete;
+//  - the reading of a float32 GeoTIFF's band 1 with its geometry (DEM-like rasters,
+//  ground/dataset/DemRaster);
 //  - PNG (previews, overlays, the simulator's and the stream collector's images), encoded in memory and
 //    written whole or not at all (cli::writeFileAtomic).
 // Errors are cli::InputError naming the file.
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,6 +47,16 @@ void tagSiteRaster(const std::string& path, const SiteTags& tags, const std::str
 // `data` (float32 when `float32`, else 8-bit): the proof that a GDAL write is complete (GDAL reports a failed
 // write at close, where the C API does not return it to us).
 void verifyRaster(const std::string& path, int cols, int rows, bool float32, const void* data);
+
+struct Float32Raster {
+  Geometry geometry;
+  std::optional<float> nodata;  // band 1's, when the file has one
+  bool pixel_is_area = true;    // AREA_OR_POINT (absent: Area)
+  std::vector<float> values;    // rows x cols, row-major
+};
+// Band 1 of a north-up GeoTIFF with square cells, geotransform (east0, cell, 0, north0, 0, -cell), read as
+// float32. Throws cli::InputError naming the file and the field (geotransform, band 1) otherwise.
+Float32Raster readGeoTiff(const std::string& path);
 
 // PNG of `image` (cv::imencode with `params`), written whole or not at all.
 void writePng(const std::string& path, const cv::Mat& image, const std::vector<int>& params = {});

@@ -142,6 +142,74 @@ struct CameraRef {
   PhotogrammetricCamera camera;
 };
 
+// The first site is held, so the adjuster's covariances take its cameras' common rotation as exact. It is
+// not: every pose placed through the ties turns with that datum error about the first site (SiteDatum.hpp).
+// First order: a rotation dtheta of the frame moves site k by dtheta x p_k and its heading by dtheta_z.
+void addDatumUncertainty(const Traverse& traverse, CrossSiteAdjustment& out) {
+  const std::size_t n = traverse.sites.size();
+  if (!out.datum[0].known) return;
+  const Vec3 var = out.datum[0].sigma_rad.cwiseAbs2();
+  for (std::size_t k = 1; k < n; ++k) {
+    SitePoseEstimate& e = out.poses.sites[k];
+    if (e.source != PoseSource::kCrossSiteTies) continue;
+    const Vec3 p = e.pose.position_m - out.poses.sites[0].pose.position_m;
+    Mat3 j;  // d(position) / d(theta) = -[p]x
+    j << 0.0, p.z(), -p.y(), -p.z(), 0.0, p.x(), p.y(), -p.x(), 0.0;
+    e.covariance.topLeftCorner<3, 3>() += j * var.asDiagonal() * j.transpose();
+    e.covariance.block<3, 1>(0, 3) += j.col(2) * var.z();
+    e.covariance.block<1, 3>(3, 0) += (j.col(2) * var.z()).transpose();
+    e.covariance(3, 3) += var.z();
+  }
+  out.poses.notes.push_back("The poses tied to " + traverse.sites[0].id +
+                            " turn with its cameras' common rotation (their datum, "
+                            "known to " +
+                            std::to_string(1e3 * out.datum[0].sigma_rad.norm()).substr(0, 5) +
+                            " mrad from the pass's pointing corrections): their sigmas include it.");
+}
+
+// Sites that ties link to the first one, through any chain of sites (union-find over the points' sites):
+// a group the ties do not link to it hangs on the odometry of the leg between; each such site gets a note.
+void noteUnlinkedSites(const Traverse& traverse, const GroundSitePoseAdjuster& adjuster,
+                       CrossSiteAdjustment& out) {
+  const std::size_t n = traverse.sites.size();
+  std::vector<int32_t> group(n);
+  for (std::size_t k = 0; k < n; ++k) group[k] = static_cast<int32_t>(k);
+  const auto root = [&](int32_t k) {
+    while (group[static_cast<std::size_t>(k)] != k) k = group[static_cast<std::size_t>(k)];
+    return k;
+  };
+  std::map<int32_t, int32_t> first_site_of_point;
+  for (int32_t o = 0; o < adjuster.observationCount(); ++o) {
+    const CrossSiteObservation& obs = adjuster.observation(o);
+    if (obs.rejected || !adjuster.point(obs.point).solvable) continue;
+    const int32_t k = adjuster.camera(obs.camera).site;
+    const auto [it, added] = first_site_of_point.emplace(obs.point, k);
+    if (!added) group[static_cast<std::size_t>(root(k))] = root(it->second);
+  }
+  for (std::size_t k = 1; k < n; ++k) {
+    if (root(static_cast<int32_t>(k)) == root(0) || out.poses.sites[k].source != PoseSource::kCrossSiteTies)
+      continue;
+    out.poses.notes.push_back("Site " + traverse.sites[k].id +
+                              " is tied only to sites that no tie links to " + traverse.sites[0].id +
+                              ": its position rests on the odometry of a leg before it.");
+  }
+}
+
+// Method 1 of the cross-site observations: the mean residual distance (-1 without any).
+double crossSiteMethod1Px(const GroundSitePoseAdjuster& adjuster) {
+  double sum = 0.0;
+  int count = 0;
+  for (int32_t o = 0; o < adjuster.observationCount(); ++o) {
+    Vec2 error;
+    const CrossSiteObservation& obs = adjuster.observation(o);
+    if (obs.rejected || !adjuster.point(obs.point).solvable || !ok(adjuster.observationError(o, error)))
+      continue;
+    sum += (error * obs.sigma_px).norm();
+    ++count;
+  }
+  return count > 0 ? sum / count : -1.0;
+}
+
 }  // namespace
 
 TieSelection selectCrossSiteTies(const std::vector<CrossSiteTie>& ties, int32_t max_points,
@@ -343,63 +411,9 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
       out.poses.notes.push_back("Site " + traverse.sites[k].id +
                                 " has no cross-site tie to another site: its pose is the odometry's alone.");
   }
-  // The first site is held, so the adjuster's covariances take its cameras' common rotation as exact. It is
-  // not: every pose placed through the ties turns with that datum error about the first site (SiteDatum.hpp).
-  // First order: a rotation dtheta of the frame moves site k by dtheta x p_k and its heading by dtheta_z.
-  if (out.datum[0].known) {
-    const Vec3 var = out.datum[0].sigma_rad.cwiseAbs2();
-    for (std::size_t k = 1; k < n; ++k) {
-      SitePoseEstimate& e = out.poses.sites[k];
-      if (e.source != PoseSource::kCrossSiteTies) continue;
-      const Vec3 p = e.pose.position_m - out.poses.sites[0].pose.position_m;
-      Mat3 j;  // d(position) / d(theta) = -[p]x
-      j << 0.0, p.z(), -p.y(), -p.z(), 0.0, p.x(), p.y(), -p.x(), 0.0;
-      e.covariance.topLeftCorner<3, 3>() += j * var.asDiagonal() * j.transpose();
-      e.covariance.block<3, 1>(0, 3) += j.col(2) * var.z();
-      e.covariance.block<1, 3>(3, 0) += (j.col(2) * var.z()).transpose();
-      e.covariance(3, 3) += var.z();
-    }
-    out.poses.notes.push_back("The poses tied to " + traverse.sites[0].id +
-                              " turn with its cameras' common rotation (their datum, "
-                              "known to " +
-                              std::to_string(1e3 * out.datum[0].sigma_rad.norm()).substr(0, 5) +
-                              " mrad from the pass's pointing corrections): their sigmas include it.");
-  }
-  // Sites that ties link to the first one, through any chain of sites (union-find over the points' sites):
-  // a group the ties do not link to it hangs on the odometry of the leg between.
-  std::vector<int32_t> group(n);
-  for (std::size_t k = 0; k < n; ++k) group[k] = static_cast<int32_t>(k);
-  const auto root = [&](int32_t k) {
-    while (group[static_cast<std::size_t>(k)] != k) k = group[static_cast<std::size_t>(k)];
-    return k;
-  };
-  std::map<int32_t, int32_t> first_site_of_point;
-  for (int32_t o = 0; o < adjuster->observationCount(); ++o) {
-    const CrossSiteObservation& obs = adjuster->observation(o);
-    if (obs.rejected || !adjuster->point(obs.point).solvable) continue;
-    const int32_t k = adjuster->camera(obs.camera).site;
-    const auto [it, added] = first_site_of_point.emplace(obs.point, k);
-    if (!added) group[static_cast<std::size_t>(root(k))] = root(it->second);
-  }
-  for (std::size_t k = 1; k < n; ++k) {
-    if (root(static_cast<int32_t>(k)) == root(0) || out.poses.sites[k].source != PoseSource::kCrossSiteTies)
-      continue;
-    out.poses.notes.push_back("Site " + traverse.sites[k].id +
-                              " is tied only to sites that no tie links to " + traverse.sites[0].id +
-                              ": its position rests on the odometry of a leg before it.");
-  }
-  // Method 1 of the cross-site observations: the mean residual distance.
-  double sum = 0.0;
-  int count = 0;
-  for (int32_t o = 0; o < adjuster->observationCount(); ++o) {
-    Vec2 error;
-    const CrossSiteObservation& obs = adjuster->observation(o);
-    if (obs.rejected || !adjuster->point(obs.point).solvable || !ok(adjuster->observationError(o, error)))
-      continue;
-    sum += (error * obs.sigma_px).norm();
-    ++count;
-  }
-  if (count > 0) out.method1_px = sum / count;
+  addDatumUncertainty(traverse, out);
+  noteUnlinkedSites(traverse, *adjuster, out);
+  out.method1_px = crossSiteMethod1Px(*adjuster);
   return out;
 }
 

@@ -177,6 +177,212 @@ std::string noiseAgainstRelief(const DemRegistration& r, const RegistrationParam
   return s;
 }
 
+// The coarse search's grid of poses about the a-priori one: nxy steps of step_m each side in x and y, nh of
+// step_rad in heading, and the variance of the elevation differences at each (infinite where too few
+// samples are common).
+struct CoarseGrid {
+  double step_m = 0.0, step_rad = 0.0;
+  int nxy = 0, nh = 0, sx = 0, sh = 0;
+  std::vector<double> cost;
+  std::size_t index(int i, int j, int k) const { return (static_cast<std::size_t>(k) * sx + j) * sx + i; }
+  Candidate at(int i, int j, int k) const {
+    return {(i - nxy) * step_m, (j - nxy) * step_m, (k - nh) * step_rad, cost[index(i, j, k)]};
+  }
+};
+
+void coarseCosts(const SiteProducts& a, const DemGrid& coarse_a, const std::vector<Sample>& coarse_samples,
+                 const RelativePose& apriori, const RegistrationParams& params, int min_coarse,
+                 CoarseGrid& g) {
+  g.nxy = static_cast<int>(std::lround(params.search_m / g.step_m));
+  g.nh = static_cast<int>(std::lround(params.search_deg * kDegToRad / g.step_rad));
+  g.sx = 2 * g.nxy + 1;
+  g.sh = 2 * g.nh + 1;
+  g.cost.assign(static_cast<std::size_t>(g.sx) * g.sx * g.sh, std::numeric_limits<double>::infinity());
+  for (int k = 0; k < g.sh; ++k) {
+    for (int j = 0; j < g.sx; ++j) {
+      for (int i = 0; i < g.sx; ++i) {
+        const Moments m =
+            moments(a, coarse_a, coarse_samples,
+                    shifted(apriori, (i - g.nxy) * g.step_m, (j - g.nxy) * g.step_m, (k - g.nh) * g.step_rad),
+                    params);
+        if (m.n >= min_coarse) g.cost[g.index(i, j, k)] = m.variance();
+      }
+    }
+  }
+}
+
+Candidate bestOf(const CoarseGrid& g) {
+  Candidate best;
+  for (int k = 0; k < g.sh; ++k) {
+    for (int j = 0; j < g.sx; ++j) {
+      for (int i = 0; i < g.sx; ++i) {
+        if (g.cost[g.index(i, j, k)] < best.cost) best = g.at(i, j, k);
+      }
+    }
+  }
+  return best;
+}
+
+bool localMinimum(const CoarseGrid& g, int i, int j, int k) {
+  const double c = g.cost[g.index(i, j, k)];
+  for (int dk = -1; dk <= 1; ++dk) {
+    for (int dj = -1; dj <= 1; ++dj) {
+      for (int di = -1; di <= 1; ++di) {
+        const int ii = i + di, jj = j + dj, kk = k + dk;
+        if ((di == 0 && dj == 0 && dk == 0) || ii < 0 || jj < 0 || kk < 0 || ii >= g.sx || jj >= g.sx ||
+            kk >= g.sh) {
+          continue;
+        }
+        if (g.cost[g.index(ii, jj, kk)] < c) return false;
+      }
+    }
+  }
+  return true;
+}
+
+// The second minimum: the lowest local minimum of the coarse cost away from the best (cost infinite when
+// there is none).
+Candidate secondMinimum(const CoarseGrid& g, const Candidate& best, const RegistrationParams& params) {
+  Candidate second;
+  for (int k = 0; k < g.sh; ++k) {
+    for (int j = 0; j < g.sx; ++j) {
+      for (int i = 0; i < g.sx; ++i) {
+        const double c = g.cost[g.index(i, j, k)];
+        if (!std::isfinite(c) || c >= second.cost) continue;
+        const double dx = (i - g.nxy) * g.step_m - best.dx, dy = (j - g.nxy) * g.step_m - best.dy;
+        const double dh = (k - g.nh) * g.step_rad - best.dh;
+        if (std::hypot(dx, dy) < params.second_min_distance_m &&
+            std::fabs(dh) < params.second_min_deg * kDegToRad) {
+          continue;
+        }
+        if (localMinimum(g, i, j, k)) second = g.at(i, j, k);
+      }
+    }
+  }
+  return second;
+}
+
+// Fine: +-1.5 coarse steps in quarter steps, +-1.2 coarse heading steps in fifths, on the full DEMs.
+Candidate fineSearch(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
+                     const RegistrationParams& params, const CoarseGrid& g, const Candidate& best,
+                     int min_samples) {
+  Candidate fine = best;
+  fine.cost = std::numeric_limits<double>::infinity();
+  const std::vector<Sample> fine_samples =
+      samplesOf(b, b.dem, std::max(params.sample_spacing_m, 0.1), params);
+  for (int k = -6; k <= 6; ++k) {
+    for (int j = -6; j <= 6; ++j) {
+      for (int i = -6; i <= 6; ++i) {
+        const double dx = best.dx + g.step_m / 4.0 * i, dy = best.dy + g.step_m / 4.0 * j;
+        const double dh = best.dh + g.step_rad / 5.0 * k;
+        const Moments m = moments(a, a.dem, fine_samples, shifted(apriori, dx, dy, dh), params);
+        if (m.n >= min_samples / 2 && m.variance() < fine.cost) fine = {dx, dy, dh, m.variance()};
+      }
+    }
+  }
+  return fine;
+}
+
+// The Gauss-Newton fit's state: the pose, its normal matrix and the weighted residual's sigma.
+struct Fit {
+  RelativePose pose;
+  Eigen::Matrix4d normal = Eigen::Matrix4d::Identity();
+  double s0 = 0.0;
+};
+
+// Gauss-Newton on the elevation differences against `dem_a` (gradients over +-h), reweighted and trimmed at
+// 3 robust sigmas. False when fewer than min_used samples count or a step is not finite; `converged` when
+// the step settled within the iterations.
+bool gaussNewton(const SiteProducts& a, const DemGrid& dem_a, const std::vector<Sample>& used, double h,
+                 int min_used, const RegistrationParams& params, Fit& fit, DemRegistration& out,
+                 bool& converged) {
+  double trim = std::numeric_limits<double>::infinity();
+  converged = false;
+  for (int it = 0; it < kMaxGaussNewtonIterations; ++it) {
+    fit.normal.setZero();
+    Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+    std::vector<double> abs_d;
+    double wrr = 0.0;
+    int n = 0, total = 0;
+    const Eigen::Matrix3d r = fit.pose.rotation();
+    for (const Sample& s : used) {
+      const Eigen::Vector3d rb = r * s.b_m;
+      const Eigen::Vector3d p = rb + fit.pose.translation_m;
+      if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
+      const double e = demElevation(dem_a, p.x(), p.y());
+      const double ex =
+          (demElevation(dem_a, p.x() + h, p.y()) - demElevation(dem_a, p.x() - h, p.y())) / (2 * h);
+      const double ey =
+          (demElevation(dem_a, p.x(), p.y() + h) - demElevation(dem_a, p.x(), p.y() - h)) / (2 * h);
+      if (!std::isfinite(e) || !std::isfinite(ex) || !std::isfinite(ey)) continue;
+      const double sa = sigmaAt(a.dem_sigma, p.x(), p.y());
+      if (sa > params.max_sigma_m) continue;
+      const double d = e + p.z();
+      ++total;
+      abs_d.push_back(std::fabs(d));
+      if (std::fabs(d) > trim) continue;
+      const double w = 1.0 / (kFloorSigmaM * kFloorSigmaM + sa * sa + s.sigma2);
+      const Eigen::Vector4d j(ex, ey, 1.0, ex * -rb.y() + ey * rb.x());
+      fit.normal.noalias() += w * j * j.transpose();
+      rhs += w * j * d;
+      wrr += w * d * d;
+      ++n;
+    }
+    if (n < min_used) return false;
+    out.overlap_cells = total;
+    out.used_cells = n;
+    fit.s0 = std::sqrt(wrr / std::max(1, n - 4));
+    const Eigen::Vector4d delta = -fit.normal.ldlt().solve(rhs);
+    if (!delta.allFinite()) return false;
+    fit.pose.translation_m += delta.head<3>();
+    fit.pose.heading_rad += delta[3];
+    // The trimming threshold settles after a few steps (so that the set of samples stops changing).
+    if (it < 4) {
+      std::nth_element(abs_d.begin(), abs_d.begin() + abs_d.size() / 2, abs_d.end());
+      trim = std::max(3.0 * 1.4826 * abs_d[abs_d.size() / 2], 0.01);
+    }
+    if (it >= 4 && delta.head<3>().norm() < 5e-4 && std::fabs(delta[3]) < 1e-5) {
+      converged = true;
+      return true;
+    }
+  }
+  return true;
+}
+
+// The result's figures at the solution and its status (the a-priori pose kept when it is not kOk).
+void judgeSolution(const SiteProducts& a, const std::vector<Sample>& samples, const RelativePose& apriori,
+                   const RegistrationParams& params, const Fit& fit, bool converged, const std::string& pair,
+                   DemRegistration& out) {
+  // Weighted RMS elevation difference at the solution (every common sample, untrimmed).
+  const Moments at_solution = moments(a, a.dem, samples, fit.pose, params);
+  out.rms_m = std::sqrt(at_solution.wdd / at_solution.w);
+  out.difference_rms_m = std::sqrt(at_solution.dd / at_solution.n);
+  out.dem_sigma_rms_m = std::sqrt(at_solution.ss / at_solution.n);
+  out.correlation_factor = designEffect(a, samples, fit.pose, params, out.rms_m);
+  const Eigen::Matrix4d cov = fit.normal.inverse() * fit.s0 * fit.s0 * out.correlation_factor;
+  out.covariance = cov;
+  for (int i = 0; i < 4; ++i) out.sigma[i] = std::sqrt(std::max(0.0, cov(i, i)));
+  out.a_from_b = fit.pose;
+  const double moved = (fit.pose.translation_m - apriori.translation_m).head<2>().norm();
+  if (!converged) {
+    out.status = RegistrationStatus::kNotConverged;
+    out.message = pair + ": the DEM registration did not converge";
+  } else if (out.cost_ratio > params.max_cost_ratio) {
+    out.status = RegistrationStatus::kAmbiguous;
+    out.message =
+        pair + ": the DEM match is ambiguous (best/second minimum " + std::to_string(out.cost_ratio) + ")";
+  } else if (moved > params.search_m * 1.5) {
+    out.status = RegistrationStatus::kNotConverged;
+    out.message = pair + ": the DEM registration left the search window";
+  } else {
+    out.status = RegistrationStatus::kOk;
+  }
+  if (out.status != RegistrationStatus::kOk) {
+    out.message += ": " + noiseAgainstRelief(out, params);
+    out.a_from_b = apriori;
+  }
+}
+
 }  // namespace
 
 Eigen::Matrix3d RelativePose::rotation() const {
@@ -237,13 +443,14 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   // Coarse: both DEMs averaged to ~0.2 m, steps of 0.2 m and 1 degree.
   // The coarse steps grow with the search window (about 10 steps each side, at least 0.2 m and 1 degree);
   // the DEMs are averaged to the step.
-  const double step_m = std::max(0.2, params.search_m / 10.0);
-  const double step_rad = std::max(1.0, params.search_deg / 5.0) * kDegToRad;
-  const int fa = std::max(1, static_cast<int>(std::lround(step_m / a.dem.cell_m)));
-  const int fb = std::max(1, static_cast<int>(std::lround(step_m / b.dem.cell_m)));
+  CoarseGrid grid;
+  grid.step_m = std::max(0.2, params.search_m / 10.0);
+  grid.step_rad = std::max(1.0, params.search_deg / 5.0) * kDegToRad;
+  const int fa = std::max(1, static_cast<int>(std::lround(grid.step_m / a.dem.cell_m)));
+  const int fb = std::max(1, static_cast<int>(std::lround(grid.step_m / b.dem.cell_m)));
   const DemGrid coarse_a = fa > 1 ? coarsenDem(a.dem, fa) : a.dem;
   const DemGrid coarse_b = fb > 1 ? coarsenDem(b.dem, fb) : b.dem;
-  const std::vector<Sample> coarse_samples = samplesOf(b, coarse_b, std::max(0.25, step_m), params);
+  const std::vector<Sample> coarse_samples = samplesOf(b, coarse_b, std::max(0.25, grid.step_m), params);
   const std::vector<Sample> samples = samplesOf(b, b.dem, params.sample_spacing_m, params);
 
   const Moments at_apriori = moments(a, a.dem, samples, apriori, params);
@@ -257,69 +464,15 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
     return out;
   }
 
-  const int nxy = static_cast<int>(std::lround(params.search_m / step_m));
-  const int nh = static_cast<int>(std::lround(params.search_deg * kDegToRad / step_rad));
-  const int sx = 2 * nxy + 1, sh = 2 * nh + 1;
-  std::vector<double> cost(static_cast<std::size_t>(sx) * sx * sh, std::numeric_limits<double>::infinity());
-  auto index = [&](int i, int j, int k) { return (static_cast<std::size_t>(k) * sx + j) * sx + i; };
   const int min_coarse = std::max(20, static_cast<int>(coarse_samples.size() / 20));
-  for (int k = 0; k < sh; ++k) {
-    for (int j = 0; j < sx; ++j) {
-      for (int i = 0; i < sx; ++i) {
-        const Moments m =
-            moments(a, coarse_a, coarse_samples,
-                    shifted(apriori, (i - nxy) * step_m, (j - nxy) * step_m, (k - nh) * step_rad), params);
-        if (m.n >= min_coarse) cost[index(i, j, k)] = m.variance();
-      }
-    }
-  }
-  Candidate best;
-  for (int k = 0; k < sh; ++k) {
-    for (int j = 0; j < sx; ++j) {
-      for (int i = 0; i < sx; ++i) {
-        if (cost[index(i, j, k)] < best.cost)
-          best = {(i - nxy) * step_m, (j - nxy) * step_m, (k - nh) * step_rad, cost[index(i, j, k)]};
-      }
-    }
-  }
+  coarseCosts(a, coarse_a, coarse_samples, apriori, params, min_coarse, grid);
+  const Candidate best = bestOf(grid);
   if (!std::isfinite(best.cost)) {
     out.message = pair + ": no pose within the search window overlaps enough of the DEMs";
     return out;
   }
-  // The second minimum: a local minimum of the coarse cost away from the best.
-  double second = std::numeric_limits<double>::infinity();
-  Candidate second_at;
-  for (int k = 0; k < sh; ++k) {
-    for (int j = 0; j < sx; ++j) {
-      for (int i = 0; i < sx; ++i) {
-        const double c = cost[index(i, j, k)];
-        if (!std::isfinite(c) || c >= second) continue;
-        const double dx = (i - nxy) * step_m - best.dx, dy = (j - nxy) * step_m - best.dy;
-        const double dh = (k - nh) * step_rad - best.dh;
-        if (std::hypot(dx, dy) < params.second_min_distance_m &&
-            std::fabs(dh) < params.second_min_deg * kDegToRad) {
-          continue;
-        }
-        bool minimum = true;
-        for (int dk = -1; dk <= 1 && minimum; ++dk) {
-          for (int dj = -1; dj <= 1 && minimum; ++dj) {
-            for (int di = -1; di <= 1 && minimum; ++di) {
-              const int ii = i + di, jj = j + dj, kk = k + dk;
-              if ((di == 0 && dj == 0 && dk == 0) || ii < 0 || jj < 0 || kk < 0 || ii >= sx || jj >= sx ||
-                  kk >= sh) {
-                continue;
-              }
-              if (cost[index(ii, jj, kk)] < c) minimum = false;
-            }
-          }
-        }
-        if (minimum) {
-          second = c;
-          second_at = {(i - nxy) * step_m, (j - nxy) * step_m, (k - nh) * step_rad, c};
-        }
-      }
-    }
-  }
+  const Candidate second_at = secondMinimum(grid, best, params);
+  const double second = second_at.cost;
   out.cost_ratio = std::isfinite(second) && second > 0.0 ? best.cost / second : 0.0;
   out.coarse_rms_m = std::sqrt(best.cost);
   if (std::isfinite(second)) {
@@ -328,126 +481,31 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
     out.second_offset_deg = std::fabs(second_at.dh - best.dh) / kDegToRad;
   }
 
-  // Fine: +-1.5 coarse steps in quarter steps, +-1.2 coarse heading steps in fifths, on the full DEMs.
-  Candidate fine = best;
-  fine.cost = std::numeric_limits<double>::infinity();
-  const std::vector<Sample> fine_samples =
-      samplesOf(b, b.dem, std::max(params.sample_spacing_m, 0.1), params);
-  for (int k = -6; k <= 6; ++k) {
-    for (int j = -6; j <= 6; ++j) {
-      for (int i = -6; i <= 6; ++i) {
-        const double dx = best.dx + step_m / 4.0 * i, dy = best.dy + step_m / 4.0 * j;
-        const double dh = best.dh + step_rad / 5.0 * k;
-        const Moments m = moments(a, a.dem, fine_samples, shifted(apriori, dx, dy, dh), params);
-        if (m.n >= min_samples / 2 && m.variance() < fine.cost) fine = {dx, dy, dh, m.variance()};
-      }
-    }
-  }
-  RelativePose pose = shifted(apriori, fine.dx, fine.dy, fine.dh);
-  const Moments start = moments(a, a.dem, samples, pose, params);
+  const Candidate fine = fineSearch(a, b, apriori, params, grid, best, min_samples);
+  Fit fit;
+  fit.pose = shifted(apriori, fine.dx, fine.dy, fine.dh);
+  const Moments start = moments(a, a.dem, samples, fit.pose, params);
   if (start.n < min_samples) {
     out.message = pair + ": too few common DEM samples at the best pose";
     return out;
   }
-  pose.translation_m.z() -= start.mean();  // d = e_a + z: moving B down by d zeroes the mean
+  fit.pose.translation_m.z() -= start.mean();  // d = e_a + z: moving B down by d zeroes the mean
 
-  // Gauss-Newton on the elevation differences, reweighted and trimmed at 3 robust sigmas: on the coarse DEMs
-  // (gradients over 0.2 m, a wide basin), then on the full ones (gradients over two cells).
-  Eigen::Matrix4d normal = Eigen::Matrix4d::Identity();
-  double s0 = 0.0;
-  auto gaussNewton = [&](const DemGrid& dem_a, const std::vector<Sample>& used, double h, int min_used,
-                         bool& converged) {
-    double trim = std::numeric_limits<double>::infinity();
-    converged = false;
-    for (int it = 0; it < kMaxGaussNewtonIterations; ++it) {
-      normal.setZero();
-      Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
-      std::vector<double> abs_d;
-      double wrr = 0.0;
-      int n = 0, total = 0;
-      const Eigen::Matrix3d r = pose.rotation();
-      for (const Sample& s : used) {
-        const Eigen::Vector3d rb = r * s.b_m;
-        const Eigen::Vector3d p = rb + pose.translation_m;
-        if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
-        const double e = demElevation(dem_a, p.x(), p.y());
-        const double ex =
-            (demElevation(dem_a, p.x() + h, p.y()) - demElevation(dem_a, p.x() - h, p.y())) / (2 * h);
-        const double ey =
-            (demElevation(dem_a, p.x(), p.y() + h) - demElevation(dem_a, p.x(), p.y() - h)) / (2 * h);
-        if (!std::isfinite(e) || !std::isfinite(ex) || !std::isfinite(ey)) continue;
-        const double sa = sigmaAt(a.dem_sigma, p.x(), p.y());
-        if (sa > params.max_sigma_m) continue;
-        const double d = e + p.z();
-        ++total;
-        abs_d.push_back(std::fabs(d));
-        if (std::fabs(d) > trim) continue;
-        const double w = 1.0 / (kFloorSigmaM * kFloorSigmaM + sa * sa + s.sigma2);
-        const Eigen::Vector4d j(ex, ey, 1.0, ex * -rb.y() + ey * rb.x());
-        normal.noalias() += w * j * j.transpose();
-        rhs += w * j * d;
-        wrr += w * d * d;
-        ++n;
-      }
-      if (n < min_used) return false;
-      out.overlap_cells = total;
-      out.used_cells = n;
-      s0 = std::sqrt(wrr / std::max(1, n - 4));
-      const Eigen::Vector4d delta = -normal.ldlt().solve(rhs);
-      if (!delta.allFinite()) return false;
-      pose.translation_m += delta.head<3>();
-      pose.heading_rad += delta[3];
-      // The trimming threshold settles after a few steps (so that the set of samples stops changing).
-      if (it < 4) {
-        std::nth_element(abs_d.begin(), abs_d.begin() + abs_d.size() / 2, abs_d.end());
-        trim = std::max(3.0 * 1.4826 * abs_d[abs_d.size() / 2], 0.01);
-      }
-      if (it >= 4 && delta.head<3>().norm() < 5e-4 && std::fabs(delta[3]) < 1e-5) {
-        converged = true;
-        return true;
-      }
-    }
-    return true;
-  };
+  // Gauss-Newton on the coarse DEMs (gradients over 0.2 m, a wide basin), then on the full ones (gradients
+  // over two cells).
   bool converged = false;
-  const RelativePose searched = pose;
-  const bool enough = gaussNewton(coarse_a, coarse_samples, coarse_a.cell_m, min_coarse, converged) &&
-                      gaussNewton(a.dem, samples, 2.0 * a.dem.cell_m, min_samples, converged);
-  out.drift_m = (pose.translation_m - searched.translation_m).head<2>().norm();
-  out.drift_deg = std::fabs(pose.heading_rad - searched.heading_rad) / kDegToRad;
+  const RelativePose searched = fit.pose;
+  const bool enough =
+      gaussNewton(a, coarse_a, coarse_samples, coarse_a.cell_m, min_coarse, params, fit, out, converged) &&
+      gaussNewton(a, a.dem, samples, 2.0 * a.dem.cell_m, min_samples, params, fit, out, converged);
+  out.drift_m = (fit.pose.translation_m - searched.translation_m).head<2>().norm();
+  out.drift_deg = std::fabs(fit.pose.heading_rad - searched.heading_rad) / kDegToRad;
   if (!enough) {
     out.status = RegistrationStatus::kNotConverged;
     out.message = pair + ": too few common DEM samples after trimming: " + noiseAgainstRelief(out, params);
     return out;
   }
-  // Weighted RMS elevation difference at the solution (every common sample, untrimmed).
-  const Moments at_solution = moments(a, a.dem, samples, pose, params);
-  out.rms_m = std::sqrt(at_solution.wdd / at_solution.w);
-  out.difference_rms_m = std::sqrt(at_solution.dd / at_solution.n);
-  out.dem_sigma_rms_m = std::sqrt(at_solution.ss / at_solution.n);
-  out.correlation_factor = designEffect(a, samples, pose, params, out.rms_m);
-  const Eigen::Matrix4d cov = normal.inverse() * s0 * s0 * out.correlation_factor;
-  out.covariance = cov;
-  for (int i = 0; i < 4; ++i) out.sigma[i] = std::sqrt(std::max(0.0, cov(i, i)));
-  out.a_from_b = pose;
-  const double moved = (pose.translation_m - apriori.translation_m).head<2>().norm();
-  if (!converged) {
-    out.status = RegistrationStatus::kNotConverged;
-    out.message = pair + ": the DEM registration did not converge";
-  } else if (out.cost_ratio > params.max_cost_ratio) {
-    out.status = RegistrationStatus::kAmbiguous;
-    out.message =
-        pair + ": the DEM match is ambiguous (best/second minimum " + std::to_string(out.cost_ratio) + ")";
-  } else if (moved > params.search_m * 1.5) {
-    out.status = RegistrationStatus::kNotConverged;
-    out.message = pair + ": the DEM registration left the search window";
-  } else {
-    out.status = RegistrationStatus::kOk;
-  }
-  if (out.status != RegistrationStatus::kOk) {
-    out.message += ": " + noiseAgainstRelief(out, params);
-    out.a_from_b = apriori;
-  }
+  judgeSolution(a, samples, apriori, params, fit, converged, pair, out);
   return out;
 }
 

@@ -5,6 +5,8 @@
 
 #include <Eigen/Dense>
 
+#include "firmware_core/match/Ncc.hpp"
+
 namespace areomap::traverse {
 
 namespace {
@@ -54,19 +56,141 @@ struct Footprint {
   }
 };
 
+// A window that varies less than this (n * sum_sq - sum^2) has no NCC.
+constexpr double kMinVariance = 1e-9;
+
 double nccOf(const std::vector<double>& t, const std::vector<double>& s) {
-  const double n = static_cast<double>(t.size());
-  double st = 0, ss = 0, stt = 0, sss = 0, sts = 0;
-  for (std::size_t k = 0; k < t.size(); ++k) {
-    st += t[k];
-    ss += s[k];
-    stt += t[k] * t[k];
-    sss += s[k] * s[k];
-    sts += t[k] * s[k];
+  return nccOfSamples(t.data(), s.data(), static_cast<int32_t>(t.size()), kMinVariance);
+}
+
+// The template on the grid: per grid sample k (row-major over the (2h+1)^2 grid) its value sampled in I and
+// its offset in J from the prediction (through the surface where one is given, else the affine map mj).
+// False when a template sample leaves I.
+bool sampleTemplate(const Footprint& sample_i, const Eigen::Vector2d& i_px, const Eigen::Matrix2d& mi,
+                    const Eigen::Matrix2d& mj, int h, const PatchSurface* surface, std::vector<double>& tmpl,
+                    std::vector<Eigen::Vector2d>& off_j) {
+  const int side = 2 * h + 1;
+  Eigen::Vector2d j_centre;
+  const bool mapped = surface != nullptr && surface->map(i_px, j_centre);
+  for (int v = -h; v <= h; ++v) {
+    for (int u = -h; u <= h; ++u) {
+      const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
+      const Eigen::Vector2d g(u, v);
+      const Eigen::Vector2d p = i_px + mi * g;
+      const double value = sample_i.at(p.x(), p.y());
+      if (!std::isfinite(value)) return false;
+      tmpl[k] = value;
+      Eigen::Vector2d pj;
+      off_j[k] = mapped && surface->map(p, pj) ? Eigen::Vector2d(pj - j_centre) : Eigen::Vector2d(mj * g);
+    }
   }
-  const double vt = n * stt - st * st, vs = n * sss - ss * ss;
-  if (vt <= 1e-9 || vs <= 1e-9) return -2.0;
-  return (n * sts - st * ss) / std::sqrt(vt * vs);
+  return true;
+}
+
+// The second peak: the best local maximum of the scores at least 2 steps from the best (bx, by); 0 when none.
+double secondPeak(const std::vector<double>& score, int ns, int bx, int by) {
+  double second = 0.0;
+  for (int sy = 0; sy < ns; ++sy) {
+    for (int sx = 0; sx < ns; ++sx) {
+      if (std::max(std::abs(sx - bx), std::abs(sy - by)) < 2) continue;
+      const double c = score[sy * ns + sx];
+      if (c == kUnscored) continue;
+      bool peak = true;
+      for (int dy = -1; dy <= 1 && peak; ++dy) {
+        for (int dx = -1; dx <= 1 && peak; ++dx) {
+          const int x = sx + dx, y = sy + dy;
+          if ((dx == 0 && dy == 0) || x < 0 || y < 0 || x >= ns || y >= ns) continue;
+          if (score[y * ns + x] > c) peak = false;
+        }
+      }
+      if (peak) second = std::max(second, c);
+    }
+  }
+  return second;
+}
+
+// A peak on the search's edge, or beside a shift clipped by the image's edge, is not known to be one.
+bool edgePeak(const std::vector<double>& score, int ns, int bx, int by) {
+  bool clipped = false;
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int x = bx + dx, y = by + dy;
+      if (x >= 0 && y >= 0 && x < ns && y < ns && score[y * ns + x] == kUnscored) clipped = true;
+    }
+  }
+  return clipped || bx == 0 || by == 0 || bx == ns - 1 || by == ns - 1;
+}
+
+// Least squares from the integer peak d (grid steps): translation d, with an affine correction B of the
+// warp (J offset of grid sample g: mj (d + B g) + the warp's offset) when params.lsm_affine, and gain and
+// offset (template and window normalised); the search image resampled at each step. B absorbs what the
+// DEM gets linearly wrong over the patch (its slope, hence the foreshortening), which would otherwise
+// pull the translation towards the stronger texture. kOk, kOutside (a sample left J) or kLsmDiverged.
+PatchResult refineLeastSquares(const Footprint& sample_j, const Eigen::Vector2d& j_predicted_px,
+                               const Eigen::Matrix2d& mj, const std::vector<Eigen::Vector2d>& off_j,
+                               const std::vector<double>& tmpl, int h, const PatchParams& params,
+                               Eigen::Vector2d& d, Eigen::Matrix2d& b_fix) {
+  const int side = 2 * h + 1;
+  double tm = 0, tv = 0;
+  for (double t : tmpl) tm += t;
+  tm /= static_cast<double>(tmpl.size());
+  for (double t : tmpl) tv += (t - tm) * (t - tm);
+  const double tn = std::sqrt(tv);
+  std::vector<double> sv(tmpl.size()), gx(tmpl.size()), gy(tmpl.size());
+  const Eigen::Vector2d start = d;
+  const Eigen::Vector2d ex = mj * Eigen::Vector2d(0.5, 0.0), ey = mj * Eigen::Vector2d(0.0, 0.5);
+  const int unknowns = params.lsm_affine ? 6 : 2;
+  for (int it = 0; it < params.lsm_iterations; ++it) {
+    for (int v = -h; v <= h; ++v) {
+      for (int u = -h; u <= h; ++u) {
+        const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
+        const Eigen::Vector2d p = j_predicted_px + mj * (d + b_fix * Eigen::Vector2d(u, v)) + off_j[k];
+        sv[k] = sample_j.at(p.x(), p.y());
+        gx[k] = sample_j.at(p.x() + ex.x(), p.y() + ex.y()) - sample_j.at(p.x() - ex.x(), p.y() - ex.y());
+        gy[k] = sample_j.at(p.x() + ey.x(), p.y() + ey.y()) - sample_j.at(p.x() - ey.x(), p.y() - ey.y());
+        if (!std::isfinite(sv[k]) || !std::isfinite(gx[k]) || !std::isfinite(gy[k]))
+          return PatchResult::kOutside;
+      }
+    }
+    double sm = 0, svv = 0;
+    for (double s : sv) sm += s;
+    sm /= static_cast<double>(sv.size());
+    for (double s : sv) svv += (s - sm) * (s - sm);
+    const double sn = std::sqrt(std::max(svv, 1e-12));
+    // r = tn_k - sn_k(d, B); d(sn_k)/dd = grad / sn (the normalisation's own derivative is second order).
+    Eigen::Matrix<double, 6, 6> n = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+    for (int v = -h; v <= h; ++v) {
+      for (int u = -h; u <= h; ++u) {
+        const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
+        const double r = (tmpl[k] - tm) / tn - (sv[k] - sm) / sn;
+        const double jx = gx[k] / sn, jy = gy[k] / sn;
+        Eigen::Matrix<double, 6, 1> j;
+        j << jx, jy, jx * u, jx * v, jy * u, jy * v;
+        n.noalias() += j * j.transpose();
+        rhs += j * r;
+      }
+    }
+    Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
+    if (unknowns == 6) {
+      step = n.ldlt().solve(rhs);
+    } else {
+      step.head<2>() = n.topLeftCorner<2, 2>().ldlt().solve(rhs.head<2>());
+    }
+    if (!step.allFinite()) break;
+    d += step.head<2>().cwiseMax(-0.5).cwiseMin(0.5);
+    const Eigen::Matrix<double, 4, 1> db = step.tail<4>().cwiseMax(-0.05).cwiseMin(0.05);
+    b_fix(0, 0) += db[0];
+    b_fix(0, 1) += db[1];
+    b_fix(1, 0) += db[2];
+    b_fix(1, 1) += db[3];
+    // The correction stays a correction: a warp off by more than kMaxAffineFix is not this point.
+    if ((d - start).cwiseAbs().maxCoeff() > 1.0 || b_fix.cwiseAbs().maxCoeff() > kMaxAffineFix) {
+      return PatchResult::kLsmDiverged;
+    }
+    if (step.head<2>().norm() < 1e-3 && db.cwiseAbs().maxCoeff() < 1e-4) break;
+  }
+  return PatchResult::kOk;
 }
 
 }  // namespace
@@ -111,25 +235,10 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
       std::max(2, static_cast<int>(std::ceil(params.radius_px / std::sqrt(std::fabs(mj.determinant())))));
   const int side = 2 * h + 1;
 
-  // Per grid sample k: its place in I and its offset in J from the prediction (through the surface where
-  // one is given, else the affine map).
   const std::size_t count = static_cast<std::size_t>(side) * side;
   std::vector<double> tmpl(count);
   std::vector<Eigen::Vector2d> off_j(count);
-  Eigen::Vector2d j_centre;
-  const bool mapped = surface != nullptr && surface->map(i_px, j_centre);
-  for (int v = -h; v <= h; ++v) {
-    for (int u = -h; u <= h; ++u) {
-      const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
-      const Eigen::Vector2d g(u, v);
-      const Eigen::Vector2d p = i_px + mi * g;
-      const double value = sample_i.at(p.x(), p.y());
-      if (!std::isfinite(value)) return out;
-      tmpl[k] = value;
-      Eigen::Vector2d pj;
-      off_j[k] = mapped && surface->map(p, pj) ? Eigen::Vector2d(pj - j_centre) : Eigen::Vector2d(mj * g);
-    }
-  }
+  if (!sampleTemplate(sample_i, i_px, mi, mj, h, surface, tmpl, off_j)) return out;
   const int ns = 2 * radius + 1;
   std::vector<double> score(static_cast<std::size_t>(ns) * ns, -2.0);
   std::vector<double> window(count);
@@ -157,23 +266,7 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
     return out;
   }
   const int bx = best_k % ns, by = best_k / ns;
-  // Second peak: the best local maximum at least 2 steps from the best.
-  for (int sy = 0; sy < ns; ++sy) {
-    for (int sx = 0; sx < ns; ++sx) {
-      if (std::max(std::abs(sx - bx), std::abs(sy - by)) < 2) continue;
-      const double c = score[sy * ns + sx];
-      if (c == kUnscored) continue;
-      bool peak = true;
-      for (int dy = -1; dy <= 1 && peak; ++dy) {
-        for (int dx = -1; dx <= 1 && peak; ++dx) {
-          const int x = sx + dx, y = sy + dy;
-          if ((dx == 0 && dy == 0) || x < 0 || y < 0 || x >= ns || y >= ns) continue;
-          if (score[y * ns + x] > c) peak = false;
-        }
-      }
-      if (peak) out.second = std::max(out.second, c);
-    }
-  }
+  out.second = secondPeak(score, ns, bx, by);
   if (out.ncc < params.min_ncc) {
     out.result = PatchResult::kLowNcc;
     return out;
@@ -182,87 +275,14 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
     out.result = PatchResult::kAmbiguous;
     return out;
   }
-  // A peak on the search's edge, or beside a shift clipped by the image's edge, is not known to be one.
-  bool clipped = false;
-  for (int dy = -1; dy <= 1; ++dy) {
-    for (int dx = -1; dx <= 1; ++dx) {
-      const int x = bx + dx, y = by + dy;
-      if (x >= 0 && y >= 0 && x < ns && y < ns && score[y * ns + x] == kUnscored) clipped = true;
-    }
-  }
-  if (clipped || bx == 0 || by == 0 || bx == ns - 1 || by == ns - 1) {
+  if (edgePeak(score, ns, bx, by)) {
     out.result = PatchResult::kEdgePeak;
     return out;
   }
-  // Least squares from the integer peak: translation d (grid steps), with an affine correction B of the
-  // warp (J offset of grid sample g: mj (d + B g) + the warp's offset) when params.lsm_affine, and gain and
-  // offset (template and window normalised); the search image resampled at each step. B absorbs what the
-  // DEM gets linearly wrong over the patch (its slope, hence the foreshortening), which would otherwise
-  // pull the translation towards the stronger texture.
   Eigen::Vector2d d(bx - radius, by - radius);
   Eigen::Matrix2d b_fix = Eigen::Matrix2d::Zero();
-  double tm = 0, tv = 0;
-  for (double t : tmpl) tm += t;
-  tm /= static_cast<double>(tmpl.size());
-  for (double t : tmpl) tv += (t - tm) * (t - tm);
-  const double tn = std::sqrt(tv);
-  std::vector<double> sv(tmpl.size()), gx(tmpl.size()), gy(tmpl.size());
-  const Eigen::Vector2d start = d;
-  const Eigen::Vector2d ex = mj * Eigen::Vector2d(0.5, 0.0), ey = mj * Eigen::Vector2d(0.0, 0.5);
-  const int unknowns = params.lsm_affine ? 6 : 2;
-  for (int it = 0; it < params.lsm_iterations; ++it) {
-    for (int v = -h; v <= h; ++v) {
-      for (int u = -h; u <= h; ++u) {
-        const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
-        const Eigen::Vector2d p = j_predicted_px + mj * (d + b_fix * Eigen::Vector2d(u, v)) + off_j[k];
-        sv[k] = sample_j.at(p.x(), p.y());
-        gx[k] = sample_j.at(p.x() + ex.x(), p.y() + ex.y()) - sample_j.at(p.x() - ex.x(), p.y() - ex.y());
-        gy[k] = sample_j.at(p.x() + ey.x(), p.y() + ey.y()) - sample_j.at(p.x() - ey.x(), p.y() - ey.y());
-        if (!std::isfinite(sv[k]) || !std::isfinite(gx[k]) || !std::isfinite(gy[k])) {
-          out.result = PatchResult::kOutside;
-          return out;
-        }
-      }
-    }
-    double sm = 0, svv = 0;
-    for (double s : sv) sm += s;
-    sm /= static_cast<double>(sv.size());
-    for (double s : sv) svv += (s - sm) * (s - sm);
-    const double sn = std::sqrt(std::max(svv, 1e-12));
-    // r = tn_k - sn_k(d, B); d(sn_k)/dd = grad / sn (the normalisation's own derivative is second order).
-    Eigen::Matrix<double, 6, 6> n = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
-    for (int v = -h; v <= h; ++v) {
-      for (int u = -h; u <= h; ++u) {
-        const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
-        const double r = (tmpl[k] - tm) / tn - (sv[k] - sm) / sn;
-        const double jx = gx[k] / sn, jy = gy[k] / sn;
-        Eigen::Matrix<double, 6, 1> j;
-        j << jx, jy, jx * u, jx * v, jy * u, jy * v;
-        n.noalias() += j * j.transpose();
-        rhs += j * r;
-      }
-    }
-    Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
-    if (unknowns == 6) {
-      step = n.ldlt().solve(rhs);
-    } else {
-      step.head<2>() = n.topLeftCorner<2, 2>().ldlt().solve(rhs.head<2>());
-    }
-    if (!step.allFinite()) break;
-    d += step.head<2>().cwiseMax(-0.5).cwiseMin(0.5);
-    const Eigen::Matrix<double, 4, 1> db = step.tail<4>().cwiseMax(-0.05).cwiseMin(0.05);
-    b_fix(0, 0) += db[0];
-    b_fix(0, 1) += db[1];
-    b_fix(1, 0) += db[2];
-    b_fix(1, 1) += db[3];
-    // The correction stays a correction: a warp off by more than kMaxAffineFix is not this point.
-    if ((d - start).cwiseAbs().maxCoeff() > 1.0 || b_fix.cwiseAbs().maxCoeff() > kMaxAffineFix) {
-      out.result = PatchResult::kLsmDiverged;
-      return out;
-    }
-    if (step.head<2>().norm() < 1e-3 && db.cwiseAbs().maxCoeff() < 1e-4) break;
-  }
+  out.result = refineLeastSquares(sample_j, j_predicted_px, mj, off_j, tmpl, h, params, d, b_fix);
+  if (out.result != PatchResult::kOk) return out;
   // NCC at the refined position.
   for (int v = -h; v <= h; ++v) {
     for (int u = -h; u <= h; ++u) {
@@ -273,7 +293,6 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
   }
   out.ncc_final = nccOf(tmpl, window);
   out.j_px = j_predicted_px + mj * d;
-  out.result = PatchResult::kOk;
   return out;
 }
 

@@ -1,3 +1,7 @@
+// The rover node fed the packed tiny stream through memq:// in one process
+// (firmware_core/node/RoverNode.hpp): its result equals the offline ties tool with zero heap in the pipeline,
+// injected faults and full capacities are counted with the panorama kept, a two-site traverse maps each site
+// as alone; and two real left-only PDS3 frames packed and mapped.
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -26,7 +30,6 @@
 #include "msgs/MessageCheck.hpp"
 #include "platform/heap/HeapCounter.hpp"
 #include "platform/posix/ArenaJpegDecoder.hpp"
-#include "platform/posix/LcmLogReplay.hpp"
 #include "platform/posix/LcmTransport.hpp"
 #include "platform/posix/PosixClock.hpp"
 #include "platform/posix/TurboJpegCodec.hpp"
@@ -45,16 +48,9 @@ SimpleString StringFrom(areomap::Status status) {
 
 namespace {
 
-// The tiny simulated panorama (8 pairs), made once per process.
 const std::string& tinyDataset() {
-  static const std::string dir = test::makeTinyDataset("pack-tiny");
-  CHECK(!dir.empty());
-  return dir;
-}
-
-const std::vector<LogEvent>& tinyStream() {
-  static const std::vector<LogEvent> events = test::packedStream(tinyDataset());
-  return events;
+  CHECK(!test::tinyPackDataset().empty());
+  return test::tinyPackDataset();
 }
 
 // Statically allocated once (~45 MiB), as on the rover.
@@ -246,46 +242,6 @@ double maxEoDifferencePx(const Network& a, const Network& b) {
 
 }  // namespace
 
-TEST_GROUP(PackStream){};
-
-// One event per pair in order, sequence numbers 0..n-1, the marker last, timestamps interval_s apart,
-// decodable JPEGs of the image size, rig values equal to what setRigConstraints estimates.
-TEST(PackStream, TinyStreamIsOrderedAndComplete) {
-  const Dataset dataset = readDataset(tinyDataset());
-  const std::vector<LogEvent>& events = tinyStream();
-  CHECK_EQUAL(dataset.pairs.size() + 1, events.size());
-  platform::TurboJpegCodec codec;
-  CHECK_EQUAL(Status::kOk, codec.open());
-  std::vector<uint8_t> pixels(kMaxImagePixels);
-  for (std::size_t k = 0; k < events.size(); ++k) {
-    stereo_pair_t p;
-    CHECK_EQUAL(Status::kOk, msgs::decodeMessage(events[k].data.data(), events[k].data.size(), p));
-    CHECK_EQUAL(static_cast<int64_t>(k), p.sequence);
-    CHECK_EQUAL(1'700'000'000'000'000 + static_cast<int64_t>(k) * 3'000'000, p.utime);
-    if (k == dataset.pairs.size()) {
-      CHECK_EQUAL(stereo_pair_t::KIND_END_OF_PANORAMA, p.kind);
-      continue;
-    }
-    CHECK_EQUAL(stereo_pair_t::KIND_PAIR, p.kind);
-    STRCMP_EQUAL(dataset.pairs[k].left.stem.c_str(), p.left.stem.c_str());
-    int32_t w = 0, h = 0;
-    CHECK_EQUAL(Status::kOk,
-                codec.decodeGray(p.left.jpeg.data(), p.left.jpeg.size(), pixels.data(), pixels.size(), w, h));
-    CHECK_EQUAL(p.left.width_px, w);
-    CHECK_EQUAL(p.left.height_px, h);
-    CHECK_TRUE(p.has_right == dataset.pairs[k].right.has_value());
-  }
-  // The log file reads back with the platform's replay (the same format lcm-logger writes).
-  const std::string log = test::scratchDir("pack-log") + "/tiny.lcm";
-  writeEventLog(log, events);
-  std::vector<uint8_t> buffer(2 * kMaxJpegBytes + 65536);
-  platform::LcmLogReplay replay(buffer.data(), buffer.size());
-  CHECK_EQUAL(Status::kOk, replay.open(log.c_str()));
-  std::size_t read = 0;
-  while (replay.handle(0) == Status::kOk) ++read;
-  CHECK_EQUAL(events.size(), read);
-}
-
 TEST_GROUP(RoverMemq){};
 
 // The tiny panorama through memq:// in one process: every pair accepted, the final EO published, zero heap
@@ -296,7 +252,7 @@ TEST_GROUP(RoverMemq){};
 TEST(RoverMemq, TinyEndToEndEqualsTheTiesToolAndZeroHeap) {
   const Dataset dataset = readDataset(tinyDataset());
   uint64_t allocs = 99;
-  const Captured c = runThroughMemq(tinyStream(), allocs);
+  const Captured c = runThroughMemq(test::tinyPackStream(), allocs);
   const RoverCounters& k = node().counters();
   std::printf(
       "rover memq tiny: %d pairs accepted of %d, final rms %.4f px, %d sweeps, %d tie-point and %d DEM "
@@ -314,7 +270,7 @@ TEST(RoverMemq, TinyEndToEndEqualsTheTiesToolAndZeroHeap) {
   if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
 
   const std::string dir = test::scratchDir("rover-vs-ties");
-  writeDecodedDataset(tinyStream(), dir + "/stream");
+  writeDecodedDataset(test::tinyPackStream(), dir + "/stream");
   CHECK_EQUAL(0, test::runTool("areomap-ties", dir + "/stream --out " + dir + "/ties --adjust"));
   const std::vector<ImageObservation> ties = readTiePointsCsv(dir + "/ties/tiepoints.csv");
   CHECK_EQUAL(ties.size(), c.ties.size());
@@ -350,7 +306,7 @@ TEST(RoverMemq, TinyEndToEndEqualsTheTiesToolAndZeroHeap) {
 // simply removed accepts the same pairs and ends at the same EO (within 1e-6 px equivalent).
 TEST(RoverMemq, InjectedFaultsCountedAndResultAsWithoutTheFaultyPairs) {
   const std::vector<LogEvent> faulty = injectFaults(
-      tinyStream(),
+      test::tinyPackStream(),
       "drop:2,dup:3,swap:5,truncate:4,corrupt-jpeg:6,unknown-channel,wrong-type,oversize:7,nan-model:1");
   uint64_t allocs = 99;
   const Captured c = runThroughMemq(faulty, allocs);
@@ -387,7 +343,7 @@ TEST(RoverMemq, InjectedFaultsCountedAndResultAsWithoutTheFaultyPairs) {
 
   // The same stream with the faulty pairs removed (1, 2, 4, 6, 7): the clean messages of 0, 3, 5, the marker.
   std::vector<LogEvent> clean;
-  for (int seq : {0, 3, 5, 8}) clean.push_back(tinyStream()[static_cast<std::size_t>(seq)]);
+  for (int seq : {0, 3, 5, 8}) clean.push_back(test::tinyPackStream()[static_cast<std::size_t>(seq)]);
   const Captured w = runThroughMemq(clean, allocs);
   CHECK_TRUE(w.have_final);
   CHECK_EQUAL(3, node().counters().pairs_accepted);
@@ -410,7 +366,7 @@ TEST(RoverMemq, InjectedFaultsCountedAndResultAsWithoutTheFaultyPairs) {
 // capacity_exceeded, and the panorama the rover has is kept: the final EO equals the run of the tiny pairs
 // alone with the same plan.
 TEST(RoverMemq, MorePairsThanCapacityRejectedPanoramaKept) {
-  const std::vector<LogEvent>& tiny = tinyStream();
+  const std::vector<LogEvent>& tiny = test::tinyPackStream();
   const int real = static_cast<int>(tiny.size()) - 1;
   platform::TurboJpegCodec codec;
   CHECK_EQUAL(Status::kOk, codec.open());
@@ -477,7 +433,7 @@ TEST(RoverMemq, MorePairsThanCapacityRejectedPanoramaKept) {
 // keeps the pairs accepted before, and the final EO of those is published. (Incremental solves capped at a
 // few sweeps: only the bookkeeping is under test here.)
 TEST(RoverMemq, TiePointsAtCapacityRejectedPanoramaKept) {
-  const std::vector<LogEvent>& tiny = tinyStream();
+  const std::vector<LogEvent>& tiny = test::tinyPackStream();
   const int real = static_cast<int>(tiny.size()) - 1;
   std::vector<LogEvent> stream;
   int64_t seq = 0;
@@ -587,19 +543,6 @@ TEST(RoverMemq, TwoSiteTraverseHeapFreeAndEachSiteAsAlone) {
   }
   std::printf("site 2 in the traverse vs alone: largest EO difference %.3g (m or rad)\n", worst);
   CHECK_EQUAL(0.0, worst);
-}
-
-TEST_GROUP(RoverTool){};
-
-// The areomap-rover binary on a file:// replay of the tiny log: exit 0; --help 0; no --lcm 2.
-TEST(RoverTool, ReplaysALogAndExits) {
-  const std::string dir = test::scratchDir("rover-tool");
-  writeEventLog(dir + "/tiny.lcm", tinyStream());
-  CHECK_EQUAL(0, test::runTool("areomap-rover", "--lcm file://" + dir + "/tiny.lcm --quiet"));
-  CHECK_EQUAL(0, test::runTool("areomap-rover", "--help"));
-  CHECK_EQUAL(2, test::runTool("areomap-rover", ""));
-  CHECK_EQUAL(2, test::runTool("areomap-pack", tinyDataset()));
-  CHECK_EQUAL(1, test::runTool("areomap-pack", dir + "/missing --out " + dir + "/x.lcm"));
 }
 
 TEST_GROUP(PackRealData){};

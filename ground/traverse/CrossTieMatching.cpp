@@ -1,0 +1,409 @@
+// Steps 2 and 3 of the cross-site ties (CrossTieSteps.hpp): candidates from B's images cast through B's
+// DEM, predicted into every image that may see them through the gates (in the image, in range, not grazing,
+// not occluded, footprints of like scale, a search radius within the widest) and matched there by NCC on
+// the DEM-warped grid and back.
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "firmware_core/match/ForstnerDetector.hpp"
+#include "ground/traverse/CrossTieSteps.hpp"
+
+namespace areomap::traverse {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
+// The widest search about a prediction: its cost grows with the square of the radius (32 px at a grid step
+// of one pixel is 65^2 NCCs of the template), and so do the chances of a false peak. A prediction more
+// uncertain than that is not searched: in the first pass the second one, under the pose of the first one's
+// ties, may take it; what is left then is B's height along a grazing source ray, a poor tie anyway.
+constexpr double kMaxSearchRadiusPx = 32.0;
+
+// Interest points of an image: the Förstner operator on the first pyramid level within its capacity,
+// scaled back to full-resolution pixels.
+std::vector<Eigen::Vector2d> interestPoints(const SiteImage& image, const CrossTieParams& params, int border,
+                                            ForstnerWorkspace& workspace) {
+  int level = 0;
+  while (level + 1 < static_cast<int>(image.pyramid.size()) &&
+         (image.pyramid[level].cols > kMaxImageWidth || image.pyramid[level].rows > kMaxImageHeight)) {
+    ++level;
+  }
+  cv::Mat u8;
+  image.pyramid[level].convertTo(u8, CV_8U);
+  const ImageView view{u8.data, u8.cols, u8.rows, static_cast<int32_t>(u8.step)};
+  ForstnerParams fp;
+  fp.cell_px = params.cell_px > 0 ? params.cell_px >> level : std::max(16, u8.cols / 16);
+  fp.cell_px = std::max(fp.cell_px, kMinSpreadingCellPx);
+  fp.max_per_cell = std::min(params.per_cell, static_cast<int>(kMaxInterestPointsPerCell));
+  fp.min_points = 1;
+  fp.border_px = std::max(0, border >> level);
+  std::vector<InterestPoint> found(kMaxInterestPoints);
+  int32_t count = 0;
+  (void)detectInterestPoints(view, fp, workspace, found.data(), kMaxInterestPoints,
+                             count);  // kNoTexture: keep any
+  std::vector<Eigen::Vector2d> out;
+  const double scale = static_cast<double>(1 << level);
+  for (int32_t k = 0; k < count; ++k) out.emplace_back(found[k].x_px * scale, found[k].y_px * scale);
+  return out;
+}
+
+bool inside(const SiteImage& image, const Eigen::Vector2d& p, double margin) {
+  return p.x() >= margin && p.y() >= margin && p.x() <= image.pyramid[0].cols - 1 - margin &&
+         p.y() <= image.pyramid[0].rows - 1 - margin;
+}
+
+// Intersection of the ray through pixel `px` of `model` with a plane (point on it, normal).
+bool rayOnPlane(const CameraModel& model, const Eigen::Vector2d& px, const Eigen::Vector3d& on_plane,
+                const Eigen::Vector3d& normal, Eigen::Vector3d& hit) {
+  Vec3 o, d;
+  if (!ok(unproject(model, px, o, d))) return false;
+  const double den = normal.dot(d);
+  if (std::fabs(den) < 1e-9) return false;
+  const double t = normal.dot(on_plane - o) / den;
+  if (t <= 0.0) return false;
+  hit = o + t * d;
+  return true;
+}
+
+// A rigid map between the two sites' frames: from frame `from_a` (A when true, else B) into `to_a`.
+Eigen::Vector3d moved(const RelativePose& a_from_b, bool from_a, bool to_a, const Eigen::Vector3d& p) {
+  if (from_a == to_a) return p;
+  return to_a ? a_from_b.toA(p) : a_from_b.toB(p);
+}
+Eigen::Vector3d turned(const RelativePose& a_from_b, bool from_a, bool to_a, const Eigen::Vector3d& d) {
+  if (from_a == to_a) return d;
+  return to_a ? Eigen::Vector3d(a_from_b.rotation() * d)
+              : Eigen::Vector3d(a_from_b.rotation().transpose() * d);
+}
+
+// Most steps of the local ray-DEM search (each half a DEM cell): 4 m either side at 5 cm cells.
+constexpr int kMaxSurfaceSteps = 160;
+
+// One image's pixel to another's through a site's DEM: the pixel's ray meets the DEM near the tie's point
+// (the first crossing from above, searched from the point's distance along the ray), projected into the
+// other image. The DEM, the cameras and the tie's point may each be in either site's frame.
+class DemSurface : public PatchSurface {
+ public:
+  DemSurface(const CameraModel& from, bool from_a, const CameraModel& to, bool to_a, const DemGrid& dem,
+             bool dem_a, const RelativePose& a_from_b, const Eigen::Vector3d& point_in_dem)
+      : from_(from),
+        to_(to),
+        dem_(dem),
+        pose_(a_from_b),
+        point_(point_in_dem),
+        from_a_(from_a),
+        to_a_(to_a),
+        dem_a_(dem_a) {}
+
+  bool map(const Eigen::Vector2d& i_px, Eigen::Vector2d& j_px) const override {
+    Vec3 o3, d3;
+    if (!ok(unproject(from_, i_px, o3, d3))) return false;
+    const Eigen::Vector3d o = moved(pose_, from_a_, dem_a_, o3);
+    const Eigen::Vector3d d = turned(pose_, from_a_, dem_a_, d3);
+    const double horizontal = d.head<2>().norm();
+    const double step = 0.5 * dem_.cell_m / std::max(horizontal, 0.1);
+    auto above = [&](double t, bool& valid) {
+      const Eigen::Vector3d p = o + t * d;
+      const double e = demElevation(dem_, p.x(), p.y());
+      valid = std::isfinite(e);
+      return -p.z() - e;
+    };
+    double t = (point_ - o).dot(d);
+    bool valid = false;
+    double h = above(t, valid);
+    if (!valid) return false;
+    // Back to where the ray is above the surface, then on to the first crossing.
+    int k = 0;
+    for (; k < kMaxSurfaceSteps && h <= 0.0; ++k) {
+      t -= step;
+      h = above(t, valid);
+      if (!valid || t <= 0.0) return false;
+    }
+    double lo = t, hi = t;
+    for (k = 0; k < kMaxSurfaceSteps; ++k) {
+      hi = lo + step;
+      h = above(hi, valid);
+      if (!valid) return false;
+      if (h <= 0.0) break;
+      lo = hi;
+    }
+    if (k == kMaxSurfaceSteps) return false;
+    for (int it = 0; it < 20; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (above(mid, valid) > 0.0 ? lo : hi) = mid;
+    }
+    const Eigen::Vector3d hit = moved(pose_, dem_a_, to_a_, o + 0.5 * (lo + hi) * d);
+    Vec2 px;
+    if (!ok(project(to_, hit, px))) return false;
+    j_px = px;
+    return true;
+  }
+
+ private:
+  const CameraModel& from_;
+  const CameraModel& to_;
+  const DemGrid& dem_;
+  RelativePose pose_;
+  Eigen::Vector3d point_;
+  bool from_a_, to_a_, dem_a_;
+};
+
+void countRefusal(PatchResult result, CrossTieCounts& counts) {
+  switch (result) {
+    case PatchResult::kLowNcc:
+      ++counts.low_ncc;
+      break;
+    case PatchResult::kAmbiguous:
+      ++counts.ambiguous;
+      break;
+    case PatchResult::kEdgePeak:
+      ++counts.edge_peak;
+      break;
+    case PatchResult::kLsmDiverged:
+      ++counts.lsm_diverged;
+      break;
+    case PatchResult::kOk:
+      break;
+    case PatchResult::kOutside:
+    case PatchResult::kFlat:
+      ++counts.patch_outside;
+      break;
+  }
+}
+
+// A candidate tie: an interest point of B's source image cast onto B's DEM, with what each target image's
+// prediction and patch search need.
+struct Candidate {
+  Eigen::Vector2d q = Eigen::Vector2d::Zero();  // the interest point (source pixels)
+  Vec3 d = Vec3::Zero();                        // the source ray's direction (B's frame)
+  Eigen::Vector3d pb = Eigen::Vector3d::Zero(),
+                  pa = Eigen::Vector3d::Zero();      // the cast point, B's and A's frame
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  // B's local ground plane there
+  // The footprint map of the source: ground points of q + step along x and along y (B's frame).
+  Eigen::Vector3d gx = Eigen::Vector3d::Zero(), gy = Eigen::Vector3d::Zero();
+  // The surface the patches are warped through and the point on it (in that surface's frame).
+  const DemGrid* surface_dem = nullptr;
+  bool surface_in_a = false;
+  Eigen::Vector3d surface_point = Eigen::Vector3d::Zero();
+  double source_dh_m = 0.0;   // B's height uncertainty at the point
+  double source_sin = 0.0;    // the source ray's incidence on the ground (at least the gate's)
+  bool on_both_dems = false;  // cast onto B's DEM, found on A's, on a plane steep enough to the ray
+};
+
+constexpr double kFootprintStepPx = 2.0;
+
+// Step 2 for one interest point: cast onto B's DEM, found on A's (within max_height_gap_m), on a plane the
+// source ray meets steeply enough. False when any of that fails.
+bool castCandidate(const SiteProducts& a, const SiteProducts& b, const RelativePose& pose,
+                   const CrossTieParams& params, const SiteImage& source, const Eigen::Vector2d& q,
+                   double sin_incidence, Candidate& c) {
+  Vec3 o, d;
+  double t = 0.0;
+  if (!ok(unproject(source.model, q, o, d)) || !castRayOnDem(b.dem, o, d, params.max_range_m, t))
+    return false;
+  const Eigen::Vector3d pb = o + t * d;
+  const Eigen::Vector3d pa = pose.toA(pb);
+  const double ea = demElevation(a.dem, pa.x(), pa.y());
+  if (!std::isfinite(ea) || std::fabs(ea + pa.z()) > params.max_height_gap_m + 0.01 * pa.head<2>().norm())
+    return false;
+  Eigen::Vector3d normal, on_plane;
+  if (!demPlane(b.dem, pb, params.plane_radius_m, normal, on_plane)) return false;
+  on_plane = pb;  // the plane through the cast point, with the DEM's local slope
+  if (std::fabs(normal.dot(Eigen::Vector3d(d))) < sin_incidence) return false;
+  c.q = q;
+  c.d = d;
+  c.pb = pb;
+  c.pa = pa;
+  c.normal = normal;
+  c.on_both_dems = true;
+  if (!rayOnPlane(source.model, q + Eigen::Vector2d(kFootprintStepPx, 0), on_plane, normal, c.gx) ||
+      !rayOnPlane(source.model, q + Eigen::Vector2d(0, kFootprintStepPx), on_plane, normal, c.gy)) {
+    return false;
+  }
+  // The surface the patches are warped through: the DEM of the site that knows the point better (the
+  // smaller dem_sigma there; B's without sigmas).
+  c.surface_dem = &b.dem;
+  c.surface_in_a = false;
+  if (a.dem_sigma && b.dem_sigma) {
+    const double sa = demElevation(*a.dem_sigma, pa.x(), pa.y());
+    const double sb = demElevation(*b.dem_sigma, pb.x(), pb.y());
+    if (std::isfinite(sa) && (!std::isfinite(sb) || sa < sb)) {
+      c.surface_dem = &a.dem;
+      c.surface_in_a = true;
+    }
+  }
+  c.surface_point = c.surface_in_a ? pa : pb;
+  // B's height uncertainty at the point and the source ray's incidence on the ground.
+  c.source_dh_m = 0.0;
+  if (b.dem_sigma) {
+    const double sb = demElevation(*b.dem_sigma, pb.x(), pb.y());
+    c.source_dh_m = std::isfinite(sb) ? sb : 0.0;
+  }
+  c.source_sin = std::max(std::fabs(normal.dot(Eigen::Vector3d(d))), sin_incidence);
+  return true;
+}
+
+// The search radius of a prediction from its uncertainty in the target image: the pose's (for A's images)
+// and B's DEM height along the source ray (the cast point slides along it by dh / sin(incidence)). False
+// when the point does not project.
+bool derivedRadius(const SiteImage& target, const Eigen::Vector3d& p, bool in_a, const RelativePose& pose,
+                   const Eigen::Matrix4d& pose_cov, const Candidate& c, const CrossTieParams& params,
+                   double& radius_px) {
+  Mat2x3 dp;
+  Vec2 unused;
+  if (!ok(project(target.model, p, unused, &dp))) return false;
+  const Eigen::Matrix3d r = in_a ? pose.rotation() : Eigen::Matrix3d::Identity();
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  if (in_a) {
+    const Eigen::Vector3d rb = r * c.pb;
+    Eigen::Matrix<double, 2, 4> jc;
+    jc.leftCols<3>() = dp;
+    jc.col(3) = dp * Eigen::Vector3d(-rb.y(), rb.x(), 0.0);
+    cov = jc * pose_cov * jc.transpose();
+  }
+  const Eigen::Vector2d slide = dp * (r * Eigen::Vector3d(c.d)) * c.source_dh_m / c.source_sin;
+  cov += slide * slide.transpose();
+  const double sigma_px = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues()[1]);
+  radius_px = params.search_sigmas * sigma_px + params.min_radius_px;
+  return true;
+}
+
+// What the candidate search of one pass shares.
+struct Pass {
+  const SiteProducts& a;
+  const SiteProducts& b;
+  const RelativePose& pose;
+  const Eigen::Matrix4d& pose_cov;
+  const CrossTieParams& params;
+  double sin_incidence = 0.0;
+  double max_scale = 0.0;
+};
+
+// Step 3 for one target image of `site`: the candidate predicted into it through the gates (counted by the
+// first that refuses it), matched on the DEM-warped grid and matched back. The observation goes into `tie`
+// when it holds; true then.
+bool matchIntoImage(const Pass& pass, const SiteImage& source, const SiteProducts& site, bool in_a,
+                    const SiteImage& target, const Candidate& c, CrossTie& tie, CrossTieResult& out) {
+  const CrossTieParams& params = pass.params;
+  const Eigen::Vector3d p = in_a ? c.pa : c.pb;
+  auto bump = [&](int CrossTieCounts::*field) {
+    ++(out.counts.*field);
+    if (in_a) ++(out.counts_in_a.*field);
+  };
+  Vec2 pj;
+  if (!ok(project(target.model, p, pj)) || !inside(target, pj, 2.0)) {
+    bump(&CrossTieCounts::outside_image);
+    return false;
+  }
+  const Eigen::Vector3d ray = p - target.model.c;
+  const double range = ray.norm();
+  if (range > params.max_range_m) {
+    bump(&CrossTieCounts::beyond_range);
+    return false;
+  }
+  if (std::fabs(c.normal.dot(ray / range)) < pass.sin_incidence) {
+    bump(&CrossTieCounts::grazing);
+    return false;
+  }
+  double hit = 0.0;
+  if (castRayOnDem(site.dem, target.model.c, ray / range, range + 1.0, hit) &&
+      hit < range * (1.0 - params.occlusion_tolerance) - 0.05) {
+    bump(&CrossTieCounts::occluded);
+    return false;
+  }
+  Vec2 px, py;
+  const Eigen::Vector3d gxs = in_a ? pass.pose.toA(c.gx) : c.gx, gys = in_a ? pass.pose.toA(c.gy) : c.gy;
+  if (!ok(project(target.model, gxs, px)) || !ok(project(target.model, gys, py))) return false;
+  Eigen::Matrix2d map;
+  map.col(0) = (px - pj) / kFootprintStepPx;
+  map.col(1) = (py - pj) / kFootprintStepPx;
+  const double scale = std::sqrt(std::fabs(map.determinant()));
+  if (!(scale <= pass.max_scale && scale >= 1.0 / pass.max_scale)) {
+    bump(&CrossTieCounts::scale_gate);
+    return false;
+  }
+  bump(&CrossTieCounts::predicted);
+  const DemSurface forward(source.model, false, target.model, in_a, *c.surface_dem, c.surface_in_a, pass.pose,
+                           c.surface_point);
+  const DemSurface backward(target.model, in_a, source.model, false, *c.surface_dem, c.surface_in_a,
+                            pass.pose, c.surface_point);
+  const bool use_surface = params.surface_warp;
+  PatchParams patch = params.patch;
+  if (params.derived_radius) {
+    if (!derivedRadius(target, p, in_a, pass.pose, pass.pose_cov, c, params, patch.radius_px)) return false;
+    if (!(patch.radius_px <= kMaxSearchRadiusPx)) {
+      bump(&CrossTieCounts::too_uncertain);
+      return false;
+    }
+  }
+  const PatchMatch m =
+      matchWarpedPatch(source.pyramid, c.q, target.pyramid, pj, map, patch, use_surface ? &forward : nullptr);
+  if (m.result != PatchResult::kOk) {
+    countRefusal(m.result, out.counts);
+    if (in_a) countRefusal(m.result, out.counts_in_a);
+    return false;
+  }
+  bump(&CrossTieCounts::matched);
+  // The back-match starts from the source point itself: the matcher's own pull-in is enough.
+  PatchParams back_patch = params.patch;
+  if (params.derived_radius) back_patch.radius_px = params.min_radius_px;
+  const PatchMatch back = matchWarpedPatch(target.pyramid, m.j_px, source.pyramid, c.q, map.inverse(),
+                                           back_patch, use_surface ? &backward : nullptr);
+  const double tolerance = params.lr_tolerance_px * std::max(1.0, 1.0 / scale);
+  if (back.result != PatchResult::kOk || (back.j_px - c.q).norm() > tolerance) {
+    bump(&CrossTieCounts::back_failed);
+    return false;
+  }
+  bump(&CrossTieCounts::back_matched);
+  tie.observations.push_back({tie.point, site.id, target.stem, m.j_px, false, m.ncc_final});
+  return true;
+}
+
+}  // namespace
+
+void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& pose,
+               const Eigen::Matrix4d& pose_cov, const CrossTieParams& params, int64_t first_point, int stride,
+               CrossTieResult& out) {
+  out.ties.clear();
+  auto workspace = std::make_unique<ForstnerWorkspace>();
+  const int border = params.patch.half + 2;
+  Pass pass{a, b, pose, pose_cov, params};
+  pass.sin_incidence = std::sin(params.min_incidence_deg * kDegToRad);
+  pass.max_scale = params.max_scale_ratio > 0.0
+                       ? params.max_scale_ratio
+                       : std::sqrt(2.0) * static_cast<double>(1 << (kPyramidLevels - 1));
+  int64_t next_point = first_point;
+  for (const SiteImage& source : b.images) {
+    const std::vector<Eigen::Vector2d> points = interestPoints(source, params, border, *workspace);
+    out.counts.interest_points += static_cast<int>(points.size());
+    for (std::size_t n = 0; n < points.size(); n += static_cast<std::size_t>(stride)) {
+      Candidate c;
+      const bool cast = castCandidate(a, b, pose, params, source, points[n], pass.sin_incidence, c);
+      if (c.on_both_dems) ++out.counts.on_both_dems;
+      if (!cast) continue;
+      CrossTie tie;
+      tie.point = next_point;
+      tie.b_m = c.pb;
+      tie.observations.push_back({next_point, b.id, source.stem, c.q, true, 1.0});
+      bool any_a = false;
+      for (int side = 0; side < 2; ++side) {
+        const bool in_a = side == 0;
+        const SiteProducts& site = in_a ? a : b;
+        for (const SiteImage& target : site.images) {
+          if (&target == &source) continue;
+          if (matchIntoImage(pass, source, site, in_a, target, c, tie, out)) any_a = any_a || in_a;
+        }
+      }
+      if (!any_a) continue;
+      out.ties.push_back(std::move(tie));
+      ++next_point;
+    }
+  }
+}
+
+}  // namespace areomap::traverse
