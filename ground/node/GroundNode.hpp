@@ -1,7 +1,8 @@
 // areomap-ground's receive loop: subscribes a Transport to the camera stream and the rover's channels,
 // collects until the end-of-panorama marker (then waits for the rover's final EO, bounded), writes the
 // received pairs as a dataset folder OUT/stream/ (the full-resolution images as decoded: the record; the
-// pass takes them from memory), runs the ground pass (ground/pass/GroundPass.hpp) into OUT and publishes AREOMAP_PRODUCT (when the transport can publish).
+// pass takes them from memory), runs the ground pass (ground/pass/GroundPass.hpp) into OUT and publishes
+// AREOMAP_PRODUCT (when the transport can publish).
 //
 // Several panoramas in one run (`panoramas` != 1): after each panorama's products the node forgets it and
 // collects the next; panorama k (1-based) goes to OUT/panorama-KKK/ (its own stream/, products and

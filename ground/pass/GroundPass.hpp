@@ -1,6 +1,6 @@
-// The ground's work at the end of a panorama, on a dataset folder: either the one given
-// (`areomap-ground --dataset DIR`) or the one the ground wrote from the camera stream (full-resolution
-// images as decoded from the stream's JPEGs).
+// The ground's work at the end of a panorama, on a dataset: a folder (`areomap-ground --dataset DIR`, each
+// site of areomap-traverse) or what the node received from the camera stream (full-resolution images as
+// decoded from the stream's JPEGs, handed over in memory).
 //
 //   1. tie points: the rover's own (AREOMAP_TIEPOINTS) when they arrived complete -- the rover's final EO
 //      arrived, no TIEPOINTS message was lost, and one came for every pair the ground kept -- so the
@@ -16,8 +16,8 @@
 //      previews (ground/products, PassProducts.hpp); last report.json with `stream`, `rover` (incl.
 //      eo_vs_ground_px) and `truth` when truth exists, made in memory and written once.
 //
-// The pass is a call that returns its data (SitePass.hpp): the node and the traverse go on from that value,
-// not from the files it wrote.
+// The pass is a call that returns its data (SitePass below): the node and the traverse go on from that
+// value, not from the files it wrote.
 #pragma once
 
 #include <cstdint>

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <stdexcept>
 
 #include "ground/adjust/CommonVergence.hpp"
 #include "ground/adjust/FullEoCovariance.hpp"
@@ -102,6 +103,7 @@ products::ProductInputs passProductInputs(const ProductContext& c) {
 }
 
 products::ProductInputs passProductInputs(const SitePass& pass) {
+  if (!pass.network) throw std::logic_error("passProductInputs: a pass rebuilt from files has no network");
   const io::Panorama empty{pass.dataset, {}, {}};
   AdjustReport report = pass.report;
   const ProductContext c{pass.panorama ? pass.panorama.get() : &empty, pass.out_dir, pass.network.get(),

@@ -31,7 +31,7 @@ struct ProductContext {
 // adjusted models, the dataset's pairs and the pass's tie observations; without the EO covariance and the
 // truth DEM, which makePassProducts adds. And the options makePassProducts makes the products with.
 products::ProductInputs passProductInputs(const ProductContext& c);
-// The same from a finished pass (its images when it loaded them).
+// The same from a pass that ran (its network; its images when it loaded them).
 products::ProductInputs passProductInputs(const SitePass& pass);
 products::ProductOptions passProductOptions();
 
