@@ -36,10 +36,14 @@ SiteOutcome runSite(const TraverseSite& site, const TraverseRunOptions& o, std::
   const std::string out_dir = o.out_dir + "/sites/" + site.id;
   if (o.progress) cli::info("site " + std::to_string(k + 1) + "/" + std::to_string(n) + ": " + site.id);
   if (o.reuse_sites && hasFinishedPass(out_dir)) {
-    std::shared_ptr<const ground::SitePass> pass = loadSitePass(site, out_dir);
-    if (pass) {
-      if (o.progress) cli::info("site " + site.id + ": its pass is there (--reuse-sites)");
-      return siteOutcome(site.id, std::move(pass));
+    try {
+      std::shared_ptr<const ground::SitePass> pass = loadSitePass(site, out_dir);
+      if (pass) {
+        if (o.progress) cli::info("site " + site.id + ": its pass is there (--reuse-sites)");
+        return siteOutcome(site.id, std::move(pass));
+      }
+    } catch (const std::exception& e) {
+      cli::warn("site " + site.id + ": its pass cannot be reused (" + e.what() + "); it is mapped again");
     }
   }
   SiteOutcome s;
