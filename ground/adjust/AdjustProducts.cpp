@@ -1,4 +1,5 @@
 #include "ground/adjust/AdjustProducts.hpp"
+#include "ground/adjust/ReportJson.hpp"
 
 #include <filesystem>
 #include <sstream>
@@ -57,7 +58,7 @@ void demCoverageTotal(const std::vector<DemCoverageFigure>& figures, long& seen,
   }
 }
 
-void writeReportJson(const std::string& path, const AdjustReport& r) {
+nlohmann::json reportJson(const AdjustReport& r) {
   nlohmann::json j;
   j["method1_px"] = {{"before", imageJson(r.method1_before)}, {"after", imageJson(r.method1_after)}};
   j["method2_m"] = {{"before", groundJson(r.method2_before)}, {"after", groundJson(r.method2_after)}};
@@ -115,7 +116,11 @@ void writeReportJson(const std::string& path, const AdjustReport& r) {
     demCoverageTotal(r.dem_coverage, seen, filled);
     j["dem_coverage"] = {{"fraction_2_10m", fraction(filled, seen)}, {"pairs", pairs}};
   }
-  writeTextProduct(path, j.dump(2) + "\n");
+  return j;
+}
+
+void writeReportJson(const std::string& path, const AdjustReport& r) {
+  writeTextProduct(path, reportJson(r).dump(2) + "\n");
 }
 
 void writeEoCsv(const std::string& path, const Network& net, const std::vector<std::string>& stems) {

@@ -179,6 +179,8 @@ void readPairs(const Reader& r, const Json& root, Dataset& ds) {
                        " image(s), to be read from the PDS3 label");
 }
 
+}  // namespace
+
 // A note for every rig value the dataset leaves to be estimated or held.
 void noteRigDefaults(Dataset& ds) {
   std::set<int> sols;
@@ -197,8 +199,6 @@ void noteRigDefaults(Dataset& ds) {
   if (!ds.rig.sigma_gimbal_m) ds.notes.push_back(heldSigmaNote("rig.sigma_gimbal_m"));
   if (!ds.rig.sigma_base_m) ds.notes.push_back(heldSigmaNote("rig.sigma_base_m"));
 }
-
-}  // namespace
 
 int Dataset::imageCount() const {
   int n = 0;

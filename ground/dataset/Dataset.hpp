@@ -67,6 +67,9 @@ constexpr const char* kPanoramaFileName = "panorama.json";
 // e.g. "…/panorama.json: pairs[3].left.image: absolute paths are not allowed".
 Dataset readDataset(const std::string& dir);
 
+// The notes readDataset adds for the rig values a dataset leaves absent (to be estimated, or held), for a
+// Dataset made in memory with every other field given.
+void noteRigDefaults(Dataset& dataset);
 // Writes DIR/panorama.json in the contract's form (creating DIR). Only what is present is written;
 // paths are the relative ones of each ImageRef (checked like the reader checks them).
 // Throws DatasetError when the folder or file cannot be written.

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -145,11 +146,12 @@ GroundNodeResult makePanorama(platform::Transport& transport, const GroundNodeOp
   pass_options.out_dir = out;
   if (options.pass.progress) cli::info("writing the received images to " + out + "/stream");
   // The images and models as they arrived (stream/ is the record of them; one copy in memory).
-  const io::Panorama panorama = collector.takePanorama(collector.writeDataset(out + "/stream"));
-  result.pass = runGroundPass(panorama.dataset, pass_options, &result.stream, &result.rover, &panorama);
-  result.pass.files = buildManifest(out, "stream/");
+  auto panorama =
+      std::make_shared<const io::Panorama>(collector.takePanorama(collector.writeDataset(out + "/stream")));
+  result.pass = runGroundPass(panorama->dataset, pass_options, &result.stream, &result.rover, panorama);
+  result.files = buildManifest(out, "stream/");
   if (options.can_publish) {
-    const product_t message = manifestMessage(collector.panorama(), out, result.pass.files, k - 1);
+    const product_t message = manifestMessage(collector.panorama(), out, result.files, k - 1);
     product_t stamped = message;
     stamped.utime = epochMicros();
     std::vector<uint8_t> bytes(static_cast<std::size_t>(stamped.getEncodedSize()));

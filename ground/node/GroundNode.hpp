@@ -1,7 +1,8 @@
 // areomap-ground's receive loop: subscribes a Transport to the camera stream and the rover's channels,
 // collects until the end-of-panorama marker (then waits for the rover's final EO, bounded), writes the
-// received pairs as a dataset folder OUT/stream/ (the full-resolution images as decoded), runs the ground
-// pass (GroundPass.hpp) into OUT and publishes AREOMAP_PRODUCT (when the transport can publish).
+// received pairs as a dataset folder OUT/stream/ (the full-resolution images as decoded: the record; the
+// pass takes them from memory), runs the ground pass (ground/pass/GroundPass.hpp) into OUT and publishes
+// AREOMAP_PRODUCT (when the transport can publish).
 //
 // Several panoramas in one run (`panoramas` != 1): after each panorama's products the node forgets it and
 // collects the next; panorama k (1-based) goes to OUT/panorama-KKK/ (its own stream/, products and
@@ -11,8 +12,8 @@
 // A traverse (`traverse`): the node also subscribes to AREOMAP_SITE; each panorama belongs to the site that
 // announced its name (StreamCollector traverse mode) and goes to OUT/sites/<site id>/ (with its own
 // truth, `site_truth_dirs`); the run ends after the last site's panorama (or when the stream ends). The
-// traverse steps after it (poses, merged map) are ground/traverse's (finishTraverse), called by
-// areomap-ground.
+// traverse steps after it (poses, merged map) are ground/traverse's (finishTraverse) on the sites' passes,
+// called by areomap-ground through StreamTraverse.hpp.
 #pragma once
 
 #include <functional>
@@ -20,14 +21,15 @@
 #include <string>
 #include <vector>
 
-#include "ground/node/GroundPass.hpp"
+#include "ground/node/Manifest.hpp"
 #include "ground/node/StreamCollector.hpp"
+#include "ground/pass/GroundPass.hpp"
 #include "platform/Transport.hpp"
 
 namespace areomap::ground {
 
 struct GroundNodeOptions {
-  GroundPassOptions pass;                  // out_dir, truth_dir, progress, products hook
+  GroundPassOptions pass;                  // out_dir, truth_dir, progress, products
   double first_message_timeout_s = 600.0;  // nothing at all arrives: give up (error)
   double idle_timeout_s = 120.0;  // the stream stops without its end marker: make products from what came
   double rover_wait_s = 1800.0;   // after the marker, wait for the rover's final EO (while it sends status)
@@ -44,7 +46,8 @@ struct GroundNodeOptions {
 struct GroundNodeResult {
   StreamCounts stream;
   RoverInputs rover;
-  GroundPassResult pass;
+  SitePass pass;                     // the panorama's pass as data (its images, solution, products)
+  std::vector<ManifestEntry> files;  // the products' manifest (AREOMAP_PRODUCT)
   bool product_published = false;
   int64_t messages = 0;
   double receive_seconds = 0.0;  // first message to end of collection

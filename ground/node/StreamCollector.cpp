@@ -499,7 +499,9 @@ Dataset StreamCollector::writeDataset(const std::string& dir) const {
     }
   }
   areomap::writeDataset(d, dir);
-  return readDataset(dir);
+  // What readDataset adds to a dataset that gives its name, size, pair ids and models: the rig notes.
+  noteRigDefaults(d);
+  return d;
 }
 
 }  // namespace areomap::ground

@@ -29,6 +29,7 @@
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/Panorama.hpp"
+#include "ground/pass/PassInputs.hpp"
 
 namespace areomap::ground {
 
@@ -45,18 +46,6 @@ struct ReceivedPair {
   int32_t tier = 0;
   ReceivedImage left;
   std::optional<ReceivedImage> right;
-};
-
-// The `stream` object of report.json.
-struct StreamCounts {
-  int32_t pairs = 0;  // pairs kept
-  int32_t gaps = 0;   // camera-stream messages never received
-  int32_t duplicates = 0;
-  int32_t reordered = 0;
-  std::map<std::string, int32_t> rejected;  // cause -> count
-  std::vector<std::string> warnings;        // gap-affected pairs, rover-channel losses, ...
-  bool end_of_panorama = false;
-  int32_t pairs_planned = -1;
 };
 
 // Sequence bookkeeping of one channel.
@@ -148,7 +137,8 @@ class StreamCollector {
   std::vector<std::string> roverWarnings() const;
 
   // Writes the kept pairs as a dataset folder (DIR/images/<stem>.png, DIR/models/<stem>.cahvor,
-  // DIR/panorama.json with the rig values the stream marks as given) and returns it as read back.
+  // DIR/panorama.json with the rig values the stream marks as given), the record of what arrived, and
+  // returns that dataset as readDataset would read it (made in memory, not read back).
   Dataset writeDataset(const std::string& dir) const;
 
  private:

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <stdexcept>
 
 #include "ground/adjust/CommonVergence.hpp"
 #include "ground/adjust/FullEoCovariance.hpp"
@@ -101,21 +102,31 @@ products::ProductInputs passProductInputs(const ProductContext& c) {
   return in;
 }
 
+products::ProductInputs passProductInputs(const SitePass& pass) {
+  if (!pass.network) throw std::logic_error("passProductInputs: a pass rebuilt from files has no network");
+  const io::Panorama empty{pass.dataset, {}, {}};
+  AdjustReport report = pass.report;
+  const ProductContext c{pass.panorama ? pass.panorama.get() : &empty, pass.out_dir, pass.network.get(),
+                         &pass.stems, &pass.apriori, &pass.ties, &report, "", nullptr};
+  return passProductInputs(c);
+}
+
 products::ProductOptions passProductOptions() {
   return products::ProductOptions{};
 }
 
 // The products of ground/products (dense matching, DEM, ortho, previews, report.html) from the pass.
-void makePassProducts(const ProductContext& c) {
+products::ProductsResult makePassProducts(const ProductContext& c) {
   products::ProductInputs in = passProductInputs(c);
   in.eo_uncertainty = eoUncertainty(*c.net, c.report->warnings, in.pairs);
   if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
     in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
   }
-  const products::ProductsResult made = products::makeProducts(in, passProductOptions(), c.out_dir, c.report);
+  products::ProductsResult made = products::makeProducts(in, passProductOptions(), c.out_dir, c.report);
   products::mergeIntoReport(made, *c.report);
   if (c.write_errors != nullptr)
     c.write_errors->insert(c.write_errors->end(), made.write_errors.begin(), made.write_errors.end());
+  return made;
 }
 
 }  // namespace areomap::ground

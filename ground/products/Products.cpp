@@ -100,6 +100,17 @@ void writeOrthoTif(const std::string& path, const ortho::OrthoResult& o, const d
   });
 }
 
+// The ortho's grey values as a grid of ortho.tif's georeferencing (what reading ortho.tif gives).
+DemGrid orthoGrid(const ortho::OrthoResult& o) {
+  DemGrid g = o.grid;
+  g.nodata = 0.0f;
+  g.values.resize(static_cast<std::size_t>(g.cols) * g.rows);
+  for (int r = 0; r < g.rows; ++r) {
+    for (int c = 0; c < g.cols; ++c) g.at(c, r) = o.image.at<uint8_t>(r, c);
+  }
+  return g;
+}
+
 // Of what each pair's cameras see at 2-5 m and 5-10 m, how much the DEM covers; the ground under empty
 // cells from the plane of the DEM's cells within twice the outer range of the panorama's centre.
 void coverageStage(Context& ctx, const DemGrid& dem, const DemGrid& sigma) {
@@ -147,6 +158,7 @@ void demStage(Context& ctx, Cloud& cloud) {
     if (dems.dem) {
       const dem::KrigingResult& kr = *dems.dem;
       ctx.result.dem = kr.elevation;
+      ctx.result.dem_sigma = kr.sigma;
       coverageStage(ctx, kr.elevation, kr.sigma);
       try {
         dem::writeDemProducts(ctx.out_dir, kr, ctx.meta);
@@ -189,6 +201,7 @@ std::optional<ortho::OrthoResult> orthoStage(Context& ctx) {
       made = ortho::makeOrthoimage(*ctx.result.dem, sources, ortho::OrthoOptions{});
       const ortho::OrthoResult& orth =
           *made;  // the preview and the report show it even when ortho.tif cannot be written
+      ctx.result.ortho = orthoGrid(orth);
       if (orth.seams.checked > 0) {
         ctx.result.ortho_seam_px = orth.seams.geometric_median_px;
         if (orth.seams.geometric_median_px > 0.5) {

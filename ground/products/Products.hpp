@@ -109,6 +109,8 @@ struct ProductsResult {
   int pairs_matched = 0;
   std::vector<ground::DensePairNoise> dense_pairs;  // each matched pair's matching noise (report.json dense)
   std::optional<DemGrid> dem;                       // the DEM written (absent when no points)
+  std::optional<DemGrid> dem_sigma;                 // its sigma (dem_sigma.tif), same grid
+  std::optional<DemGrid> ortho;  // ortho.tif's grey values (0 = no data) on its grid (absent: none made)
   std::optional<DemGrid> dem_near;   // the finer near-rover DEM (absent when dem.tif is already that fine)
   std::optional<double> dem_rmse_m;  // against truth_dem over cells present in both
   double ortho_seam_px = -1.0;       // median geometric disagreement at ortho seams, px (-1: no seams)

@@ -318,7 +318,7 @@ TieSelection selectCrossSiteTies(const std::vector<CrossSiteTie>& ties, int32_t 
   return out;
 }
 
-CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<std::string>& models_dir,
+CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<SiteCameras>& site_cameras,
                                     const std::vector<CrossSiteTie>& ties, double sigma_px) {
   CrossSiteAdjustment out;
   const auto adjuster = std::make_unique<GroundSitePoseAdjuster>();  // 17.7 MiB of fixed arrays
@@ -326,10 +326,7 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
   const SitePoseSolution odometry = odometryPoses(traverse);
   const std::size_t n = traverse.sites.size();
   out.datum.resize(n);
-  for (std::size_t k = 0; k < n && k < models_dir.size(); ++k) {
-    if (!models_dir[k].empty() && fs::is_directory(models_dir[k]))
-      out.datum[k] = siteDatum(traverse.sites[k], models_dir[k]);
-  }
+  for (std::size_t k = 0; k < n && k < site_cameras.size(); ++k) out.datum[k] = siteDatum(site_cameras[k]);
   int32_t site = 0;
   if (!ok(adjuster->addFirstSite(fromSitePose(traverse.sites[0].apriori), site)))
     throw std::runtime_error("traverse adjustment: cannot add the first site");
@@ -343,18 +340,16 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
   }
   // Cameras: each mapped site's adjusted models, in its own frame.
   std::map<std::pair<std::string, std::string>, CameraRef> cameras;
-  for (std::size_t k = 0; k < n && k < models_dir.size(); ++k) {
-    if (models_dir[k].empty() || !fs::is_directory(models_dir[k])) continue;
-    for (const fs::directory_entry& f : fs::directory_iterator(models_dir[k])) {
-      if (f.path().extension() != ".cahvor") continue;
+  for (std::size_t k = 0; k < n && k < site_cameras.size(); ++k) {
+    for (const SiteCamera& c : site_cameras[k]) {
       CameraRef ref;
-      ref.model = io::readCameraModelFile(f.path().string());
+      ref.model = c.adjusted;
       ConversionResidual residual;
       if (!ok(cahvorToPhotogrammetric(ref.model, ref.camera, residual))) continue;
       if (!ok(adjuster->addCamera(static_cast<int32_t>(k), ref.camera.io, ref.camera.eo.center_m,
                                   ref.camera.m, ref.index)))
         continue;
-      cameras[{traverse.sites[k].id, f.path().stem().string()}] = ref;
+      cameras[{traverse.sites[k].id, c.stem}] = ref;
     }
   }
   // Points and observations: the ties chosen to fit the adjuster (selectCrossSiteTies).

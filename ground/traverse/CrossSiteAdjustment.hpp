@@ -1,5 +1,5 @@
 // The sites' poses from cross-site tie points and the odometry (on the ground): every
-// site a rigid body carrying its cameras as its own pass adjusted them (OUT/sites/<id>/models, site frame),
+// site a rigid body carrying its cameras as its own pass adjusted them (its SitePass, site frame),
 // its pose and the cross-site points unknown, the odometry legs weighted observations, site 1 the datum
 // (firmware_core/adjust/SitePoseAdjuster.hpp, the ground's capacity: the whole traverse at once). A site
 // that no cross-site tie links keeps its odometry pose, and its sigma and source say so.
@@ -69,9 +69,9 @@ struct CrossSiteAdjustment {
   bool converged = false;
 };
 
-// `models_dir[k]`: the folder of site k's adjusted models (site frame; "" when the site was not mapped).
-// sigma_px: the a-priori sigma of a cross-site observation.
-CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<std::string>& models_dir,
+// `cameras[k]`: site k's cameras as its pass adjusted them (site frame; empty when the site was not
+// mapped). sigma_px: the a-priori sigma of a cross-site observation.
+CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<SiteCameras>& cameras,
                                     const std::vector<CrossSiteTie>& ties, double sigma_px);
 
 }  // namespace areomap::traverse

@@ -26,22 +26,48 @@ bool rotationOf(const CameraModel& model, Mat3& r) {
 
 }  // namespace
 
-SiteDatum siteDatum(const TraverseSite& site, const std::string& models_dir) {
-  SiteDatum out;
+SiteCameras siteCameras(const ground::SitePass& pass) {
+  SiteCameras out;
+  for (std::size_t p = 0; p < pass.dataset.pairs.size(); ++p) {
+    const Pair& pair = pass.dataset.pairs[p];
+    for (const ImageRef* ref : {&pair.left, pair.right ? &*pair.right : nullptr}) {
+      if (ref == nullptr) continue;
+      const CameraModel* adjusted = pass.adjustedOf(ref->stem);
+      if (adjusted == nullptr) continue;
+      out.push_back({ref->stem, static_cast<int>(p), *pass.aprioriOf(ref->stem), *adjusted});
+    }
+  }
+  return out;
+}
+
+SiteCameras readSiteCameras(const TraverseSite& site, const std::string& models_dir) {
+  SiteCameras out;
   const Dataset dataset = readDataset(site.dir);
-  std::vector<Vec3> corrections;  // one per pair: the mean of its images' rotation corrections (site frame)
-  for (const Pair& pair : dataset.pairs) {
-    Vec3 sum = Vec3::Zero();
-    int n = 0;
+  for (std::size_t p = 0; p < dataset.pairs.size(); ++p) {
+    const Pair& pair = dataset.pairs[p];
     for (const ImageRef* ref : {&pair.left, pair.right ? &*pair.right : nullptr}) {
       if (ref == nullptr) continue;
       const std::string adjusted = models_dir + "/" + ref->stem + ".cahvor";
       if (!std::filesystem::is_regular_file(adjusted)) continue;
       const std::string path = ref->model_path.empty() ? ref->image_path : ref->model_path;
+      out.push_back({ref->stem, static_cast<int>(p),
+                     io::readCameraModelForImage(path, ref->image_path, dataset.width, dataset.height),
+                     io::readCameraModelFile(adjusted)});
+    }
+  }
+  return out;
+}
+
+SiteDatum siteDatum(const SiteCameras& cameras) {
+  SiteDatum out;
+  std::vector<Vec3> corrections;  // one per pair: the mean of its images' rotation corrections (site frame)
+  for (std::size_t i = 0; i < cameras.size();) {
+    Vec3 sum = Vec3::Zero();
+    int n = 0;
+    const int pair = cameras[i].pair_index;
+    for (; i < cameras.size() && cameras[i].pair_index == pair; ++i) {
       Mat3 r_apriori, r_adjusted;
-      if (!rotationOf(io::readCameraModelForImage(path, ref->image_path, dataset.width, dataset.height),
-                      r_apriori) ||
-          !rotationOf(io::readCameraModelFile(adjusted), r_adjusted))
+      if (!rotationOf(cameras[i].apriori, r_apriori) || !rotationOf(cameras[i].adjusted, r_adjusted))
         continue;
       // r_adjusted = r_apriori * G^T for a rotation G of the camera about the site's axes: the correction
       // G's rotation vector, in the site frame.

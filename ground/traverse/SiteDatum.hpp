@@ -11,9 +11,12 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
 #include "ground/dataset/Traverse.hpp"
+#include "ground/pass/GroundPass.hpp"
 
 namespace areomap::traverse {
 
@@ -24,9 +27,23 @@ struct SiteDatum {
   Vec3 sigma_rad = Vec3::Zero();    // the datum's: s / sqrt(pairs)
 };
 
-// The site's a-priori models from its dataset (site.dir) against the adjusted ones in models_dir
-// (<stem>.cahvor). Images without an adjusted model are skipped. Throws cli::InputError for an unreadable
-// dataset or model.
-SiteDatum siteDatum(const TraverseSite& site, const std::string& models_dir);
+// One image of a site as its pass left it: its pair (index in the dataset), its a-priori and adjusted model
+// (site frame).
+struct SiteCamera {
+  std::string stem;
+  int pair_index = 0;
+  CameraModel apriori, adjusted;
+};
+using SiteCameras = std::vector<SiteCamera>;  // in the dataset's pair order
+
+// The cameras of a finished pass: every dataset image the pass adjusted.
+SiteCameras siteCameras(const ground::SitePass& pass);
+// The same from files: the site's a-priori models from its dataset (site.dir) and the adjusted ones in
+// models_dir (<stem>.cahvor); an image without an adjusted model is left out. Throws cli::InputError for an
+// unreadable dataset or model.
+SiteCameras readSiteCameras(const TraverseSite& site, const std::string& models_dir);
+
+// The site's a-priori models against its adjusted ones.
+SiteDatum siteDatum(const SiteCameras& cameras);
 
 }  // namespace areomap::traverse

@@ -15,8 +15,7 @@ namespace areomap::traverse {
 
 namespace {
 
-std::vector<cv::Mat> makePyramid(const std::string& path) {
-  const cv::Mat image8 = io::loadImage8(path);
+std::vector<cv::Mat> makePyramid(const cv::Mat& image8) {
   std::vector<cv::Mat> pyramid(1);
   image8.convertTo(pyramid[0], CV_32F);
   for (int l = 1; l < kPyramidLevels; ++l) {
@@ -28,12 +27,13 @@ std::vector<cv::Mat> makePyramid(const std::string& path) {
   return pyramid;
 }
 
-// Every image of the site's dataset with the model `model_of(stem)`.
-template <typename ModelPath>
-SiteProducts loadSite(const TraverseSite& site, const ModelPath& model_of) {
-  const Dataset ds = readDataset(site.dir);
+// Every image of the site's dataset: its pixels `image_of(ref)` (8-bit) with the model
+// `model_of(ref, width, height)`.
+template <typename ImageOf, typename ModelOf>
+SiteProducts loadSite(const std::string& id, const Dataset& ds, const ImageOf& image_of,
+                      const ModelOf& model_of) {
   SiteProducts s;
-  s.id = site.id;
+  s.id = id;
   for (std::size_t p = 0; p < ds.pairs.size(); ++p) {
     for (int side = 0; side < 2; ++side) {
       const ImageRef* ref =
@@ -43,17 +43,31 @@ SiteProducts loadSite(const TraverseSite& site, const ModelPath& model_of) {
       im.stem = ref->stem;
       im.pair_index = static_cast<int>(p);
       im.right = side == 1;
-      const std::string model_path = model_of(ref->stem);
-      if (!std::filesystem::exists(model_path)) {
-        throw cli::InputError(model_path, "model",
-                              "no camera model for image " + ref->stem + " of site " + site.id);
-      }
-      im.pyramid = makePyramid(ref->image_path);
-      im.model = io::readCameraModelFile(model_path, im.pyramid[0].cols, im.pyramid[0].rows);
+      im.pyramid = makePyramid(image_of(*ref));
+      im.model = model_of(*ref, im.pyramid[0].cols, im.pyramid[0].rows);
       s.images.push_back(std::move(im));
     }
   }
   return s;
+}
+
+// Every image of the site's dataset folder with the model file `model_path(stem)`.
+template <typename ModelPath>
+SiteProducts loadSite(const TraverseSite& site, const ModelPath& model_path) {
+  return loadSite(
+      site.id, readDataset(site.dir), [](const ImageRef& ref) { return io::loadImage8(ref.image_path); },
+      [&](const ImageRef& ref, int width, int height) {
+        const std::string path = model_path(ref.stem);
+        if (!std::filesystem::exists(path))
+          throw cli::InputError(path, "model",
+                                "no camera model for image " + ref.stem + " of site " + site.id);
+        return io::readCameraModelFile(path, width, height);
+      });
+}
+
+// The DEM sigma when it is on the DEM's grid.
+void setSigma(SiteProducts& s, std::optional<DemGrid> sigma) {
+  if (sigma && sigma->cols == s.dem.cols && sigma->rows == s.dem.rows) s.dem_sigma = std::move(sigma);
 }
 
 }  // namespace
@@ -73,10 +87,32 @@ SiteProducts loadSiteProducts(const TraverseSite& site, const std::string& produ
     throw cli::InputError(dem, "dem.tif", "no DEM among the products of site " + site.id);
   s.dem = readDemGeoTiff(dem);
   const std::string sigma = products_dir + "/dem_sigma.tif";
-  if (std::filesystem::exists(sigma)) {
-    s.dem_sigma = readDemGeoTiff(sigma);
-    if (s.dem_sigma->cols != s.dem.cols || s.dem_sigma->rows != s.dem.rows) s.dem_sigma.reset();
-  }
+  if (std::filesystem::exists(sigma)) setSigma(s, readDemGeoTiff(sigma));
+  return s;
+}
+
+SiteProducts siteProducts(const TraverseSite& site, const ground::SitePass& pass) {
+  if (!pass.dem)
+    throw cli::InputError(pass.out_dir + "/dem.tif", "dem.tif",
+                          "no DEM among the products of site " + site.id);
+  if (!pass.panorama)
+    throw cli::InputError(pass.out_dir, "images", "the pass of site " + site.id + " holds no images");
+  SiteProducts s = loadSite(
+      site.id, pass.dataset,
+      [&](const ImageRef& ref) {
+        const io::PanoramaImage* image = pass.panorama->find(ref.stem);
+        if (image == nullptr) throw cli::InputError(ref.image_path, "image", "not among the pass's images");
+        return image->grey;
+      },
+      [&](const ImageRef& ref, int, int) {
+        const CameraModel* model = pass.adjustedOf(ref.stem);
+        if (model == nullptr)
+          throw cli::InputError(pass.out_dir + "/models/" + ref.stem + ".cahvor", "model",
+                                "no camera model for image " + ref.stem + " of site " + site.id);
+        return *model;
+      });
+  s.dem = *pass.dem;
+  setSigma(s, pass.dem_sigma);
   return s;
 }
 

@@ -1,8 +1,8 @@
 // One site of a traverse as the cross-site tie finder sees it: its images (with a small Gaussian pyramid
 // for patches seen at another scale), its camera models and its DEM, all in the site's own frame
-// (docs/traverse.md "Frames"). Loaded from the site's ground products (areomap-ground --out:
-// models/<stem>.cahvor, dem.tif, dem_sigma.tif) or, for tests and checks, from the site's truth
-// (truth/models, truth/dem.tif).
+// (docs/traverse.md "Frames"). Made from the site's pass (ground/pass SitePass), from its ground products
+// on disk (areomap-ground --out: models/<stem>.cahvor, dem.tif, dem_sigma.tif) or, for tests and checks,
+// from the site's truth (truth/models, truth/dem.tif).
 #pragma once
 
 #include <map>
@@ -16,6 +16,7 @@
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/dataset/Traverse.hpp"
+#include "ground/pass/GroundPass.hpp"
 
 namespace areomap::traverse {
 
@@ -43,6 +44,8 @@ struct SiteProducts {
 // Reads site `site` of a traverse with its products in `products_dir` (models/<stem>.cahvor, dem.tif,
 // dem_sigma.tif when present). Throws cli::InputError / DatasetError naming the file and field.
 SiteProducts loadSiteProducts(const TraverseSite& site, const std::string& products_dir);
+// The same from the site's pass as data (its images, adjusted models, DEM and sigma).
+SiteProducts siteProducts(const TraverseSite& site, const ground::SitePass& pass);
 // The site's truth as products: truth/models and truth/dem.tif, averaged to `cell_m` cells (0: as is).
 SiteProducts loadSiteTruth(const TraverseSite& site, double cell_m);
 

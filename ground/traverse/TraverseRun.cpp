@@ -6,7 +6,6 @@
 #include <exception>
 #include <filesystem>
 #include <memory>
-#include <fstream>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -18,10 +17,10 @@
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/io/CameraFile.hpp"
-#include "ground/node/GroundPass.hpp"
-#include "ground/pass/PassProducts.hpp"
+#include "ground/pass/GroundPass.hpp"
 #include "ground/raster/RasterFiles.hpp"
 #include "ground/traverse/CrossSiteAdjustment.hpp"
+#include "ground/traverse/SitePassFiles.hpp"
 #include "ground/traverse/TraverseMatching.hpp"
 #include "ground/traverse/TraverseMosaic.hpp"
 
@@ -32,47 +31,32 @@ using json = nlohmann::json;
 
 namespace {
 
-// `key`.after.dist (or .after.z for method 2) of a site's report.json, -1 when absent.
-double figure(const json& report, const char* key, const char* field) {
-  if (!report.contains(key) || !report[key].is_object() || !report[key].contains("after")) return -1.0;
-  const json& after = report[key]["after"];
-  return after.contains(field) && after[field].is_number() ? after[field].get<double>() : -1.0;
-}
-
-// The site's own figures from its report.json (method 1-3, truth EO); false when it cannot be read.
-bool readSiteReport(SiteOutcome& s) {
-  std::ifstream in(s.out_dir + "/report.json");
-  const json report = json::parse(in, nullptr, false);
-  if (report.is_discarded()) return false;
-  s.ok = true;
-  s.method1_px = figure(report, "method1_px", "dist");
-  s.method2_m = figure(report, "method2_m", "z");
-  s.method3_px = figure(report, "method3_px", "dist");
-  if (report.contains("truth") && report["truth"].contains("eo_px") && report["truth"]["eo_px"].is_number())
-    s.truth_eo_px = report["truth"]["eo_px"].get<double>();
-  return true;
-}
-
 // One site mapped alone into OUT/sites/<id>.
 SiteOutcome runSite(const TraverseSite& site, const TraverseRunOptions& o, std::size_t k, std::size_t n) {
+  const std::string out_dir = o.out_dir + "/sites/" + site.id;
+  if (o.progress) cli::info("site " + std::to_string(k + 1) + "/" + std::to_string(n) + ": " + site.id);
+  if (o.reuse_sites && hasFinishedPass(out_dir)) {
+    try {
+      std::shared_ptr<const ground::SitePass> pass = loadSitePass(site, out_dir);
+      if (pass) {
+        if (o.progress) cli::info("site " + site.id + ": its pass is there (--reuse-sites)");
+        return siteOutcome(site.id, std::move(pass));
+      }
+    } catch (const std::exception& e) {
+      cli::warn("site " + site.id + ": its pass cannot be reused (" + e.what() + "); it is mapped again");
+    }
+  }
   SiteOutcome s;
   s.id = site.id;
-  s.out_dir = o.out_dir + "/sites/" + site.id;
-  if (o.progress) cli::info("site " + std::to_string(k + 1) + "/" + std::to_string(n) + ": " + site.id);
-  if (o.reuse_sites && fs::exists(s.out_dir + "/report.json") && fs::is_directory(s.out_dir + "/models") &&
-      readSiteReport(s)) {
-    if (o.progress) cli::info("site " + site.id + ": its pass is there (--reuse-sites)");
-    return s;
-  }
+  s.out_dir = out_dir;
   try {
     const Dataset dataset = readDataset(site.dir);
-    ground::GroundPassOptions pass;
-    pass.out_dir = s.out_dir;
-    pass.progress = o.progress;
-    if (o.products) pass.products_hook = ground::makePassProducts;
-    (void)ground::runGroundPass(dataset, pass, nullptr, nullptr);
-    s.ok = true;
-    readSiteReport(s);
+    ground::GroundPassOptions options;
+    options.out_dir = s.out_dir;
+    options.progress = o.progress;
+    options.products = o.products;
+    s = siteOutcome(site.id, std::make_shared<const ground::SitePass>(
+                                 ground::runGroundPass(dataset, options, nullptr, nullptr)));
   } catch (const std::exception& e) {
     s.error = e.what();
     cli::warn("site " + site.id + " not mapped: " + s.error);
@@ -95,21 +79,19 @@ void writePoses(const SitePoseSolution& poses, const std::string& path) {
   cli::writeFileAtomic(path, csv.str());
 }
 
-// Every mapped site's adjusted models (OUT/sites/<id>/models, site frame) in the traverse frame:
+// Every mapped site's adjusted models (its pass's, site frame) in the traverse frame:
 // OUT/models/<id>/<stem>.cahvor.
 void writeTraverseModels(const std::vector<SiteOutcome>& sites, const SitePoseSolution& poses,
                          const std::string& out_dir, TraverseResult& result) {
   for (std::size_t k = 0; k < sites.size(); ++k) {
-    const std::string from = sites[k].out_dir + "/models";
-    if (!sites[k].ok || !fs::is_directory(from)) continue;
+    if (!sites[k].ok || !sites[k].pass) continue;
+    const ground::SitePass& pass = *sites[k].pass;
     const std::string to = out_dir + "/models/" + sites[k].id;
     fs::create_directories(to);
-    for (const fs::directory_entry& f : fs::directory_iterator(from)) {
-      if (f.path().extension() != ".cahvor") continue;
-      const std::string path = to + "/" + f.path().filename().string();
+    for (std::size_t i = 0; i < pass.stems.size(); ++i) {
+      const std::string path = to + "/" + pass.stems[i] + ".cahvor";
       try {
-        io::writeCameraModelFile(
-            path, toTraverseFrame(io::readCameraModelFile(f.path().string()), poses.sites[k].pose));
+        io::writeCameraModelFile(path, toTraverseFrame(pass.adjusted[i], poses.sites[k].pose));
       } catch (const std::exception& e) {
         result.write_errors.push_back(path + ": " + e.what());
       }
@@ -125,21 +107,18 @@ raster::Geometry geometryOf(const DemGrid& g) {
 void writeMergedMap(const Traverse& traverse, const TraverseTruthInput& truth,
                     const std::vector<SiteOutcome>& sites, const SitePoseSolution& poses,
                     const TraverseRunOptions& o, TraverseResult& result) {
-  std::vector<DemGrid> dem(sites.size()), sigma(sites.size()), ortho(sites.size());
   std::vector<MosaicInput> dem_in, sigma_in, ortho_in;
   double cell = o.cell_m;
   for (std::size_t k = 0; k < sites.size(); ++k) {
-    const std::string dir = sites[k].out_dir;
-    if (!sites[k].ok || !fs::exists(dir + "/dem.tif")) continue;
-    dem[k] = readDemGeoTiff(dir + "/dem.tif");
-    if (fs::exists(dir + "/dem_sigma.tif")) sigma[k] = readDemGeoTiff(dir + "/dem_sigma.tif");
-    if (fs::exists(dir + "/ortho.tif")) ortho[k] = readDemGeoTiff(dir + "/ortho.tif");
-    if (o.cell_m <= 0.0) cell = std::max(cell, dem[k].cell_m);
+    if (!sites[k].ok || !sites[k].pass || !sites[k].pass->dem) continue;
+    const ground::SitePass& pass = *sites[k].pass;
+    if (o.cell_m <= 0.0) cell = std::max(cell, pass.dem->cell_m);
     const SitePoseEstimate& p = poses.sites[k];
-    dem_in.push_back({p.pose, &dem[k], 0.0});
+    dem_in.push_back({p.pose, &*pass.dem, 0.0});
     // The pose's vertical sigma is common to all of the site's cells.
-    if (sigma[k].cols > 0) sigma_in.push_back({p.pose, &sigma[k], p.covariance(2, 2)});
-    if (ortho[k].cols > 0) ortho_in.push_back({p.pose, &ortho[k], 0.0});
+    if (pass.dem_sigma && pass.dem_sigma->cols > 0)
+      sigma_in.push_back({p.pose, &*pass.dem_sigma, p.covariance(2, 2)});
+    if (pass.ortho && pass.ortho->cols > 0) ortho_in.push_back({p.pose, &*pass.ortho, 0.0});
   }
   if (dem_in.empty()) {
     result.warnings.push_back("No site has a dem.tif: no merged map.");
@@ -195,15 +174,15 @@ void writeMergedMap(const Traverse& traverse, const TraverseTruthInput& truth,
   }
 }
 
-// Cross-site ties matched between every pair of neighbouring sites that were mapped (their products in
-// OUT/sites/<id>); cross_ties.json says what each pair gave.
+// Cross-site ties matched between every pair of neighbouring sites that were mapped (their passes);
+// cross_ties.json says what each pair gave.
 std::vector<CrossSiteTie> matchSites(const Traverse& traverse, const std::optional<TraverseTruth>& truth,
                                      const TraverseRunOptions& o, TraverseResult& result) {
   std::vector<int> all;
   for (int k = 0; k < static_cast<int>(traverse.sites.size()); ++k) all.push_back(k);
   const SiteLoader load = [&](int k) -> std::shared_ptr<const SiteProducts> {
-    if (!result.sites[k].ok) return nullptr;
-    return std::make_shared<const SiteProducts>(loadSiteProducts(traverse.sites[k], result.sites[k].out_dir));
+    if (!result.sites[k].ok || !result.sites[k].pass) return nullptr;
+    return std::make_shared<const SiteProducts>(siteProducts(traverse.sites[k], *result.sites[k].pass));
   };
   if (o.progress) cli::info("cross-site tie points between neighbouring sites");
   const TraverseMatching matching = matchTraverse(traverse, sitePairs(traverse, all, false), load,
@@ -357,11 +336,16 @@ TraverseTruthInput readTraverseTruthInput(const Traverse& traverse) {
   return truth;
 }
 
-SiteOutcome siteOutcome(const std::string& id, const std::string& out_dir) {
+SiteOutcome siteOutcome(const std::string& id, std::shared_ptr<const ground::SitePass> pass) {
   SiteOutcome s;
   s.id = id;
-  s.out_dir = out_dir;
-  if (!readSiteReport(s)) s.error = out_dir + "/report.json: cannot be read";
+  s.out_dir = pass->out_dir;
+  s.ok = true;
+  s.method1_px = pass->report.method1_after.dist;
+  s.method2_m = pass->report.method2_after.z;
+  s.method3_px = pass->report.method3_after.dist;
+  if (pass->report.truth) s.truth_eo_px = pass->report.truth->eo_px;
+  s.pass = std::move(pass);
   return s;
 }
 
@@ -412,11 +396,12 @@ TraverseResult finishTraverse(const Traverse& traverse, std::vector<SiteOutcome>
           "odometry's (cross_ties.json says why per pair).");
   }
   if (!ties.empty()) {
-    std::vector<std::string> models;
-    for (const SiteOutcome& s : result.sites) models.push_back(s.ok ? s.out_dir + "/models" : "");
+    std::vector<SiteCameras> cameras;
+    for (const SiteOutcome& s : result.sites)
+      cameras.push_back(s.ok && s.pass ? siteCameras(*s.pass) : SiteCameras{});
     if (o.progress)
       cli::info("multi-site adjustment: " + std::to_string(ties.size()) + " cross-site observations");
-    const CrossSiteAdjustment a = adjustSitePoses(traverse, models, ties, o.cross_sigma_px);
+    const CrossSiteAdjustment a = adjustSitePoses(traverse, cameras, ties, o.cross_sigma_px);
     result.poses = a.poses;
     result.cross_site_ties = a.ties_used;
     result.cross_site_ties_rejected = a.ties_rejected;

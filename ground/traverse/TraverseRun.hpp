@@ -1,5 +1,6 @@
 // areomap-traverse's work: every site of a traverse mapped alone by the ground pass (tie points,
-// fast + integrated adjustment, products with the DEM sigma of its cameras: ground/node, ground/pass),
+// fast + integrated adjustment, products with the DEM sigma of its cameras: ground/pass, a SitePass value
+// per site that every later step works on),
 // each site placed in the traverse frame (SitePoses.hpp), and one map over the whole traverse: the
 // sites' DEM, DEM sigma and orthoimage merged by the nearest-site rule (TraverseMosaic.hpp), poses.csv
 // and report.json. A site whose pass fails keeps the others going: its status says why, and the map
@@ -12,11 +13,13 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "ground/dataset/Traverse.hpp"
+#include "ground/pass/GroundPass.hpp"
 #include "ground/traverse/SiteDatum.hpp"
 #include "ground/traverse/SitePoses.hpp"
 
@@ -49,6 +52,7 @@ struct SiteOutcome {
   double method2_m = -1.0;
   double method3_px = -1.0;
   double truth_eo_px = -1.0;  // the site's EO against its truth (synthetic sites), -1: none
+  std::shared_ptr<const ground::SitePass> pass;  // the site's pass (null: not mapped)
 };
 
 // One pair of sites the matcher tried (report.json traverse.site_pairs).
@@ -107,9 +111,8 @@ TraverseTruthInput readTraverseTruthInput(const Traverse& traverse);
 // Runs everything into options.out_dir. Throws cli::InputError for an out_dir that cannot be made.
 TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& options);
 
-// A site's outcome from its finished pass in `out_dir` (report.json figures); ok false, with `error`, when
-// report.json cannot be read.
-SiteOutcome siteOutcome(const std::string& id, const std::string& out_dir);
+// A mapped site's outcome: its pass and the pass's figures (report.json's method 1-3 and truth EO).
+SiteOutcome siteOutcome(const std::string& id, std::shared_ptr<const ground::SitePass> pass);
 
 // The traverse steps once every site's pass is done (`sites`, one per traverse site, in order): poses
 // (odometry, or the multi-site adjustment with cross-site ties), poses.csv, the sites' models in the

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -11,16 +12,12 @@
 #include "ground/dataset/Traverse.hpp"
 #include "ground/node/EventRecorder.hpp"
 #include "ground/node/GroundNode.hpp"
-#include "ground/node/GroundPass.hpp"
+#include "ground/node/Manifest.hpp"
+#include "ground/node/StreamTraverse.hpp"
+#include "ground/pass/GroundPass.hpp"
 #include "platform/TransportUrl.hpp"
 #include "platform/posix/LcmLogReplay.hpp"
 #include "platform/posix/LcmTransport.hpp"
-#ifdef AREOMAP_HAVE_PRODUCTS
-#include "ground/pass/PassProducts.hpp"
-#endif
-#ifdef AREOMAP_HAVE_TRAVERSE
-#include "ground/traverse/StreamTraverse.hpp"
-#endif
 
 namespace {
 
@@ -106,7 +103,7 @@ constexpr const char* kUsage =
 
 constexpr std::size_t kReplayBufferBytes = 16u * 1024u * 1024u;  // one log event: a stereo pair is <= ~4 MiB
 
-void printSummary(const areomap::ground::GroundPassResult& p, const std::string& out) {
+void printSummary(const areomap::ground::GroundPassResult& p, std::size_t files, const std::string& out) {
   std::printf("ground: %d pairs, %d images, %d points, %d intra + %d inter observations, %d rejected\n",
               p.pairs, p.images, p.points, p.intra_observations, p.inter_observations,
               p.rejected_observations);
@@ -120,12 +117,13 @@ void printSummary(const areomap::ground::GroundPassResult& p, const std::string&
                 p.truth_eo_before_px.value_or(-1.0), *p.truth_eo_after_px, p.truth_eo_fast_px.value_or(-1.0));
   }
   if (p.rover_vs_ground_px) std::printf("ground: rover EO vs integrated %.4f px\n", *p.rover_vs_ground_px);
-  std::printf("ground: %zu product files in %s\n", p.files.size(), out.c_str());
+  std::printf("ground: %zu product files in %s\n", files, out.c_str());
 }
 
 // DESIGN.md exit codes: a product that could not be written (full disk, folder not writable) is an error,
 // reported once every other product is made: each file named on stderr, then exit 1.
 int writeErrorsExit(const std::vector<std::string>& errors) {
+  if (errors.empty()) return 0;
   for (const std::string& e : errors)
     std::fprintf(stderr, "areomap-ground: error: not written: %s\n", e.c_str());
   std::fprintf(
@@ -135,180 +133,213 @@ int writeErrorsExit(const std::vector<std::string>& errors) {
   return 1;
 }
 
+using namespace areomap;
+
+// The command line, checked.
+struct GroundArgs {
+  std::string out;
+  std::optional<std::string> lcm, dataset_dir;
+  ground::GroundNodeOptions options;
+  bool summary_json = false;
+  bool no_record = false;
+  std::string cross_ties;
+  bool truth_cross_ties = false;
+  bool no_cross_ties = false;
+  double noise_px = 0.3;
+  std::string truth_traverse;  // --truth naming a traverse folder (with --traverse)
+};
+
+// --truth with --traverse names the traverse folder packed: each site's truth is its site folder.
+void traverseTruth(GroundArgs& a) {
+  ground::GroundNodeOptions& options = a.options;
+  if (!options.traverse || options.pass.truth_dir.empty()) return;
+  const std::string& t = options.pass.truth_dir;
+  if (!std::filesystem::is_regular_file(t + "/" + kTraverseFileName)) {
+    throw cli::InputError(t, "--truth",
+                          std::string("with --traverse, a traverse folder with ") + kTraverseFileName);
+  }
+  a.truth_traverse = t;
+  for (const TraverseSite& site : readTraverse(t).sites) options.site_truth_dirs[site.id] = site.dir;
+  options.pass.truth_dir.clear();
+}
+
+GroundArgs parseArgs(cli::Args& args) {
+  GroundArgs a;
+  a.out = args.required("--out");
+  a.lcm = args.option("--lcm");
+  a.dataset_dir = args.option("--dataset");
+  ground::GroundNodeOptions& options = a.options;
+  options.pass.out_dir = a.out;
+  options.pass.truth_dir = args.option("--truth", "");
+  options.rover_wait_s = args.number("--rover-wait-s", 1800.0);
+  options.rover_silent_s = args.number("--rover-silent-s", 300.0);
+  options.idle_timeout_s = args.number("--idle-timeout-s", 120.0);
+  options.first_message_timeout_s = args.number("--first-timeout-s", 600.0);
+  a.summary_json = args.flag("--summary-json");
+  const double panoramas = args.number("--panoramas", 1.0);
+  a.no_record = args.flag("--no-record");
+  options.pass.products = !args.flag("--no-products");
+  options.pass.use_rover_ties = !args.flag("--no-rover-ties");
+  options.stream_only = args.flag("--stream-only");
+  options.traverse = args.flag("--traverse");
+  a.cross_ties = args.option("--cross-ties", "");
+  a.truth_cross_ties = args.flag("--truth-cross-ties");
+  a.no_cross_ties = args.flag("--no-cross-ties");
+  a.noise_px = args.number("--noise-px", 0.3);
+  args.finish();
+  if (!(panoramas >= 0.0) || panoramas != static_cast<double>(static_cast<int32_t>(panoramas))) {
+    throw cli::UsageError("--panoramas needs a whole number >= 0");
+  }
+  options.panoramas = static_cast<int32_t>(panoramas);
+  if (a.lcm.has_value() == a.dataset_dir.has_value())
+    throw cli::UsageError("give exactly one of --lcm URL and --dataset DIR");
+  if (options.traverse && !a.lcm)
+    throw cli::UsageError("--traverse needs --lcm (for a traverse folder: areomap-traverse)");
+  if (!options.traverse && (a.truth_cross_ties || a.no_cross_ties || !a.cross_ties.empty()))
+    throw cli::UsageError("--cross-ties, --truth-cross-ties and --no-cross-ties go with --traverse");
+  if (int(a.truth_cross_ties) + int(a.no_cross_ties) + int(!a.cross_ties.empty()) > 1)
+    throw cli::UsageError("give at most one of --cross-ties FILE, --truth-cross-ties and --no-cross-ties");
+  traverseTruth(a);
+  for (double v : {options.rover_wait_s, options.rover_silent_s, options.idle_timeout_s,
+                   options.first_message_timeout_s}) {
+    if (!(v >= 0.0)) throw cli::UsageError("timeouts must be >= 0 seconds");
+  }
+  return a;
+}
+
+// --dataset: the pass on a folder, without LCM.
+int runOnDataset(const GroundArgs& a) {
+  const Dataset dataset = readDataset(*a.dataset_dir);
+  const ground::SitePass pass = ground::runGroundPass(dataset, a.options.pass, nullptr, nullptr);
+  const std::size_t files = ground::buildManifest(a.out).size();
+  std::printf("ground: ran on dataset %s (no LCM)\n", a.dataset_dir->c_str());
+  printSummary(pass.summary, files, a.out);
+  if (a.summary_json) {
+    std::printf("{\"pairs\": %d, \"method1_before_px\": %.6f, \"method1_after_px\": %.6f, \"files\": %zu}\n",
+                pass.summary.pairs, pass.summary.method1_before_px, pass.summary.method1_after_px, files);
+  }
+  return writeErrorsExit(pass.summary.write_errors);
+}
+
+// What the stream run gathers over its panoramas.
+struct StreamRun {
+  std::vector<std::string> write_errors;                                  // over every panorama
+  std::map<std::string, std::shared_ptr<const ground::SitePass>> passes;  // traverse: by site id
+};
+
+// The figures of one panorama as it is done: the stream, the rover, and its pass when several are made.
+void panoramaDone(const GroundArgs& a, const ground::GroundNodeResult& r, StreamRun& run) {
+  int rejected = 0;
+  for (const auto& [cause, count] : r.stream.rejected) rejected += count;
+  std::printf(
+      "stream: %d pairs, %d gaps, %d duplicates, %d reordered, %d rejected; %lld messages in %.2f s\n",
+      r.stream.pairs, r.stream.gaps, r.stream.duplicates, r.stream.reordered, rejected,
+      static_cast<long long>(r.messages), r.receive_seconds);
+  if (r.rover.status) {
+    const rover_status_t& st = *r.rover.status;
+    std::printf(
+        "rover: %d pairs seen, %d accepted, %d rejected, %d binned, %d sequence gaps; %d tie-point "
+        "messages (%d lost); heap allocations after start-up %lld; final EO %s\n",
+        st.pairs_seen, st.pairs_accepted, st.pairs_rejected, st.pairs_binned, st.sequence_gaps,
+        r.rover.tie_messages, r.rover.tie_messages_missing, static_cast<long long>(st.heap_allocs_after_init),
+        r.rover.finished ? "arrived" : "missing");
+  }
+  if (a.options.stream_only) return;
+  const std::vector<std::string>& errors = r.pass.summary.write_errors;
+  run.write_errors.insert(run.write_errors.end(), errors.begin(), errors.end());
+  if (a.options.traverse) {
+    run.passes[r.site_id] = std::make_shared<const ground::SitePass>(r.pass);
+    std::printf("site %s: products in %s\n", r.site_id.c_str(), r.out_dir.c_str());
+    printSummary(r.pass.summary, r.files.size(), r.out_dir);
+  } else if (a.options.panoramas != 1) {
+    std::printf("panorama %d: products in %s\n", r.panorama_index, r.out_dir.c_str());
+    printSummary(r.pass.summary, r.files.size(), r.out_dir);
+  }
+  std::fflush(stdout);
+}
+
+// Receives from the URL (a log replayed, or live with the recording) and makes each panorama's products.
+ground::GroundNodeResult receive(GroundArgs& a, StreamRun& run) {
+  ground::GroundNodeOptions& options = a.options;
+  const ground::PanoramaDone done = [&](const ground::GroundNodeResult& r) { panoramaDone(a, r, run); };
+  ground::GroundNodeResult result;
+  if (platform::urlScheme(a.lcm->c_str()) == platform::UrlScheme::kFile) {
+    std::vector<uint8_t> buffer(kReplayBufferBytes);
+    platform::LcmLogReplay replay(buffer.data(), buffer.size());
+    if (!ok(replay.open(a.lcm->c_str()))) throw cli::InputError(*a.lcm, "file", "cannot open the log");
+    options.can_publish = false;
+    options.log_replay = true;  // a log holds whatever was recorded: read on, never wait
+    result = ground::runGroundNode(replay, *a.lcm, options, done);
+    cli::info("log replay: AREOMAP_PRODUCT not published (a log is read-only); " +
+              std::to_string(replay.eventsTooLarge()) + " event(s) larger than the replay buffer skipped");
+    return result;
+  }
+  platform::LcmTransport transport;
+  if (!ok(transport.open(a.lcm->c_str()))) {
+    throw cli::InputError(*a.lcm, "url", "LCM cannot open it (for udpm: is there a multicast route?)");
+  }
+  cli::info(std::string("listening on ") + transport.url());
+  if (!a.no_record && !options.stream_only) options.record_path = a.out + "/" + ground::kRecordingName;
+  result = ground::runGroundNode(transport, *a.lcm, options, done);
+  if (!result.product_published) cli::warn("AREOMAP_PRODUCT could not be published");
+  if (result.record_write_errors > 0) {
+    // The products are made, but a restarted node could not resume from this recording.
+    run.write_errors.push_back(
+        options.record_path + ": " + std::to_string(result.record_write_errors) + " of " +
+        std::to_string(result.recorded + result.record_write_errors) +
+        " received messages not recorded (disk full?); a restart cannot resume from it");
+  }
+  return result;
+}
+
+// --traverse: after the last site, the traverse steps on the sites' passes.
+int finishTraverse(const GroundArgs& a, const ground::GroundNodeResult& result, StreamRun& run) {
+  traverse::StreamTraverseInputs in;
+  in.sites = result.sites;
+  in.site_counts = result.site_counts;
+  in.passes = run.passes;
+  in.truth_traverse = a.truth_traverse;
+  traverse::TraverseRunOptions o;
+  o.out_dir = a.out;
+  o.products = a.options.pass.products;
+  o.cross_ties_csv = a.cross_ties;
+  o.truth_cross_ties = a.truth_cross_ties;
+  o.match_cross_ties = !a.no_cross_ties;
+  o.truth_noise_px = a.noise_px;
+  cli::info("traverse: " + std::to_string(run.passes.size()) + " site(s) mapped; poses, merged map, report");
+  const traverse::TraverseResult r = traverse::finishStreamTraverse(in, o);
+  int mapped = 0;
+  for (const traverse::SiteOutcome& site : r.sites) mapped += site.ok ? 1 : 0;
+  std::printf("traverse: %d of %zu sites mapped, %d site announcement(s) accepted, %zu file(s) in %s\n",
+              mapped, r.sites.size(), result.site_counts.sites_announced, r.files.size(), a.out.c_str());
+  run.write_errors.insert(run.write_errors.end(), r.write_errors.begin(), r.write_errors.end());
+  return writeErrorsExit(run.write_errors);
+}
+
+// --lcm: the node over the stream, then the traverse steps or the last panorama's summary.
+int runOnStream(GroundArgs& a) {
+  if (platform::urlScheme(a.lcm->c_str()) == platform::UrlScheme::kInvalid) {
+    throw cli::UsageError("--lcm: '" + *a.lcm + "' is not a udpm://, file:// or memq:// URL");
+  }
+  StreamRun run;
+  const ground::GroundNodeResult result = receive(a, run);
+  if (a.options.stream_only) return 0;
+  if (a.options.traverse) return finishTraverse(a, result, run);
+  if (a.options.panoramas != 1) return writeErrorsExit(run.write_errors);
+  printSummary(result.pass.summary, result.files.size(), a.out);
+  if (a.summary_json) {
+    std::printf("{\"pairs\": %d, \"method1_before_px\": %.6f, \"method1_after_px\": %.6f, \"files\": %zu}\n",
+                result.pass.summary.pairs, result.pass.summary.method1_before_px,
+                result.pass.summary.method1_after_px, result.files.size());
+  }
+  return writeErrorsExit(run.write_errors);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  using namespace areomap;
   return cli::runTool("areomap-ground", argc, argv, kUsage, [](cli::Args& args) {
-    const std::string out = args.required("--out");
-    const std::optional<std::string> lcm = args.option("--lcm");
-    const std::optional<std::string> dataset_dir = args.option("--dataset");
-    ground::GroundNodeOptions options;
-    options.pass.out_dir = out;
-    options.pass.truth_dir = args.option("--truth", "");
-    options.rover_wait_s = args.number("--rover-wait-s", 1800.0);
-    options.rover_silent_s = args.number("--rover-silent-s", 300.0);
-    options.idle_timeout_s = args.number("--idle-timeout-s", 120.0);
-    options.first_message_timeout_s = args.number("--first-timeout-s", 600.0);
-    const bool summary_json = args.flag("--summary-json");
-    const double panoramas = args.number("--panoramas", 1.0);
-    const bool no_record = args.flag("--no-record");
-    const bool no_products = args.flag("--no-products");
-    options.pass.use_rover_ties = !args.flag("--no-rover-ties");
-    options.stream_only = args.flag("--stream-only");
-    options.traverse = args.flag("--traverse");
-    const std::string cross_ties = args.option("--cross-ties", "");
-    const bool truth_cross_ties = args.flag("--truth-cross-ties");
-    const bool no_cross_ties = args.flag("--no-cross-ties");
-    const double noise_px = args.number("--noise-px", 0.3);
-#ifdef AREOMAP_HAVE_PRODUCTS
-    if (!no_products) options.pass.products_hook = ground::makePassProducts;
-#else
-    (void)no_products;
-#endif
-    args.finish();
-    if (!(panoramas >= 0.0) || panoramas != static_cast<double>(static_cast<int32_t>(panoramas))) {
-      throw cli::UsageError("--panoramas needs a whole number >= 0");
-    }
-    options.panoramas = static_cast<int32_t>(panoramas);
-    if (lcm.has_value() == dataset_dir.has_value())
-      throw cli::UsageError("give exactly one of --lcm URL and --dataset DIR");
-#ifndef AREOMAP_HAVE_TRAVERSE
-    if (options.traverse) throw cli::UsageError("--traverse: this build has no ground/traverse");
-#endif
-    if (options.traverse && !lcm)
-      throw cli::UsageError("--traverse needs --lcm (for a traverse folder: areomap-traverse)");
-    if (!options.traverse && (truth_cross_ties || no_cross_ties || !cross_ties.empty()))
-      throw cli::UsageError("--cross-ties, --truth-cross-ties and --no-cross-ties go with --traverse");
-    if (int(truth_cross_ties) + int(no_cross_ties) + int(!cross_ties.empty()) > 1)
-      throw cli::UsageError("give at most one of --cross-ties FILE, --truth-cross-ties and --no-cross-ties");
-    (void)noise_px;              // used by the traverse steps only
-    std::string truth_traverse;  // --truth naming a traverse folder
-    if (options.traverse && !options.pass.truth_dir.empty()) {
-      const std::string& t = options.pass.truth_dir;
-      if (!std::filesystem::is_regular_file(t + "/" + kTraverseFileName)) {
-        throw cli::InputError(t, "--truth",
-                              std::string("with --traverse, a traverse folder with ") + kTraverseFileName);
-      }
-      truth_traverse = t;
-      for (const TraverseSite& site : readTraverse(t).sites) options.site_truth_dirs[site.id] = site.dir;
-      options.pass.truth_dir.clear();
-    }
-    std::vector<std::string> mapped_sites;
-    for (double v : {options.rover_wait_s, options.rover_silent_s, options.idle_timeout_s,
-                     options.first_message_timeout_s}) {
-      if (!(v >= 0.0)) throw cli::UsageError("timeouts must be >= 0 seconds");
-    }
-    ground::GroundPassResult pass;
-    std::vector<std::string> write_errors;  // over every panorama
-    if (dataset_dir) {
-      const Dataset dataset = readDataset(*dataset_dir);
-      pass = ground::runGroundPass(dataset, options.pass, nullptr, nullptr);
-      pass.files = ground::buildManifest(out);
-      write_errors = pass.write_errors;
-      std::printf("ground: ran on dataset %s (no LCM)\n", dataset_dir->c_str());
-    } else {
-      const platform::UrlScheme scheme = platform::urlScheme(lcm->c_str());
-      if (scheme == platform::UrlScheme::kInvalid) {
-        throw cli::UsageError("--lcm: '" + *lcm + "' is not a udpm://, file:// or memq:// URL");
-      }
-      // Per panorama: the stream figures, and the pass summary (several panoramas: each with its folder).
-      const ground::PanoramaDone done = [&](const ground::GroundNodeResult& r) {
-        std::printf(
-            "stream: %d pairs, %d gaps, %d duplicates, %d reordered, %d rejected; %lld messages in %.2f s\n",
-            r.stream.pairs, r.stream.gaps, r.stream.duplicates, r.stream.reordered,
-            [&] {
-              int n = 0;
-              for (const auto& [cause, count] : r.stream.rejected) n += count;
-              return n;
-            }(),
-            static_cast<long long>(r.messages), r.receive_seconds);
-        if (r.rover.status) {
-          const rover_status_t& st = *r.rover.status;
-          std::printf(
-              "rover: %d pairs seen, %d accepted, %d rejected, %d binned, %d sequence gaps; %d tie-point "
-              "messages (%d lost); heap allocations after start-up %lld; final EO %s\n",
-              st.pairs_seen, st.pairs_accepted, st.pairs_rejected, st.pairs_binned, st.sequence_gaps,
-              r.rover.tie_messages,
-              r.rover.tie_messages_missing, static_cast<long long>(st.heap_allocs_after_init),
-              r.rover.finished ? "arrived" : "missing");
-        }
-        if (options.stream_only) return;
-        write_errors.insert(write_errors.end(), r.pass.write_errors.begin(), r.pass.write_errors.end());
-        if (options.traverse) {
-          mapped_sites.push_back(r.site_id);
-          std::printf("site %s: products in %s\n", r.site_id.c_str(), r.out_dir.c_str());
-          printSummary(r.pass, r.out_dir);
-        } else if (options.panoramas != 1) {
-          std::printf("panorama %d: products in %s\n", r.panorama_index, r.out_dir.c_str());
-          printSummary(r.pass, r.out_dir);
-        }
-        std::fflush(stdout);
-      };
-      ground::GroundNodeResult result;
-      if (scheme == platform::UrlScheme::kFile) {
-        std::vector<uint8_t> buffer(kReplayBufferBytes);
-        platform::LcmLogReplay replay(buffer.data(), buffer.size());
-        if (!ok(replay.open(lcm->c_str()))) throw cli::InputError(*lcm, "file", "cannot open the log");
-        options.can_publish = false;
-        options.log_replay = true;  // a log holds whatever was recorded: read on, never wait
-        result = ground::runGroundNode(replay, *lcm, options, done);
-        cli::info("log replay: AREOMAP_PRODUCT not published (a log is read-only); " +
-                  std::to_string(replay.eventsTooLarge()) +
-                  " event(s) larger than the replay buffer skipped");
-      } else {
-        platform::LcmTransport transport;
-        if (!ok(transport.open(lcm->c_str()))) {
-          throw cli::InputError(*lcm, "url", "LCM cannot open it (for udpm: is there a multicast route?)");
-        }
-        cli::info(std::string("listening on ") + transport.url());
-        if (!no_record && !options.stream_only) options.record_path = out + "/" + ground::kRecordingName;
-        result = ground::runGroundNode(transport, *lcm, options, done);
-        if (!result.product_published) cli::warn("AREOMAP_PRODUCT could not be published");
-        if (result.record_write_errors > 0) {
-          // The products are made, but a restarted node could not resume from this recording.
-          write_errors.push_back(
-              options.record_path + ": " + std::to_string(result.record_write_errors) + " of " +
-              std::to_string(result.recorded + result.record_write_errors) +
-              " received messages not recorded (disk full?); a restart cannot resume from it");
-        }
-      }
-      pass = result.pass;
-      if (options.stream_only) return 0;
-#ifdef AREOMAP_HAVE_TRAVERSE
-      if (options.traverse) {
-        traverse::StreamTraverseInputs in;
-        in.sites = result.sites;
-        in.site_counts = result.site_counts;
-        in.mapped_sites = mapped_sites;
-        in.truth_traverse = truth_traverse;
-        traverse::TraverseRunOptions o;
-        o.out_dir = out;
-        o.products = !no_products;
-        o.cross_ties_csv = cross_ties;
-        o.truth_cross_ties = truth_cross_ties;
-        o.match_cross_ties = !no_cross_ties;
-        o.truth_noise_px = noise_px;
-        cli::info("traverse: " + std::to_string(mapped_sites.size()) +
-                  " site(s) mapped; poses, merged map, report");
-        const traverse::TraverseResult r = traverse::finishStreamTraverse(in, o);
-        int mapped = 0;
-        for (const traverse::SiteOutcome& site : r.sites) mapped += site.ok ? 1 : 0;
-        std::printf("traverse: %d of %zu sites mapped, %d site announcement(s) accepted, %zu file(s) in %s\n",
-                    mapped, r.sites.size(), result.site_counts.sites_announced, r.files.size(), out.c_str());
-        write_errors.insert(write_errors.end(), r.write_errors.begin(), r.write_errors.end());
-        return write_errors.empty() ? 0 : writeErrorsExit(write_errors);
-      }
-#endif
-      (void)truth_traverse;
-      if (options.panoramas != 1) return write_errors.empty() ? 0 : writeErrorsExit(write_errors);
-    }
-    printSummary(pass, out);
-    if (summary_json) {
-      std::printf(
-          "{\"pairs\": %d, \"method1_before_px\": %.6f, \"method1_after_px\": %.6f, \"files\": %zu}\n",
-          pass.pairs, pass.method1_before_px, pass.method1_after_px, pass.files.size());
-    }
-    return write_errors.empty() ? 0 : writeErrorsExit(write_errors);
+    GroundArgs a = parseArgs(args);
+    return a.dataset_dir ? runOnDataset(a) : runOnStream(a);
   });
 }

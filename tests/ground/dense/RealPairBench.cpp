@@ -1,8 +1,8 @@
 // Benchmark: areomap's dense matcher beside OpenCV StereoSGBM on one real Perseverance Navcam pair, in the
 // same run, on the same rectified pair, with areomap's matcher run as the ground pass runs it. The pair's
 // records are written as a dataset (tests/ground/pass PassChecks: writeRecordDatasets) and the ground pass
-// runs on it (ground/node runGroundPass: the ground's own tie matching, the adjustment, the hold-out check);
-// its products hook takes the products' inputs (ground/pass passProductInputs: adjusted models, ties) and
+// runs on it (ground/pass runGroundPass: the ground's own tie matching, the adjustment, the hold-out check);
+// the products' inputs come from the pass it returns (ground/pass passProductInputs: adjusted models, ties) and
 // the pair's dense inputs as the cloud stage makes them (products::pairDenseInputs), then
 // dense::pairMatchSetup gives the rectified pair, the matcher's options and the per-row parallax ranges
 // from the ties, exactly what dense::pairCloud matches. StereoSGBM gets the same rectified images and the
@@ -44,7 +44,7 @@
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dense/PairCloud.hpp"
 #include "ground/io/CameraFile.hpp"
-#include "ground/node/GroundPass.hpp"
+#include "ground/pass/GroundPass.hpp"
 #include "ground/pass/PassProducts.hpp"
 #include "tests/ground/pass/PassChecks.hpp"
 #include "tests/support/TestData.hpp"
@@ -277,15 +277,12 @@ int main(int argc, char** argv) {
     return 2;
   }
   const Dataset dataset = readDataset(dirs[0]);
-  products::ProductInputs inputs;
   ground::GroundPassOptions options;
   options.out_dir = scratch + "/out";
   options.progress = false;
-  options.products_hook = [&inputs](const ground::ProductContext& c) {
-    inputs = ground::passProductInputs(c);
-  };
   const double t_pass = nowS();
-  const ground::GroundPassResult pass = ground::runGroundPass(dataset, options, nullptr, nullptr);
+  const ground::SitePass pass = ground::runGroundPass(dataset, options, nullptr, nullptr);
+  const products::ProductInputs inputs = ground::passProductInputs(pass);
   if (inputs.pairs.empty() || inputs.pairs[0].right < 0) {
     std::fprintf(stderr, "ground_real_pair_bench: the pass made no pair\n");
     return 1;
@@ -327,9 +324,9 @@ int main(int argc, char** argv) {
       "%.1f..%.1f px (sigma %.2f px, %d inliers), per-row ranges %.0f px wide on average within %d..%d; "
       "%d pixels show the left original, %d of them see the ground within %.0f m; fastest of %d runs\n\n",
       left_json.c_str(), right_json.c_str(), inputs.images[pair.left].grey.cols,
-      inputs.images[pair.left].grey.rows, p.left.cols, p.left.rows, nowS() - t_pass, pass.points,
-      pass.rejected_observations, pass.method1_before_px, pass.method1_after_px, p.ties.size(), tie_rows[0],
-      tie_rows[1], curve.at(0, p.left.rows), curve.at(p.left.rows - 1, p.left.rows), curve.sigma_px,
+      inputs.images[pair.left].grey.rows, p.left.cols, p.left.rows, nowS() - t_pass, pass.summary.points,
+      pass.summary.rejected_observations, pass.summary.method1_before_px, pass.summary.method1_after_px,
+      p.ties.size(), tie_rows[0], tie_rows[1], curve.at(0, p.left.rows), curve.at(p.left.rows - 1, p.left.rows), curve.sigma_px,
       curve.inliers, p.ranges.empty() ? 0.0 : band / static_cast<double>(p.ranges.size()), pass_search.min_px,
       pass_search.max_px, cv::countNonZero(reg.shown), cv::countNonZero(reg.ground), range_m, repeat);
 

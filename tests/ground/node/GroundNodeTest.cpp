@@ -191,9 +191,11 @@ TEST(GroundEndToEnd, TinyThroughMemq) {
   const std::string out = options.pass.out_dir;
   std::printf("tiny via memq: %d pairs, %d points, method 1 %.3f -> %.3f px (fast %.3f), truth EO %.3f -> %.3f px "
               "(fast %.3f), fast vs integrated %.4f px, %zu files\n",
-              r.pass.pairs, r.pass.points, r.pass.method1_before_px, r.pass.method1_after_px, r.pass.method1_fast_px,
-              r.pass.truth_eo_before_px.value_or(-1), r.pass.truth_eo_after_px.value_or(-1),
-              r.pass.truth_eo_fast_px.value_or(-1), r.pass.fast_vs_ground_px.value_or(-1), r.pass.files.size());
+              r.pass.summary.pairs, r.pass.summary.points, r.pass.summary.method1_before_px,
+              r.pass.summary.method1_after_px, r.pass.summary.method1_fast_px,
+              r.pass.summary.truth_eo_before_px.value_or(-1), r.pass.summary.truth_eo_after_px.value_or(-1),
+              r.pass.summary.truth_eo_fast_px.value_or(-1), r.pass.summary.fast_vs_ground_px.value_or(-1),
+              r.files.size());
   CHECK_EQUAL(static_cast<int32_t>(d.pairs.size()), r.stream.pairs);
   CHECK_EQUAL(0, r.stream.gaps);
   for (const Pair& p : d.pairs) {
@@ -209,11 +211,11 @@ TEST(GroundEndToEnd, TinyThroughMemq) {
   CHECK_EQUAL(static_cast<int>(d.pairs.size()), report["stream"]["pairs"].get<int>());
   CHECK_EQUAL(0, report["stream"]["gaps"].get<int>());
   CHECK(report.contains("method1_px") && report.contains("truth") && report.contains("warnings"));
-  CHECK(r.pass.method1_after_px < r.pass.method1_before_px);
-  CHECK(r.pass.truth_eo_after_px.has_value());
-  CHECK(*r.pass.truth_eo_after_px < *r.pass.truth_eo_before_px);
+  CHECK(r.pass.summary.method1_after_px < r.pass.summary.method1_before_px);
+  CHECK(r.pass.summary.truth_eo_after_px.has_value());
+  CHECK(*r.pass.summary.truth_eo_after_px < *r.pass.summary.truth_eo_before_px);
   // The manifest names every product with its size and checksum, and nothing of stream/.
-  CHECK_EQUAL(static_cast<int32_t>(r.pass.files.size()), product.num_files);
+  CHECK_EQUAL(static_cast<int32_t>(r.files.size()), product.num_files);
   bool has_report = false;
   for (int32_t k = 0; k < product.num_files; ++k) {
     CHECK(product.names[k].rfind("stream/", 0) != 0);

@@ -6,13 +6,14 @@
 // rectification, dense matching, DEM) against its elevation and coverage.
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/io/Panorama.hpp"
-#include "ground/node/GroundPass.hpp"
+#include "ground/pass/GroundPass.hpp"
 #include "ground/pass/PassProducts.hpp"
 #include "ground/ties/FullResolutionTies.hpp"
 #include "ground/ties/TieRunner.hpp"
@@ -113,8 +114,8 @@ void tilePass(double x0, double y0, const std::string& name, unsigned seed) {
   ground::GroundPassOptions options;
   options.out_dir = p.dataset.root + "/out";
   options.progress = false;
-  options.products_hook = ground::makePassProducts;
-  (void)ground::runGroundPass(p.dataset, options, nullptr, nullptr, &p);
+  options.products = true;
+  (void)ground::runGroundPass(p.dataset, options, nullptr, nullptr, std::make_shared<const io::Panorama>(p));
   const DemGrid dem = readDemGeoTiff(options.out_dir + "/dem.tif");
   const CameraModel l = io::readCameraModelFile(options.out_dir + "/models/" + p.left[0].stem + ".cahvor");
   const CameraModel r = io::readCameraModelFile(options.out_dir + "/models/" + p.right[0]->stem + ".cahvor");

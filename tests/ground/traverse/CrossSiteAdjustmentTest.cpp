@@ -41,10 +41,11 @@ const std::string& threeSites() {
   return dir;
 }
 
-std::vector<std::string> trueModels(const Traverse& t) {
-  std::vector<std::string> dirs;
-  for (const TraverseSite& s : t.sites) dirs.push_back(s.dir + "/truth/models");
-  return dirs;
+// Each site's true models standing for its adjusted ones.
+std::vector<SiteCameras> trueModels(const Traverse& t) {
+  std::vector<SiteCameras> cameras;
+  for (const TraverseSite& s : t.sites) cameras.push_back(readSiteCameras(s, s.dir + "/truth/models"));
+  return cameras;
 }
 
 bool hasNote(const CrossSiteAdjustment& a, const std::string& text) {
@@ -97,7 +98,7 @@ TEST(CrossSiteAdjustment, TheDatumSigmaComesFromTheSitesOwnPointingCorrections) 
   // (A vectors) of the left images, which sees two of the three rotation axes of each pointing error.
   const Traverse t = readTraverse(threeSites());
   for (const TraverseSite& s : t.sites) {
-    const SiteDatum d = siteDatum(s, s.dir + "/truth/models");
+    const SiteDatum d = siteDatum(readSiteCameras(s, s.dir + "/truth/models"));
     const Dataset dataset = readDataset(s.dir);
     double sum2 = 0.0;
     for (const Pair& p : dataset.pairs) {
@@ -120,7 +121,7 @@ TEST(CrossSiteAdjustment, TheDatumSigmaComesFromTheSitesOwnPointingCorrections) 
   std::printf("\n");
   // Models that are the a-priori ones: no correction, no datum error.
   const TraverseSite& s = t.sites[0];
-  const SiteDatum none = siteDatum(s, s.dir + "/models");
+  const SiteDatum none = siteDatum(readSiteCameras(s, s.dir + "/models"));
   CHECK(none.known);
   CHECK(none.sigma_rad.norm() < 1e-9);
 }

@@ -1,4 +1,4 @@
-#include "ground/traverse/StreamTraverse.hpp"
+#include "ground/node/StreamTraverse.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -87,8 +87,9 @@ TraverseResult finishStreamTraverse(const StreamTraverseInputs& in, const Traver
   std::vector<SiteOutcome> outcomes;
   for (const TraverseSite& site : t.sites) {
     const std::string dir = o.out_dir + "/sites/" + site.id;
-    if (std::find(in.mapped_sites.begin(), in.mapped_sites.end(), site.id) != in.mapped_sites.end()) {
-      outcomes.push_back(siteOutcome(site.id, dir));
+    const auto pass = in.passes.find(site.id);
+    if (pass != in.passes.end() && pass->second) {
+      outcomes.push_back(siteOutcome(site.id, pass->second));
     } else {
       SiteOutcome s;
       s.id = site.id;

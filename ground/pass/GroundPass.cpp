@@ -1,4 +1,4 @@
-#include "ground/node/GroundPass.hpp"
+#include "ground/pass/GroundPass.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -20,8 +20,8 @@
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/io/CameraFile.hpp"
-#include "ground/node/EventRecorder.hpp"
-#include "ground/node/Sha256.hpp"
+#include "ground/pass/PassProducts.hpp"
+#include "ground/pass/PassReport.hpp"
 #include "ground/ties/TieAdjust.hpp"
 #include "ground/ties/TieRunner.hpp"
 #include "msgs/adapters/MessageAdapters.hpp"
@@ -68,10 +68,6 @@ double alignedDifferencePx(const EoSet& est, const EoSet& ref, const Vec3& gimba
   return std::sqrt(sum / n);
 }
 
-json differences(const ImageDifferences& d) {
-  return json{{"x", d.x}, {"y", d.y}, {"dist", d.dist}};
-}
-
 // The folder that holds truth/ for this pass ("" when none).
 std::string truthRoot(const Dataset& dataset, const std::string& truth_dir) {
   if (!truth_dir.empty()) {
@@ -101,27 +97,6 @@ TieRun roverTieRun(const Dataset& dataset, const RoverInputs& rover, TieNetwork&
     (o.kind == "inter" ? run.inter_observations : run.intra_observations) += 1;
   run.seconds = cli::nowSeconds() - start;
   return run;
-}
-
-void writeNodeReport(const std::string& out, const AdjustReport& report, const StreamCounts* stream,
-                     const RoverInputs* rover, const json& rover_json, const AdjustOutcome& fast,
-                     const GroundPassResult& result);
-
-// A product that could not be written (full disk, folder not writable: `error` names the file): recorded,
-// and the pass goes on with the other products.
-void recordWriteError(GroundPassResult& result, AdjustReport& report, const std::string& error) {
-  cli::warn("not written: " + error);
-  result.write_errors.push_back(error);
-  report.warnings.push_back("Not written: " + error);
-}
-
-// Runs one product writer; a failure (the writers throw an error naming the file) is recorded.
-void writeOrRecord(GroundPassResult& result, AdjustReport& report, const std::function<void()>& write) {
-  try {
-    write();
-  } catch (const std::exception& e) {
-    recordWriteError(result, report, e.what());
-  }
 }
 
 }  // namespace
@@ -310,101 +285,24 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   return fast;
 }
 
-// The rover's part of the products: rover_models/, rover_tiepoints.csv, its EO against the ground's, its
-// status figures (the report's "rover" object) and warnings.
-json roverFigures(const RoverInputs* rover, const Network& net, const std::vector<std::string>& stems,
-                  const std::string& out, GroundPassResult& result, AdjustReport& report) {
-  const Vec3 gimbal = net.rig.gimbal_m[0];
-  json rover_json = json::object();
-  if (rover != nullptr && rover->eo) {
-    fs::create_directories(out + "/rover_models");
-    for (const eo_entry_t& e : rover->eo->images) {
-      CameraModel model;
-      std::string why;
-      const char* field = "";
-      if (!ok(toCameraModel(e.model, model, field)) || e.stem.empty() ||
-          e.stem.find('/') != std::string::npos || !isSafeRelativePath(e.stem, why)) {
-        report.warnings.push_back("The rover's EO entry '" + e.stem + "' has no usable model; not written.");
-        continue;
-      }
-      writeOrRecord(result, report,
-                    [&] { io::writeCameraModelFile(out + "/rover_models/" + e.stem + ".cahvor", model); });
-    }
-    int32_t compared = 0;
-    result.rover_vs_ground_px = eoDifferencePx(*rover->eo, net, stems, gimbal, &compared);
-    rover_json["eo_vs_ground_px"] =
-        result.rover_vs_ground_px ? json(*result.rover_vs_ground_px) : json(nullptr);
-    rover_json["eo_images_compared"] = compared;
-    rover_json["eo_is_final"] = static_cast<bool>(rover->eo->is_final);
-    rover_json["sweeps"] = rover->eo->sweeps;
-    rover_json["rms_px"] = rover->eo->rms_px;
-    if (!rover->eo->is_final)
-      report.warnings.push_back("The rover's final EO solution did not arrive; its last one is compared.");
-  }
-  if (rover != nullptr) {
-    if (rover->status) {
-      const rover_status_t& s = *rover->status;
-      rover_json["heap_allocs_after_init"] = s.heap_allocs_after_init;
-      rover_json["static_bytes"] = s.static_bytes;  // static and start-up reserve, against the 64 MiB budget
-      const int32_t accepted = std::max(1, s.pairs_accepted);
-      double total = 0.0;
-      json stages = json::object();
-      const char* names[] = {"decode", "features", "match", "dem", "adjust", "publish"};
-      for (int k = 0; k < 6; ++k) {
-        stages[names[k]] = s.stage_seconds[k] / accepted;
-        total += s.stage_seconds[k];
-      }
-      rover_json["seconds_per_pair"] = total / accepted;
-      rover_json["stage_seconds_per_pair"] = stages;
-      rover_json["pairs_seen"] = s.pairs_seen;
-      rover_json["pairs_accepted"] = s.pairs_accepted;
-      rover_json["pairs_rejected"] = s.pairs_rejected;
-      rover_json["pairs_binned"] = s.pairs_binned;  // frames above the rover's capacity, binned to fit it
-      rover_json["sequence_gaps"] = s.sequence_gaps;
-      if (!s.last_error.empty()) report.warnings.push_back("The rover reported: " + s.last_error);
-    }
-    if (!rover->ties.empty()) {
-      writeOrRecord(result, report,
-                    [&] { writeObservationsCsv(out + "/rover_tiepoints.csv", rover->ties, true); });
-    }
-    rover_json["tiepoint_messages"] = rover->tie_messages;
-    rover_json["tiepoint_observations"] = rover->tie_observations;
-    rover_json["coarse_dem_messages"] = rover->dem_messages;
-    for (const std::string& w : rover->warnings) report.warnings.push_back(w);
-    if (!rover->eo && !rover->status)
-      report.warnings.push_back("Nothing arrived from the rover: no rover figures.");
-  }
-  return rover_json;
-}
-
 }  // namespace
 
-GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& options,
-                               const StreamCounts* stream, const RoverInputs* rover,
-                               const io::Panorama* loaded) {
-  const std::string& out = options.out_dir;
-  fs::create_directories(out);
-  GroundPassResult result;
-  AdjustReport report;
-  for (const std::string& note : dataset.notes) report.warnings.push_back(note);
+const CameraModel* SitePass::adjustedOf(const std::string& stem) const {
+  const auto it = std::find(stems.begin(), stems.end(), stem);
+  return it == stems.end() ? nullptr : &adjusted[static_cast<std::size_t>(it - stems.begin())];
+}
 
-  // The images and their a-priori models, read once when a stage first needs them (the ground's matcher,
-  // the products); the rover's ties and --no-products need neither.
-  std::optional<io::Panorama> read;
-  const auto panorama = [&]() -> const io::Panorama& {
-    if (loaded != nullptr) return *loaded;
-    if (!read) read = io::loadPanorama(dataset);
-    return *read;
-  };
+const CameraModel* SitePass::aprioriOf(const std::string& stem) const {
+  const auto it = std::find(stems.begin(), stems.end(), stem);
+  return it == stems.end() ? nullptr : &apriori[static_cast<std::size_t>(it - stems.begin())];
+}
 
-  // 1. Tie points and the network.
-  TieNetwork network;
-  const TieRun run = tiePointsStage(dataset, panorama, options, rover, network, result, report);
-  Network& net = *network.net;
-  const std::vector<std::string>& stems = network.stem_of_image;
+namespace {
 
-  // Truth (true models) when there is any.
-  const std::string truth_root = truthRoot(dataset, options.truth_dir);
+// Truth (true models) when there is any: the network's truth and its a-priori EO error.
+NetworkTruth passTruth(const Dataset& dataset, const std::string& truth_root, const Network& net,
+                       const std::vector<std::string>& stems, GroundPassResult& result,
+                       AdjustReport& report) {
   NetworkTruth truth;
   if (!truth_root.empty()) {
     Dataset truth_dataset = dataset;
@@ -420,130 +318,90 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
                                             net.rig.gimbal_m[0], true, kNominalRange_m)
                                     .eo_px;
   }
+  return truth;
+}
 
-  // 2. The fast and the integrated adjustment.
-  const AdjustOutcome fast = adjustStage(dataset, options, net, truth, result, report);
-
-  // 3. Products: the adjusted models, eo.csv, the rover's part, then the products hook and report.json.
+// Step 3: the adjusted models, eo.csv and the rover's part, written; the pass's solution kept as data.
+json adjustmentProducts(const RoverInputs* rover, TieNetwork& network, const std::string& out,
+                        SitePass& pass) {
   const double t0 = cli::nowSeconds();
+  const Network& net = *network.net;
+  const std::vector<std::string>& stems = network.stem_of_image;
+  for (int32_t i = 0; i < net.imageCount(); ++i)
+    pass.adjusted.push_back(adjustedModelOf(net, i, network.apriori_of_image[static_cast<std::size_t>(i)]));
   std::vector<std::string> model_errors;
   writeAdjustedModels(out + "/models", net, network.apriori_of_image, stems, &model_errors);
-  for (const std::string& e : model_errors) recordWriteError(result, report, e);
-  writeOrRecord(result, report, [&] { writeEoCsv(out + "/eo.csv", net, stems); });
-  const json rover_json = roverFigures(rover, net, stems, out, result, report);
-  report.seconds.emplace_back("write_adjustment", cli::nowSeconds() - t0);
-  if (options.products_hook) {
-    ProductContext context{&panorama(),
-                           out,
-                           &net,
-                           &stems,
-                           &network.apriori_of_image,
-                           &run.observations,
-                           &report,
-                           truth_root,
-                           &result.write_errors};
-    options.products_hook(context);
-  } else {
-    report.warnings.push_back(
-        "DEM, orthoimage and previews were not made (no products hook: --no-products, or ground/products not "
-        "linked).");
-  }
-  if (stream != nullptr) {
-    for (const std::string& w : stream->warnings) report.warnings.push_back(w);
-  }
-  writeOrRecord(result, report,
-                [&] { writeNodeReport(out, report, stream, rover, rover_json, fast, result); });
-  result.seconds = report.seconds;
-  result.warnings = report.warnings;
-  return result;
+  for (const std::string& e : model_errors) recordWriteError(pass.summary, pass.report, e);
+  writeOrRecord(pass.summary, pass.report, [&] { writeEoCsv(out + "/eo.csv", net, stems); });
+  const json rover_json = roverFigures(rover, net, stems, out, pass.summary, pass.report);
+  pass.report.seconds.emplace_back("write_adjustment", cli::nowSeconds() - t0);
+  return rover_json;
 }
 
-namespace {
-
-// report.json "adjustment_check": the hold-out check's figures per pair (HoldOutCheck.hpp).
-json holdOutJson(const HoldOutResult& check) {
-  json pairs = json::array();
-  for (const PairVerdict& v : check.pairs) {
-    pairs.push_back({{"pair", v.pair},
-                     {"ties", v.ties},
-                     {"wrong_ties", v.wrong_ties},
-                     {"heldout_apriori_rms_px", v.apriori_rms_px},
-                     {"heldout_adjusted_rms_px", v.adjusted_rms_px},
-                     {"improvement_px2", v.improvement_px2},
-                     {"standard_error_px2", v.standard_error_px2},
-                     {"adjusted", v.adjusted},
-                     {"reason", v.reason}});
-  }
-  return json{{"method", "k-fold cross-validation of the tie points (held-out residuals)"},
-              {"folds", check.folds},
-              {"wrong_observations", check.wrong_observations},
-              {"pairs", pairs}};
-}
-
-// report.json: ground/adjust's report, then the node's keys added to it.
-void writeNodeReport(const std::string& out, const AdjustReport& report, const StreamCounts* stream,
-                     const RoverInputs* rover, const json& rover_json, const AdjustOutcome& fast,
-                     const GroundPassResult& result) {
-  writeReportJson(out + "/report.json", report);
-  json j;
-  {
-    std::ifstream in(out + "/report.json");
-    in >> j;
-  }
-  if (stream != nullptr) {
-    j["stream"] = {{"pairs", stream->pairs},
-                   {"gaps", stream->gaps},
-                   {"duplicates", stream->duplicates},
-                   {"reordered", stream->reordered},
-                   {"rejected", stream->rejected},
-                   {"end_of_panorama", stream->end_of_panorama},
-                   {"pairs_planned", stream->pairs_planned}};
-  }
-  if (rover != nullptr) j["rover"] = rover_json;
-  j["ground"] = {{"ties", result.rover_ties_used
-                              ? "the rover's tie points (AREOMAP_TIEPOINTS)"
-                              : "the rover's matcher (firmware_core/match) run on the ground's images"},
-                 {"tie_source", result.rover_ties_used ? "rover" : "ground"},
-                 {"reference", "integrated adjustment, Ceres sparse Schur"},
-                 {"method1_fast_px", differences(fast.after)},
-                 {"fast_sweeps", fast.result.sweeps_total},
-                 {"fast_vs_integrated_px", *result.fast_vs_ground_px}};
-  if (result.truth_eo_fast_px) j["truth"]["eo_px_fast"] = *result.truth_eo_fast_px;
-  j["adjustment_check"] = holdOutJson(result.holdout);
-  cli::writeFileAtomic(out + "/report.json", j.dump(2) + "\n");
+// The DEM, ortho and previews (PassProducts.hpp), kept as data too.
+void denseProducts(const std::string& truth_root, SitePass& pass) {
+  ProductContext context{pass.panorama.get(), pass.out_dir,  &*pass.network,
+                         &pass.stems,         &pass.apriori, &pass.ties,
+                         &pass.report,        truth_root,    &pass.summary.write_errors};
+  products::ProductsResult made = makePassProducts(context);
+  pass.dem = std::move(made.dem);
+  pass.dem_sigma = std::move(made.dem_sigma);
+  pass.ortho = std::move(made.ortho);
 }
 
 }  // namespace
 
-std::vector<ManifestEntry> buildManifest(const std::string& out_dir, const std::string& exclude_prefix) {
-  std::vector<ManifestEntry> files;
-  for (const fs::directory_entry& e : fs::recursive_directory_iterator(out_dir)) {
-    if (!e.is_regular_file()) continue;
-    const std::string rel = fs::relative(e.path(), out_dir).generic_string();
-    if (!exclude_prefix.empty() && rel.rfind(exclude_prefix, 0) == 0) continue;
-    if (rel == kRecordingName) continue;
-    if (rel.find(".tmp-") != std::string::npos) continue;
-    files.push_back(ManifestEntry{rel, static_cast<int64_t>(e.file_size()), sha256File(e.path().string())});
-  }
-  std::sort(files.begin(), files.end(),
-            [](const ManifestEntry& a, const ManifestEntry& b) { return a.name < b.name; });
-  return files;
-}
+SitePass runGroundPass(const Dataset& dataset, const GroundPassOptions& options, const StreamCounts* stream,
+                       const RoverInputs* rover, std::shared_ptr<const io::Panorama> loaded) {
+  const std::string& out = options.out_dir;
+  fs::create_directories(out);
+  SitePass pass;
+  pass.out_dir = out;
+  pass.dataset = dataset;
+  pass.panorama = std::move(loaded);
+  GroundPassResult& result = pass.summary;
+  AdjustReport& report = pass.report;
+  for (const std::string& note : dataset.notes) report.warnings.push_back(note);
 
-product_t manifestMessage(const std::string& panorama, const std::string& out_dir,
-                          const std::vector<ManifestEntry>& files, int64_t sequence) {
-  product_t m;
-  m.utime = static_cast<int64_t>(cli::nowSeconds() * 1e6);
-  m.sequence = sequence;
-  m.panorama = panorama;
-  m.out_dir = out_dir;
-  m.num_files = static_cast<int32_t>(files.size());
-  for (const ManifestEntry& f : files) {
-    m.names.push_back(f.name);
-    m.bytes.push_back(f.bytes);
-    m.sha256_hex.push_back(f.sha256_hex);
+  // The images and their a-priori models, read once when a stage first needs them (the ground's matcher,
+  // the products); the rover's ties and --no-products need neither.
+  const auto panorama = [&]() -> const io::Panorama& {
+    if (!pass.panorama) pass.panorama = std::make_shared<const io::Panorama>(io::loadPanorama(dataset));
+    return *pass.panorama;
+  };
+
+  // 1. Tie points and the network.
+  TieNetwork network;
+  TieRun run = tiePointsStage(dataset, panorama, options, rover, network, result, report);
+  Network& net = *network.net;
+  const std::string truth_root = truthRoot(dataset, options.truth_dir);
+  const NetworkTruth truth = passTruth(dataset, truth_root, net, network.stem_of_image, result, report);
+
+  // 2. The fast and the integrated adjustment.
+  const AdjustOutcome fast = adjustStage(dataset, options, net, truth, result, report);
+
+  // 3. Products: the adjusted models, eo.csv, the rover's part, then the DEM and ortho, and report.json.
+  const json rover_json = adjustmentProducts(rover, network, out, pass);
+  pass.network = std::move(network.net);
+  pass.stems = std::move(network.stem_of_image);
+  pass.apriori = std::move(network.apriori_of_image);
+  pass.ties = std::move(run.observations);
+  if (options.products) {
+    panorama();
+    denseProducts(truth_root, pass);
+  } else {
+    report.warnings.push_back("DEM, orthoimage and previews were not made (--no-products).");
   }
-  return m;
+  if (stream != nullptr) {
+    for (const std::string& w : stream->warnings) report.warnings.push_back(w);
+  }
+  writeOrRecord(result, report, [&] {
+    const json j = passReportJson(report, stream, rover, rover_json, fast, result);
+    cli::writeFileAtomic(out + "/report.json", j.dump(2) + "\n");
+  });
+  result.seconds = report.seconds;
+  result.warnings = report.warnings;
+  return pass;
 }
 
 }  // namespace areomap::ground

@@ -17,7 +17,7 @@
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/Traverse.hpp"
 #include "ground/pack/Pack.hpp"
-#include "ground/traverse/StreamTraverse.hpp"
+#include "ground/node/StreamTraverse.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
 #include "msgs/adapters/MessageAdapters.hpp"

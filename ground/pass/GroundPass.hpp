@@ -1,6 +1,6 @@
-// The ground's work at the end of a panorama, on a dataset folder: either the one given
-// (`areomap-ground --dataset DIR`) or the one the ground wrote from the camera stream (full-resolution
-// images as decoded from the stream's JPEGs).
+// The ground's work at the end of a panorama, on a dataset: a folder (`areomap-ground --dataset DIR`, each
+// site of areomap-traverse) or what the node received from the camera stream (full-resolution images as
+// decoded from the stream's JPEGs, handed over in memory).
 //
 //   1. tie points: the rover's own (AREOMAP_TIEPOINTS) when they arrived complete -- the rover's final EO
 //      arrived, no TIEPOINTS message was lost, and one came for every pair the ground kept -- so the
@@ -12,61 +12,32 @@
 //      between them the hold-out check (ground/ties/HoldOutCheck.hpp) rejects wrong ties, and every pair
 //      whose cameras the adjustment does not improve on held-out ties keeps its a-priori models;
 //   3. products: models/<stem>.cahvor (integrated), eo.csv, tiepoints.csv, rover_models/<stem>.cahvor (the
-//      rover's last EO), rover_tiepoints.csv (the rover's TIEPOINTS), report.json with `stream`, `rover`
-//      (incl. eo_vs_ground_px) and `truth` when truth exists; then the products hook (DEM, ortho, previews:
-//      ground/products) when one is set.
+//      rover's last EO), rover_tiepoints.csv (the rover's TIEPOINTS); with `products` the DEM, ortho and
+//      previews (ground/products, PassProducts.hpp); last report.json with `stream`, `rover` (incl.
+//      eo_vs_ground_px) and `truth` when truth exists, made in memory and written once.
+//
+// The pass is a call that returns its data (SitePass below): the node and the traverse go on from that
+// value, not from the files it wrote.
 #pragma once
 
 #include <cstdint>
-#include <functional>
+#include <memory>
 #include <optional>
-#include <set>
 #include <string>
 #include <vector>
 
 #include "areomap/eo_solution_t.hpp"
-#include "areomap/product_t.hpp"
-#include "areomap/rover_status_t.hpp"
 #include "firmware_core/adjust/Network.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/adjust/AdjustProducts.hpp"
 #include "ground/dataset/Dataset.hpp"
+#include "ground/dataset/DemRaster.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/Panorama.hpp"
-#include "ground/node/StreamCollector.hpp"
+#include "ground/pass/PassInputs.hpp"
 #include "ground/ties/HoldOutCheck.hpp"
 
 namespace areomap::ground {
-
-// What the rover sent (absent when it did not run or nothing arrived).
-struct RoverInputs {
-  std::optional<eo_solution_t> eo;
-  std::optional<rover_status_t> status;
-  int32_t tie_messages = 0;
-  int32_t tie_observations = 0;
-  int32_t dem_messages = 0;
-  std::vector<ImageObservation> ties;  // written as rover_tiepoints.csv
-  std::set<int32_t> tie_pairs;         // pairs that a TIEPOINTS message came for
-  int32_t tie_messages_missing = 0;    // TIEPOINTS sequence numbers never received
-  bool finished = false;               // the rover's final EO (or FINISHED status) arrived
-  std::vector<std::string> warnings;
-};
-
-// Handed to the products hook after the adjustment products are written.
-struct ProductContext {
-  const io::Panorama* panorama = nullptr;  // the dataset with its images and a-priori models, loaded once
-  std::string out_dir;
-  const Network* net = nullptr;                         // the integrated solution
-  const std::vector<std::string>* stems = nullptr;      // per network image
-  const std::vector<CameraModel>* apriori = nullptr;    // per network image
-  const std::vector<ImageObservation>* ties = nullptr;  // tie observations (image = stem)
-  AdjustReport* report = nullptr;  // add stage timings, warnings, truth.dem_rmse_m (written after the hook)
-  std::string truth_root;          // the folder holding truth/ ("" when none)
-  // The hook appends one message per product it could not write (naming the file; ProductsResult::
-  // write_errors); they end up in GroundPassResult::write_errors.
-  std::vector<std::string>* write_errors = nullptr;
-};
-using ProductsHook = std::function<void(const ProductContext&)>;
 
 struct GroundPassOptions {
   std::string out_dir;
@@ -74,13 +45,7 @@ struct GroundPassOptions {
   std::string truth_dir;
   bool progress = true;
   bool use_rover_ties = true;  // false: always run the matcher on the ground's images
-  ProductsHook products_hook;  // unset: only the adjustment products
-};
-
-struct ManifestEntry {
-  std::string name;  // relative to the out dir
-  int64_t bytes = 0;
-  std::string sha256_hex;
+  bool products = false;       // the DEM, ortho, previews (ground/products); false: the adjustment's alone
 };
 
 struct GroundPassResult {
@@ -105,7 +70,6 @@ struct GroundPassResult {
   std::optional<double> fast_vs_ground_px;   // the ground's own fast solution against it
   std::vector<std::pair<std::string, double>> seconds;
   std::vector<std::string> warnings;
-  std::vector<ManifestEntry> files;
   // Products that could not be written (full disk, folder not writable), one message each naming the file.
   // The pass goes on with the other products; areomap-ground then exits 1 (DESIGN.md exit codes).
   std::vector<std::string> write_errors;
@@ -113,15 +77,35 @@ struct GroundPassResult {
 
 // Whether the rover's tie points can stand for the panorama's: "" when they can, else the reason (also
 // when the rover binned frames above its capacity: the ground then matches at full resolution).
+// One site's pass as data: what it was given, what it solved and what it made (the same as its files).
+struct SitePass {
+  std::string out_dir;
+  Dataset dataset;
+  std::shared_ptr<const io::Panorama> panorama;  // its images and a-priori models (null: never loaded)
+  std::shared_ptr<const Network> network;        // the integrated solution (null: rebuilt from files)
+  std::vector<std::string> stems;                // per network image
+  std::vector<CameraModel> apriori;              // per network image
+  std::vector<CameraModel> adjusted;             // per network image: models/<stem>.cahvor
+  std::vector<ImageObservation> ties;            // the adjusted tie observations (image = stem)
+  // The products (absent without products, or when the pass made none): dem.tif, dem_sigma.tif, and
+  // ortho.tif as grey values on its grid (nodata 0).
+  std::optional<DemGrid> dem, dem_sigma, ortho;
+  AdjustReport report;       // report.json's figures (method 1-3, truth, warnings, timings)
+  GroundPassResult summary;  // the console's figures and the products not written
+  // The a-priori model and the adjusted model of a stem, nullptr when the network has no such image.
+  const CameraModel* adjustedOf(const std::string& stem) const;
+  const CameraModel* aprioriOf(const std::string& stem) const;
+};
+
 std::string roverTiesIncomplete(const Dataset& dataset, const RoverInputs& rover);
 
-// Runs the pass and writes the products. Throws cli::InputError on bad input or an unsolvable network; a
-// product that cannot be written does not stop the pass: it is named in `write_errors` (and report.json's
-// warnings when report.json itself can be written). The images and a-priori models are read once, when a
-// stage first needs them, or come from `loaded` (the same dataset, already loaded: a stream's images).
-GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& options,
-                               const StreamCounts* stream, const RoverInputs* rover,
-                               const io::Panorama* loaded = nullptr);
+// Runs the pass, writes the products and returns them as data. Throws cli::InputError on bad input or an
+// unsolvable network; a product that cannot be written does not stop the pass: it is named in
+// `summary.write_errors` (and report.json's warnings when report.json itself can be written). The images
+// and a-priori models are read once, when a stage first needs them, or come from `loaded` (the same
+// dataset, already loaded: a stream's images).
+SitePass runGroundPass(const Dataset& dataset, const GroundPassOptions& options, const StreamCounts* stream,
+                       const RoverInputs* rover, std::shared_ptr<const io::Panorama> loaded = nullptr);
 
 // RMS pixel-equivalent difference (f x (angle + |dC| / 5 m)) between the rover's EO and the network's
 // current EO over the images both have (by stem), after removing their best-fit common rotation about
@@ -129,11 +113,5 @@ GroundPassResult runGroundPass(const Dataset& dataset, const GroundPassOptions& 
 std::optional<double> eoDifferencePx(const eo_solution_t& rover, const Network& net,
                                      const std::vector<std::string>& stems, const Vec3& gimbal_m,
                                      int32_t* compared = nullptr);
-
-// Every file under out_dir (recursively, sorted), except `exclude_prefix` ("" = none) and the node's
-// recording (kRecordingName at the top).
-std::vector<ManifestEntry> buildManifest(const std::string& out_dir, const std::string& exclude_prefix = "");
-product_t manifestMessage(const std::string& panorama, const std::string& out_dir,
-                          const std::vector<ManifestEntry>& files, int64_t sequence);
 
 }  // namespace areomap::ground

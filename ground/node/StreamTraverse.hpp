@@ -1,17 +1,21 @@
-// The traverse steps of `areomap-ground --traverse`: after the ground node has mapped each site's panorama
-// from the LCM stream into OUT/sites/<id>/ (GroundNode.hpp, traverse mode), the traverse that the site
-// announcements (AREOMAP_SITE, msgs/site_t.lcm) describe is rebuilt, written as OUT/traverse.json (its
-// sites' datasets are OUT/sites/<id>/stream, the images as received) and handed to finishTraverse
-// (TraverseRun.hpp), the code areomap-traverse runs after its own per-site passes: poses.csv, the sites'
-// models in the traverse frame, the merged dem/dem_sigma/ortho and report.json.
+// The traverse steps of `areomap-ground --traverse`, the stream side of the traverse: after the ground
+// node has mapped each site's panorama from the LCM stream into OUT/sites/<id>/ (GroundNode.hpp, traverse
+// mode), the traverse that the site announcements (AREOMAP_SITE, msgs/site_t.lcm) describe is rebuilt,
+// written as OUT/traverse.json (its sites' datasets are OUT/sites/<id>/stream, the images as received) and
+// handed with the sites' passes (SitePass values) to finishTraverse (ground/traverse/TraverseRun.hpp), the
+// code areomap-traverse runs after its own per-site passes: poses.csv, the sites' models in the traverse
+// frame, the merged dem/dem_sigma/ortho and report.json.
 #pragma once
 
+#include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "areomap/site_t.hpp"
 #include "ground/dataset/Traverse.hpp"
 #include "ground/node/StreamCollector.hpp"
+#include "ground/pass/GroundPass.hpp"
 #include "ground/traverse/TraverseRun.hpp"
 
 namespace areomap::traverse {
@@ -27,7 +31,8 @@ Traverse traverseFromAnnouncements(const std::vector<site_t>& sites, const std::
 struct StreamTraverseInputs {
   std::vector<site_t> sites;              // accepted announcements (GroundNodeResult::sites)
   ground::SiteStreamCounts site_counts;   // refusals
-  std::vector<std::string> mapped_sites;  // site ids whose panorama was made into OUT/sites/<id>
+  // The passes of the sites whose panorama was made into OUT/sites/<id>, by site id.
+  std::map<std::string, std::shared_ptr<const ground::SitePass>> passes;
   std::string truth_traverse;             // a traverse folder with truth/ (the dataset packed), "" none
 };
 
