@@ -56,8 +56,8 @@ OrderedJson attitudeJson(const RoverAttitude& a) {
 }
 
 // {"roll_deg": r, "pitch_deg": p} (optional member `key` of `object`).
-std::optional<RoverAttitude> readAttitude(const JsonFieldReader& r, const Json& object, const std::string& key,
-                                          const std::string& field) {
+std::optional<RoverAttitude> readAttitude(const JsonFieldReader& r, const Json& object,
+                                          const std::string& key, const std::string& field) {
   if (!object.contains(key) || object[key].is_null()) return std::nullopt;
   const Json& j = object[key];
   if (!j.is_object()) r.fail(field, "expected an object {\"roll_deg\": r, \"pitch_deg\": p}");
@@ -305,7 +305,8 @@ void writeTraverseTruth(const TraverseTruth& truth, const std::string& dir) {
   OrderedJson sites = OrderedJson::array();
   for (std::size_t i = 0; i < truth.poses.size(); ++i) {
     OrderedJson site = {{"id", truth.ids[i]}, {"pose", poseJson(truth.poses[i])}};
-    if (i < truth.attitudes.size() && truth.attitudes[i]) site["attitude"] = attitudeJson(*truth.attitudes[i]);
+    if (i < truth.attitudes.size() && truth.attitudes[i])
+      site["attitude"] = attitudeJson(*truth.attitudes[i]);
     sites.push_back(site);
   }
   root["sites"] = sites;

@@ -68,7 +68,7 @@ struct TraverseSite {
   std::string dir;                      // resolved: the traverse folder / path
   SiteKind kind = SiteKind::kPanorama;  // traverse.json "kind" (optional, default "panorama")
   SitePose apriori;
-  std::optional<OdometryLeg> odometry;  // absent for the first site
+  std::optional<OdometryLeg> odometry;    // absent for the first site
   std::optional<RoverAttitude> attitude;  // a priori, traverse.json "attitude" (optional)
   double attitude_sigma_rad = 0.0;        // its sigma per axis (roll, pitch); set with `attitude`
 };

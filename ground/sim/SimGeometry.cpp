@@ -56,10 +56,10 @@ HeadCamera headCamera(const SimConfig& c, bool right) {
 
 // A camera of the head at its true and a-priori pointing. `tilt_axis_*` is the site-frame offset of the tilt
 // axis from the gimbal centre (zero unless the mast is FIDO-like), turned by the pan alone.
-SimCamera placeCamera(const SimConfig& c, const Eigen::Vector3d& gimbal, const Eigen::Vector3d& gimbal_apriori,
-                      const Eigen::Matrix3d& head_true, const Eigen::Matrix3d& head_apriori,
-                      const Eigen::Vector3d& tilt_axis_true, const Eigen::Vector3d& tilt_axis_apriori, bool right,
-                      const std::string& stem) {
+SimCamera placeCamera(const SimConfig& c, const Eigen::Vector3d& gimbal,
+                      const Eigen::Vector3d& gimbal_apriori, const Eigen::Matrix3d& head_true,
+                      const Eigen::Matrix3d& head_apriori, const Eigen::Vector3d& tilt_axis_true,
+                      const Eigen::Vector3d& tilt_axis_apriori, bool right, const std::string& stem) {
   const HeadCamera hc = headCamera(c, right);
   const double f = c.focalPx();
   const double x0 = 0.5 * (c.width - 1) + (right ? 1.1 : 2.3);
@@ -259,12 +259,15 @@ SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain,
       const double direction = 2.0 * M_PI * u(rng);
       p.tilt_error_rad = p.pointing_error_px / f * std::sin(direction);
       p.pan_error_rad = p.pointing_error_px / f * std::cos(direction) / std::cos(p.tilt_deg * kDeg);
-      const Eigen::Matrix3d head_true = onRover(rover_true, headRotation(p.pan_deg * kDeg, p.tilt_deg * kDeg));
-      const Eigen::Matrix3d head_apriori = onRover(
-          rover_apriori, headRotation(p.pan_deg * kDeg + p.pan_error_rad, p.tilt_deg * kDeg + p.tilt_error_rad));
+      const Eigen::Matrix3d head_true =
+          onRover(rover_true, headRotation(p.pan_deg * kDeg, p.tilt_deg * kDeg));
+      const Eigen::Matrix3d head_apriori =
+          onRover(rover_apriori,
+                  headRotation(p.pan_deg * kDeg + p.pan_error_rad, p.tilt_deg * kDeg + p.tilt_error_rad));
       const Eigen::Vector3d forward(config.tilt_axis_forward_m, 0.0, 0.0);
       const Eigen::Vector3d axis_true = onRoverV(rover_true, rotZ(p.pan_deg * kDeg) * forward);
-      const Eigen::Vector3d axis_apriori = onRoverV(rover_apriori, rotZ(p.pan_deg * kDeg + p.pan_error_rad) * forward);
+      const Eigen::Vector3d axis_apriori =
+          onRoverV(rover_apriori, rotZ(p.pan_deg * kDeg + p.pan_error_rad) * forward);
       p.left = placeCamera(config, g.gimbal_m, g.apriori_gimbal_m, head_true, head_apriori, axis_true,
                            axis_apriori, false, stemOf(index, false));
       if (!plan.left_only) {

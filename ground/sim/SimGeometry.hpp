@@ -57,9 +57,9 @@ struct SimGeometry {
   SimConfig config;
   Eigen::Vector3d gimbal_m = Eigen::Vector3d::Zero();          // site frame, true
   Eigen::Vector3d apriori_gimbal_m = Eigen::Vector3d::Zero();  // a priori (panorama.json): the same, levelled
-  Eigen::Vector3d left_offset_m = Eigen::Vector3d::Zero();   // M_L (C_L - X_G), Eq. 3
-  Eigen::Vector3d right_offset_m = Eigen::Vector3d::Zero();  // M_R (C_R - X_G), Eq. 3
-  Eigen::Vector3d base_m = Eigen::Vector3d::Zero();          // M_L (C_R - C_L), Eq. 4
+  Eigen::Vector3d left_offset_m = Eigen::Vector3d::Zero();     // M_L (C_L - X_G), Eq. 3
+  Eigen::Vector3d right_offset_m = Eigen::Vector3d::Zero();    // M_R (C_R - X_G), Eq. 3
+  Eigen::Vector3d base_m = Eigen::Vector3d::Zero();            // M_L (C_R - C_L), Eq. 4
   std::vector<SimPair> pairs;
   std::vector<CheckPoint> points;              // true 3-D check points on the surface
   std::vector<ImageObservation> observations;  // their true (distorted) pixels, image = stem

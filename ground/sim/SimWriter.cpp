@@ -89,14 +89,15 @@ nlohmann::json traverseJson(const SimGeometry& g) {
   for (const Eigen::Vector2d& xy : c.rover_xy_m) rovers.push_back({xy.x(), xy.y()});
   const SitePose& pose = *g.terrain_from_site;
   nlohmann::json j = {{"terrain_center_m", {c.terrain_center_m.x(), c.terrain_center_m.y()}},
-          {"cover_half_extent_m", c.cover_half_extent_m},
-          {"rover_xy_m", rovers},
-          {"true_pose",
-           {{"position_m", {pose.position_m.x(), pose.position_m.y(), pose.position_m.z()}},
-            {"heading_deg", pose.heading_rad * 180.0 / M_PI}}}};
+                      {"cover_half_extent_m", c.cover_half_extent_m},
+                      {"rover_xy_m", rovers},
+                      {"true_pose",
+                       {{"position_m", {pose.position_m.x(), pose.position_m.y(), pose.position_m.z()}},
+                        {"heading_deg", pose.heading_rad * 180.0 / M_PI}}}};
   if (g.stance) {
     auto attitude = [](const RoverAttitude& a) {
-      return nlohmann::json{{"roll_deg", a.roll_rad * 180.0 / M_PI}, {"pitch_deg", a.pitch_rad * 180.0 / M_PI}};
+      return nlohmann::json{{"roll_deg", a.roll_rad * 180.0 / M_PI},
+                            {"pitch_deg", a.pitch_rad * 180.0 / M_PI}};
     };
     j["true_attitude"] = attitude(g.stance->truth);
     j["apriori_attitude"] = attitude(g.stance->apriori);

@@ -64,11 +64,11 @@ struct RoverStance {
 };
 
 struct TraversePlan {
-  std::vector<std::string> ids;   // "site01", "stop01-1", "site02", ... in driving order
-  std::vector<SiteKind> kinds;    // kPanorama or kStop, per site
-  std::vector<SitePose> truth;    // true poses in the traverse frame
-  std::vector<SitePose> apriori;  // dead-reckoned from the odometry
-  std::vector<OdometryLeg> legs;  // legs[k - 1]: from site k - 1 to site k (0-based sites)
+  std::vector<std::string> ids;      // "site01", "stop01-1", "site02", ... in driving order
+  std::vector<SiteKind> kinds;       // kPanorama or kStop, per site
+  std::vector<SitePose> truth;       // true poses in the traverse frame
+  std::vector<SitePose> apriori;     // dead-reckoned from the odometry
+  std::vector<OdometryLeg> legs;     // legs[k - 1]: from site k - 1 to site k (0-based sites)
   std::vector<RoverStance> stances;  // per site on sloped ground; empty on a level world
   double distanceM() const;
 };
@@ -91,7 +91,8 @@ TraversePlan planTraverse(const TraverseSettings& settings, uint64_t seed,
 
 // The rover at `pose` standing on the ground `ground_elevation_up_m` (traverse frame): the true attitude and
 // base from the plane through its wheel contacts (kWheelContacts); `apriori` is left equal to the truth.
-RoverStance standOnGround(const SitePose& pose, const std::function<double(double, double)>& ground_elevation_up_m);
+RoverStance standOnGround(const SitePose& pose,
+                          const std::function<double(double, double)>& ground_elevation_up_m);
 
 // The pose reached from `from` by the displacement `delta_m` (in from's frame) and heading change.
 SitePose composePose(const SitePose& from, const Eigen::Vector3d& delta_m, double delta_heading_rad);

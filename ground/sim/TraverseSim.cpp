@@ -15,7 +15,7 @@ namespace {
 
 constexpr uint64_t kSiteSeedStream = 0x517e;
 constexpr double kMaxTerrainMarginM = 30.0;  // the default fine margin at most (navcam's top rows see ~25 m)
-constexpr uint64_t kSlopeStream = 0x5109e;     // where the swells' steepest circle crosses the path
+constexpr uint64_t kSlopeStream = 0x5109e;   // where the swells' steepest circle crosses the path
 
 }  // namespace
 
@@ -51,8 +51,8 @@ SimConfig traverseTerrainConfig(const TraverseSimConfig& config, const TraverseP
       if (plan.kinds[k] == SiteKind::kPanorama) panoramas.push_back(k);
     }
     const uint64_t h = hash3(config.seed, kSlopeStream, 0);
-    const std::size_t pick = std::min(panoramas.size() - 1, static_cast<std::size_t>(unit(mix64(h + 1)) *
-                                                                                      panoramas.size()));
+    const std::size_t pick =
+        std::min(panoramas.size() - 1, static_cast<std::size_t>(unit(mix64(h + 1)) * panoramas.size()));
     const double azimuth = 2.0 * M_PI * unit(mix64(h + 2));
     t.slope_center_m = plan.truth[panoramas[pick]].position_m.head<2>() -
                        0.25 * kSlopeWavelengthM * Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));

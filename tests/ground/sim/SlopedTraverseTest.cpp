@@ -67,7 +67,8 @@ Eigen::Vector3d downAxis(const SitePose& pose, const RoverAttitude& attitude) {
 
 // The downward normal of the plane fitted (least squares, Eigen's solver) to an elevation over the rover's
 // whole footprint (1.6 m x 1.4 m, 5 cm steps) about a site: independent of the six wheel contacts.
-Eigen::Vector3d footprintNormal(const std::function<double(double, double)>& elevation, const SitePose& pose) {
+Eigen::Vector3d footprintNormal(const std::function<double(double, double)>& elevation,
+                                const SitePose& pose) {
   std::vector<Eigen::Vector3d> rows;
   std::vector<double> heights;
   for (double x = -0.8; x <= 0.8 + 1e-9; x += 0.05) {
@@ -137,14 +138,17 @@ TEST(SlopedTraverse, EachRoverStandsOnTheTerrainTiltedByItsWheelsWithTheMastAbov
     CHECK(truth.attitudes[k].has_value());
     const SitePose& pose = truth.poses[k];
     const Eigen::Vector3d down = downAxis(pose, *truth.attitudes[k]);
-    worst_normal = std::max(worst_normal, angleDeg(down, footprintNormal([&](double x, double y) { return terrain.elevation(x, y); }, pose)));
+    worst_normal = std::max(
+        worst_normal,
+        angleDeg(down, footprintNormal([&](double x, double y) { return terrain.elevation(x, y); }, pose)));
     // The rover's base: on the terrain under its centre, to within the relief under its wheels.
     const Dataset ds = readDataset(t.sites[k].dir);
     const CameraModel left = io::readCameraModelFile(t.sites[k].dir + "/" + kTruthModelsFolder + "/" +
                                                      ds.pairs[0].left.stem + ".cahvor");
     // The true gimbal from a true model and the rig's offset (Eq. 3), in the traverse frame: mast_m above
     // a base point on the rover's up axis, that base within a few cm of the terrain under the centre.
-    const Eigen::Vector3d gimbal = pose.toTraverse(left.c - rotationOf(left).transpose() * *ds.rig.left_offset_m);
+    const Eigen::Vector3d gimbal =
+        pose.toTraverse(left.c - rotationOf(left).transpose() * *ds.rig.left_offset_m);
     const Eigen::Vector3d base = gimbal + mast_m * down;
     worst_gimbal = std::max(worst_gimbal, (base.head<2>() - pose.position_m.head<2>()).norm());
     for (const auto& wheel : kWheelContacts) {
@@ -153,9 +157,10 @@ TEST(SlopedTraverse, EachRoverStandsOnTheTerrainTiltedByItsWheelsWithTheMastAbov
       worst_wheel = std::max(worst_wheel, std::fabs((contact - base).dot(down)));  // off the rover's plane
     }
   }
-  printf("\nsloped traverse: rover's up axis vs the footprint's fitted plane: worst %.2f deg; wheel contacts "
-         "off the rover's base plane: worst %.3f m; base vs site centre %.2g m\n",
-         worst_normal, worst_wheel, worst_gimbal);
+  printf(
+      "\nsloped traverse: rover's up axis vs the footprint's fitted plane: worst %.2f deg; wheel contacts "
+      "off the rover's base plane: worst %.3f m; base vs site centre %.2g m\n",
+      worst_normal, worst_wheel, worst_gimbal);
   // The six wheels sample the relief of a 1.4 m x 1.2 m footprint (relief_m 0.25 RMS over wavelengths of
   // 32 m down to a few cells): the small-scale relief there tilts a plane through six points from the
   // footprint's best plane by a degree or so, and lifts a wheel a few cm off it.
@@ -185,7 +190,8 @@ TEST(SlopedTraverse, TheSlopesAlongThePathReachTheMaximum) {
   auto swell = [&](double x, double y) { return sloped.elevation(x, y) - level.elevation(x, y); };
   double swell_steepest = 0.0;
   for (const SitePose& pose : truth.poses) {
-    swell_steepest = std::max(swell_steepest, angleDeg(footprintNormal(swell, pose), Eigen::Vector3d::UnitZ()));
+    swell_steepest =
+        std::max(swell_steepest, angleDeg(footprintNormal(swell, pose), Eigen::Vector3d::UnitZ()));
   }
   double steepest = 0.0, flattest = 90.0;
   for (std::size_t k = 0; k < t.sites.size(); ++k) {
@@ -193,9 +199,10 @@ TEST(SlopedTraverse, TheSlopesAlongThePathReachTheMaximum) {
     steepest = std::max(steepest, tilt);
     flattest = std::min(flattest, tilt);
   }
-  printf("\nsloped traverse, S = %.0f deg: the swells under the rovers reach %.3f deg; the rovers' tilts "
-         "%.2f..%.2f deg\n",
-         kSlopeDeg, swell_steepest, flattest, steepest);
+  printf(
+      "\nsloped traverse, S = %.0f deg: the swells under the rovers reach %.3f deg; the rovers' tilts "
+      "%.2f..%.2f deg\n",
+      kSlopeDeg, swell_steepest, flattest, steepest);
   DOUBLES_EQUAL(kSlopeDeg, swell_steepest, 0.2);
   DOUBLES_EQUAL(kSlopeDeg, steepest, 3.5);
 }
@@ -227,7 +234,8 @@ TEST(SlopedTraverse, TraverseJsonCarriesTheImuAttitudeAndTheTruthTheTrueOne) {
     const Eigen::Vector3d true_mast = truth.attitudes[k]->rotation() * Eigen::Vector3d(0, 0, -1);
     const CameraModel true_left = io::readCameraModelFile(t.sites[k].dir + "/" + kTruthModelsFolder + "/" +
                                                           ds.pairs[0].left.stem + ".cahvor");
-    const Eigen::Vector3d true_gimbal = true_left.c - rotationOf(true_left).transpose() * *ds.rig.left_offset_m;
+    const Eigen::Vector3d true_gimbal =
+        true_left.c - rotationOf(true_left).transpose() * *ds.rig.left_offset_m;
     // Both gimbals on their mast from one base: base = gimbal - mast_m * up.
     const double mast_m = slopedTraverse().site.mast_m;
     CHECK(((gimbal - mast_m * mast) - (true_gimbal - mast_m * true_mast)).norm() < 1e-6);
@@ -253,8 +261,8 @@ TEST(SlopedTraverse, TheTrueModelsSeeWhatTheRendererDrew) {
     std::map<std::string, RenderedImage> images;
     for (const Pair& p : ds.pairs) {
       for (const ImageRef* side : {&p.left, &*p.right}) {
-        const CameraModel m = io::readCameraModelFile(t.sites[k].dir + "/" + kTruthModelsFolder + "/" +
-                                                      side->stem + ".cahvor");
+        const CameraModel m =
+            io::readCameraModelFile(t.sites[k].dir + "/" + kTruthModelsFolder + "/" + side->stem + ".cahvor");
         models[side->stem] = movedModel(m, pose.rotation(), pose.toTraverse(m.c));
         const Eigen::Matrix3d back = pose.rotation() * attitude.transpose();
         levelled[side->stem] = movedModel(m, back, pose.toTraverse(m.c));
@@ -279,9 +287,10 @@ TEST(SlopedTraverse, TheTrueModelsSeeWhatTheRendererDrew) {
       }
     }
   }
-  printf("\nsloped traverse: 11x11 warped NCC at the true observations: %zu points, median %.3f (levelled "
-         "models: %.3f)\n",
-         values.size(), values.empty() ? 0.0 : median(values), control.empty() ? 0.0 : median(control));
+  printf(
+      "\nsloped traverse: 11x11 warped NCC at the true observations: %zu points, median %.3f (levelled "
+      "models: %.3f)\n",
+      values.size(), values.empty() ? 0.0 : median(values), control.empty() ? 0.0 : median(control));
   CHECK(values.size() >= 200u);
   CHECK(median(values) >= 0.9);
   CHECK(median(control) < 0.5);
@@ -329,8 +338,8 @@ TEST(SlopedTraverse, AprioriModelsAreTheTrueOnesTurnedAboutTheBaseByTheAttitudeE
 TEST(SlopedTraverse, TheToolTakesTheSlopeOptionsOnlyForATraverse) {
   const std::string dir = test::scratchDir("sloped-traverse-tool");
   const std::string traverse = "--preset traverse --camera tiny --sites 2 --no-images ";
-  CHECK_EQUAL(0, test::runTool("areomap-sim", traverse + "--max-slope-deg 8 --tilt-sigma-deg 0.5 --out " + dir +
-                                                  "/sloped"));
+  CHECK_EQUAL(0, test::runTool("areomap-sim",
+                               traverse + "--max-slope-deg 8 --tilt-sigma-deg 0.5 --out " + dir + "/sloped"));
   const Traverse t = readTraverse(dir + "/sloped");
   CHECK(t.sites[1].attitude.has_value());
   DOUBLES_EQUAL(0.5 * kDeg, t.sites[1].attitude_sigma_rad, 1e-15);

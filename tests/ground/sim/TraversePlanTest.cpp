@@ -339,8 +339,8 @@ TEST(TraversePlan, ARoverOnAPlaneTakesThePlanesTilt) {
     DOUBLES_EQUAL(plane(4.0, -3.0), stance.base_elevation_m, 1e-12);
     // The rover's forward axis stays in the vertical plane of its heading (no yaw).
     const Eigen::Vector3d forward = pose.rotation() * stance.truth.rotation() * Eigen::Vector3d::UnitX();
-    DOUBLES_EQUAL(0.0, forward.dot(Eigen::Vector3d(-std::sin(pose.heading_rad), std::cos(pose.heading_rad), 0)),
-                  1e-12);
+    DOUBLES_EQUAL(
+        0.0, forward.dot(Eigen::Vector3d(-std::sin(pose.heading_rad), std::cos(pose.heading_rad), 0)), 1e-12);
   }
   // Level ground: no tilt.
   const RoverStance level = standOnGround(SitePose{}, [](double, double) { return 2.0; });
@@ -369,8 +369,10 @@ TEST(TraversePlan, TheImuTiltErrorIsUnitNormalInItsSigma) {
   }
   const double n = roll.n;
   CHECK_EQUAL(5 * kSeeds, static_cast<int>(n));
-  printf("\nIMU tilt error over %.0f sites, sigma %.2f deg: roll sd %.4f mean %.4f, pitch sd %.4f mean %.4f\n", n,
-         s.tilt_sigma_deg, std::sqrt(roll.variance()), roll.mean(), std::sqrt(pitch.variance()), pitch.mean());
+  printf(
+      "\nIMU tilt error over %.0f sites, sigma %.2f deg: roll sd %.4f mean %.4f, pitch sd %.4f mean %.4f\n",
+      n, s.tilt_sigma_deg, std::sqrt(roll.variance()), roll.mean(), std::sqrt(pitch.variance()),
+      pitch.mean());
   for (const Moments* m : {&roll, &pitch}) {
     DOUBLES_EQUAL(s.tilt_sigma_deg, std::sqrt(m->variance()), 0.05 * s.tilt_sigma_deg);
     DOUBLES_EQUAL(0.0, m->mean(), 5.0 * s.tilt_sigma_deg / std::sqrt(n));
@@ -379,6 +381,7 @@ TEST(TraversePlan, TheImuTiltErrorIsUnitNormalInItsSigma) {
   // Sigma 0: the IMU is exact.
   s.tilt_sigma_deg = 0.0;
   for (const RoverStance& stance : planTraverse(s, 3, ground).stances) {
-    CHECK(stance.apriori.roll_rad == stance.truth.roll_rad && stance.apriori.pitch_rad == stance.truth.pitch_rad);
+    CHECK(stance.apriori.roll_rad == stance.truth.roll_rad &&
+          stance.apriori.pitch_rad == stance.truth.pitch_rad);
   }
 }
