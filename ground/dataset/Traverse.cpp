@@ -51,6 +51,24 @@ SitePose readPose(const JsonFieldReader& r, const Json& j, const std::string& fi
   return pose;
 }
 
+OrderedJson attitudeJson(const RoverAttitude& a) {
+  return {{"roll_deg", a.roll_rad / kDeg}, {"pitch_deg", a.pitch_rad / kDeg}};
+}
+
+// {"roll_deg": r, "pitch_deg": p} (optional member `key` of `object`).
+std::optional<RoverAttitude> readAttitude(const JsonFieldReader& r, const Json& object,
+                                          const std::string& key, const std::string& field) {
+  if (!object.contains(key) || object[key].is_null()) return std::nullopt;
+  const Json& j = object[key];
+  if (!j.is_object()) r.fail(field, "expected an object {\"roll_deg\": r, \"pitch_deg\": p}");
+  RoverAttitude a;
+  a.roll_rad = r.number(member(r, j, "roll_deg", field + ".roll_deg"), field + ".roll_deg") * kDeg;
+  a.pitch_rad = r.number(member(r, j, "pitch_deg", field + ".pitch_deg"), field + ".pitch_deg") * kDeg;
+  if (!(std::fabs(a.roll_rad) < 0.5 * M_PI && std::fabs(a.pitch_rad) < 0.5 * M_PI))
+    r.fail(field, "roll and pitch must lie within +-90 degrees");
+  return a;
+}
+
 double positive(const JsonFieldReader& r, const Json& j, const std::string& field) {
   const double v = r.number(j, field);
   if (!(v > 0.0)) r.fail(field, "must be positive");
@@ -108,6 +126,13 @@ TraverseSite readSite(const JsonFieldReader& r, const Json& j, std::size_t index
     }
   }
   site.apriori = readPose(r, member(r, j, "apriori", field + ".apriori"), field + ".apriori");
+  site.attitude = readAttitude(r, j, "attitude", field + ".attitude");
+  if (site.attitude) {
+    const Json& a = j["attitude"];
+    const std::string sigma = field + ".attitude.sigma_deg";
+    site.attitude_sigma_rad = r.number(member(r, a, "sigma_deg", sigma), sigma) * kDeg;
+    if (!(site.attitude_sigma_rad >= 0.0)) r.fail(sigma, "must not be negative");
+  }
   const bool has_leg = j.contains("odometry") && !j["odometry"].is_null();
   if (index == 0) {
     if (has_leg)
@@ -128,6 +153,12 @@ TraverseSite readSite(const JsonFieldReader& r, const Json& j, std::size_t index
 }
 
 }  // namespace
+
+Eigen::Matrix3d RoverAttitude::rotation() const {
+  return (Eigen::AngleAxisd(pitch_rad, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
 
 const char* siteKindName(SiteKind kind) {
   return kind == SiteKind::kStop ? "stop" : "panorama";
@@ -218,6 +249,10 @@ void writeTraverse(const Traverse& t, const std::string& dir) {
     OrderedJson j = {{"id", s.id}, {"path", s.path}};
     if (s.kind != SiteKind::kPanorama) j["kind"] = siteKindName(s.kind);
     j["apriori"] = poseJson(s.apriori);
+    if (s.attitude) {
+      j["attitude"] = attitudeJson(*s.attitude);
+      j["attitude"]["sigma_deg"] = s.attitude_sigma_rad / kDeg;
+    }
     if (s.odometry) {
       const OdometryLeg& leg = *s.odometry;
       j["odometry"] = {{"from", leg.from},
@@ -256,16 +291,23 @@ std::optional<TraverseTruth> readTraverseTruth(const std::string& dir, const Tra
     }
     truth.ids.push_back(id);
     truth.poses.push_back(readPose(r, member(r, sites[i], "pose", field + ".pose"), field + ".pose"));
+    truth.attitudes.push_back(readAttitude(r, sites[i], "attitude", field + ".attitude"));
   }
+  if (root.contains("terrain") && root["terrain"].is_object() && root["terrain"].contains("max_slope_deg"))
+    truth.max_slope_deg = r.number(root["terrain"]["max_slope_deg"], "terrain.max_slope_deg");
   return truth;
 }
 
 void writeTraverseTruth(const TraverseTruth& truth, const std::string& dir) {
   OrderedJson root = OrderedJson::object();
   root["version"] = kTraverseVersion;
+  if (truth.max_slope_deg > 0.0) root["terrain"] = {{"max_slope_deg", truth.max_slope_deg}};
   OrderedJson sites = OrderedJson::array();
   for (std::size_t i = 0; i < truth.poses.size(); ++i) {
-    sites.push_back({{"id", truth.ids[i]}, {"pose", poseJson(truth.poses[i])}});
+    OrderedJson site = {{"id", truth.ids[i]}, {"pose", poseJson(truth.poses[i])}};
+    if (i < truth.attitudes.size() && truth.attitudes[i])
+      site["attitude"] = attitudeJson(*truth.attitudes[i]);
+    sites.push_back(site);
   }
   root["sites"] = sites;
   writeJsonFile(joinPath(dir, kTruthFolder), joinPath(dir, kTraverseTruthFile), root.dump(2));

@@ -34,6 +34,17 @@ struct SitePose {
   bool isIdentity() const { return heading_rad == 0.0 && position_m.isZero(0.0); }
 };
 
+// The rover's attitude at a site (optional; a simulated traverse on sloped ground writes it): its body tilted
+// in the levelled site frame, site_from_rover = Ry(pitch) Rx(roll), rover x forward (the site's +X at yaw 0),
+// y right, z down; pitch positive nose up, roll positive right side down. The rover's rig stands on that
+// body: the a-priori models of a site are levelled by the a-priori attitude (traverse.json, an IMU's, with
+// its sigma), the truth models by the true one (truth/traverse.json).
+struct RoverAttitude {
+  double roll_rad = 0.0;
+  double pitch_rad = 0.0;
+  Eigen::Matrix3d rotation() const;  // site_from_rover
+};
+
 // The rover's odometry over one leg, from the previous site to this one, as the rover measured it: the
 // displacement in the previous site's frame and the change of heading, with their standard deviations.
 struct OdometryLeg {
@@ -57,7 +68,9 @@ struct TraverseSite {
   std::string dir;                      // resolved: the traverse folder / path
   SiteKind kind = SiteKind::kPanorama;  // traverse.json "kind" (optional, default "panorama")
   SitePose apriori;
-  std::optional<OdometryLeg> odometry;  // absent for the first site
+  std::optional<OdometryLeg> odometry;    // absent for the first site
+  std::optional<RoverAttitude> attitude;  // a priori, traverse.json "attitude" (optional)
+  double attitude_sigma_rad = 0.0;        // its sigma per axis (roll, pitch); set with `attitude`
 };
 
 struct Traverse {
@@ -78,6 +91,9 @@ struct Traverse {
 struct TraverseTruth {
   std::vector<std::string> ids;
   std::vector<SitePose> poses;
+  // The true attitude per site ("attitude", optional): empty, or one per site (nullopt where absent).
+  std::vector<std::optional<RoverAttitude>> attitudes;
+  double max_slope_deg = 0.0;  // "terrain": {"max_slope_deg"} of a simulated sloped terrain (0: absent)
 };
 
 constexpr const char* kTraverseFileName = "traverse.json";

@@ -205,6 +205,8 @@ void validatePlan(const SimConfig& c) {
               "terrain grid larger than 12000 x 12000 cells (" + num(2.0 * c.half_extent_m / c.cell_m) + ")");
   }
   if (!(c.relief_m >= 0.0 && c.relief_m <= 5.0)) planError("--relief-m", "outside 0..5 m");
+  if (!(c.max_slope_deg >= 0.0 && c.max_slope_deg <= kMaxSlopeDeg))
+    planError("--max-slope-deg", num(c.max_slope_deg) + " outside 0.." + num(kMaxSlopeDeg) + " degrees");
   if (!(c.rock_k >= 0.0 && c.rock_k <= 0.5)) planError("--rock-k", "outside 0..0.5");
   if (!(c.min_rock_m > 0.0)) planError("--min-rock-m", "must be positive");
   if (c.supersample < 1 || c.supersample > 4) planError("--supersample", "outside 1..4");

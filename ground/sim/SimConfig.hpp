@@ -19,6 +19,13 @@ struct TierPlan {
   bool left_only = false;      // single left images (IMP's extra frame)
 };
 
+// The wavelength of the large-scale swells (SimConfig::max_slope_deg): ridge to ridge, much longer than a
+// rover (1-2 m) so that it stands on a plane, about the spacing of sites (10-30 m apart) so that they see
+// different slopes.
+constexpr double kSlopeWavelengthM = 60.0;
+// The steepest large-scale slope a traverse may ask for.
+constexpr double kMaxSlopeDeg = 35.0;
+
 struct SimConfig {
   std::string preset = "tiny";
   uint64_t seed = 1;
@@ -65,6 +72,13 @@ struct SimConfig {
   Eigen::Vector2d terrain_center_m = Eigen::Vector2d::Zero();
   std::vector<Eigen::Vector2d> rover_xy_m;
   double cover_half_extent_m = 0.0;
+  // Large-scale slopes (a traverse on sloped ground, --max-slope-deg; 0: none, the terrain as before):
+  // concentric swells about slope_center_m, e(r) = -tan(max_slope) L / (2 pi) cos(2 pi r / L) with
+  // L = kSlopeWavelengthM, added to the relief. Their gradient is tan(max_slope) |sin(2 pi r / L)|: at most
+  // max_slope, reached on every circle r = L / 4 + k L / 2, smooth at the centre; the downhill direction
+  // turns with the azimuth about the centre, so sites along a path stand on different slopes.
+  double max_slope_deg = 0.0;
+  Eigen::Vector2d slope_center_m = Eigen::Vector2d::Zero();
 
   // Rendering.
   int supersample = 2;    // s x s rays per pixel

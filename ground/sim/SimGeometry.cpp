@@ -56,7 +56,8 @@ HeadCamera headCamera(const SimConfig& c, bool right) {
 
 // A camera of the head at its true and a-priori pointing. `tilt_axis_*` is the site-frame offset of the tilt
 // axis from the gimbal centre (zero unless the mast is FIDO-like), turned by the pan alone.
-SimCamera placeCamera(const SimConfig& c, const Eigen::Vector3d& gimbal, const Eigen::Matrix3d& head_true,
+SimCamera placeCamera(const SimConfig& c, const Eigen::Vector3d& gimbal,
+                      const Eigen::Vector3d& gimbal_apriori, const Eigen::Matrix3d& head_true,
                       const Eigen::Matrix3d& head_apriori, const Eigen::Vector3d& tilt_axis_true,
                       const Eigen::Vector3d& tilt_axis_apriori, bool right, const std::string& stem) {
   const HeadCamera hc = headCamera(c, right);
@@ -68,7 +69,7 @@ SimCamera placeCamera(const SimConfig& c, const Eigen::Vector3d& gimbal, const E
   cam.site_to_camera = hc.camera_from_head * head_true.transpose();
   cam.truth = makeCahvor(gimbal + tilt_axis_true + head_true * hc.position_head, cam.site_to_camera, f, x0,
                          y0, c.o_tilt_deg, c.rho1, c.rho2, c.width, c.height);
-  cam.apriori = makeCahvor(gimbal + tilt_axis_apriori + head_apriori * hc.position_head,
+  cam.apriori = makeCahvor(gimbal_apriori + tilt_axis_apriori + head_apriori * hc.position_head,
                            hc.camera_from_head * head_apriori.transpose(), f, x0, y0, c.o_tilt_deg, c.rho1,
                            c.rho2, c.width, c.height);
   return cam;
@@ -169,7 +170,7 @@ Dataset SimGeometry::dataset(const std::string& root) const {
   ds.height = config.height;
   // A FIDO-like mast has no fixed camera offset from one gimbal point: only the stereo base is given.
   if (config.tilt_axis_forward_m == 0.0) {
-    ds.rig.gimbal_m[config.sol] = gimbal_m;
+    ds.rig.gimbal_m[config.sol] = apriori_gimbal_m;
     ds.rig.left_offset_m = left_offset_m;
     ds.rig.right_offset_m = right_offset_m;
   }
@@ -202,19 +203,38 @@ SimGeometry makeGeometry(const SimConfig& config) {
 }
 
 SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain,
-                         const std::optional<SitePose>& terrain_from_site) {
+                         const std::optional<SitePose>& terrain_from_site,
+                         const std::optional<RoverStance>& stance) {
   validatePlan(config);
   SimGeometry g;
   g.config = config;
   g.terrain_from_site = terrain_from_site;
-  // The gimbal stands mast_m above the ground under the site origin (the rover).
-  if (terrain_from_site) {
+  if (terrain_from_site) g.stance = stance;
+  // Site-frame directions of the rover's frame at its true and a-priori attitude (the identity when level;
+  // not multiplied then, so that a level site's files stay bit for bit as they were).
+  const Eigen::Matrix3d rover_true = g.stance ? g.stance->truth.rotation() : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d rover_apriori = g.stance ? g.stance->apriori.rotation() : Eigen::Matrix3d::Identity();
+  auto onRover = [&](const Eigen::Matrix3d& rover, const Eigen::Matrix3d& m) -> Eigen::Matrix3d {
+    return g.stance ? Eigen::Matrix3d(rover * m) : m;
+  };
+  auto onRoverV = [&](const Eigen::Matrix3d& rover, const Eigen::Vector3d& v) -> Eigen::Vector3d {
+    return g.stance ? Eigen::Vector3d(rover * v) : v;
+  };
+  // The gimbal stands mast_m above the ground under the site origin (the rover); on sloped ground mast_m
+  // above its base along its up axis.
+  if (g.stance) {
+    const Eigen::Vector3d base(0.0, 0.0, -g.stance->base_elevation_m - terrain_from_site->position_m.z());
+    const Eigen::Vector3d mast(0.0, 0.0, -config.mast_m);
+    g.gimbal_m = base + rover_true * mast;
+    g.apriori_gimbal_m = base + rover_apriori * mast;
+  } else if (terrain_from_site) {
     const Eigen::Vector3d& site = terrain_from_site->position_m;
     g.gimbal_m =
         Eigen::Vector3d(0.0, 0.0, -(terrain.elevation(site.x(), site.y()) + config.mast_m) - site.z());
   } else {
     g.gimbal_m = Eigen::Vector3d(0.0, 0.0, -(terrain.elevation(0.0, 0.0) + config.mast_m));
   }
+  if (!g.stance) g.apriori_gimbal_m = g.gimbal_m;
   const HeadCamera left = headCamera(config, false), right = headCamera(config, true);
   g.left_offset_m = left.camera_from_head * left.position_head;
   g.right_offset_m = right.camera_from_head * right.position_head;
@@ -239,17 +259,20 @@ SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain,
       const double direction = 2.0 * M_PI * u(rng);
       p.tilt_error_rad = p.pointing_error_px / f * std::sin(direction);
       p.pan_error_rad = p.pointing_error_px / f * std::cos(direction) / std::cos(p.tilt_deg * kDeg);
-      const Eigen::Matrix3d head_true = headRotation(p.pan_deg * kDeg, p.tilt_deg * kDeg);
+      const Eigen::Matrix3d head_true =
+          onRover(rover_true, headRotation(p.pan_deg * kDeg, p.tilt_deg * kDeg));
       const Eigen::Matrix3d head_apriori =
-          headRotation(p.pan_deg * kDeg + p.pan_error_rad, p.tilt_deg * kDeg + p.tilt_error_rad);
+          onRover(rover_apriori,
+                  headRotation(p.pan_deg * kDeg + p.pan_error_rad, p.tilt_deg * kDeg + p.tilt_error_rad));
       const Eigen::Vector3d forward(config.tilt_axis_forward_m, 0.0, 0.0);
-      const Eigen::Vector3d axis_true = rotZ(p.pan_deg * kDeg) * forward;
-      const Eigen::Vector3d axis_apriori = rotZ(p.pan_deg * kDeg + p.pan_error_rad) * forward;
-      p.left = placeCamera(config, g.gimbal_m, head_true, head_apriori, axis_true, axis_apriori, false,
-                           stemOf(index, false));
+      const Eigen::Vector3d axis_true = onRoverV(rover_true, rotZ(p.pan_deg * kDeg) * forward);
+      const Eigen::Vector3d axis_apriori =
+          onRoverV(rover_apriori, rotZ(p.pan_deg * kDeg + p.pan_error_rad) * forward);
+      p.left = placeCamera(config, g.gimbal_m, g.apriori_gimbal_m, head_true, head_apriori, axis_true,
+                           axis_apriori, false, stemOf(index, false));
       if (!plan.left_only) {
-        p.right = placeCamera(config, g.gimbal_m, head_true, head_apriori, axis_true, axis_apriori, true,
-                              stemOf(index, true));
+        p.right = placeCamera(config, g.gimbal_m, g.apriori_gimbal_m, head_true, head_apriori, axis_true,
+                              axis_apriori, true, stemOf(index, true));
       }
       g.pairs.push_back(std::move(p));
     }

@@ -12,7 +12,10 @@
 // One site of a traverse (ground/sim/TraverseSim.hpp): the geometry is made in that site's own frame (the
 // rover at its origin, as above) and `terrain_from_site` places it on the shared terrain (the site's true
 // pose); check points are found and images rendered on the terrain, and everything written is in the site
-// frame.
+// frame. On sloped ground (a RoverStance) the rover stands tilted on its base: the mast rises mast_m from
+// the base along the rover's up axis, the head turns in the rover's frame, the true models follow the true
+// attitude and the a-priori ones (and the rig's gimbal centre in panorama.json) the a-priori attitude, so the
+// a-priori panorama is the true one turned about the base by the attitude error, besides the pointing errors.
 #pragma once
 
 #include <optional>
@@ -26,6 +29,7 @@
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/sim/SimConfig.hpp"
 #include "ground/sim/Terrain.hpp"
+#include "ground/sim/TraversePlan.hpp"
 
 namespace areomap::sim {
 
@@ -51,10 +55,11 @@ struct SimPair {
 
 struct SimGeometry {
   SimConfig config;
-  Eigen::Vector3d gimbal_m = Eigen::Vector3d::Zero();        // site frame
-  Eigen::Vector3d left_offset_m = Eigen::Vector3d::Zero();   // M_L (C_L - X_G), Eq. 3
-  Eigen::Vector3d right_offset_m = Eigen::Vector3d::Zero();  // M_R (C_R - X_G), Eq. 3
-  Eigen::Vector3d base_m = Eigen::Vector3d::Zero();          // M_L (C_R - C_L), Eq. 4
+  Eigen::Vector3d gimbal_m = Eigen::Vector3d::Zero();          // site frame, true
+  Eigen::Vector3d apriori_gimbal_m = Eigen::Vector3d::Zero();  // a priori (panorama.json): the same, levelled
+  Eigen::Vector3d left_offset_m = Eigen::Vector3d::Zero();     // M_L (C_L - X_G), Eq. 3
+  Eigen::Vector3d right_offset_m = Eigen::Vector3d::Zero();    // M_R (C_R - X_G), Eq. 3
+  Eigen::Vector3d base_m = Eigen::Vector3d::Zero();            // M_L (C_R - C_L), Eq. 4
   std::vector<SimPair> pairs;
   std::vector<CheckPoint> points;              // true 3-D check points on the surface
   std::vector<ImageObservation> observations;  // their true (distorted) pixels, image = stem
@@ -62,6 +67,7 @@ struct SimGeometry {
   // truth/dem.tif (site frame, about the site origin) and the dataset's name. Absent: the site frame is the
   // terrain's own and truth/dem.tif is the whole terrain (Terrain::dem).
   std::optional<SitePose> terrain_from_site;
+  std::optional<RoverStance> stance;  // sloped ground (with terrain_from_site): the rover's attitude and base
   double dem_half_extent_m = 0.0;
   std::string name;  // empty: "sim-<preset>-<seed>"
 
@@ -77,7 +83,8 @@ struct SimGeometry {
 // visibility need it); validatePlan() first (throws cli::UsageError for an impossible plan).
 SimGeometry makeGeometry(const SimConfig& config);
 SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain,
-                         const std::optional<SitePose>& terrain_from_site = std::nullopt);
+                         const std::optional<SitePose>& terrain_from_site = std::nullopt,
+                         const std::optional<RoverStance>& stance = std::nullopt);
 
 // The CAHVOR model of a camera with centre `center_m`, rotation `site_to_camera` (rows H', -V', -A),
 // principal distance `f_px`, principal point (x0, y0) and distortion (O tilted from A, R = 0 rho1 rho2).

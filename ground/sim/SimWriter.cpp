@@ -75,6 +75,10 @@ nlohmann::json configJson(const SimConfig& c) {
                       {"range_m", {c.min_range_m, c.max_range_m}}};
   // Only when used, so that the record of an unblurred scene stays as before.
   if (c.blur_px > 0.0) j["blur_px"] = c.blur_px;
+  if (c.max_slope_deg > 0.0) {
+    j["max_slope_deg"] = c.max_slope_deg;
+    j["slope_center_m"] = {c.slope_center_m.x(), c.slope_center_m.y()};
+  }
   return j;
 }
 
@@ -84,12 +88,22 @@ nlohmann::json traverseJson(const SimGeometry& g) {
   nlohmann::json rovers = nlohmann::json::array();
   for (const Eigen::Vector2d& xy : c.rover_xy_m) rovers.push_back({xy.x(), xy.y()});
   const SitePose& pose = *g.terrain_from_site;
-  return {{"terrain_center_m", {c.terrain_center_m.x(), c.terrain_center_m.y()}},
-          {"cover_half_extent_m", c.cover_half_extent_m},
-          {"rover_xy_m", rovers},
-          {"true_pose",
-           {{"position_m", {pose.position_m.x(), pose.position_m.y(), pose.position_m.z()}},
-            {"heading_deg", pose.heading_rad * 180.0 / M_PI}}}};
+  nlohmann::json j = {{"terrain_center_m", {c.terrain_center_m.x(), c.terrain_center_m.y()}},
+                      {"cover_half_extent_m", c.cover_half_extent_m},
+                      {"rover_xy_m", rovers},
+                      {"true_pose",
+                       {{"position_m", {pose.position_m.x(), pose.position_m.y(), pose.position_m.z()}},
+                        {"heading_deg", pose.heading_rad * 180.0 / M_PI}}}};
+  if (g.stance) {
+    auto attitude = [](const RoverAttitude& a) {
+      return nlohmann::json{{"roll_deg", a.roll_rad * 180.0 / M_PI},
+                            {"pitch_deg", a.pitch_rad * 180.0 / M_PI}};
+    };
+    j["true_attitude"] = attitude(g.stance->truth);
+    j["apriori_attitude"] = attitude(g.stance->apriori);
+    j["base_elevation_m"] = g.stance->base_elevation_m;
+  }
+  return j;
 }
 
 }  // namespace

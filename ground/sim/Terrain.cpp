@@ -86,6 +86,8 @@ struct Terrain::Relief {
   int octaves = 0;
   uint64_t s_relief = 0, s_patch = 0, s_dust = 0, s_mottle = 0;
   double relief_scale = 0.0;
+  double swell_gradient = 0.0;  // tan(max_slope_deg): the large-scale swells (SimConfig), 0 none
+  Eigen::Vector2d swell_center = Eigen::Vector2d::Zero();
 };
 
 struct Terrain::Rock {
@@ -147,6 +149,8 @@ Terrain::Relief Terrain::drawRelief(const SimConfig& config, std::mt19937_64& rn
   r.s_dust = seed_ + 3;
   r.s_mottle = seed_ + 4;
   r.relief_scale = 2.6 * config.relief_m;  // value-noise fBm has an RMS of ~0.38
+  r.swell_gradient = std::tan(config.max_slope_deg * M_PI / 180.0);
+  r.swell_center = config.slope_center_m;
   return r;
 }
 
@@ -160,7 +164,13 @@ void Terrain::fillRelief(Grid& g, const Relief& r, int threads) {
       const double y = g.y0 + iy * g.cell;
       const double relief = r.relief_scale * fbm(r.s_relief, x, y, 32.0, r.octaves, 0.55);
       const double regional = r.slope * (x * std::cos(r.slope_az) + y * std::sin(r.slope_az));
-      g.h[static_cast<std::size_t>(ix) * gn + iy] = static_cast<float>(relief + regional);
+      double height = relief + regional;
+      if (r.swell_gradient > 0.0) {
+        const double k = 2.0 * M_PI / kSlopeWavelengthM;
+        const double range = std::hypot(x - r.swell_center.x(), y - r.swell_center.y());
+        height -= r.swell_gradient / k * std::cos(k * range);
+      }
+      g.h[static_cast<std::size_t>(ix) * gn + iy] = static_cast<float>(height);
       // Bright and dark patches (smooth threshold of low-frequency noise), dust mottling, fine variation.
       const double patch = fbm(r.s_patch, x, y, 8.0, 3, 0.5);
       const double patches = std::tanh(4.0 * patch) * 0.22;

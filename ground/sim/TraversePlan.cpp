@@ -7,6 +7,7 @@
 
 #include "ground/cli/Cli.hpp"
 #include "ground/sim/Noise.hpp"
+#include "ground/sim/SimConfig.hpp"
 
 namespace areomap::sim {
 namespace {
@@ -14,6 +15,7 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 constexpr uint64_t kPathStream = 0x7a11;      // leg lengths and turns
 constexpr uint64_t kOdometryStream = 0x0d0e;  // odometry errors
+constexpr uint64_t kAttitudeStream = 0xa771;  // the IMU's tilt errors
 
 std::string num(double v) {
   std::ostringstream s;
@@ -70,6 +72,9 @@ void validateTraverse(const TraverseSettings& s) {
     fail("--heading-drift-deg", "outside (0, 45]");
   if (!(s.stop_spacing_m == 0.0 || (s.stop_spacing_m >= 1.0 && s.stop_spacing_m <= 200.0)))
     fail("--stop-spacing-m", num(s.stop_spacing_m) + ": 0 (no stops) or 1..200 m");
+  if (!(s.max_slope_deg >= 0.0 && s.max_slope_deg <= kMaxSlopeDeg))
+    fail("--max-slope-deg", num(s.max_slope_deg) + " outside 0.." + num(kMaxSlopeDeg) + " degrees");
+  if (!(s.tilt_sigma_deg >= 0.0 && s.tilt_sigma_deg <= 5.0)) fail("--tilt-sigma-deg", "outside 0..5");
   if (s.stop_spacing_m > 0.0 && s.sites > 1) {
     const int parts = legParts(s.leg_max_m, s.stop_spacing_m);
     if ((s.sites - 1) * parts + 1 > kMaxTraverseSites) {
@@ -77,6 +82,31 @@ void validateTraverse(const TraverseSettings& s) {
                                    " sites and stops, more than " + std::to_string(kMaxTraverseSites));
     }
   }
+}
+
+RoverStance standOnGround(const SitePose& pose, const std::function<double(double, double)>& ground) {
+  // Least squares e = e0 + gx x + gy y over the contacts: they are symmetric about the centre in x and in y,
+  // so the normal equations are diagonal.
+  double e0 = 0.0, sx = 0.0, sy = 0.0, xx = 0.0, yy = 0.0;
+  for (const auto& wheel : kWheelContacts) {
+    const Eigen::Vector3d p = pose.toTraverse(Eigen::Vector3d(wheel[0], wheel[1], 0.0));
+    const double e = ground ? ground(p.x(), p.y()) : 0.0;
+    e0 += e / kWheelCount;
+    sx += wheel[0] * e;
+    sy += wheel[1] * e;
+    xx += wheel[0] * wheel[0];
+    yy += wheel[1] * wheel[1];
+  }
+  const double gx = sx / xx, gy = sy / yy;  // elevation gradient along the rover's x (forward) and y (right)
+  // The rover's down axis Ry(pitch) Rx(roll) e_z = (sin p cos r, -sin r, cos p cos r) must be the plane's
+  // downward normal (gx, gy, 1) / n (Z down): uphill ahead lifts the nose, uphill to the right lifts the
+  // right side (negative roll).
+  RoverStance stance;
+  stance.truth.pitch_rad = std::atan(gx);
+  stance.truth.roll_rad = -std::asin(gy / std::sqrt(1.0 + gx * gx + gy * gy));
+  stance.apriori = stance.truth;
+  stance.base_elevation_m = e0;
+  return stance;
 }
 
 SitePose composePose(const SitePose& from, const Eigen::Vector3d& delta_m, double delta_heading_rad) {
@@ -132,6 +162,15 @@ TraversePlan planTraverse(const TraverseSettings& s, uint64_t seed,
       plan.truth.push_back(after);
       plan.apriori.push_back(composePose(plan.apriori.back(), leg.delta_m, leg.delta_heading_rad));
       plan.legs.push_back(leg);
+    }
+  }
+  if (s.max_slope_deg > 0.0) {
+    for (std::size_t k = 0; k < plan.truth.size(); ++k) {
+      RoverStance stance = standOnGround(plan.truth[k], ground_elevation_up_m);
+      const uint64_t h = hash3(seed, kAttitudeStream, static_cast<int64_t>(k));
+      stance.apriori.roll_rad += s.tilt_sigma_deg * kDeg * gaussian(mix64(h), mix64(h + 1));
+      stance.apriori.pitch_rad += s.tilt_sigma_deg * kDeg * gaussian(mix64(h + 2), mix64(h + 3));
+      plan.stances.push_back(stance);
     }
   }
   return plan;

@@ -17,6 +17,13 @@
 // on the straight line of its leg, facing the way the rover drives; the odometry then runs from stop to
 // stop, each part with its own errors (sigmas by its own distance). The panorama sites' true path does not
 // depend on the stops.
+// Sloped ground (max_slope_deg > 0; ground/sim/SimConfig.hpp has the terrain's swells): each site's rover
+// stands on its wheels. The plane fitted (least squares) to the ground's elevation at the six wheel contacts
+// (kWheelContacts, in the rover frame = the site frame's axes) gives its true attitude (roll, pitch) and the
+// base it stands on (the plane's elevation under the rover's centre); the mast rises from that base along
+// the rover's tilted up axis. The a-priori attitude is an IMU's: the true roll and pitch plus independent
+// Gaussian errors of tilt_sigma_deg per site (levelling at rest: no random walk). With max_slope_deg 0
+// there is no attitude at all (no stances): every site levelled as before, tilt_sigma_deg unused.
 // Every random number is a hash of the seed and the leg (ground/sim/Noise.hpp): deterministic and portable;
 // without stops a plan is the same as before stops existed.
 #pragma once
@@ -39,14 +46,30 @@ struct TraverseSettings {
   double vertical_drift_fraction = 0.01;  // --vertical-drift-pct / 100
   double heading_drift_deg = 2.0;         // --heading-drift-deg
   double stop_spacing_m = 0.0;            // --stop-spacing-m: a traversing stop at least this often; 0 none
+  double max_slope_deg = 0.0;             // --max-slope-deg: the terrain's swells (0: level world, as before)
+  double tilt_sigma_deg = 0.2;            // --tilt-sigma-deg: IMU roll and pitch error (sloped ground only)
+};
+
+// The rover's six wheel contacts (x forward, y right, metres from its centre): a MER-sized rocker-bogie,
+// 1.4 m wheelbase, 1.2 m track, inside the rock-free footprint of the terrain (ground/sim/Terrain.cpp).
+constexpr int kWheelCount = 6;
+constexpr double kWheelContacts[kWheelCount][2] = {{0.7, -0.6}, {0.7, 0.6},   {0.0, -0.6},
+                                                   {0.0, 0.6},  {-0.7, -0.6}, {-0.7, 0.6}};
+
+// How a rover stands at a site on sloped ground.
+struct RoverStance {
+  RoverAttitude truth;            // from the plane under its wheels
+  RoverAttitude apriori;          // its IMU's: truth plus the tilt error
+  double base_elevation_m = 0.0;  // the plane's elevation (up, traverse frame) under the rover's centre
 };
 
 struct TraversePlan {
-  std::vector<std::string> ids;   // "site01", "stop01-1", "site02", ... in driving order
-  std::vector<SiteKind> kinds;    // kPanorama or kStop, per site
-  std::vector<SitePose> truth;    // true poses in the traverse frame
-  std::vector<SitePose> apriori;  // dead-reckoned from the odometry
-  std::vector<OdometryLeg> legs;  // legs[k - 1]: from site k - 1 to site k (0-based sites)
+  std::vector<std::string> ids;      // "site01", "stop01-1", "site02", ... in driving order
+  std::vector<SiteKind> kinds;       // kPanorama or kStop, per site
+  std::vector<SitePose> truth;       // true poses in the traverse frame
+  std::vector<SitePose> apriori;     // dead-reckoned from the odometry
+  std::vector<OdometryLeg> legs;     // legs[k - 1]: from site k - 1 to site k (0-based sites)
+  std::vector<RoverStance> stances;  // per site on sloped ground; empty on a level world
   double distanceM() const;
 };
 
@@ -65,6 +88,11 @@ void validateTraverse(const TraverseSettings& settings);
 // empty: flat ground (every z 0). The horizontal path does not depend on it.
 TraversePlan planTraverse(const TraverseSettings& settings, uint64_t seed,
                           const std::function<double(double, double)>& ground_elevation_up_m = {});
+
+// The rover at `pose` standing on the ground `ground_elevation_up_m` (traverse frame): the true attitude and
+// base from the plane through its wheel contacts (kWheelContacts); `apriori` is left equal to the truth.
+RoverStance standOnGround(const SitePose& pose,
+                          const std::function<double(double, double)>& ground_elevation_up_m);
 
 // The pose reached from `from` by the displacement `delta_m` (in from's frame) and heading change.
 SitePose composePose(const SitePose& from, const Eigen::Vector3d& delta_m, double delta_heading_rad);

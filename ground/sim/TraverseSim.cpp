@@ -15,6 +15,7 @@ namespace {
 
 constexpr uint64_t kSiteSeedStream = 0x517e;
 constexpr double kMaxTerrainMarginM = 30.0;  // the default fine margin at most (navcam's top rows see ~25 m)
+constexpr uint64_t kSlopeStream = 0x5109e;   // where the swells' steepest circle crosses the path
 
 }  // namespace
 
@@ -40,6 +41,22 @@ SimConfig traverseTerrainConfig(const TraverseSimConfig& config, const TraverseP
   t.terrain_center_m = 0.5 * (lo + hi);
   t.half_extent_m = path_half_m + config.terrain_margin_m;
   t.cover_half_extent_m = path_half_m + Terrain::kMinCoverHalfM;
+  t.max_slope_deg = config.traverse.max_slope_deg;
+  if (t.max_slope_deg > 0.0) {
+    // The swells' centre a quarter wavelength from a panorama site (drawn from the seed) in a drawn
+    // direction: that site stands where the swells are steepest (max_slope_deg), the others where the
+    // circles about the centre put them.
+    std::vector<std::size_t> panoramas;
+    for (std::size_t k = 0; k < plan.kinds.size(); ++k) {
+      if (plan.kinds[k] == SiteKind::kPanorama) panoramas.push_back(k);
+    }
+    const uint64_t h = hash3(config.seed, kSlopeStream, 0);
+    const std::size_t pick =
+        std::min(panoramas.size() - 1, static_cast<std::size_t>(unit(mix64(h + 1)) * panoramas.size()));
+    const double azimuth = 2.0 * M_PI * unit(mix64(h + 2));
+    t.slope_center_m = plan.truth[panoramas[pick]].position_m.head<2>() -
+                       0.25 * kSlopeWavelengthM * Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
+  }
   return t;
 }
 
@@ -92,12 +109,15 @@ TraversePlan writeTraverseDataset(const TraverseSimConfig& config, const std::st
   traverse.vertical_drift_fraction = config.traverse.vertical_drift_fraction;
   traverse.heading_sigma_rad = config.traverse.heading_drift_deg * M_PI / 180.0;
   TraverseTruth truth;
+  truth.max_slope_deg = config.traverse.max_slope_deg;
   for (std::size_t k = 0; k < plan.truth.size(); ++k) {
     const int index = static_cast<int>(k);
     const bool stop = plan.kinds[k] == SiteKind::kStop;
     SimConfig site_config = stop ? stopConfig(terrain_config) : terrain_config;
     site_config.seed = traverseSiteSeed(config.seed, index);
-    SimGeometry g = makeGeometry(site_config, terrain, plan.truth[k]);
+    const std::optional<RoverStance> stance =
+        plan.stances.empty() ? std::nullopt : std::optional<RoverStance>(plan.stances[k]);
+    SimGeometry g = makeGeometry(site_config, terrain, plan.truth[k], stance);
     g.dem_half_extent_m = Terrain::kMinCoverHalfM;
     g.name = traverse.name + "-" + plan.ids[k];
     stage(plan.ids[k] + (stop ? " (a traversing stop, " : " (") + std::to_string(k + 1) + " of " +
@@ -125,6 +145,11 @@ TraversePlan writeTraverseDataset(const TraverseSimConfig& config, const std::st
     site.kind = plan.kinds[k];
     site.apriori = plan.apriori[k];
     if (k > 0) site.odometry = plan.legs[k - 1];
+    if (stance) {
+      site.attitude = stance->apriori;
+      site.attitude_sigma_rad = config.traverse.tilt_sigma_deg * M_PI / 180.0;
+      truth.attitudes.push_back(stance->truth);
+    }
     traverse.sites.push_back(site);
     truth.ids.push_back(plan.ids[k]);
     truth.poses.push_back(plan.truth[k]);

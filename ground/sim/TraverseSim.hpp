@@ -5,7 +5,7 @@
 //   DIR/traverse.json               the sites in driving order, their a-priori poses, the odometry legs
 //   DIR/sites/<id>/                 one dataset per site, exactly as `areomap-sim --preset navcam` writes it
 //                                   (panorama.json, images/, models/, truth/), in that site's own frame
-//   DIR/truth/traverse.json         the true site poses in the traverse frame
+//   DIR/truth/traverse.json         the true site poses in the traverse frame (and attitudes, sloped ground)
 //   DIR/truth/dem.tif               the terrain in the traverse frame (coarser cell, kTraverseDemCellM)
 //
 // Frames (ground/dataset/Traverse.hpp): a site's frame is the rover's own, levelled, origin at the site;
@@ -13,6 +13,9 @@
 // single-site tool and truth check runs on DIR/sites/<id> unchanged and sees no odometry error. The
 // odometry error is between the a-priori poses (traverse.json) and the true ones (truth/traverse.json):
 // a site point p lies at truth.toTraverse(p) in the traverse frame, the rover believes apriori.toTraverse(p).
+// On sloped ground (traverse.max_slope_deg > 0) each rover stands tilted in its levelled site frame
+// (TraversePlan.hpp): its a-priori models also carry the IMU's attitude error (traverse.json
+// sites[].attitude), the truth the true attitude (truth/traverse.json).
 //
 // The terrain: the fine grid (the camera preset's cell, rocks, craters, every relief octave) is a square
 // about the middle of the path's bounding box reaching `terrain_margin_m` beyond the outermost site; the

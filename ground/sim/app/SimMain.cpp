@@ -81,6 +81,14 @@ DIR/truth/dem.tif (the terrain in the traverse frame, 10 cm). The options above 
                              every D m (the leg in equal parts) and takes a few stereo pairs looking
                              forward (a 90-degree sector, each tier's tilt and pan step); a stop is a
                              site "stopNN-M" (kind "stop") of its own, tying the sites around it
+  --max-slope-deg S          sloped ground (default 0: the level world of before, byte for byte): the
+                             terrain gets swells (60 m wavelength) whose slopes reach S degrees (0..35),
+                             steepest at a site of the path; each rover stands tilted on the plane of
+                             its wheels, the mast above that tilted base, the cameras following; the
+                             true roll and pitch go to truth/traverse.json
+  --tilt-sigma-deg T         sloped ground only: the rover's IMU roll and pitch error, Gaussian per site
+                             (default 0.2); the a-priori models are levelled by the erroneous attitude,
+                             which traverse.json gives per site with T as its sigma
   --help                     this text
 
 Exit codes: 0 done, 2 usage error or impossible plan, 1 other error (e.g. an unwritable folder).
@@ -175,6 +183,16 @@ int main(int argc, char** argv) {
       tc.traverse.heading_drift_deg = args.number("--heading-drift-deg", tc.traverse.heading_drift_deg);
       tc.traverse.stop_spacing_m = args.number("--stop-spacing-m", tc.traverse.stop_spacing_m);
       tc.terrain_margin_m = args.number("--extent-m", tc.terrain_margin_m);
+      tc.traverse.max_slope_deg = args.number("--max-slope-deg", tc.traverse.max_slope_deg);
+      if (const auto tilt_sigma = args.numbers("--tilt-sigma-deg", 1)) {
+        if (!(tc.traverse.max_slope_deg > 0.0))
+          throw cli::UsageError("--tilt-sigma-deg: only on sloped ground (--max-slope-deg above 0)");
+        tc.traverse.tilt_sigma_deg = tilt_sigma->front();
+      }
+    } else {
+      for (const char* option : {"--max-slope-deg", "--tilt-sigma-deg"}) {
+        if (args.option(option)) throw cli::UsageError(std::string(option) + ": only with --preset traverse");
+      }
     }
     const std::string out = args.required("--out");
     const int64_t seed = args.integer("--seed", 1);

@@ -217,6 +217,12 @@ TEST(TraversePlan, ImpossibleTraversesAreRejected) {
   s = TraverseSettings{};
   s.heading_drift_deg = -1.0;
   CHECK(error(s).find("--heading-drift-deg") != std::string::npos);
+  s = TraverseSettings{};
+  s.max_slope_deg = 40.0;
+  CHECK(error(s).find("--max-slope-deg") != std::string::npos);
+  s = TraverseSettings{};
+  s.tilt_sigma_deg = -0.1;
+  CHECK(error(s).find("--tilt-sigma-deg") != std::string::npos);
 }
 
 TEST(TraversePlan, TraversingStopsCutEachLegOnItsLineAndLeaveThePanoramaSitesWhereTheyWere) {
@@ -284,4 +290,98 @@ TEST(TraversePlan, StopSpacingOutsideItsRangeIsRejected) {
   s.sites = kMaxTraverseSites;
   s.stop_spacing_m = 5.0;  // 98 legs of up to 6 parts
   CHECK_THROWS(cli::UsageError, validateTraverse(s));
+}
+
+TEST(TraversePlan, ALevelWorldHasNoAttitudeWhateverTheTiltSigma) {
+  // --max-slope-deg 0 (the default): no stances, and the plan bit for bit the one of the default settings,
+  // with the IMU's sigma at its default or 0.
+  TraverseSettings level;
+  level.sites = 6;
+  level.stop_spacing_m = 12.0;
+  const TraversePlan reference = planTraverse(level, 11, ground);
+  for (double sigma : {0.0, 0.2, 3.0}) {
+    TraverseSettings s = level;
+    s.tilt_sigma_deg = sigma;
+    const TraversePlan plan = planTraverse(s, 11, ground);
+    CHECK(plan.stances.empty());
+    CHECK_EQUAL(reference.truth.size(), plan.truth.size());
+    for (std::size_t k = 0; k < plan.truth.size(); ++k) {
+      CHECK(plan.truth[k].position_m == reference.truth[k].position_m);
+      CHECK(plan.apriori[k].position_m == reference.apriori[k].position_m);
+      CHECK(plan.truth[k].heading_rad == reference.truth[k].heading_rad);
+      CHECK(plan.apriori[k].heading_rad == reference.apriori[k].heading_rad);
+    }
+  }
+  // Sloped ground changes no pose (the path and the site origins), it adds the stances.
+  TraverseSettings sloped = level;
+  sloped.max_slope_deg = 10.0;
+  const TraversePlan plan = planTraverse(sloped, 11, ground);
+  CHECK_EQUAL(plan.truth.size(), plan.stances.size());
+  for (std::size_t k = 0; k < plan.truth.size(); ++k) {
+    CHECK(plan.truth[k].position_m == reference.truth[k].position_m);
+    CHECK(plan.apriori[k].position_m == reference.apriori[k].position_m);
+  }
+}
+
+TEST(TraversePlan, ARoverOnAPlaneTakesThePlanesTilt) {
+  // On a plane e = a x + b y + c the rover's down axis is the plane's downward normal and its base is on
+  // the plane, whatever its heading: written out, not through standOnGround's algebra.
+  const double a = 0.21, b = -0.34, c = 1.7;
+  auto plane = [&](double x, double y) { return a * x + b * y + c; };
+  const Eigen::Vector3d down_normal = Eigen::Vector3d(a, b, 1.0).normalized();  // Z down, e up = -Z
+  for (double heading_deg : {0.0, 37.0, 135.0, -100.0}) {
+    SitePose pose;
+    pose.position_m = Eigen::Vector3d(4.0, -3.0, 0.5);
+    pose.heading_rad = heading_deg * kDeg;
+    const RoverStance stance = standOnGround(pose, plane);
+    const Eigen::Vector3d down = pose.rotation() * stance.truth.rotation() * Eigen::Vector3d::UnitZ();
+    CHECK((down - down_normal).norm() < 1e-12);
+    DOUBLES_EQUAL(plane(4.0, -3.0), stance.base_elevation_m, 1e-12);
+    // The rover's forward axis stays in the vertical plane of its heading (no yaw).
+    const Eigen::Vector3d forward = pose.rotation() * stance.truth.rotation() * Eigen::Vector3d::UnitX();
+    DOUBLES_EQUAL(
+        0.0, forward.dot(Eigen::Vector3d(-std::sin(pose.heading_rad), std::cos(pose.heading_rad), 0)), 1e-12);
+  }
+  // Level ground: no tilt.
+  const RoverStance level = standOnGround(SitePose{}, [](double, double) { return 2.0; });
+  DOUBLES_EQUAL(0.0, level.truth.roll_rad, 0.0);
+  DOUBLES_EQUAL(0.0, level.truth.pitch_rad, 0.0);
+}
+
+TEST(TraversePlan, TheImuTiltErrorIsUnitNormalInItsSigma) {
+  // Over kSeeds traverses of 5 sites: a-priori minus true roll and pitch, each of the 2 x 2500 errors an
+  // independent N(0, T^2). The sample sd of n normals has a relative standard error 1 / sqrt(2 n) (1 %
+  // here): within 5 % of T; the mean within 5 T / sqrt(n); roll and pitch uncorrelated (|r| < 5 / sqrt(n)).
+  TraverseSettings s;
+  s.max_slope_deg = 12.0;
+  s.tilt_sigma_deg = 0.3;
+  Moments roll, pitch;
+  double cross = 0.0;
+  for (int seed = 0; seed < kSeeds; ++seed) {
+    const TraversePlan plan = planTraverse(s, static_cast<uint64_t>(seed), ground);
+    for (const RoverStance& stance : plan.stances) {
+      const double dr = (stance.apriori.roll_rad - stance.truth.roll_rad) / kDeg;
+      const double dp = (stance.apriori.pitch_rad - stance.truth.pitch_rad) / kDeg;
+      roll.add(dr);
+      pitch.add(dp);
+      cross += dr * dp;
+    }
+  }
+  const double n = roll.n;
+  CHECK_EQUAL(5 * kSeeds, static_cast<int>(n));
+  printf(
+      "\nIMU tilt error over %.0f sites, sigma %.2f deg: roll sd %.4f mean %.4f, pitch sd %.4f mean %.4f\n",
+      n, s.tilt_sigma_deg, std::sqrt(roll.variance()), roll.mean(), std::sqrt(pitch.variance()),
+      pitch.mean());
+  for (const Moments* m : {&roll, &pitch}) {
+    DOUBLES_EQUAL(s.tilt_sigma_deg, std::sqrt(m->variance()), 0.05 * s.tilt_sigma_deg);
+    DOUBLES_EQUAL(0.0, m->mean(), 5.0 * s.tilt_sigma_deg / std::sqrt(n));
+  }
+  CHECK(std::fabs(cross / n) / (s.tilt_sigma_deg * s.tilt_sigma_deg) < 5.0 / std::sqrt(n));
+  // Sigma 0: the IMU is exact.
+  s.tilt_sigma_deg = 0.0;
+  for (const RoverStance& stance : planTraverse(s, 3, ground).stances) {
+    CHECK(stance.apriori.roll_rad == stance.truth.roll_rad &&
+          stance.apriori.pitch_rad == stance.truth.pitch_rad);
+  }
 }
