@@ -27,7 +27,7 @@ void pointStep(Network& net) {
       const NetImage& im = net.image(o.image);
       Vec2 r;
       Mat2x3 j;
-      if (!ok(observationRow(o, im, im.center_m, im.m, pt.xyz_m, r, nullptr, &j))) continue;
+      if (!ok(observationRow(o, im, im.centre_m, im.m, pt.xyz_m, r, nullptr, &j))) continue;
       n.noalias() += j.transpose() * j;
       b.noalias() += j.transpose() * r;
       ++rays;
@@ -49,7 +49,7 @@ void readTangent(const Network& net, double* x) {
     const NetImage& im = net.image(i);
     Mat3 d;
     d.noalias() = im.m * im.m_apriori.transpose();
-    const Vec3 c = im.center_m - im.center_apriori_m;
+    const Vec3 c = im.centre_m - im.centre_apriori_m;
     const Vec3 w = rotationVector(d);
     for (int32_t k = 0; k < 3; ++k) {
       x[6 * i + k] = c(k);
@@ -63,7 +63,7 @@ void writeTangent(Network& net, const double* x) {
     NetImage& im = net.image(i);
     const Vec3 c(x[6 * i], x[6 * i + 1], x[6 * i + 2]);
     const Vec3 w(x[6 * i + 3], x[6 * i + 4], x[6 * i + 5]);
-    im.center_m = im.center_apriori_m + c;
+    im.centre_m = im.centre_apriori_m + c;
     im.m.noalias() = rotationFromVector(w) * im.m_apriori;
   }
 }
@@ -174,9 +174,9 @@ Status Alternation::reducedSweep(Network& net, AdjustWorkspace& ws) {
     const Vec12 delta = ldlt.solve(b);
     if (!delta.allFinite()) return Status::kNotFinite;
     const NetPair& pr = net.pair(pi);
-    applyCameraUpdate(delta.head<6>(), net.image(pr.left).center_m, net.image(pr.left).m);
+    applyCameraUpdate(delta.head<6>(), net.image(pr.left).centre_m, net.image(pr.left).m);
     if (pr.right >= 0)
-      applyCameraUpdate(delta.tail<6>(), net.image(pr.right).center_m, net.image(pr.right).m);
+      applyCameraUpdate(delta.tail<6>(), net.image(pr.right).centre_m, net.image(pr.right).m);
     for (int32_t t = 0; t < n_touched; ++t) {
       const int32_t p = ws.touched[t];
       ws.point_rhs[p].noalias() -= ws.coupling(p).transpose() * delta;

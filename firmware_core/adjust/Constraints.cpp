@@ -47,7 +47,7 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
   const NetImage& left = net.image(p.left);
   int32_t n = 0;
   const int32_t sides = has_right ? 2 : 1;
-  const Vec3* centers[2] = {&c_left, &c_right};
+  const Vec3* centres[2] = {&c_left, &c_right};
   const Mat3* ms[2] = {&m_left, &m_right};
   const Vec3* offsets[2] = {&rig.left_offset_m, &rig.right_offset_m};
   const double distances[2] = {rig.left_distance_m, rig.right_distance_m};
@@ -57,7 +57,7 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
     for (int32_t s = 0; s < sides; ++s) {
       Vec3 g;
       Mat3x6 j;
-      gimbalRows(*centers[s], *ms[s], rig.gimbal_m[left.sol], *offsets[s], g, j);
+      gimbalRows(*centres[s], *ms[s], rig.gimbal_m[left.sol], *offsets[s], g, j);
       rows.segment<3>(n) = g * w;
       jacobian.block<3, 6>(n, 6 * s) = j * w;
       tagRows(kinds, n, 3, ConstraintKind::kGimbal);
@@ -79,7 +79,7 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
   if (rig.use_spin_centre && rig.spin_centre_set[left.tier] && rig.sigma_distance_m > 0.0) {
     const double w = 1.0 / rig.sigma_distance_m;
     for (int32_t s = 0; s < sides; ++s) {
-      const Vec3 d = *centers[s] - rig.spin_centre_m[left.tier];
+      const Vec3 d = *centres[s] - rig.spin_centre_m[left.tier];
       const double len = d.norm();
       if (len > 0.0) {
         rows(n) = (len - distances[s]) * w;
@@ -126,7 +126,7 @@ int32_t currentPairConstraintRows(const Network& net, int32_t pair, ConstraintRo
   const NetPair& pr = net.pair(pair);
   const NetImage& l = net.image(pr.left);
   const NetImage& r = net.image(pr.right >= 0 ? pr.right : pr.left);
-  return pairConstraintRows(net, pair, l.center_m, l.m, r.center_m, r.m, rows, jacobian, misfit, kinds);
+  return pairConstraintRows(net, pair, l.centre_m, l.m, r.centre_m, r.m, rows, jacobian, misfit, kinds);
 }
 
 bool isMeasurement(const RigConstraints& rig, ConstraintKind kind) {
@@ -216,13 +216,13 @@ bool heldConstraintsMet(const RigConstraints& rig, const ConstraintMisfit& misfi
   return gimbal && base;
 }
 
-Status observationRow(const NetObservation& obs, const NetImage& image, const Vec3& center, const Mat3& m,
+Status observationRow(const NetObservation& obs, const NetImage& image, const Vec3& centre, const Mat3& m,
                       const Vec3& point, Vec2& residual, Mat2x6* d_image, Mat2x3* d_point) {
   // d(pixel)/dC = -d(pixel)/dX: the centre block is the negated point block, not computed twice.
   Vec2 pixel;
   Mat2x3 d_rotation, d_xyz;
   const bool derivatives = d_image != nullptr || d_point != nullptr;
-  const Status s = collinearity(image.io, center, m, point, pixel, nullptr,
+  const Status s = collinearity(image.io, centre, m, point, pixel, nullptr,
                                 d_image != nullptr ? &d_rotation : nullptr, derivatives ? &d_xyz : nullptr);
   if (!ok(s)) {
     return s;
@@ -239,8 +239,8 @@ Status observationRow(const NetObservation& obs, const NetImage& image, const Ve
   return Status::kOk;
 }
 
-void applyCameraUpdate(const Vec6& update, Vec3& center, Mat3& m) {
-  center += update.head<3>();
+void applyCameraUpdate(const Vec6& update, Vec3& centre, Mat3& m) {
+  centre += update.head<3>();
   const Mat3 r = rotationFromVector(update.tail<3>());
   const Mat3 m_old = m;
   m.noalias() = r * m_old;

@@ -80,11 +80,11 @@ bool heldConstraintsMet(const RigConstraints& rig, const ConstraintMisfit& misfi
 
 // The whitened residual (observed - predicted) / sigma of one observation and its Jacobians with respect
 // to the image's [dC, delta] (2x6) and the point (2x3), both for the predicted value divided by sigma.
-[[nodiscard]] Status observationRow(const NetObservation& obs, const NetImage& image, const Vec3& center,
+[[nodiscard]] Status observationRow(const NetObservation& obs, const NetImage& image, const Vec3& centre,
                                     const Mat3& m, const Vec3& point, Vec2& residual, Mat2x6* d_image,
                                     Mat2x3* d_point);
 
 // Applies a local update [dC, delta] to a camera.
-void applyCameraUpdate(const Vec6& update, Vec3& center, Mat3& m);
+void applyCameraUpdate(const Vec6& update, Vec3& centre, Mat3& m);
 
 }  // namespace areomap

@@ -16,7 +16,7 @@ Mat3 commonRotation(const Mat3* estimated, const Mat3* truth, int32_t count) {
   return svd.matrixU() * d * svd.matrixV().transpose();
 }
 
-TruthErrors truthErrors(const Network& net, const Vec3* true_centers, const Mat3* true_rotations,
+TruthErrors truthErrors(const Network& net, const Vec3* true_centres, const Mat3* true_rotations,
                         const Vec3* true_points, const Vec3& gimbal_m, bool aligned, double range_m) {
   Mat3 r = Mat3::Identity();
   if (aligned && net.imageCount() > 0) {
@@ -31,8 +31,8 @@ TruthErrors truthErrors(const Network& net, const Vec3* true_centers, const Mat3
     Mat3 m;
     m.noalias() = im.m * r.transpose();
     Vec3 c = gimbal_m;
-    c.noalias() += r * (im.center_m - gimbal_m);
-    const double px = eoPixelEquivalent(im.io.f_px, c - true_centers[i], rotationAngle(m, true_rotations[i]), range_m);
+    c.noalias() += r * (im.centre_m - gimbal_m);
+    const double px = eoPixelEquivalent(im.io.f_px, c - true_centres[i], rotationAngle(m, true_rotations[i]), range_m);
     sum_eo += px * px;
   }
   e.eo_px = net.imageCount() > 0 ? std::sqrt(sum_eo / net.imageCount()) : 0.0;

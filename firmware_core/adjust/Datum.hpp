@@ -21,7 +21,7 @@ struct TruthErrors {
   double ground_m = 0.0;
   int32_t points = 0;
 };
-TruthErrors truthErrors(const Network& net, const Vec3* true_centers, const Mat3* true_rotations,
+TruthErrors truthErrors(const Network& net, const Vec3* true_centres, const Mat3* true_rotations,
                         const Vec3* true_points, const Vec3& gimbal_m, bool aligned, double range_m);
 
 }  // namespace areomap

@@ -31,8 +31,8 @@ const char* fastMethodName(FastMethod method) {
   }
 }
 
-double eoPixelEquivalent(double f_px, const Vec3& d_center_m, double angle_rad, double nominal_range_m) {
-  return f_px * (std::fabs(angle_rad) + d_center_m.norm() / nominal_range_m);
+double eoPixelEquivalent(double f_px, const Vec3& d_centre_m, double angle_rad, double nominal_range_m) {
+  return f_px * (std::fabs(angle_rad) + d_centre_m.norm() / nominal_range_m);
 }
 
 int32_t boundedSweeps(const FastAdjustOptions& options) {

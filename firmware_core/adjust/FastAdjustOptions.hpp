@@ -99,7 +99,7 @@ struct FastAdjustResult {
 
 // "Pixel equivalent" of an EO difference (one definition for the whole project): f x (rotation angle +
 // centre difference / nominal range), i.e. the image displacement of a point at the nominal range.
-double eoPixelEquivalent(double f_px, const Vec3& d_center_m, double angle_rad, double nominal_range_m);
+double eoPixelEquivalent(double f_px, const Vec3& d_centre_m, double angle_rad, double nominal_range_m);
 
 // The sweep bound and the stop window of `options`, clamped to their named maxima.
 int32_t boundedSweeps(const FastAdjustOptions& options);

@@ -60,7 +60,7 @@ double FastAdjuster::evaluateCost(const Network& net, double* rms_px, int32_t* a
 
 void FastAdjuster::saveState(const Network& net) {
   for (int32_t i = 0; i < net.imageCount(); ++i) {
-    saved_center_[i] = net.image(i).center_m;
+    saved_centre_[i] = net.image(i).centre_m;
     saved_m_[i] = net.image(i).m;
   }
   for (int32_t p = 0; p < net.pointCount(); ++p) saved_xyz_[p] = net.point(p).xyz_m;
@@ -68,7 +68,7 @@ void FastAdjuster::saveState(const Network& net) {
 
 void FastAdjuster::restoreState(Network& net) const {
   for (int32_t i = 0; i < net.imageCount(); ++i) {
-    net.image(i).center_m = saved_center_[i];
+    net.image(i).centre_m = saved_centre_[i];
     net.image(i).m = saved_m_[i];
   }
   for (int32_t p = 0; p < net.pointCount(); ++p) net.point(p).xyz_m = saved_xyz_[p];
@@ -81,7 +81,7 @@ double FastAdjuster::applyStep(Network& net, const FastAdjustOptions& options) {
     const Eigen::Map<const Vec6> d(ws_.step + 6 * i);
     step_px = std::max(
         step_px, eoPixelEquivalent(im.io.f_px, d.head<3>(), d.tail<3>().norm(), options.nominal_range_m));
-    applyCameraUpdate(d, im.center_m, im.m);
+    applyCameraUpdate(d, im.centre_m, im.m);
   }
   backSubstitutePoints(net, ws_, ws_.step);
   return step_px;

@@ -102,7 +102,7 @@ class FastAdjuster {
   EoCovariance covariance_;
   CovarianceColumnSink* covariance_sink_ = nullptr;
   // The LM methods' state before a step, restored when the step does not lower the cost.
-  Vec3 saved_center_[kMaxImages];
+  Vec3 saved_centre_[kMaxImages];
   Mat3 saved_m_[kMaxImages];
   Vec3 saved_xyz_[kMaxTiePoints];
 };

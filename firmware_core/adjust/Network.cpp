@@ -12,8 +12,8 @@ void Network::clear() {
 }
 
 Status Network::addPair(int32_t sol, int32_t tier, const InteriorOrientation& left_io,
-                        const Vec3& left_center_m, const Mat3& left_m, const InteriorOrientation* right_io,
-                        const Vec3& right_center_m, const Mat3& right_m, int32_t& pair_index) {
+                        const Vec3& left_centre_m, const Mat3& left_m, const InteriorOrientation* right_io,
+                        const Vec3& right_centre_m, const Mat3& right_m, int32_t& pair_index) {
   if (sol < 0 || sol >= kMaxSols || tier < 0 || tier >= kMaxTiers || !(left_io.f_px > 0.0)) {
     return Status::kInvalidArgument;
   }
@@ -24,7 +24,7 @@ Status Network::addPair(int32_t sol, int32_t tier, const InteriorOrientation& le
   if (pair_count_ >= kMaxPairs || image_count_ + needed > kMaxImages) {
     return Status::kCapacityExceeded;
   }
-  if (!left_center_m.allFinite() || !left_m.allFinite() || !right_center_m.allFinite() ||
+  if (!left_centre_m.allFinite() || !left_m.allFinite() || !right_centre_m.allFinite() ||
       !right_m.allFinite()) {
     return Status::kNotFinite;
   }
@@ -34,7 +34,7 @@ Status Network::addPair(int32_t sol, int32_t tier, const InteriorOrientation& le
   p.right = -1;
   p.covariance.setZero();
   const InteriorOrientation* ios[2] = {&left_io, right_io};
-  const Vec3* centers[2] = {&left_center_m, &right_center_m};
+  const Vec3* centres[2] = {&left_centre_m, &right_centre_m};
   const Mat3* ms[2] = {&left_m, &right_m};
   for (int32_t s = 0; s < needed; ++s) {
     NetImage& im = images_[image_count_];
@@ -44,9 +44,9 @@ Status Network::addPair(int32_t sol, int32_t tier, const InteriorOrientation& le
     im.sol = sol;
     im.tier = tier;
     im.io = *ios[s];
-    im.center_m = *centers[s];
+    im.centre_m = *centres[s];
     im.m = *ms[s];
-    im.center_apriori_m = *centers[s];
+    im.centre_apriori_m = *centres[s];
     im.m_apriori = *ms[s];
     if (s == 1) p.right = image_count_;
     ++image_count_;
@@ -115,7 +115,7 @@ Status Network::triangulate(int32_t point) {
     const NetObservation& o = observations_[p.obs[k]];
     if (o.rejected) continue;
     const NetImage& im = images_[o.image];
-    origins[n] = im.center_m;
+    origins[n] = im.centre_m;
     dirs[n] = rayOfIdealPixel(im.io, im.m, o.ideal_px);
     ++n;
   }
@@ -136,7 +136,7 @@ Status Network::triangulateAll(int32_t& failed_count) {
 
 void Network::resetToApriori() {
   for (int32_t i = 0; i < image_count_; ++i) {
-    images_[i].center_m = images_[i].center_apriori_m;
+    images_[i].centre_m = images_[i].centre_apriori_m;
     images_[i].m = images_[i].m_apriori;
     images_[i].sigma.setZero();
   }

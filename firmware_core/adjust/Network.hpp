@@ -28,9 +28,9 @@ struct NetImage {
   int32_t sol = 0;   // index into RigConstraints::gimbal_m
   int32_t tier = 0;  // index into RigConstraints::spin_centre_m
   InteriorOrientation io;
-  Vec3 center_m = Vec3::Zero();          // current X0, Y0, Z0 (site frame)
+  Vec3 centre_m = Vec3::Zero();          // current X0, Y0, Z0 (site frame)
   Mat3 m = Mat3::Identity();             // current rotation, site -> camera
-  Vec3 center_apriori_m = Vec3::Zero();  // a-priori (pointing-derived) values
+  Vec3 centre_apriori_m = Vec3::Zero();  // a-priori (pointing-derived) values
   Mat3 m_apriori = Mat3::Identity();
   Vec6 sigma = Vec6::Zero();  // a-posteriori sigmas: centre (m), rotation (rad, camera frame)
 };
@@ -124,8 +124,8 @@ class Network {
 
   // Adds a stereo pair (right_io == nullptr: a single left image). Cameras start at their a-priori values.
   [[nodiscard]] Status addPair(int32_t sol, int32_t tier, const InteriorOrientation& left_io,
-                               const Vec3& left_center_m, const Mat3& left_m,
-                               const InteriorOrientation* right_io, const Vec3& right_center_m,
+                               const Vec3& left_centre_m, const Mat3& left_m,
+                               const InteriorOrientation* right_io, const Vec3& right_centre_m,
                                const Mat3& right_m, int32_t& pair_index);
   // Adds a tie point (its position is set by triangulate() or by the caller).
   [[nodiscard]] Status addPoint(const Vec3& xyz_m, int32_t& point_index);

@@ -29,8 +29,8 @@ Status NetworkBuilder::syncPair(const TieList& ties, int32_t sol, int32_t tier, 
     if (!ok(s)) return s;
   }
   int32_t net_pair = -1;
-  s = net.addPair(sol, tier, cams[0].io, cams[0].eo.center_m, cams[0].m,
-                  right != nullptr ? &cams[1].io : nullptr, cams[1].eo.center_m, cams[1].m, net_pair);
+  s = net.addPair(sol, tier, cams[0].io, cams[0].eo.centre_m, cams[0].m,
+                  right != nullptr ? &cams[1].io : nullptr, cams[1].eo.centre_m, cams[1].m, net_pair);
   if (!ok(s)) return s;
   const int32_t images[2] = {net.pair(net_pair).left, net.pair(net_pair).right};
   for (int32_t side = 0; side < 2; ++side) {

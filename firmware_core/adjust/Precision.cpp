@@ -46,7 +46,7 @@ bool triangulatePair(const Network& net, const PairViews& v, int32_t slot, Vec3&
   for (int32_t s = 0; s < 2; ++s) {
     const NetObservation& o = net.observation(obs[s]);
     const NetImage& im = net.image(o.image);
-    origins[s] = im.center_m;
+    origins[s] = im.centre_m;
     dirs[s] = rayOfIdealPixel(im.io, im.m, o.ideal_px);
   }
   return ok(intersectRays(origins, dirs, 2, xyz));
@@ -75,7 +75,7 @@ ImageDifferences precisionMethod1(const Network& net) {
     if (o.rejected || !net.point(o.point).solvable) continue;
     const NetImage& im = net.image(o.image);
     Vec2 pixel;
-    if (!ok(collinearity(im.io, im.center_m, im.m, net.point(o.point).xyz_m, pixel))) continue;
+    if (!ok(collinearity(im.io, im.centre_m, im.m, net.point(o.point).xyz_m, pixel))) continue;
     addImageDifference(d, o.ideal_px - pixel);
   }
   finish(d);
@@ -130,7 +130,7 @@ ImageDifferences precisionMethod3(const Network& net) {
           const NetObservation& o = net.observation(obs[s]);
           const NetImage& im = net.image(o.image);
           Vec2 pixel;
-          if (!ok(collinearity(im.io, im.center_m, im.m, xyz, pixel))) continue;
+          if (!ok(collinearity(im.io, im.centre_m, im.m, xyz, pixel))) continue;
           addImageDifference(d, o.ideal_px - pixel);
         }
       }

@@ -21,7 +21,7 @@ bool inFrontOfAll(const Network& net, const NetPoint& pt, const Vec3& xyz) {
     const NetObservation& o = net.observation(pt.obs[k]);
     if (o.rejected) continue;
     const NetImage& im = net.image(o.image);
-    if (!(im.m.row(2).dot(xyz - im.center_m) < 0.0)) return false;
+    if (!(im.m.row(2).dot(xyz - im.centre_m) < 0.0)) return false;
   }
   return true;
 }
@@ -34,7 +34,7 @@ bool usableObservation(const Network& net, const NetObservation& o) {
 
 Status currentResidual(const Network& net, const NetObservation& o, Vec2& residual) {
   const NetImage& im = net.image(o.image);
-  return observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, residual, nullptr, nullptr);
+  return observationRow(o, im, im.centre_m, im.m, net.point(o.point).xyz_m, residual, nullptr, nullptr);
 }
 
 double weightedCost(const Network& net, double* rms_px, int32_t* active) {
@@ -84,7 +84,7 @@ void addPairConstraints(const Network& net, int32_t pair, Mat12& n, Vec12& b) {
   const NetImage& right = net.image(single ? pr.left : pr.right);
   ConstraintRows rows;
   ConstraintJacobian jac;
-  if (pairConstraintRows(net, pair, left.center_m, left.m, right.center_m, right.m, rows, jac) > 0) {
+  if (pairConstraintRows(net, pair, left.centre_m, left.m, right.centre_m, right.m, rows, jac) > 0) {
     n.noalias() += jac.transpose().lazyProduct(jac);  // coefficient-based: no GEMM kernel
     b.noalias() -= jac.transpose() * rows;
   }
@@ -125,7 +125,7 @@ Status pairStep(Network& net, AdjustWorkspace& ws) {
         if (!usableObservation(net, o)) continue;
         Vec2 r;
         Mat2x6 j;
-        if (!ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, r, &j, nullptr))) continue;
+        if (!ok(observationRow(o, im, im.centre_m, im.m, net.point(o.point).xyz_m, r, &j, nullptr))) continue;
         n.block<6, 6>(6 * s, 6 * s).noalias() += j.transpose() * j;
         b.segment<6>(6 * s).noalias() += j.transpose() * r;
       }
@@ -140,7 +140,7 @@ Status pairStep(Network& net, AdjustWorkspace& ws) {
     }
     for (int32_t s = 0; s < sides; ++s) {
       NetImage& im = net.image(images[s]);
-      applyCameraUpdate(delta.segment<6>(6 * s), im.center_m, im.m);
+      applyCameraUpdate(delta.segment<6>(6 * s), im.centre_m, im.m);
     }
   }
   return Status::kOk;
@@ -153,7 +153,7 @@ void linearize(const Network& net, AdjustWorkspace& ws) {
     ws.obs_valid[k] = false;
     if (!usableObservation(net, o)) continue;
     const NetImage& im = net.image(o.image);
-    ws.obs_valid[k] = ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m,
+    ws.obs_valid[k] = ok(observationRow(o, im, im.centre_m, im.m, net.point(o.point).xyz_m,
                                         ws.obs_residual[k], &ws.obs_d_image[k], &ws.obs_d_point[k]));
   }
 }

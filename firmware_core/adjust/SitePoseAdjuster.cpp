@@ -123,19 +123,19 @@ Status BasicSitePoseAdjuster<C>::addSite(const LegMeasurement& leg, const Traver
 
 template <typename C>
 Status BasicSitePoseAdjuster<C>::addCamera(int32_t site, const InteriorOrientation& io,
-                                           const Vec3& center_in_site_m, const Mat3& m_site,
+                                           const Vec3& centre_in_site_m, const Mat3& m_site,
                                            int32_t& camera) {
   camera = -1;
   if (site < 0 || site >= site_count_) return refuse(Status::kInvalidArgument);
   if (camera_count_ >= C::kCameras) return refuse(Status::kCapacityExceeded);
   if (!std::isfinite(io.f_px) || !std::isfinite(io.x0_px) || !std::isfinite(io.y0_px) ||
-      !center_in_site_m.allFinite() || !m_site.allFinite())
+      !centre_in_site_m.allFinite() || !m_site.allFinite())
     return refuse(Status::kNotFinite);
   if (!(io.f_px > 0.0) || !rotationMatrix(m_site)) return refuse(Status::kInvalidArgument);
   SiteCamera& c = cameras_[camera_count_];
   c.site = site;
   c.io = io;
-  c.center_in_site_m = center_in_site_m;
+  c.centre_in_site_m = centre_in_site_m;
   c.m_site = m_site;
   camera = camera_count_++;
   return Status::kOk;

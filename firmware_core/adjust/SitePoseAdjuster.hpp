@@ -163,7 +163,7 @@ class BasicSitePoseAdjuster {
   // site's current pose composed with the leg (the warm start).
   [[nodiscard]] Status addSite(const LegMeasurement& leg, const TraverseFromSite* apriori, int32_t& site);
   // A camera of `site` with its EO in the site frame.
-  [[nodiscard]] Status addCamera(int32_t site, const InteriorOrientation& io, const Vec3& center_in_site_m,
+  [[nodiscard]] Status addCamera(int32_t site, const InteriorOrientation& io, const Vec3& centre_in_site_m,
                                  const Mat3& m_site, int32_t& camera);
   // A cross-site point, at `xyz_m` (traverse frame) when given, else intersected at the next adjust().
   [[nodiscard]] Status addPoint(const Vec3* xyz_m, int32_t& point);

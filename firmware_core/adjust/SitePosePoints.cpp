@@ -80,11 +80,11 @@ int32_t BasicSitePoseAdjuster<C>::raysInFront(const CrossSitePoint& pt, const Ve
   for (int32_t k = 0; k < pt.obs_count; ++k) {
     const CrossSiteObservation& o = observations_[pt.obs[k]];
     if (o.rejected) continue;
-    Vec3 center;
+    Vec3 centre;
     Mat3 camera_from_traverse;
-    cameraInTraverse(sites_[cameras_[o.camera].site].pose, cameras_[o.camera], center, camera_from_traverse);
+    cameraInTraverse(sites_[cameras_[o.camera].site].pose, cameras_[o.camera], centre, camera_from_traverse);
     Vec3 d;
-    d.noalias() = camera_from_traverse * (xyz - center);
+    d.noalias() = camera_from_traverse * (xyz - centre);
     front += d.z() < 0.0 ? 1 : 0;
   }
   return front;

@@ -20,10 +20,11 @@ Vec3 rotationLog(const Mat3& r) {
 
 }  // namespace
 
-void cameraInTraverse(const TraverseFromSite& pose, const SiteCamera& camera, Vec3& center_m, Mat3& m) {
-  center_m = pose.position_m;
-  center_m.noalias() += pose.rotation * camera.center_in_site_m;
-  m.noalias() = camera.m_site * pose.rotation.transpose();
+void cameraInTraverse(const TraverseFromSite& pose, const SiteCamera& camera, Vec3& centre_m,
+                      Mat3& camera_from_traverse) {
+  centre_m = pose.position_m;
+  centre_m.noalias() += pose.rotation * camera.centre_in_site_m;
+  camera_from_traverse.noalias() = camera.m_site * pose.rotation.transpose();
 }
 
 void applySiteUpdate(const Vec6& update, TraverseFromSite& pose) {
@@ -58,13 +59,13 @@ Mat3 rightJacobianInverse(const Vec3& phi) {
 Status crossSiteObservationRow(const TraverseFromSite& pose, const SiteCamera& camera, const Vec3& point_m,
                                const Vec2& ideal_px, double sigma_px, Vec2& error, Mat2x6* d_pose,
                                Mat2x3* d_point) {
-  Vec3 center;
-  Mat3 m;
-  cameraInTraverse(pose, camera, center, m);
+  Vec3 centre;
+  Mat3 camera_from_traverse;
+  cameraInTraverse(pose, camera, centre, camera_from_traverse);
   Vec2 pixel;
   Mat2x3 d_rotation, d_xyz;
   const bool derivatives = d_pose != nullptr || d_point != nullptr;
-  const Status s = collinearity(camera.io, center, m, point_m, pixel, nullptr,
+  const Status s = collinearity(camera.io, centre, camera_from_traverse, point_m, pixel, nullptr,
                                 derivatives ? &d_rotation : nullptr, derivatives ? &d_xyz : nullptr);
   if (!ok(s)) return s;
   const double w = 1.0 / sigma_px;
@@ -72,11 +73,11 @@ Status crossSiteObservationRow(const TraverseFromSite& pose, const SiteCamera& c
   if (d_pose != nullptr) {
     // Camera update dC = dp - [Q C_s]x dtheta, delta = -M dtheta; d pixel / dC = -d pixel / dX.
     Vec3 arm;
-    arm.noalias() = pose.rotation * camera.center_in_site_m;
+    arm.noalias() = pose.rotation * camera.centre_in_site_m;
     d_pose->block<2, 3>(0, 0) = d_xyz * (-w);
     Mat2x3 d_theta;
     d_theta.noalias() = d_xyz * skew(arm);
-    d_theta.noalias() -= d_rotation * m;
+    d_theta.noalias() -= d_rotation * camera_from_traverse;
     d_pose->block<2, 3>(0, 3) = d_theta * w;
   }
   if (d_point != nullptr) *d_point = d_xyz * w;

@@ -48,7 +48,7 @@ struct TraverseFromSite {
 struct SiteCamera {
   int32_t site = -1;
   InteriorOrientation io;
-  Vec3 center_in_site_m = Vec3::Zero();
+  Vec3 centre_in_site_m = Vec3::Zero();
   Mat3 m_site = Mat3::Identity();  // site -> camera
 };
 
@@ -64,7 +64,8 @@ struct LegMeasurement {
 };
 
 // The camera in the traverse frame: C = p + Q C_s, M = M_s Q^T.
-void cameraInTraverse(const TraverseFromSite& pose, const SiteCamera& camera, Vec3& center_m, Mat3& m);
+void cameraInTraverse(const TraverseFromSite& pose, const SiteCamera& camera, Vec3& centre_m,
+                      Mat3& camera_from_traverse);
 
 // Applies the local update [dp, dtheta] to a pose (rotation re-orthonormalised).
 void applySiteUpdate(const Vec6& update, TraverseFromSite& pose);

@@ -100,7 +100,7 @@ Status idealToPixel(const CameraModel& model, const PhotogrammetricCamera& camer
 
 Status projectPhotogrammetric(const PhotogrammetricCamera& camera, const Vec3& point, Vec2& pixel) {
   Vec2 ideal;
-  const Status s = collinearity(camera.io, camera.eo.center_m, camera.m, point, ideal);
+  const Status s = collinearity(camera.io, camera.eo.centre_m, camera.m, point, ideal);
   if (s != Status::kOk) {
     return s;
   }
@@ -142,7 +142,7 @@ Status cahvorToPhotogrammetric(const CameraModel& model, PhotogrammetricCamera& 
   cam.io.height = model.height;
   cam.h_scale = hs * h_cos / vs;
   cam.h_shear = hs * h_prime.dot(v_prime) / vs;
-  cam.eo.center_m = model.c;
+  cam.eo.centre_m = model.c;
   opkFromRotation(cam.m, cam.eo.omega_rad, cam.eo.phi_rad, cam.eo.kappa_rad);
 
   LensDistortion& d = cam.io.distortion;
@@ -222,7 +222,7 @@ Status photogrammetricToCahvor(const PhotogrammetricCamera& camera, CameraModel&
   }
   CameraModel out;
   out.type = CameraType::kCahv;
-  out.c = camera.eo.center_m;
+  out.c = camera.eo.centre_m;
   const Vec3 m0 = camera.m.row(0).transpose();
   const Vec3 m1 = camera.m.row(1).transpose();
   out.a = -camera.m.row(2).transpose();
@@ -312,10 +312,10 @@ Status photogrammetricToCahvor(const PhotogrammetricCamera& camera, CameraModel&
   return photogrammetricToCahvor(camera, model, ignored);
 }
 
-CameraModel adjustedModel(const CameraModel& apriori, const Mat3& m_old, const Mat3& m_new, const Vec3& center_new) {
+CameraModel adjustedModel(const CameraModel& apriori, const Mat3& m_old, const Mat3& m_new, const Vec3& centre_new) {
   Mat3 rotation;
   rotation.noalias() = m_new.transpose() * m_old;
-  return movedModel(apriori, rotation, center_new);
+  return movedModel(apriori, rotation, centre_new);
 }
 
 }  // namespace areomap

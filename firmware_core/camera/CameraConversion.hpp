@@ -17,7 +17,7 @@
 //   pixel's ray and the photogrammetric projection (collinearity then distortPixel) of the same ray.
 // - Exact route for the adjuster: pixelToIdeal maps a measured pixel to the ideal pixel of the
 //   photogrammetric camera through the model's own inverse (no polynomial), so that
-//   collinearity(cam.io, cam.eo.center_m, cam.m, P) == pixelToIdeal(project(model, P)) exactly for CAHV and
+//   collinearity(cam.io, cam.eo.centre_m, cam.m, P) == pixelToIdeal(project(model, P)) exactly for CAHV and
 //   CAHVOR (and CAHVORE with E = 0; with E != 0 the entrance pupil moves along O by under
 //   (theta / sin theta - 1) |E| metres, which is below 1e-6 px for real M2020 models at 1 m and more).
 #pragma once
@@ -71,7 +71,7 @@ constexpr int32_t kConversionFitGrid = 33;
 
 // An adjusted model written back without loss: the a-priori model moved rigidly by the change of the
 // site -> camera rotation (M_new^T M_old) to the new centre.
-CameraModel adjustedModel(const CameraModel& apriori, const Mat3& m_old, const Mat3& m_new, const Vec3& center_new);
+CameraModel adjustedModel(const CameraModel& apriori, const Mat3& m_old, const Mat3& m_new, const Vec3& centre_new);
 
 // Projection of a site point through the photogrammetric camera with its fitted distortion (collinearity,
 // then distortPixel): the pixel that the converted model predicts.

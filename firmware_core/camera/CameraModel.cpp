@@ -407,9 +407,9 @@ Status idealToDistorted(const CameraModel& model, const Vec2& ideal, Vec2& pixel
   return project(at_infinity, model.c + rr, pixel, nullptr);
 }
 
-CameraModel movedModel(const CameraModel& model, const Mat3& rotation, const Vec3& center) {
+CameraModel movedModel(const CameraModel& model, const Mat3& rotation, const Vec3& centre) {
   CameraModel m = model;
-  m.c = center;
+  m.c = centre;
   m.a.noalias() = rotation * model.a;
   m.h.noalias() = rotation * model.h;
   m.v.noalias() = rotation * model.v;

@@ -64,8 +64,8 @@ CameraModel linearPart(const CameraModel& model);
 [[nodiscard]] Status idealToDistorted(const CameraModel& model, const Vec2& ideal, Vec2& pixel);
 
 // Moves a model rigidly: every direction vector (A, H, V, O) is rotated by `rotation` (site frame) and the
-// centre set to `center`. This is how an adjusted exterior orientation is written back without loss.
-CameraModel movedModel(const CameraModel& model, const Mat3& rotation, const Vec3& center);
+// centre set to `centre`. This is how an adjusted exterior orientation is written back without loss.
+CameraModel movedModel(const CameraModel& model, const Mat3& rotation, const Vec3& centre);
 
 // The JPL text form ("C = x y z" lines; O, R, E, type/parameter and image size as present; other lines
 // ignored). parseModelText fills `field` with the name of the offending or missing component on error.

@@ -63,9 +63,9 @@ void rotationDerivatives(double omega_rad, double phi_rad, double kappa_rad, Mat
   d_kappa.noalias() = dr_kappa * r_phi * r_omega;
 }
 
-Status collinearity(const InteriorOrientation& io, const Vec3& center, const Mat3& m, const Vec3& point,
-                    Vec2& pixel, Mat2x3* d_center, Mat2x3* d_rotation, Mat2x3* d_point) {
-  const Vec3 delta = point - center;
+Status collinearity(const InteriorOrientation& io, const Vec3& centre, const Mat3& m, const Vec3& point,
+                    Vec2& pixel, Mat2x3* d_centre, Mat2x3* d_rotation, Mat2x3* d_point) {
+  const Vec3 delta = point - centre;
   Vec3 d;
   d.noalias() = m * delta;
   if (!(d.z() < 0.0)) {
@@ -74,15 +74,15 @@ Status collinearity(const InteriorOrientation& io, const Vec3& center, const Mat
   const double f = io.f_px;
   pixel.x() = io.x0_px - f * d.x() / d.z();
   pixel.y() = io.y0_px + f * d.y() / d.z();
-  if (d_center == nullptr && d_rotation == nullptr && d_point == nullptr) {
+  if (d_centre == nullptr && d_rotation == nullptr && d_point == nullptr) {
     return Status::kOk;
   }
   const Mat2x3 j_d = pixelWrtCameraVector(f, d);
   if (d_point != nullptr) {
     d_point->noalias() = j_d * m;
   }
-  if (d_center != nullptr) {
-    d_center->noalias() = -(j_d * m);
+  if (d_centre != nullptr) {
+    d_centre->noalias() = -(j_d * m);
   }
   if (d_rotation != nullptr) {
     // d' = exp([delta]x) d ~ d + delta x d = d - [d]x delta
@@ -94,19 +94,19 @@ Status collinearity(const InteriorOrientation& io, const Vec3& center, const Mat
 Status collinearityOpk(const InteriorOrientation& io, const ExteriorOrientation& eo, const Vec3& point,
                        Vec2& pixel, Mat2x6* d_eo, Mat2x3* d_point) {
   const Mat3 m = rotationFromOpk(eo.omega_rad, eo.phi_rad, eo.kappa_rad);
-  Mat2x3 d_center;
+  Mat2x3 d_centre;
   const Status status =
-      collinearity(io, eo.center_m, m, point, pixel, d_eo != nullptr ? &d_center : nullptr, nullptr, d_point);
+      collinearity(io, eo.centre_m, m, point, pixel, d_eo != nullptr ? &d_centre : nullptr, nullptr, d_point);
   if (status != Status::kOk || d_eo == nullptr) {
     return status;
   }
   Mat3 dm_omega, dm_phi, dm_kappa;
   rotationDerivatives(eo.omega_rad, eo.phi_rad, eo.kappa_rad, dm_omega, dm_phi, dm_kappa);
-  const Vec3 delta = point - eo.center_m;
+  const Vec3 delta = point - eo.centre_m;
   Vec3 d;
   d.noalias() = m * delta;
   const Mat2x3 j_d = pixelWrtCameraVector(io.f_px, d);
-  d_eo->block<2, 3>(0, 0) = d_center;
+  d_eo->block<2, 3>(0, 0) = d_centre;
   Vec3 dd;
   dd.noalias() = dm_omega * delta;
   d_eo->col(3).noalias() = j_d * dd;

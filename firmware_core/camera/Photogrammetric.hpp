@@ -63,7 +63,7 @@ struct InteriorOrientation {
 };
 
 struct ExteriorOrientation {
-  Vec3 center_m = Vec3::Zero();  // X0, Y0, Z0 in the site frame
+  Vec3 centre_m = Vec3::Zero();  // X0, Y0, Z0 in the site frame
   double omega_rad = 0.0;
   double phi_rad = 0.0;
   double kappa_rad = 0.0;
@@ -78,14 +78,14 @@ void opkFromRotation(const Mat3& m, double& omega_rad, double& phi_rad, double& 
 void rotationDerivatives(double omega_rad, double phi_rad, double kappa_rad, Mat3& d_omega, Mat3& d_phi,
                          Mat3& d_kappa);
 
-// Collinearity (Eq. 1) in ideal pixels for a camera with centre `center`, rotation `m` (site -> camera)
+// Collinearity (Eq. 1) in ideal pixels for a camera with centre `centre`, rotation `m` (site -> camera)
 // and principal distance/point from `io`. Returns kBehindCamera if the point is not in front (d_z >= 0).
 // Optional Jacobians:
-//   d_center  : d(sample, line)/d(X0, Y0, Z0)
+//   d_centre  : d(sample, line)/d(X0, Y0, Z0)
 //   d_rotation: d(sample, line)/d(delta) for the local update M' = exp([delta]x) M
 //   d_point   : d(sample, line)/d(XP, YP, ZP)
-[[nodiscard]] Status collinearity(const InteriorOrientation& io, const Vec3& center, const Mat3& m,
-                                  const Vec3& point, Vec2& pixel, Mat2x3* d_center = nullptr,
+[[nodiscard]] Status collinearity(const InteriorOrientation& io, const Vec3& centre, const Mat3& m,
+                                  const Vec3& point, Vec2& pixel, Mat2x3* d_centre = nullptr,
                                   Mat2x3* d_rotation = nullptr, Mat2x3* d_point = nullptr);
 
 // The same with the paper's six EO unknowns: d_eo = d(sample, line)/d(X0, Y0, Z0, omega, phi, kappa).

@@ -104,13 +104,13 @@ void RoverNode::publishEo(int32_t pair_id, bool final_solution) {
     e.pair_id = pair_id_of_image_[i];
     e.side = im.side == Side::kLeft ? eo_entry_t::SIDE_LEFT : eo_entry_t::SIDE_RIGHT;
     for (int32_t k = 0; k < 3; ++k) {
-      e.center_m[k] = im.center_m[k];
+      e.center_m[k] = im.centre_m[k];
       e.sigma_center_m[k] = im.sigma[k];
       e.sigma_angles_rad[k] = im.sigma[3 + k];
     }
     opkFromRotation(im.m, e.omega_rad, e.phi_rad, e.kappa_rad);
     // The adjusted model in the pixel frame of the image as sent (rigid moves commute with binning).
-    toMessage(unbinnedModel(adjustedModel(network_builder_.model(i), im.m_apriori, im.m, im.center_m),
+    toMessage(unbinnedModel(adjustedModel(network_builder_.model(i), im.m_apriori, im.m, im.centre_m),
                             binning_of_image_[i], full_size_of_image_[i][0], full_size_of_image_[i][1]),
               e.model);
   }

@@ -133,7 +133,7 @@ void writeEoCsv(const std::string& path, const Network& net, const std::vector<s
     double o = 0.0, p = 0.0, k = 0.0;
     opkFromRotation(im.m, o, p, k);
     out << stems[i] << "," << im.pair << "," << (im.side == Side::kLeft ? "L" : "R");
-    for (const double v : {im.center_m.x(), im.center_m.y(), im.center_m.z(), o, p, k}) out << "," << formatDouble(v);
+    for (const double v : {im.centre_m.x(), im.centre_m.y(), im.centre_m.z(), o, p, k}) out << "," << formatDouble(v);
     for (int c = 0; c < 6; ++c) out << "," << formatDouble(im.sigma(c));
     out << "\n";
   }
@@ -142,7 +142,7 @@ void writeEoCsv(const std::string& path, const Network& net, const std::vector<s
 
 CameraModel adjustedModelOf(const Network& net, int image, const CameraModel& apriori) {
   const NetImage& im = net.image(image);
-  return adjustedModel(apriori, im.m_apriori, im.m, im.center_m);
+  return adjustedModel(apriori, im.m_apriori, im.m, im.centre_m);
 }
 
 void writeAdjustedModels(const std::string& dir, const Network& net, const std::vector<CameraModel>& apriori,

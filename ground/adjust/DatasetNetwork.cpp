@@ -180,7 +180,7 @@ NetworkTruth loadNetworkTruth(const Dataset& dataset, const NetworkSource& sourc
                                     residual))) {
       throw cli::InputError(path, "model", "cannot convert the true model");
     }
-    truth.centers.push_back(cam.eo.center_m);
+    truth.centres.push_back(cam.eo.centre_m);
     truth.rotations.push_back(cam.m);
   }
   truth.available = true;

@@ -50,7 +50,7 @@ std::vector<ImageObservation> noisyTruthObservations(const Dataset& dataset, dou
 // truth/points.csv exist, the true position of every network point by point id (NaN when unknown).
 struct NetworkTruth {
   bool available = false;  // false when any true model is missing
-  std::vector<Vec3> centers;
+  std::vector<Vec3> centres;
   std::vector<Mat3> rotations;
   std::vector<Vec3> points;  // empty when not available
 };

@@ -225,7 +225,7 @@ void assembleNormal(const Network& net, const Layout& layout, Eigen::MatrixXd& n
     Vec2 r;
     Mat2x6 ji;
     Mat2x3 jp;
-    if (!ok(observationRow(o, im, im.center_m, im.m, net.point(o.point).xyz_m, r, &ji, &jp))) continue;
+    if (!ok(observationRow(o, im, im.centre_m, im.m, net.point(o.point).xyz_m, r, &ji, &jp))) continue;
     const int ci = 6 * o.image;
     const int cp = layout.point_col[o.point];
     n.block<6, 6>(ci, ci).noalias() += ji.transpose() * ji;
@@ -289,7 +289,7 @@ IntegratedResult svdOnce(Network& net, const IntegratedOptions& options) {
     const Eigen::VectorXd delta = svd.solve(b);
     for (int i = 0; i < net.imageCount(); ++i) {
       NetImage& im = net.image(i);
-      applyCameraUpdate(delta.segment<6>(6 * i), im.center_m, im.m);
+      applyCameraUpdate(delta.segment<6>(6 * i), im.centre_m, im.m);
     }
     for (int p = 0; p < net.pointCount(); ++p) {
       if (layout.point_col[p] >= 0) net.point(p).xyz_m += delta.segment<3>(layout.point_col[p]);
@@ -315,7 +315,7 @@ IntegratedResult ceresOnce(Network& net, const IntegratedOptions& options) {
   std::vector<double> points(3 * static_cast<size_t>(net.pointCount()));
   for (int i = 0; i < net.imageCount(); ++i) {
     double* x = &cameras[12 * i];
-    for (int k = 0; k < 3; ++k) x[k] = net.image(i).center_m(k);
+    for (int k = 0; k < 3; ++k) x[k] = net.image(i).centre_m(k);
     Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(x + 3) = net.image(i).m;
   }
   for (int p = 0; p < net.pointCount(); ++p) {
@@ -364,7 +364,7 @@ IntegratedResult ceresOnce(Network& net, const IntegratedOptions& options) {
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   for (int i = 0; i < net.imageCount(); ++i) {
-    readCamera(&cameras[12 * i], net.image(i).center_m, net.image(i).m);
+    readCamera(&cameras[12 * i], net.image(i).centre_m, net.image(i).m);
   }
   for (int p = 0; p < net.pointCount(); ++p) {
     if (layout.point_col[p] >= 0)

@@ -53,7 +53,7 @@ struct ObservationResidual {
     T d[3];
     for (int i = 0; i < 3; ++i) {
       d[i] = T(0.0);
-      for (int j = 0; j < 3; ++j) d[i] += camera_.m_site(i, j) * (in_site[j] - camera_.center_in_site_m(j));
+      for (int j = 0; j < 3; ++j) d[i] += camera_.m_site(i, j) * (in_site[j] - camera_.centre_in_site_m(j));
     }
     if (!(d[2] < T(0.0))) return false;  // behind the camera: Ceres rejects the step
     const double f = camera_.io.f_px;

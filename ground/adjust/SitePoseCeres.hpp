@@ -110,9 +110,9 @@ SitePoseProblem sitePoseProblemOf(const Adjuster& adjuster, int32_t first_free_s
       const CrossSiteObservation& o = adjuster.observation(pt.obs[k]);
       const SiteCamera& cam = adjuster.camera(o.camera);
       if (pt.placed_by >= 0 && cam.site != pt.placed_by) continue;
-      Mat3 m;
-      cameraInTraverse(p.poses[cam.site], cam, origins[n], m);
-      directions[n] = rayOfIdealPixel(cam.io, m, o.ideal_px);
+      Mat3 camera_from_traverse;
+      cameraInTraverse(p.poses[cam.site], cam, origins[n], camera_from_traverse);
+      directions[n] = rayOfIdealPixel(cam.io, camera_from_traverse, o.ideal_px);
       ++n;
     }
     Vec3 xyz;

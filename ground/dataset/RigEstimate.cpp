@@ -31,7 +31,7 @@ void estimateBase(const Rig& given, Network& net, RigEstimate& out) {
       const NetPair& pr = net.pair(p);
       if (pr.right < 0) continue;
       sum += net.image(pr.left).m_apriori *
-             (net.image(pr.right).center_apriori_m - net.image(pr.left).center_apriori_m);
+             (net.image(pr.right).centre_apriori_m - net.image(pr.left).centre_apriori_m);
       ++n;
     }
     rig.base_m = n > 0 ? Vec3(sum / n) : Vec3::Zero();
@@ -86,17 +86,17 @@ void estimateGimbalAndOffsets(const Rig& given, const std::vector<int>& sol_of_i
     Eigen::VectorXd b(3 * n_img);
     // Fitted relative to the mean camera centre: the minimum-norm choice below must not depend on where
     // the frame's origin lies (a site frame's origin can be hundreds of metres from the rover).
-    Vec3 mean_center = Vec3::Zero();
-    for (int i = 0; i < n_img; ++i) mean_center += net.image(i).center_apriori_m;
-    mean_center /= static_cast<double>(n_img);
+    Vec3 mean_centre = Vec3::Zero();
+    for (int i = 0; i < n_img; ++i) mean_centre += net.image(i).centre_apriori_m;
+    mean_centre /= static_cast<double>(n_img);
     for (int i = 0; i < n_img; ++i) {
       const NetImage& im = net.image(i);
       const int side = im.side == Side::kLeft ? 0 : 1;
-      Vec3 rhs = im.center_apriori_m - mean_center;
+      Vec3 rhs = im.centre_apriori_m - mean_centre;
       if (col_gimbal[im.sol] >= 0) {
         a.block<3, 3>(3 * i, col_gimbal[im.sol]) = Mat3::Identity();
       } else {
-        rhs -= rig.gimbal_m[im.sol] - mean_center;
+        rhs -= rig.gimbal_m[im.sol] - mean_centre;
       }
       if (col_offset[side] >= 0) {
         a.block<3, 3>(3 * i, col_offset[side]) = im.m_apriori.transpose();
@@ -112,7 +112,7 @@ void estimateGimbalAndOffsets(const Rig& given, const std::vector<int>& sol_of_i
     const double rms = std::sqrt((a * x - b).squaredNorm() / std::max(1, 3 * n_img));
     for (int s = 0; s < n_sols; ++s) {
       if (col_gimbal[s] < 0) continue;
-      rig.gimbal_m[s] = x.segment<3>(col_gimbal[s]) + mean_center;
+      rig.gimbal_m[s] = x.segment<3>(col_gimbal[s]) + mean_centre;
       out.estimated.push_back("rig.gimbal_m[" + std::to_string(sol_of_index[s]) +
                                  "]: absent, fitted to the a-priori camera centres as " +
                                  vecText(rig.gimbal_m[s]) + ".");
@@ -152,7 +152,7 @@ void estimateFidoVariants(Network& net, RigEstimate& out) {
     Eigen::MatrixXd a(members.size(), 4);
     Eigen::VectorXd b(members.size());
     for (size_t k = 0; k < members.size(); ++k) {
-      const Vec3 c = net.image(members[k]).center_apriori_m;
+      const Vec3 c = net.image(members[k]).centre_apriori_m;
       a.row(k) << 2.0 * c.x(), 2.0 * c.y(), 2.0 * c.z(), 1.0;
       b(k) = c.squaredNorm();
     }
@@ -162,7 +162,7 @@ void estimateFidoVariants(Network& net, RigEstimate& out) {
     rig.spin_centre_set[t] = true;
     for (int i : members) {
       const int side = net.image(i).side == Side::kLeft ? 0 : 1;
-      sum_d[side] += (net.image(i).center_apriori_m - rig.spin_centre_m[t]).norm();
+      sum_d[side] += (net.image(i).centre_apriori_m - rig.spin_centre_m[t]).norm();
       ++n_d[side];
     }
     out.estimated.push_back("FIDO: virtual spin centre of tier " + std::to_string(t) + " fitted as " +
@@ -175,7 +175,7 @@ void estimateFidoVariants(Network& net, RigEstimate& out) {
   for (int p = 0; p < net.pairCount(); ++p) {
     if (net.pair(p).right < 0) continue;
     lr +=
-        (net.image(net.pair(p).right).center_apriori_m - net.image(net.pair(p).left).center_apriori_m).norm();
+        (net.image(net.pair(p).right).centre_apriori_m - net.image(net.pair(p).left).centre_apriori_m).norm();
     ++n_lr;
   }
   rig.lr_distance_m = n_lr > 0 ? lr / n_lr : 0.0;

@@ -158,7 +158,7 @@ std::vector<LogEvent> packDataset(const Dataset& dataset, const PackOptions& opt
     int32_t pair_index = -1;
     const int tier = std::max(0, std::min(kMaxTiers - 1, p.tier));
     if (!ok(net->addPair(static_cast<int32_t>(it - sol_of_index.begin()), tier, cams[0].io,
-                         cams[0].eo.center_m, cams[0].m, p.right ? &cams[1].io : nullptr, cams[1].eo.center_m,
+                         cams[0].eo.centre_m, cams[0].m, p.right ? &cams[1].io : nullptr, cams[1].eo.centre_m,
                          cams[1].m, pair_index)))
       throw cli::InputError(dataset.root + "/panorama.json", "pairs", "more pairs than the rover's capacity");
     progress.step();

@@ -35,7 +35,7 @@ namespace fs = std::filesystem;
 constexpr double kNominalRange_m = 5.0;  // pixel equivalent of EO differences (as in the adjust reports)
 
 struct EoSet {
-  std::vector<Vec3> centers;
+  std::vector<Vec3> centres;
   std::vector<Mat3> rotations;
   std::vector<double> f_px;
 };
@@ -43,7 +43,7 @@ struct EoSet {
 EoSet currentEo(const Network& net) {
   EoSet s;
   for (int32_t i = 0; i < net.imageCount(); ++i) {
-    s.centers.push_back(net.image(i).center_m);
+    s.centres.push_back(net.image(i).centre_m);
     s.rotations.push_back(net.image(i).m);
     s.f_px.push_back(net.image(i).io.f_px);
   }
@@ -52,7 +52,7 @@ EoSet currentEo(const Network& net) {
 
 // RMS pixel equivalent of `est` against `ref` after the best-fit common rotation about gimbal_m.
 double alignedDifferencePx(const EoSet& est, const EoSet& ref, const Vec3& gimbal_m) {
-  const int32_t n = static_cast<int32_t>(est.centers.size());
+  const int32_t n = static_cast<int32_t>(est.centres.size());
   if (n == 0) return 0.0;
   const Mat3 r = commonRotation(est.rotations.data(), ref.rotations.data(), n);
   double sum = 0.0;
@@ -60,8 +60,8 @@ double alignedDifferencePx(const EoSet& est, const EoSet& ref, const Vec3& gimba
     Mat3 m;
     m.noalias() = est.rotations[i] * r.transpose();
     Vec3 c = gimbal_m;
-    c.noalias() += r * (est.centers[i] - gimbal_m);
-    const double px = eoPixelEquivalent(ref.f_px[i], c - ref.centers[i], rotationAngle(m, ref.rotations[i]),
+    c.noalias() += r * (est.centres[i] - gimbal_m);
+    const double px = eoPixelEquivalent(ref.f_px[i], c - ref.centres[i], rotationAngle(m, ref.rotations[i]),
                                         kNominalRange_m);
     sum += px * px;
   }
@@ -129,15 +129,15 @@ std::optional<double> eoDifferencePx(const eo_solution_t& rover, const Network& 
     const auto it = std::find(stems.begin(), stems.end(), e.stem);
     if (it == stems.end()) continue;
     const NetImage& im = net.image(static_cast<int32_t>(it - stems.begin()));
-    est.centers.emplace_back(e.center_m[0], e.center_m[1], e.center_m[2]);
+    est.centres.emplace_back(e.center_m[0], e.center_m[1], e.center_m[2]);
     est.rotations.push_back(rotationFromOpk(e.omega_rad, e.phi_rad, e.kappa_rad));
     est.f_px.push_back(im.io.f_px);
-    ref.centers.push_back(im.center_m);
+    ref.centres.push_back(im.centre_m);
     ref.rotations.push_back(im.m);
     ref.f_px.push_back(im.io.f_px);
   }
-  if (compared != nullptr) *compared = static_cast<int32_t>(est.centers.size());
-  if (est.centers.empty()) return std::nullopt;
+  if (compared != nullptr) *compared = static_cast<int32_t>(est.centres.size());
+  if (est.centres.empty()) return std::nullopt;
   return alignedDifferencePx(est, ref, gimbal_m);
 }
 
@@ -222,7 +222,7 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   const EoSet fast_eo = currentEo(net);
   if (truth.available) {
     result.truth_eo_fast_px =
-        truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, gimbal, true, kNominalRange_m)
+        truthErrors(net, truth.centres.data(), truth.rotations.data(), nullptr, gimbal, true, kNominalRange_m)
             .eo_px;
   }
   std::vector<bool> rejected(static_cast<std::size_t>(net.observationCount()));
@@ -269,9 +269,9 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   result.rms_px = integrated.rms_px;
   result.fast_vs_ground_px = alignedDifferencePx(fast_eo, currentEo(net), gimbal);
   if (truth.available) {
-    const TruthErrors aligned = truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr,
+    const TruthErrors aligned = truthErrors(net, truth.centres.data(), truth.rotations.data(), nullptr,
                                             gimbal, true, kNominalRange_m);
-    const TruthErrors raw = truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, gimbal,
+    const TruthErrors raw = truthErrors(net, truth.centres.data(), truth.rotations.data(), nullptr, gimbal,
                                         false, kNominalRange_m);
     TruthFigures t;
     t.eo_px = aligned.eo_px;
@@ -314,7 +314,7 @@ NetworkTruth passTruth(const Dataset& dataset, const std::string& truth_root, co
       report.warnings.push_back("truth: a true model is missing in " + truth_root + "/truth/models.");
   }
   if (truth.available) {
-    result.truth_eo_before_px = truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr,
+    result.truth_eo_before_px = truthErrors(net, truth.centres.data(), truth.rotations.data(), nullptr,
                                             net.rig.gimbal_m[0], true, kNominalRange_m)
                                     .eo_px;
   }

@@ -13,11 +13,11 @@ bool heightGradient(const NetImage& left, const NetImage& right, const Vec3& poi
   for (int s = 0; s < 2; ++s) {
     const NetImage& cam = *cameras[s];
     Vec2 pixel;
-    Mat2x3 d_center, d_rotation, d_point;
-    if (!ok(collinearity(cam.io, cam.center_m, cam.m, point_site_m, pixel, &d_center, &d_rotation, &d_point)))
+    Mat2x3 d_centre, d_rotation, d_point;
+    if (!ok(collinearity(cam.io, cam.centre_m, cam.m, point_site_m, pixel, &d_centre, &d_rotation, &d_point)))
       return false;
     a.middleRows<2>(2 * s) = d_point;
-    b.block<2, 3>(2 * s, 6 * s) = d_center;
+    b.block<2, 3>(2 * s, 6 * s) = d_centre;
     b.block<2, 3>(2 * s, 6 * s + 3) = d_rotation;
   }
   const Mat3 normal = a.transpose() * a;

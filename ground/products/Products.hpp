@@ -67,7 +67,7 @@ struct ProductTie {
 // (ground/adjust/FullEoCovariance.hpp): with it the DEM sigma carries the cameras' error, which every point
 // of a pair shares and which is correlated between pairs (ground/dem/SharedHeightError.hpp).
 struct EoUncertainty {
-  std::vector<NetImage> cameras;   // per ProductInputs::images: the adjusted network's io, center_m, m
+  std::vector<NetImage> cameras;   // per ProductInputs::images: the adjusted network's io, centre_m, m
   std::vector<int> block_of_pair;  // per ProductInputs::pairs: its 12 x 12 block in `covariance` (-1: none)
   Eigen::MatrixXd covariance;      // [left dC, delta, right dC, delta] per block (Constraints.hpp)
 };

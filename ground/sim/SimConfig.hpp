@@ -65,20 +65,20 @@ struct SimConfig {
   double crater_density_per_km2 = 800.0;
   double min_rock_m = 0.06;  // smallest rock diameter near the rover (grows with range)
   // Where the terrain lies (a traverse sets these; one site keeps the defaults): the fine square is centred
-  // on terrain_center_m; the rovers' positions (empty: one rover at the origin) keep rocks and crater walls
+  // on terrain_centre_m; the rovers' positions (empty: one rover at the origin) keep rocks and crater walls
   // off the rovers' footprints, and the smallest rock and the fine texture grow with the range from the
   // nearest rover; the coarse grid covers +-cover_half_extent_m about the centre (0:
   // Terrain::kMinCoverHalfM).
-  Eigen::Vector2d terrain_center_m = Eigen::Vector2d::Zero();
+  Eigen::Vector2d terrain_centre_m = Eigen::Vector2d::Zero();
   std::vector<Eigen::Vector2d> rover_xy_m;
   double cover_half_extent_m = 0.0;
   // Large-scale slopes (a traverse on sloped ground, --max-slope-deg; 0: none, the terrain as before):
-  // concentric swells about slope_center_m, e(r) = -tan(max_slope) L / (2 pi) cos(2 pi r / L) with
+  // concentric swells about slope_centre_m, e(r) = -tan(max_slope) L / (2 pi) cos(2 pi r / L) with
   // L = kSlopeWavelengthM, added to the relief. Their gradient is tan(max_slope) |sin(2 pi r / L)|: at most
   // max_slope, reached on every circle r = L / 4 + k L / 2, smooth at the centre; the downhill direction
   // turns with the azimuth about the centre, so sites along a path stand on different slopes.
   double max_slope_deg = 0.0;
-  Eigen::Vector2d slope_center_m = Eigen::Vector2d::Zero();
+  Eigen::Vector2d slope_centre_m = Eigen::Vector2d::Zero();
 
   // Rendering.
   int supersample = 2;    // s x s rays per pixel

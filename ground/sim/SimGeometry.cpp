@@ -83,7 +83,7 @@ std::string stemOf(int index, bool right) {
 
 }  // namespace
 
-CameraModel makeCahvor(const Eigen::Vector3d& center_m, const Eigen::Matrix3d& site_to_camera, double f_px,
+CameraModel makeCahvor(const Eigen::Vector3d& centre_m, const Eigen::Matrix3d& site_to_camera, double f_px,
                        double x0_px, double y0_px, double o_tilt_deg, double rho1, double rho2, int width,
                        int height) {
   const Eigen::Vector3d h_unit = site_to_camera.row(0).transpose();
@@ -91,7 +91,7 @@ CameraModel makeCahvor(const Eigen::Vector3d& center_m, const Eigen::Matrix3d& s
   const Eigen::Vector3d a = -site_to_camera.row(2).transpose();
   CameraModel m;
   m.type = CameraType::kCahvor;
-  m.c = center_m;
+  m.c = centre_m;
   m.a = a;
   m.h = f_px * h_unit + x0_px * a;
   m.v = f_px * v_unit + y0_px * a;

@@ -86,9 +86,9 @@ SimGeometry makeGeometry(const SimConfig& config, const Terrain& terrain,
                          const std::optional<SitePose>& terrain_from_site = std::nullopt,
                          const std::optional<RoverStance>& stance = std::nullopt);
 
-// The CAHVOR model of a camera with centre `center_m`, rotation `site_to_camera` (rows H', -V', -A),
+// The CAHVOR model of a camera with centre `centre_m`, rotation `site_to_camera` (rows H', -V', -A),
 // principal distance `f_px`, principal point (x0, y0) and distortion (O tilted from A, R = 0 rho1 rho2).
-CameraModel makeCahvor(const Eigen::Vector3d& center_m, const Eigen::Matrix3d& site_to_camera, double f_px,
+CameraModel makeCahvor(const Eigen::Vector3d& centre_m, const Eigen::Matrix3d& site_to_camera, double f_px,
                        double x0_px, double y0_px, double o_tilt_deg, double rho1, double rho2, int width,
                        int height);
 

@@ -77,7 +77,7 @@ nlohmann::json configJson(const SimConfig& c) {
   if (c.blur_px > 0.0) j["blur_px"] = c.blur_px;
   if (c.max_slope_deg > 0.0) {
     j["max_slope_deg"] = c.max_slope_deg;
-    j["slope_center_m"] = {c.slope_center_m.x(), c.slope_center_m.y()};
+    j["slope_center_m"] = {c.slope_centre_m.x(), c.slope_centre_m.y()};
   }
   return j;
 }
@@ -88,7 +88,7 @@ nlohmann::json traverseJson(const SimGeometry& g) {
   nlohmann::json rovers = nlohmann::json::array();
   for (const Eigen::Vector2d& xy : c.rover_xy_m) rovers.push_back({xy.x(), xy.y()});
   const SitePose& pose = *g.terrain_from_site;
-  nlohmann::json j = {{"terrain_center_m", {c.terrain_center_m.x(), c.terrain_center_m.y()}},
+  nlohmann::json j = {{"terrain_center_m", {c.terrain_centre_m.x(), c.terrain_centre_m.y()}},
                       {"cover_half_extent_m", c.cover_half_extent_m},
                       {"rover_xy_m", rovers},
                       {"true_pose",

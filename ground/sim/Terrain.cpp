@@ -87,7 +87,7 @@ struct Terrain::Relief {
   uint64_t s_relief = 0, s_patch = 0, s_dust = 0, s_mottle = 0;
   double relief_scale = 0.0;
   double swell_gradient = 0.0;  // tan(max_slope_deg): the large-scale swells (SimConfig), 0 none
-  Eigen::Vector2d swell_center = Eigen::Vector2d::Zero();
+  Eigen::Vector2d swell_centre = Eigen::Vector2d::Zero();
 };
 
 struct Terrain::Rock {
@@ -105,7 +105,7 @@ Terrain Terrain::build(const SimConfig& config) {
   Terrain t;
   t.seed_ = mix64(config.seed ^ 0x7e88a1dULL);
   t.texture_ifov_rad_ = 1.0 / config.focalPx();
-  t.center_ = config.terrain_center_m;
+  t.centre_ = config.terrain_centre_m;
   t.rovers_ = config.rover_xy_m;
   if (t.rovers_.empty()) t.rovers_.push_back(Eigen::Vector2d::Zero());
   t.layOutGrids(config);
@@ -125,16 +125,16 @@ void Terrain::layOutGrids(const SimConfig& config) {
   Grid& f = fine_;
   f.cell = config.cell_m;
   f.n = static_cast<int>(std::lround(2.0 * config.half_extent_m / config.cell_m)) + 1;
-  f.x0 = center_.x() - 0.5 * (f.n - 1) * f.cell;
-  f.y0 = center_.y() - 0.5 * (f.n - 1) * f.cell;
+  f.x0 = centre_.x() - 0.5 * (f.n - 1) * f.cell;
+  f.y0 = centre_.y() - 0.5 * (f.n - 1) * f.cell;
   const double fine_half = 0.5 * (f.n - 1) * f.cell;
   const double cover_half = coverHalfExtentM(config);
   if (cover_half > fine_half + 1e-9) {
     Grid& c = coarse_;
     c.cell = kCoarseCellM;
     c.n = static_cast<int>(std::lround(2.0 * cover_half / c.cell)) + 1;
-    c.x0 = center_.x() - 0.5 * (c.n - 1) * c.cell;
-    c.y0 = center_.y() - 0.5 * (c.n - 1) * c.cell;
+    c.x0 = centre_.x() - 0.5 * (c.n - 1) * c.cell;
+    c.y0 = centre_.y() - 0.5 * (c.n - 1) * c.cell;
   }
 }
 
@@ -150,7 +150,7 @@ Terrain::Relief Terrain::drawRelief(const SimConfig& config, std::mt19937_64& rn
   r.s_mottle = seed_ + 4;
   r.relief_scale = 2.6 * config.relief_m;  // value-noise fBm has an RMS of ~0.38
   r.swell_gradient = std::tan(config.max_slope_deg * M_PI / 180.0);
-  r.swell_center = config.slope_center_m;
+  r.swell_centre = config.slope_centre_m;
   return r;
 }
 
@@ -167,7 +167,7 @@ void Terrain::fillRelief(Grid& g, const Relief& r, int threads) {
       double height = relief + regional;
       if (r.swell_gradient > 0.0) {
         const double k = 2.0 * M_PI / kSlopeWavelengthM;
-        const double range = std::hypot(x - r.swell_center.x(), y - r.swell_center.y());
+        const double range = std::hypot(x - r.swell_centre.x(), y - r.swell_centre.y());
         height -= r.swell_gradient / k * std::cos(k * range);
       }
       g.h[static_cast<std::size_t>(ix) * gn + iy] = static_cast<float>(height);
@@ -217,8 +217,8 @@ void Terrain::addCraters(const SimConfig& config, std::mt19937_64& rng) {
   for (int c = 0; c < crater_count; ++c) {
     Crater crater;
     crater.radius = drawCraterRadius(rng);
-    crater.cx = center_.x() + (2.0 * uni(rng) - 1.0) * config.half_extent_m;
-    crater.cy = center_.y() + (2.0 * uni(rng) - 1.0) * config.half_extent_m;
+    crater.cx = centre_.x() + (2.0 * uni(rng) - 1.0) * config.half_extent_m;
+    crater.cy = centre_.y() + (2.0 * uni(rng) - 1.0) * config.half_extent_m;
     if (rangeToNearestRover(crater.cx, crater.cy) < crater.radius * 3.0 + 2.0)
       continue;                                               // keep the rover off crater walls
     crater.depth = crater.radius * (0.06 + 0.08 * uni(rng));  // degraded craters
@@ -241,12 +241,12 @@ void Terrain::addOuterCraters(const SimConfig& config) {
   for (int c = 0; c < outer_count; ++c) {
     Crater crater;
     crater.radius = drawCraterRadius(outer_rng);
-    crater.cx = center_.x() + (2.0 * uni(outer_rng) - 1.0) * cover_half;
-    crater.cy = center_.y() + (2.0 * uni(outer_rng) - 1.0) * cover_half;
+    crater.cx = centre_.x() + (2.0 * uni(outer_rng) - 1.0) * cover_half;
+    crater.cy = centre_.y() + (2.0 * uni(outer_rng) - 1.0) * cover_half;
     crater.depth = crater.radius * (0.06 + 0.08 * uni(outer_rng));
     crater.rim = crater.radius * (0.015 + 0.02 * uni(outer_rng));
     const double reach = fine_half + 3.0 * crater.radius;
-    if (std::fabs(crater.cx - center_.x()) < reach && std::fabs(crater.cy - center_.y()) < reach) continue;
+    if (std::fabs(crater.cx - centre_.x()) < reach && std::fabs(crater.cy - centre_.y()) < reach) continue;
     if (addCrater(coarse_, crater, config.threads)) ++craters_;
   }
 }
@@ -258,8 +258,8 @@ std::vector<Terrain::Rock> Terrain::drawRocks(const SimConfig& config) const {
   const int tiles = static_cast<int>(std::ceil(2.0 * config.half_extent_m / kRockTileM));
   for (int tx = 0; tx < tiles; ++tx) {
     for (int ty = 0; ty < tiles; ++ty) {
-      const double ax = center_.x() - config.half_extent_m + tx * kRockTileM,
-                   ay = center_.y() - config.half_extent_m + ty * kRockTileM;
+      const double ax = centre_.x() - config.half_extent_m + tx * kRockTileM,
+                   ay = centre_.y() - config.half_extent_m + ty * kRockTileM;
       const double range = rangeToNearestRover(ax + 0.5 * kRockTileM, ay + 0.5 * kRockTileM);
       const double d_min = std::max({config.min_rock_m, 3.0 * fine_.cell, 0.006 * range});
       std::mt19937_64 tile_rng(hash3(seed_ + 5, tx, ty));
@@ -438,15 +438,15 @@ DemGrid Terrain::dem() const {
   return g;
 }
 
-DemGrid Terrain::demInFrame(const SitePose& terrain_from_frame, const Eigen::Vector2d& center_m,
+DemGrid Terrain::demInFrame(const SitePose& terrain_from_frame, const Eigen::Vector2d& centre_m,
                             double half_extent_m, double cell_m) const {
   const int n = static_cast<int>(std::ceil(2.0 * half_extent_m / cell_m - 1e-9));
   DemGrid g;
   g.cols = n;
   g.rows = n;
   g.cell_m = cell_m;
-  g.east0_m = center_m.y() - 0.5 * n * cell_m;
-  g.north0_m = center_m.x() + 0.5 * n * cell_m;
+  g.east0_m = centre_m.y() - 0.5 * n * cell_m;
+  g.north0_m = centre_m.x() + 0.5 * n * cell_m;
   g.values.resize(static_cast<std::size_t>(n) * n);
   const Eigen::Matrix3d rotation = terrain_from_frame.rotation();
   const double origin_height_m = -terrain_from_frame.position_m.z();  // the frame origin's elevation, up

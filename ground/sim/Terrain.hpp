@@ -60,10 +60,10 @@ class Terrain {
   // on the fine nodes.
   DemGrid dem() const;
   // The surface as a DEM in another levelled frame F placed by `terrain_from_frame` (p_terrain =
-  // Rz(heading) p_F + position): a square of half side `half_extent_m` about F's (x, y) = `center_m`, cell
+  // Rz(heading) p_F + position): a square of half side `half_extent_m` about F's (x, y) = `centre_m`, cell
   // `cell_m`, elevations up in F (the terrain's minus the frame origin's height), sampled bilinearly at the
   // cell centres; nodata beyond the terrain.
-  DemGrid demInFrame(const SitePose& terrain_from_frame, const Eigen::Vector2d& center_m,
+  DemGrid demInFrame(const SitePose& terrain_from_frame, const Eigen::Vector2d& centre_m,
                      double half_extent_m, double cell_m) const;
 
   int nodes() const { return fine_.n; }
@@ -121,7 +121,7 @@ class Terrain {
   }
 
   uint64_t seed_ = 0;
-  Eigen::Vector2d center_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d centre_ = Eigen::Vector2d::Zero();
   std::vector<Eigen::Vector2d> rovers_;  // at least one (the origin by default)
   double texture_ifov_rad_ = 0.005;  // the finest pixel angle of the cameras: texture octaves fade below it
   Grid fine_;

@@ -67,7 +67,7 @@ double Terrain::halfExtentM() const {
   const Grid& g = coarse_.n > 0 ? coarse_ : fine_;
   const double far = (g.n - 1) * g.cell;
   return std::min(
-      {center_.x() - g.x0, g.x0 + far - center_.x(), center_.y() - g.y0, g.y0 + far - center_.y()});
+      {centre_.x() - g.x0, g.x0 + far - centre_.x(), centre_.y() - g.y0, g.y0 + far - centre_.y()});
 }
 
 double Terrain::rangeToNearestRover(double x_m, double y_m) const {

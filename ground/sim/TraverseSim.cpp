@@ -38,7 +38,7 @@ SimConfig traverseTerrainConfig(const TraverseSimConfig& config, const TraverseP
     t.rover_xy_m.push_back(xy);
   }
   const double path_half_m = 0.5 * (hi - lo).maxCoeff();
-  t.terrain_center_m = 0.5 * (lo + hi);
+  t.terrain_centre_m = 0.5 * (lo + hi);
   t.half_extent_m = path_half_m + config.terrain_margin_m;
   t.cover_half_extent_m = path_half_m + Terrain::kMinCoverHalfM;
   t.max_slope_deg = config.traverse.max_slope_deg;
@@ -54,7 +54,7 @@ SimConfig traverseTerrainConfig(const TraverseSimConfig& config, const TraverseP
     const std::size_t pick =
         std::min(panoramas.size() - 1, static_cast<std::size_t>(unit(mix64(h + 1)) * panoramas.size()));
     const double azimuth = 2.0 * M_PI * unit(mix64(h + 2));
-    t.slope_center_m = plan.truth[panoramas[pick]].position_m.head<2>() -
+    t.slope_centre_m = plan.truth[panoramas[pick]].position_m.head<2>() -
                        0.25 * kSlopeWavelengthM * Eigen::Vector2d(std::cos(azimuth), std::sin(azimuth));
   }
   return t;
@@ -91,8 +91,8 @@ TraversePlan writeTraverseDataset(const TraverseSimConfig& config, const std::st
   validatePlan(terrain_config);
   std::ostringstream what;
   what << "building the terrain: a " << std::lround(2.0 * terrain_config.half_extent_m) << " m square of "
-       << terrain_config.cell_m << " m cells about (" << std::lround(terrain_config.terrain_center_m.x())
-       << ", " << std::lround(terrain_config.terrain_center_m.y()) << ") m; path "
+       << terrain_config.cell_m << " m cells about (" << std::lround(terrain_config.terrain_centre_m.x())
+       << ", " << std::lround(terrain_config.terrain_centre_m.y()) << ") m; path "
        << std::lround(flat.distanceM()) << " m";
   stage(what.str());
   const Terrain terrain = Terrain::build(terrain_config);
@@ -156,7 +156,7 @@ TraversePlan writeTraverseDataset(const TraverseSimConfig& config, const std::st
   }
   writeTraverse(traverse, out);
   writeTraverseTruth(truth, out);
-  writeDemGeoTiff(out + "/" + kTruthDemFile, terrain.demInFrame(SitePose{}, terrain_config.terrain_center_m,
+  writeDemGeoTiff(out + "/" + kTruthDemFile, terrain.demInFrame(SitePose{}, terrain_config.terrain_centre_m,
                                                                 terrain.halfExtentM(), kTraverseDemCellM));
   return plan;
 }

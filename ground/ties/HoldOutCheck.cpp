@@ -32,7 +32,7 @@ bool triangulateReprojection(Network& net, int32_t p, Vec3& xyz) {
       const NetImage& im = net.image(o.image);
       Vec2 px;
       Mat2x3 jp;
-      if (!ok(collinearity(im.io, im.center_m, im.m, xyz, px, nullptr, nullptr, &jp))) return false;
+      if (!ok(collinearity(im.io, im.centre_m, im.m, xyz, px, nullptr, nullptr, &jp))) return false;
       n.noalias() += jp.transpose() * jp;
       g.noalias() += jp.transpose() * (o.ideal_px - px);
     }
@@ -54,7 +54,7 @@ bool pointResiduals(Network& net, int32_t p, std::vector<double>& squared) {
     if (o.rejected) continue;
     const NetImage& im = net.image(o.image);
     Vec2 px;
-    if (!ok(collinearity(im.io, im.center_m, im.m, xyz, px))) return false;
+    if (!ok(collinearity(im.io, im.centre_m, im.m, xyz, px))) return false;
     squared[point.obs[k]] = (o.ideal_px - px).squaredNorm();
   }
   return true;
@@ -237,7 +237,7 @@ int32_t keepAprioriWhereRejected(Network& net, const HoldOutResult& check) {
     if (v.adjusted || v.pair < 0 || v.pair >= net.pairCount()) continue;
     for (int32_t image : {net.pair(v.pair).left, net.pair(v.pair).right}) {
       if (image < 0) continue;
-      net.image(image).center_m = net.image(image).center_apriori_m;
+      net.image(image).centre_m = net.image(image).centre_apriori_m;
       net.image(image).m = net.image(image).m_apriori;
     }
     ++back;

@@ -346,7 +346,7 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
       ref.model = c.adjusted;
       ConversionResidual residual;
       if (!ok(cahvorToPhotogrammetric(ref.model, ref.camera, residual))) continue;
-      if (!ok(adjuster->addCamera(static_cast<int32_t>(k), ref.camera.io, ref.camera.eo.center_m,
+      if (!ok(adjuster->addCamera(static_cast<int32_t>(k), ref.camera.io, ref.camera.eo.centre_m,
                                   ref.camera.m, ref.index)))
         continue;
       cameras[{traverse.sites[k].id, c.stem}] = ref;

@@ -190,9 +190,9 @@ ground::TruthFigures truthFigures(const ground::NetworkTruth& truth, std::option
   const Vec3* tp = truth.points.empty() ? nullptr : truth.points.data();
   const Vec3 gimbal = g_net.rig.gimbal_m[0];
   const TruthErrors aligned =
-      truthErrors(g_net, truth.centers.data(), truth.rotations.data(), tp, gimbal, true, kNominalRange_m);
+      truthErrors(g_net, truth.centres.data(), truth.rotations.data(), tp, gimbal, true, kNominalRange_m);
   const TruthErrors raw =
-      truthErrors(g_net, truth.centers.data(), truth.rotations.data(), tp, gimbal, false, kNominalRange_m);
+      truthErrors(g_net, truth.centres.data(), truth.rotations.data(), tp, gimbal, false, kNominalRange_m);
   ground::TruthFigures t;
   t.eo_px = aligned.eo_px;
   t.eo_px_raw = raw.eo_px;
@@ -241,7 +241,7 @@ int main(int argc, char** argv) {
     const ground::NetworkTruth truth = ground::loadNetworkTruth(dataset, source, o.truth_ties);
     std::optional<double> eo_before;
     if (truth.available) {
-      eo_before = truthErrors(g_net, truth.centers.data(), truth.rotations.data(), nullptr,
+      eo_before = truthErrors(g_net, truth.centres.data(), truth.rotations.data(), nullptr,
                               g_net.rig.gimbal_m[0], true, kNominalRange_m)
                       .eo_px;
     }

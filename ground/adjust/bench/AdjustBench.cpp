@@ -56,7 +56,7 @@ void printRow(const std::string& problem, const Row& r, double fast_seconds) {
 void truthFigures(const ground::NetworkTruth& t, Row& r) {
   if (!t.available) return;
   const TruthErrors e =
-      truthErrors(g_work, t.centers.data(), t.rotations.data(), t.points.empty() ? nullptr : t.points.data(),
+      truthErrors(g_work, t.centres.data(), t.rotations.data(), t.points.empty() ? nullptr : t.points.data(),
                   g_work.rig.gimbal_m[0], true, 5.0);
   r.eo_px = e.eo_px;
   r.ground_m = e.ground_m;
@@ -138,7 +138,7 @@ void benchNetwork(const std::string& problem, const ground::NetworkTruth& truth,
   for (int i = 0; i < g_work.imageCount(); ++i) {
     d_eo =
         std::max(d_eo, eoPixelEquivalent(g_work.image(i).io.f_px,
-                                         g_work.image(i).center_m - fast_solution->image(i).center_m,
+                                         g_work.image(i).centre_m - fast_solution->image(i).centre_m,
                                          rotationAngle(g_work.image(i).m, fast_solution->image(i).m), 5.0));
   }
   for (int p = 0; p < g_work.pointCount(); ++p) {
@@ -239,9 +239,9 @@ void benchBal(const std::string& path, int repeat) {
     const Mat3 r = rotationFromVector(Vec3(x[0], x[1], x[2]));
     InteriorOrientation io;
     io.f_px = x[6];
-    const Vec3 center = -(r.transpose() * Vec3(x[3], x[4], x[5]));
+    const Vec3 centre = -(r.transpose() * Vec3(x[3], x[4], x[5]));
     int32_t pair = 0;
-    if (!ok(g_start.addPair(0, 0, io, center, r, nullptr, center, r, pair)))
+    if (!ok(g_start.addPair(0, 0, io, centre, r, nullptr, centre, r, pair)))
       throw cli::InputError(path, "camera", "bad");
   }
   for (int p = 0; p < n_pt; ++p) {
@@ -271,7 +271,7 @@ void benchBal(const std::string& path, int repeat) {
     NetObservation& o = g_start.observation(k);
     Vec2 q;
     const NetImage& im = g_start.image(o.image);
-    if (!ok(collinearity(im.io, im.center_m, im.m, g_start.point(o.point).xyz_m, q))) {
+    if (!ok(collinearity(im.io, im.centre_m, im.m, g_start.point(o.point).xyz_m, q))) {
       o.rejected = true;
       ++behind;
     }

@@ -180,7 +180,7 @@ int run(areomap::cli::Args& args) {
                                 {"omega_deg", cam.eo.omega_rad * kDeg},
                                 {"phi_deg", cam.eo.phi_rad * kDeg},
                                 {"kappa_deg", cam.eo.kappa_rad * kDeg},
-                                {"center_m", vec(cam.eo.center_m)},
+                                {"center_m", vec(cam.eo.centre_m)},
                                 {"R_site_to_camera", rows},
                                 {"h_scale", cam.h_scale},
                                 {"h_shear", cam.h_shear},
@@ -216,7 +216,7 @@ int run(areomap::cli::Args& args) {
               cam.io.x0_px, cam.io.y0_px);
   std::printf("  omega = %.6f deg, phi = %.6f deg, kappa = %.6f deg\n", cam.eo.omega_rad * kDeg,
               cam.eo.phi_rad * kDeg, cam.eo.kappa_rad * kDeg);
-  std::printf("  centre = %.6f %.6f %.6f m\n", cam.eo.center_m.x(), cam.eo.center_m.y(), cam.eo.center_m.z());
+  std::printf("  centre = %.6f %.6f %.6f m\n", cam.eo.centre_m.x(), cam.eo.centre_m.y(), cam.eo.centre_m.z());
   for (int r = 0; r < 3; ++r) {
     std::printf("  R_site_to_camera[%d] = %.9f %.9f %.9f\n", r, cam.m(r, 0), cam.m(r, 1), cam.m(r, 2));
   }

@@ -150,6 +150,68 @@ int simulateTraverse(const areomap::sim::TraverseSimConfig& config, const std::s
   return 0;
 }
 
+// The traverse preset's options (--sites ... --tilt-sigma-deg); the slope options refused without it.
+void traverseOptions(areomap::cli::Args& args, bool traverse, areomap::sim::TraverseSimConfig& tc) {
+  using namespace areomap;
+  if (traverse) {
+    tc.traverse.sites = integerOption(args, "--sites", tc.traverse.sites);
+    tc.traverse.leg_min_m = args.number("--leg-min-m", tc.traverse.leg_min_m);
+    tc.traverse.leg_max_m = args.number("--leg-max-m", tc.traverse.leg_max_m);
+    tc.traverse.max_turn_deg = args.number("--max-turn-deg", tc.traverse.max_turn_deg);
+    tc.traverse.drift_fraction =
+        args.number("--odometry-drift-pct", 100.0 * tc.traverse.drift_fraction) / 100.0;
+    tc.traverse.vertical_drift_fraction =
+        args.number("--vertical-drift-pct", 100.0 * tc.traverse.vertical_drift_fraction) / 100.0;
+    tc.traverse.heading_drift_deg = args.number("--heading-drift-deg", tc.traverse.heading_drift_deg);
+    tc.traverse.stop_spacing_m = args.number("--stop-spacing-m", tc.traverse.stop_spacing_m);
+    tc.terrain_margin_m = args.number("--extent-m", tc.terrain_margin_m);
+    tc.traverse.max_slope_deg = args.number("--max-slope-deg", tc.traverse.max_slope_deg);
+    if (const auto tilt_sigma = args.numbers("--tilt-sigma-deg", 1)) {
+      if (!(tc.traverse.max_slope_deg > 0.0))
+        throw cli::UsageError("--tilt-sigma-deg: only on sloped ground (--max-slope-deg above 0)");
+      tc.traverse.tilt_sigma_deg = tilt_sigma->front();
+    }
+  } else {
+    for (const char* option : {"--max-slope-deg", "--tilt-sigma-deg"}) {
+      if (args.option(option)) throw cli::UsageError(std::string(option) + ": only with --preset traverse");
+    }
+  }
+}
+
+// One site: the terrain, the geometry, the dataset written.
+int simulateSite(const areomap::sim::SimConfig& c, const std::string& out, bool images) {
+  using namespace areomap;
+  const double t0 = cli::nowSeconds();
+  cli::info("preset " + c.preset + ", seed " + std::to_string(c.seed) + ": building the terrain");
+  const sim::Terrain terrain = sim::Terrain::build(c);
+  cli::info("terrain " + std::to_string(terrain.nodes()) + " x " + std::to_string(terrain.nodes()) +
+            " nodes, " + std::to_string(terrain.rockCount()) + " rocks, " +
+            std::to_string(terrain.craterCount()) + " craters");
+  const sim::SimGeometry g = sim::makeGeometry(c, terrain);
+  cli::info(std::to_string(g.pairs.size()) + " pairs, " + std::to_string(g.cameras().size()) + " images, " +
+            std::to_string(g.points.size()) + " check points, " + std::to_string(g.observations.size()) +
+            " observations");
+  if (static_cast<int>(g.points.size()) < c.check_points) {
+    cli::warn("only " + std::to_string(g.points.size()) + " of " + std::to_string(c.check_points) +
+              " check points are seen by two or more images");
+  }
+  if (const int beyond = sim::camerasSeeingBeyondTerrain(g, terrain); beyond > 0) {
+    cli::warn(std::to_string(beyond) +
+              " image(s) see ground beyond the terrain grid (rendered flat, not in "
+              "truth/dem.tif): raise --extent-m or tilt down");
+  }
+  sim::WriteOptions options;
+  options.images = images;
+  cli::Progress progress("rendering", g.cameras().size());
+  options.on_image = [&](int, int) { progress.step(); };
+  sim::writeSimDataset(g, terrain, out, options);
+  progress.done();
+  char line[128];
+  std::snprintf(line, sizeof(line), "wrote %s in %.1f s", out.c_str(), cli::nowSeconds() - t0);
+  cli::info(line);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -171,29 +233,7 @@ int main(int argc, char** argv) {
     }
     sim::TraverseSimConfig tc = sim::traversePreset(traverse ? camera.value_or("navcam") : preset);
     sim::SimConfig& c = tc.site;
-    if (traverse) {
-      tc.traverse.sites = integerOption(args, "--sites", tc.traverse.sites);
-      tc.traverse.leg_min_m = args.number("--leg-min-m", tc.traverse.leg_min_m);
-      tc.traverse.leg_max_m = args.number("--leg-max-m", tc.traverse.leg_max_m);
-      tc.traverse.max_turn_deg = args.number("--max-turn-deg", tc.traverse.max_turn_deg);
-      tc.traverse.drift_fraction =
-          args.number("--odometry-drift-pct", 100.0 * tc.traverse.drift_fraction) / 100.0;
-      tc.traverse.vertical_drift_fraction =
-          args.number("--vertical-drift-pct", 100.0 * tc.traverse.vertical_drift_fraction) / 100.0;
-      tc.traverse.heading_drift_deg = args.number("--heading-drift-deg", tc.traverse.heading_drift_deg);
-      tc.traverse.stop_spacing_m = args.number("--stop-spacing-m", tc.traverse.stop_spacing_m);
-      tc.terrain_margin_m = args.number("--extent-m", tc.terrain_margin_m);
-      tc.traverse.max_slope_deg = args.number("--max-slope-deg", tc.traverse.max_slope_deg);
-      if (const auto tilt_sigma = args.numbers("--tilt-sigma-deg", 1)) {
-        if (!(tc.traverse.max_slope_deg > 0.0))
-          throw cli::UsageError("--tilt-sigma-deg: only on sloped ground (--max-slope-deg above 0)");
-        tc.traverse.tilt_sigma_deg = tilt_sigma->front();
-      }
-    } else {
-      for (const char* option : {"--max-slope-deg", "--tilt-sigma-deg"}) {
-        if (args.option(option)) throw cli::UsageError(std::string(option) + ": only with --preset traverse");
-      }
-    }
+    traverseOptions(args, traverse, tc);
     const std::string out = args.required("--out");
     const int64_t seed = args.integer("--seed", 1);
     if (seed < 0) throw cli::UsageError("--seed: must be >= 0");
@@ -272,34 +312,6 @@ int main(int argc, char** argv) {
     sim::validatePlan(c);
     if (traverse) return simulateTraverse(tc, out, images);
 
-    const double t0 = cli::nowSeconds();
-    cli::info("preset " + c.preset + ", seed " + std::to_string(c.seed) + ": building the terrain");
-    const sim::Terrain terrain = sim::Terrain::build(c);
-    cli::info("terrain " + std::to_string(terrain.nodes()) + " x " + std::to_string(terrain.nodes()) +
-              " nodes, " + std::to_string(terrain.rockCount()) + " rocks, " +
-              std::to_string(terrain.craterCount()) + " craters");
-    const sim::SimGeometry g = sim::makeGeometry(c, terrain);
-    cli::info(std::to_string(g.pairs.size()) + " pairs, " + std::to_string(g.cameras().size()) + " images, " +
-              std::to_string(g.points.size()) + " check points, " + std::to_string(g.observations.size()) +
-              " observations");
-    if (static_cast<int>(g.points.size()) < c.check_points) {
-      cli::warn("only " + std::to_string(g.points.size()) + " of " + std::to_string(c.check_points) +
-                " check points are seen by two or more images");
-    }
-    if (const int beyond = sim::camerasSeeingBeyondTerrain(g, terrain); beyond > 0) {
-      cli::warn(std::to_string(beyond) +
-                " image(s) see ground beyond the terrain grid (rendered flat, not in "
-                "truth/dem.tif): raise --extent-m or tilt down");
-    }
-    sim::WriteOptions options;
-    options.images = images;
-    cli::Progress progress("rendering", g.cameras().size());
-    options.on_image = [&](int, int) { progress.step(); };
-    sim::writeSimDataset(g, terrain, out, options);
-    progress.done();
-    char line[128];
-    std::snprintf(line, sizeof(line), "wrote %s in %.1f s", out.c_str(), cli::nowSeconds() - t0);
-    cli::info(line);
-    return 0;
+    return simulateSite(c, out, images);
   });
 }

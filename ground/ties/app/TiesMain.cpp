@@ -67,7 +67,7 @@ void writeAdjustment(const std::string& out, const areomap::Dataset& dataset, co
   for (int32_t i = 0; i < network.net->imageCount(); ++i) {
     const areomap::NetImage& im = network.net->image(i);
     const areomap::CameraModel adjusted =
-        areomap::adjustedModel(network.apriori_of_image[i], im.m_apriori, im.m, im.center_m);
+        areomap::adjustedModel(network.apriori_of_image[i], im.m_apriori, im.m, im.centre_m);
     areomap::io::writeCameraModelFile(out + "/models/" + network.stem_of_image[i] + ".cahvor", adjusted);
   }
   json report;

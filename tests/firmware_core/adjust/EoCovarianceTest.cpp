@@ -87,7 +87,7 @@ TEST(EoCovariance, PointsEliminatedWidenTheSigmasOfPointsFixed) {
         if (o.image != images[s] || o.rejected || !g_cnet.point(o.point).solvable) continue;
         Vec2 res;
         Mat2x6 j;
-        if (!ok(observationRow(o, im, im.center_m, im.m, g_cnet.point(o.point).xyz_m, res, &j, nullptr)))
+        if (!ok(observationRow(o, im, im.centre_m, im.m, g_cnet.point(o.point).xyz_m, res, &j, nullptr)))
           continue;
         n.block<6, 6>(6 * s, 6 * s) += j.transpose() * j;
       }

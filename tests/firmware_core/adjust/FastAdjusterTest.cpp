@@ -157,7 +157,7 @@ TEST(FastAdjuster, AllMethodsReachTheSameMinimum) {
       double eo = 0.0;
       for (int32_t i = 0; i < g_net.imageCount(); ++i) {
         eo = std::fmax(
-            eo, eoPixelEquivalent(g_net.image(i).io.f_px, g_net.image(i).center_m - first.image(i).center_m,
+            eo, eoPixelEquivalent(g_net.image(i).io.f_px, g_net.image(i).centre_m - first.image(i).centre_m,
                                   rotationAngle(g_net.image(i).m, first.image(i).m), 5.0));
       }
       std::printf(
@@ -313,7 +313,7 @@ TEST(FastAdjuster, PairWithoutTiePointsIsDegenerate) {
   CHECK(Status::kDegenerate == g_adjuster.adjust(g_net, FastAdjustOptions{}, r));
   CHECK_EQUAL(img, r.degenerate_image);
   for (int32_t i = 0; i < g_net.imageCount(); ++i) {
-    CHECK(g_net.image(i).center_m.allFinite());
+    CHECK(g_net.image(i).centre_m.allFinite());
     CHECK(g_net.image(i).m.allFinite());
   }
 }
@@ -334,7 +334,7 @@ TEST(FastAdjuster, PointsOnALineAreDegenerate) {
     CHECK(ok(g_net.addPoint(x, p)));
     for (int32_t side = 0; side < 2; ++side) {
       Vec2 q;
-      CHECK(ok(collinearity(io, g_net.image(side).center_m, m, x, q)));
+      CHECK(ok(collinearity(io, g_net.image(side).centre_m, m, x, q)));
       CHECK(ok(g_net.addObservation(p, side, q, 0.3)));
     }
   }
@@ -369,8 +369,8 @@ TEST(Constraints, JacobiansMatchNumericDerivatives) {
   g_net.rig.right_distance_m = 0.12;
   g_net.rig.lr_distance_m = 0.2;
   const NetPair& p = g_net.pair(0);
-  const Vec3 cl = g_net.image(p.left).center_m + Vec3(0.01, -0.02, 0.005);
-  const Vec3 cr = g_net.image(p.right).center_m;
+  const Vec3 cl = g_net.image(p.left).centre_m + Vec3(0.01, -0.02, 0.005);
+  const Vec3 cr = g_net.image(p.right).centre_m;
   const Mat3 ml = rotationFromVector(Vec3(0.01, 0.02, -0.01)) * g_net.image(p.left).m;
   const Mat3 mr = g_net.image(p.right).m;
   ConstraintRows rows;

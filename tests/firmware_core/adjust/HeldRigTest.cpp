@@ -257,17 +257,17 @@ TEST(HeldRig, MisfitFloorIsTheLeastConstraintResidual) {
       normal.diagonal() *= 1.0 + damping;
       const Vec12 step =
           -normal.completeOrthogonalDecomposition().solve(jac.topRows(n).transpose() * rows.head(n));
-      const Vec3 saved_c[2] = {g_net.image(0).center_m, g_net.image(1).center_m};
+      const Vec3 saved_c[2] = {g_net.image(0).centre_m, g_net.image(1).centre_m};
       const Mat3 saved_m[2] = {g_net.image(0).m, g_net.image(1).m};
-      applyCameraUpdate(step.head<6>(), g_net.image(0).center_m, g_net.image(0).m);
-      applyCameraUpdate(step.tail<6>(), g_net.image(1).center_m, g_net.image(1).m);
+      applyCameraUpdate(step.head<6>(), g_net.image(0).centre_m, g_net.image(0).m);
+      applyCameraUpdate(step.tail<6>(), g_net.image(1).centre_m, g_net.image(1).m);
       ConstraintRows after;
       (void)currentPairConstraintRows(g_net, 0, after, jac);
       if (after.squaredNorm() < rows.squaredNorm()) {
         damping = std::fmax(damping * 0.1, 1e-12);
       } else {
         for (int32_t i = 0; i < 2; ++i) {
-          g_net.image(i).center_m = saved_c[i];
+          g_net.image(i).centre_m = saved_c[i];
           g_net.image(i).m = saved_m[i];
         }
         damping *= 10.0;

@@ -61,7 +61,7 @@ TEST(NetworkBuilder, EveryMatcherTieEntersTheNetworkInIdealPixels) {
     CHECK(test::groundPoint(first.image % 2 == 0 ? s0.left : s0.right, Vec2(first.sample_px, first.line_px),
                             ground));
     Vec2 px;
-    CHECK(ok(collinearity(im.io, im.center_m, im.m, ground, px)));
+    CHECK(ok(collinearity(im.io, im.centre_m, im.m, ground, px)));
     within += (px - o.ideal_px).norm() <= 1.0 ? 1 : 0;
     inter += t.kind == TieKind::kInter ? 1 : 0;
   }
@@ -153,7 +153,7 @@ TEST(NetworkBuilder, HandMadeTieListEntersPairByPair) {
     CHECK_EQUAL(builder.networkImage(t.image), o.image);
     const NetImage& im = g_network.image(o.image);
     Vec2 ideal;
-    CHECK(ok(collinearity(im.io, im.center_m, im.m, truth[t.point], ideal)));
+    CHECK(ok(collinearity(im.io, im.centre_m, im.m, truth[t.point], ideal)));
     worst_px = std::fmax(worst_px, (ideal - o.ideal_px).norm());
   }
   for (int32_t p = 0; p < point_count; ++p)

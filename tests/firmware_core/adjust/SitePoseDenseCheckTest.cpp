@@ -56,9 +56,9 @@ Eigen::VectorXd residuals(const DenseProblem& pb, const Eigen::VectorXd& x) {
       if (o.rejected) continue;
       const SiteCamera& c = pb.adj->camera(o.camera);
       const TraverseFromSite pose = poseOf(pb, x, c.site);
-      const Vec3 center = pose.position_m + pose.rotation * c.center_in_site_m;
+      const Vec3 centre = pose.position_m + pose.rotation * c.centre_in_site_m;
       const Mat3 m = c.m_site * pose.rotation.transpose();
-      const Vec3 d = m * (xyz - center);
+      const Vec3 d = m * (xyz - centre);
       r.push_back((c.io.x0_px - c.io.f_px * d.x() / d.z() - o.ideal_px.x()) / o.sigma_px);
       r.push_back((c.io.y0_px + c.io.f_px * d.y() / d.z() - o.ideal_px.y()) / o.sigma_px);
     }

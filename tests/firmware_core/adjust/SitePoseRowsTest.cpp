@@ -44,13 +44,13 @@ TEST(SitePoseRows, ObservationJacobiansMatchNumericDifferences) {
     cam.io.f_px = 1236.0;
     cam.io.x0_px = 511.5;
     cam.io.y0_px = 511.5;
-    cam.center_in_site_m = Vec3(0.3, -0.1, -1.5);
+    cam.centre_in_site_m = Vec3(0.3, -0.1, -1.5);
     cam.m_site = rotationFromVector(Vec3(0.2 * trial, 1.0, -0.4));
-    Vec3 center;
+    Vec3 centre;
     Mat3 m;
-    cameraInTraverse(pose, cam, center, m);
+    cameraInTraverse(pose, cam, centre, m);
     // A point 8 m in front of the camera, off its axis.
-    const Vec3 point = center + m.transpose() * Vec3(1.5, -0.8, -8.0);
+    const Vec3 point = centre + m.transpose() * Vec3(1.5, -0.8, -8.0);
     const Vec2 observed(400.0, 600.0);
     Vec2 e;
     Mat2x6 j_pose;

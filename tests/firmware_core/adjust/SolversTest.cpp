@@ -71,7 +71,7 @@ void makeNetwork(const PanoramaConfig& config) {
   for (int32_t i = 0; i < g_net.imageCount(); ++i) {
     Vec6 d;
     for (int32_t k = 0; k < 6; ++k) d(k) = (k < 3 ? 2e-3 : 1e-3) * n(rng);  // m, rad
-    applyCameraUpdate(d, g_net.image(i).center_m, g_net.image(i).m);
+    applyCameraUpdate(d, g_net.image(i).centre_m, g_net.image(i).m);
   }
   g_ws.buildImageIndex(g_net);
   linearize(g_net, g_ws);
@@ -111,7 +111,7 @@ DenseSystem denseSystem(double damping) {
     Vec2 r;
     Mat2x6 jc;
     Mat2x3 jp;
-    if (!ok(observationRow(o, im, im.center_m, im.m, g_net.point(o.point).xyz_m, r, &jc, &jp))) continue;
+    if (!ok(observationRow(o, im, im.centre_m, im.m, g_net.point(o.point).xyz_m, r, &jc, &jp))) continue;
     Eigen::Matrix<double, 2, Eigen::Dynamic> j = Eigen::Matrix<double, 2, Eigen::Dynamic>::Zero(2, columns);
     j.block<2, 6>(0, 6 * o.image) = jc;
     j.block<2, 3>(0, pc) = jp;
@@ -322,29 +322,29 @@ TEST(RigEquations, GimbalAndBaseRowsVanishOnTheTrueRigAndMoveWithTheCameras) {
       const int32_t sol = g_net.image(pr.left).sol;
       Vec3 g;
       Mat3x6 jg;
-      gimbalRows(truth.centers[pr.left], truth.rotations[pr.left], rig.gimbal_m[sol], rig.left_offset_m, g,
+      gimbalRows(truth.centres[pr.left], truth.rotations[pr.left], rig.gimbal_m[sol], rig.left_offset_m, g,
                  jg);
       worst_gimbal = std::fmax(worst_gimbal, g.norm());
-      gimbalRows(truth.centers[pr.right], truth.rotations[pr.right], rig.gimbal_m[sol], rig.right_offset_m, g,
+      gimbalRows(truth.centres[pr.right], truth.rotations[pr.right], rig.gimbal_m[sol], rig.right_offset_m, g,
                  jg);
       worst_gimbal = std::fmax(worst_gimbal, g.norm());
       Mat3x12 jb;
-      baseRows(truth.centers[pr.left], truth.rotations[pr.left], truth.centers[pr.right], rig.base_m, g, jb);
+      baseRows(truth.centres[pr.left], truth.rotations[pr.left], truth.centres[pr.right], rig.base_m, g, jb);
       worst_base = std::fmax(worst_base, g.norm());
       const Vec3 d(1e-3, -2e-3, 0.5e-3);
       Vec3 moved;
-      baseRows(truth.centers[pr.left], truth.rotations[pr.left], truth.centers[pr.right] + d, rig.base_m,
+      baseRows(truth.centres[pr.left], truth.rotations[pr.left], truth.centres[pr.right] + d, rig.base_m,
                moved, jb);
       CHECK((moved - g - d).norm() < 1e-12);
       // A small turn of the left camera: the residual change to first order is the rotation block times it.
       const Vec3 turn(2e-6, -1e-6, 3e-6);
-      Vec3 c_left = truth.centers[pr.left];
+      Vec3 c_left = truth.centres[pr.left];
       Mat3 m_left = truth.rotations[pr.left];
       Vec6 update;
       update << 0.0, 0.0, 0.0, turn;
       applyCameraUpdate(update, c_left, m_left);
       Vec3 turned;
-      baseRows(c_left, m_left, truth.centers[pr.right], rig.base_m, turned, jb);
+      baseRows(c_left, m_left, truth.centres[pr.right], rig.base_m, turned, jb);
       Vec12 full = Vec12::Zero();
       full.segment<3>(3) = turn;
       const double linear_error = ((turned - g) - jb * full).norm() / (jb * full).norm();

@@ -128,10 +128,10 @@ void makePanorama(const PanoramaConfig& cfg, Network& net, PanoramaTruth& truth)
     int32_t index = 0;
     const Status s = net.addPair(0, tier, io, cl_ap, ml_ap, single ? nullptr : &io, cr_ap, mr_ap, index);
     (void)s;
-    truth.centers.push_back(cl);
+    truth.centres.push_back(cl);
     truth.rotations.push_back(ml);
     if (!single) {
-      truth.centers.push_back(cr);
+      truth.centres.push_back(cr);
       truth.rotations.push_back(mr);
     }
   }
@@ -144,14 +144,14 @@ void makePanorama(const PanoramaConfig& cfg, Network& net, PanoramaTruth& truth)
                       (gy + 0.3 + 0.4 * uni(rng)) * cfg.height / cfg.grid);
         const Vec3 ray = rayOfIdealPixel(io, truth.rotations[li], px);
         Vec3 xyz;
-        if (!intersectTerrain(truth.centers[li], ray, cfg.max_range_m, xyz)) continue;
+        if (!intersectTerrain(truth.centres[li], ray, cfg.max_range_m, xyz)) continue;
         // Observed in every image that sees it.
         int32_t seen[kMaxObsPerPoint];
         Vec2 pix[kMaxObsPerPoint];
         int32_t n = 0;
         for (int32_t i = 0; i < net.imageCount() && n < kMaxObsPerPoint; ++i) {
           Vec2 q;
-          if (!ok(collinearity(io, truth.centers[i], truth.rotations[i], xyz, q))) continue;
+          if (!ok(collinearity(io, truth.centres[i], truth.rotations[i], xyz, q))) continue;
           if (q.x() < 0.0 || q.y() < 0.0 || q.x() > cfg.width - 1 || q.y() > cfg.height - 1) continue;
           seen[n] = i;
           pix[n] = q;
@@ -180,7 +180,7 @@ void makePanorama(const PanoramaConfig& cfg, Network& net, PanoramaTruth& truth)
 }
 
 TruthError truthError(const Network& net, const PanoramaTruth& truth, bool aligned, double range_m) {
-  const TruthErrors e = truthErrors(net, truth.centers.data(), truth.rotations.data(), truth.points.data(),
+  const TruthErrors e = truthErrors(net, truth.centres.data(), truth.rotations.data(), truth.points.data(),
                                     truth.gimbal_m, aligned, range_m);
   return TruthError{e.eo_px, e.ground_m};
 }
@@ -188,7 +188,7 @@ TruthError truthError(const Network& net, const PanoramaTruth& truth, bool align
 double largestEoDifferencePx(const Network& a, const Network& b, double range_m) {
   double d = 0.0;
   for (int32_t i = 0; i < a.imageCount(); ++i) {
-    d = std::fmax(d, eoPixelEquivalent(a.image(i).io.f_px, a.image(i).center_m - b.image(i).center_m,
+    d = std::fmax(d, eoPixelEquivalent(a.image(i).io.f_px, a.image(i).centre_m - b.image(i).centre_m,
                                        rotationAngle(a.image(i).m, b.image(i).m), range_m));
   }
   return d;

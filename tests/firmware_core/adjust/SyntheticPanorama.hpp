@@ -46,7 +46,7 @@ PanoramaConfig navcamConfig();
 PanoramaConfig impConfig();  // IMP-like: 64 pairs + 1 single image, 256x256, narrow field
 
 struct PanoramaTruth {
-  std::vector<Vec3> centers;  // per network image
+  std::vector<Vec3> centres;  // per network image
   std::vector<Mat3> rotations;
   std::vector<Vec3> points;   // per network point
   std::vector<bool> outlier;  // per observation

@@ -81,7 +81,7 @@ TraversePlan makeTraversePlan(const TraverseConfig& cfg) {
         c.site = k;
         c.io = io;
         c.m_site = m;
-        c.center_in_site_m =
+        c.centre_in_site_m =
             Vec3(0.0, 0.0, -cfg.mast_height_m) + right * ((side == 0 ? -0.5 : 0.5) * cfg.baseline_m);
         plan.cameras.push_back(c);
       }
@@ -104,11 +104,11 @@ TraversePlan makeTraversePlan(const TraverseConfig& cfg) {
         const SiteCamera& cam = plan.cameras[c];
         if (cam.site == cfg.isolated_site) continue;
         if ((x - plan.truth[cam.site].position_m).norm() > cfg.max_range_m) continue;
-        Vec3 center;
+        Vec3 centre;
         Mat3 m;
-        cameraInTraverse(plan.truth[cam.site], cam, center, m);
+        cameraInTraverse(plan.truth[cam.site], cam, centre, m);
         Vec2 px;
-        if (!ok(collinearity(cam.io, center, m, x, px))) continue;
+        if (!ok(collinearity(cam.io, centre, m, x, px))) continue;
         if (px.x() < kImageMarginPx || px.y() < kImageMarginPx || px.x() > cfg.width - kImageMarginPx ||
             px.y() > cfg.height - kImageMarginPx)
           continue;
@@ -158,7 +158,7 @@ bool loadTraverse(const TraversePlan& plan, int32_t first, int32_t last, bool ap
     for (size_t c = 0; c < plan.cameras.size(); ++c) {
       const SiteCamera& cam = plan.cameras[c];
       if (cam.site != k) continue;
-      all = all && ok(adjuster.addCamera(k, cam.io, cam.center_in_site_m, cam.m_site, load.camera[c]));
+      all = all && ok(adjuster.addCamera(k, cam.io, cam.centre_in_site_m, cam.m_site, load.camera[c]));
     }
     for (size_t o = 0; o < plan.observations.size(); ++o) {
       const TraverseObservation& ob = plan.observations[o];

@@ -45,7 +45,7 @@ TEST(CameraConversion, RecoversTheParametersTheModelWasBuiltFrom) {
   DOUBLES_EQUAL(spec.kappa, cam.eo.kappa_rad, 1e-12);
   DOUBLES_EQUAL(spec.hs / spec.vs, cam.h_scale, 1e-12);
   DOUBLES_EQUAL(0.0, cam.h_shear, 1e-12);
-  CHECK((cam.eo.center_m - m.c).norm() < 1e-15);
+  CHECK((cam.eo.centre_m - m.c).norm() < 1e-15);
   // A CAHV model is a pinhole with an affinity: the conversion is exact.
   CHECK(res.max_px < 1e-9);
 }
@@ -67,7 +67,7 @@ TEST(CameraConversion, PixelToIdealIsExactForCollinearity) {
         Vec2 projected, ideal, expected, back;
         CHECK(project(model, point, projected) == Status::kOk);
         CHECK(pixelToIdeal(model, cam, projected, ideal) == Status::kOk);
-        CHECK(collinearity(cam.io, cam.eo.center_m, cam.m, point, expected) == Status::kOk);
+        CHECK(collinearity(cam.io, cam.eo.centre_m, cam.m, point, expected) == Status::kOk);
         max_px = std::fmax(max_px, (ideal - expected).norm());
         CHECK(idealToPixel(model, cam, ideal, back) == Status::kOk);
         max_back_px = std::fmax(max_back_px, (back - projected).norm());
@@ -106,9 +106,9 @@ TEST(CameraConversion, AdjustedModelEqualsTheLinearPartWrittenBack) {
   CHECK(cahvorToPhotogrammetric(apriori, cam, res) == Status::kOk);
   PhotogrammetricCamera adjusted = cam;
   adjusted.m = rotationFromVector(Vec3(0.01, -0.02, 0.015)) * cam.m;
-  adjusted.eo.center_m = cam.eo.center_m + Vec3(0.01, 0.02, -0.03);
+  adjusted.eo.centre_m = cam.eo.centre_m + Vec3(0.01, 0.02, -0.03);
   opkFromRotation(adjusted.m, adjusted.eo.omega_rad, adjusted.eo.phi_rad, adjusted.eo.kappa_rad);
-  const CameraModel moved = adjustedModel(apriori, cam.m, adjusted.m, adjusted.eo.center_m);
+  const CameraModel moved = adjustedModel(apriori, cam.m, adjusted.m, adjusted.eo.centre_m);
   CameraModel written;
   ConversionResidual wres;
   CHECK(photogrammetricToCahvor(adjusted, written, wres) == Status::kOk);

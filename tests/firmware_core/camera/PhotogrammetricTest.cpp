@@ -48,13 +48,13 @@ TEST(Photogrammetric, OpkRoundTripsThroughTheRotationMatrix) {
 TEST(Photogrammetric, OpkJacobiansMatchCentralDifferences) {
   const InteriorOrientation io = navcamIo();
   ExteriorOrientation eo;
-  eo.center_m = Vec3(0.3, -0.2, -1.5);
+  eo.centre_m = Vec3(0.3, -0.2, -1.5);
   eo.omega_rad = 1.4;
   eo.phi_rad = -0.35;
   eo.kappa_rad = 0.2;
   const Mat3 m = rotationFromOpk(eo.omega_rad, eo.phi_rad, eo.kappa_rad);
   // A point 6 m in front of the camera, off-axis.
-  const Vec3 point = eo.center_m + m.transpose() * Vec3(0.9, -1.3, -6.0);
+  const Vec3 point = eo.centre_m + m.transpose() * Vec3(0.9, -1.3, -6.0);
   Vec2 px;
   Mat2x6 d_eo;
   Mat2x3 d_point;
@@ -62,9 +62,9 @@ TEST(Photogrammetric, OpkJacobiansMatchCentralDifferences) {
   const double h_lin = 1e-5, h_ang = 1e-7;
   for (int k = 0; k < 6; ++k) {
     ExteriorOrientation plus = eo, minus = eo;
-    double* pp[6] = {&plus.center_m.x(), &plus.center_m.y(), &plus.center_m.z(), &plus.omega_rad,
+    double* pp[6] = {&plus.centre_m.x(), &plus.centre_m.y(), &plus.centre_m.z(), &plus.omega_rad,
                      &plus.phi_rad, &plus.kappa_rad};
-    double* pm[6] = {&minus.center_m.x(), &minus.center_m.y(), &minus.center_m.z(), &minus.omega_rad,
+    double* pm[6] = {&minus.centre_m.x(), &minus.centre_m.y(), &minus.centre_m.z(), &minus.omega_rad,
                      &minus.phi_rad, &minus.kappa_rad};
     const double h = k < 3 ? h_lin : h_ang;
     *pp[k] += h;

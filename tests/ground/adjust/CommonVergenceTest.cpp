@@ -44,7 +44,7 @@ test::PanoramaConfig scene(uint32_t seed) {
 void setTruth(const test::PanoramaTruth& truth) {
   g_truth_net = g_net;
   for (int32_t i = 0; i < g_truth_net.imageCount(); ++i) {
-    g_truth_net.image(i).center_m = truth.centers[i];
+    g_truth_net.image(i).centre_m = truth.centres[i];
     g_truth_net.image(i).m = truth.rotations[i];
   }
 }

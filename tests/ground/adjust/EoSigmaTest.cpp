@@ -59,7 +59,7 @@ struct Samples {
 void record(const Network& net, const test::PanoramaTruth& truth, Samples& s) {
   std::vector<Vec6> eo(net.imageCount()), sigma(net.imageCount());
   for (int32_t i = 0; i < net.imageCount(); ++i) {
-    eo[i].head<3>() = net.image(i).center_m - truth.centers[i];
+    eo[i].head<3>() = net.image(i).centre_m - truth.centres[i];
     eo[i].tail<3>() = rotationVector(net.image(i).m * truth.rotations[i].transpose());
     sigma[i] = net.image(i).sigma;
   }

@@ -46,7 +46,7 @@ Eigen::VectorXd eoError(const Network& net, const test::PanoramaTruth& truth) {
     for (int s = 0; s < 2; ++s) {
       const int32_t i = images[s];
       if (i < 0) continue;
-      e.segment<3>(12 * p + 6 * s) = net.image(i).center_m - truth.centers[i];
+      e.segment<3>(12 * p + 6 * s) = net.image(i).centre_m - truth.centres[i];
       e.segment<3>(12 * p + 6 * s + 3) = rotationVector(net.image(i).m * truth.rotations[i].transpose());
     }
   }

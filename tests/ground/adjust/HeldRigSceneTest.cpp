@@ -61,7 +61,7 @@ void buildNet(Scene& s) {
 }
 
 double eoError(const Scene& s, const Network& net) {
-  return truthErrors(net, s.truth.centers.data(), s.truth.rotations.data(), nullptr, net.rig.gimbal_m[0],
+  return truthErrors(net, s.truth.centres.data(), s.truth.rotations.data(), nullptr, net.rig.gimbal_m[0],
                      true, 5.0)
       .eo_px;
 }

@@ -25,7 +25,7 @@ struct Difference {
 Difference largestDifference(const Network& a, const Network& b) {
   Difference d;
   for (int i = 0; i < a.imageCount(); ++i) {
-    const double px = eoPixelEquivalent(a.image(i).io.f_px, a.image(i).center_m - b.image(i).center_m,
+    const double px = eoPixelEquivalent(a.image(i).io.f_px, a.image(i).centre_m - b.image(i).centre_m,
                                         rotationAngle(a.image(i).m, b.image(i).m), 5.0);
     d.eo_px = std::fmax(d.eo_px, px);
   }

@@ -63,7 +63,7 @@ void buildNet(Scene& s, const ground::RigChoice& choice = ground::RigChoice{}) {
 }
 
 TruthErrors errors(const Scene& s, const Network& net, bool aligned = true) {
-  return truthErrors(net, s.truth.centers.data(), s.truth.rotations.data(), s.truth.points.data(),
+  return truthErrors(net, s.truth.centres.data(), s.truth.rotations.data(), s.truth.points.data(),
                      net.rig.gimbal_m[0], aligned, 5.0);
 }
 
@@ -94,7 +94,7 @@ Difference largestDifference(const Network& a, const Network& b) {
   Difference d;
   for (int i = 0; i < a.imageCount(); ++i) {
     d.eo_px =
-        std::fmax(d.eo_px, eoPixelEquivalent(a.image(i).io.f_px, a.image(i).center_m - b.image(i).center_m,
+        std::fmax(d.eo_px, eoPixelEquivalent(a.image(i).io.f_px, a.image(i).centre_m - b.image(i).centre_m,
                                              rotationAngle(a.image(i).m, b.image(i).m), 5.0));
   }
   for (int p = 0; p < a.pointCount(); ++p) {
@@ -138,7 +138,7 @@ TEST(SimNavcamAdjustment, MeetsTheIssueBounds) {
   Network& at_truth = g_reference;
   at_truth = g_net;
   for (int i = 0; i < at_truth.imageCount(); ++i) {
-    at_truth.image(i).center_m = s.truth.centers[i];
+    at_truth.image(i).centre_m = s.truth.centres[i];
     at_truth.image(i).m = s.truth.rotations[i];
   }
   double truth_misfit = 0.0;
@@ -262,7 +262,7 @@ TEST(SimNavcamAdjustment, PairWithoutTiePointsIsDegenerate) {
   std::printf("\n  navcam, image %s without tie points: status %s, image %d named\n",
               navcam().source.stems[img].c_str(), statusName(r.status), r.degenerate_image);
   for (int i = 0; i < g_net.imageCount(); ++i) {
-    CHECK(g_net.image(i).center_m.allFinite());
+    CHECK(g_net.image(i).centre_m.allFinite());
     CHECK(g_net.image(i).m.allFinite());
   }
   for (int p = 0; p < g_net.pointCount(); ++p) CHECK(g_net.point(p).xyz_m.allFinite());

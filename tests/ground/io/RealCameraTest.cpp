@@ -164,7 +164,7 @@ TEST(RealCameras, ReproducesTheConversionOracle) {
   DOUBLES_EQUAL(-72.29916094406916, cam.eo.omega_rad * kDeg, 0.02);
   DOUBLES_EQUAL(44.28412812851018, cam.eo.phi_rad * kDeg, 0.02);
   DOUBLES_EQUAL(166.5245817162046, cam.eo.kappa_rad * kDeg, 0.02);
-  CHECK((cam.eo.center_m - Vec3(3.451904, 3.258335, 1.254338)).norm() < 1e-12);
+  CHECK((cam.eo.centre_m - Vec3(3.451904, 3.258335, 1.254338)).norm() < 1e-12);
   // hs, as the oracle lists it (1603.741455), from our h_scale: hs = f * h_scale / cos(shear).
   const double hs = cam.io.f_px * std::hypot(cam.h_scale, cam.h_shear);
   DOUBLES_EQUAL(1603.741455, hs, 0.01);

@@ -225,7 +225,7 @@ double modelDifferencePx(const CameraModel& a, const CameraModel& b) {
   ConversionResidual residual;
   CHECK_EQUAL(Status::kOk, cahvorToPhotogrammetric(a, ca, residual));
   CHECK_EQUAL(Status::kOk, cahvorToPhotogrammetric(b, cb, residual));
-  return eoPixelEquivalent(ca.io.f_px, ca.eo.center_m - cb.eo.center_m, rotationAngle(ca.m, cb.m), 5.0);
+  return eoPixelEquivalent(ca.io.f_px, ca.eo.centre_m - cb.eo.centre_m, rotationAngle(ca.m, cb.m), 5.0);
 }
 
 // Largest pixel-equivalent EO difference between two networks with the same images.
@@ -235,7 +235,7 @@ double maxEoDifferencePx(const Network& a, const Network& b) {
     const NetImage& x = a.image(i);
     const NetImage& y = b.image(i);
     worst =
-        std::max(worst, eoPixelEquivalent(x.io.f_px, x.center_m - y.center_m, rotationAngle(x.m, y.m), 5.0));
+        std::max(worst, eoPixelEquivalent(x.io.f_px, x.centre_m - y.centre_m, rotationAngle(x.m, y.m), 5.0));
   }
   return worst;
 }

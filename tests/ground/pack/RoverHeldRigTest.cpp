@@ -41,7 +41,7 @@ double roverEoError(const Dataset& dataset) {
   for (int32_t i = 0; i < net.imageCount(); ++i) source.stems.push_back(rover().stemOfImage(i));
   const ground::NetworkTruth truth = ground::loadNetworkTruth(dataset, source, false);
   CHECK(truth.available);
-  return truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, net.rig.gimbal_m[0], true,
+  return truthErrors(net, truth.centres.data(), truth.rotations.data(), nullptr, net.rig.gimbal_m[0], true,
                      5.0)
       .eo_px;
 }

@@ -30,7 +30,7 @@ NetImage camera(const Vec3& centre, double pan_rad, double tilt_rad) {
   im.m.row(0) = right.transpose();
   im.m.row(1) = up.transpose();
   im.m.row(2) = (-look).transpose();
-  im.center_m = centre;
+  im.centre_m = centre;
   return im;
 }
 
@@ -44,7 +44,7 @@ Vec3 intersect(const NetImage& l, const NetImage& r, const Vec2& pl, const Vec2&
     for (int s = 0; s < 2; ++s) {
       Vec2 p;
       Mat2x3 dp;
-      CHECK_TRUE(ok(collinearity(cams[s]->io, cams[s]->center_m, cams[s]->m, x, p, nullptr, nullptr, &dp)));
+      CHECK_TRUE(ok(collinearity(cams[s]->io, cams[s]->centre_m, cams[s]->m, x, p, nullptr, nullptr, &dp)));
       a.middleRows<2>(2 * s) = dp;
       res.segment<2>(2 * s) = *obs[s] - p;
     }
@@ -64,11 +64,11 @@ TEST(CameraHeightError, GradientMatchesNumericDifferences) {
     for (double pan : {0.0, 0.7}) {
       const NetImage l = camera(gimbal + Vec3(0.0, -0.1, 0.0), pan, 0.3);
       NetImage r = camera(gimbal + Vec3(0.0, 0.1, 0.0), pan, 0.3);
-      applyCameraUpdate((Vec6() << 0.0, 0.0, 0.0, 0.001, -0.002, 0.0005).finished(), r.center_m, r.m);
+      applyCameraUpdate((Vec6() << 0.0, 0.0, 0.0, 0.001, -0.002, 0.0005).finished(), r.centre_m, r.m);
       const Vec3 point(range * std::cos(pan), range * std::sin(pan), 0.05);  // on the ground (Z down)
       Vec2 pl, pr;
-      CHECK_TRUE(ok(collinearity(l.io, l.center_m, l.m, point, pl)));
-      CHECK_TRUE(ok(collinearity(r.io, r.center_m, r.m, point, pr)));
+      CHECK_TRUE(ok(collinearity(l.io, l.centre_m, l.m, point, pl)));
+      CHECK_TRUE(ok(collinearity(r.io, r.centre_m, r.m, point, pr)));
       double g[12];
       CHECK_TRUE(products::heightGradient(l, r, point, g));
       for (int d = 0; d < 12; ++d) {
@@ -79,9 +79,9 @@ TEST(CameraHeightError, GradientMatchesNumericDifferences) {
           Vec6 step = Vec6::Zero();
           step(d % 6) = sgn == 0 ? h : -h;
           if (d < 6)
-            applyCameraUpdate(step, lm.center_m, lm.m);
+            applyCameraUpdate(step, lm.centre_m, lm.m);
           else
-            applyCameraUpdate(step, rm.center_m, rm.m);
+            applyCameraUpdate(step, rm.centre_m, rm.m);
           height[sgn] = -intersect(lm, rm, pl, pr, point).z();
         }
         const double numeric = (height[0] - height[1]) / (2.0 * h);

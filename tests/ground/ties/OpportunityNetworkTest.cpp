@@ -67,7 +67,7 @@ double largestGimbalMisfit(const Network& net) {
   for (int32_t i = 0; i < net.imageCount(); ++i) {
     const NetImage& im = net.image(i);
     const Vec3& offset = im.side == Side::kLeft ? net.rig.left_offset_m : net.rig.right_offset_m;
-    const Vec3 g = im.center_m - net.rig.gimbal_m[im.sol] - im.m.transpose() * offset;
+    const Vec3 g = im.centre_m - net.rig.gimbal_m[im.sol] - im.m.transpose() * offset;
     worst = std::max(worst, g.norm());
   }
   return worst;
@@ -85,7 +85,7 @@ bool heldOutCost(Network& net, int32_t point, double& cost) {
     const NetObservation& o = net.observation(pt.obs[k]);
     const NetImage& im = net.image(o.image);
     Vec2 pixel;
-    if (!ok(collinearity(im.io, im.center_m, im.m, pt.xyz_m, pixel))) return false;
+    if (!ok(collinearity(im.io, im.centre_m, im.m, pt.xyz_m, pixel))) return false;
     cost += (o.ideal_px - pixel).squaredNorm() / (o.sigma_px * o.sigma_px);
   }
   return true;

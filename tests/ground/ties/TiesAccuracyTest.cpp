@@ -72,10 +72,10 @@ Outcome tiesAndAdjustment(const std::string& dir, const char* name) {
   if (!truth.available) return out;
   Network& net = *network.net;
   out.eo_before_px =
-      truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, net.rig.gimbal_m[0], true, kEoRangeM).eo_px;
+      truthErrors(net, truth.centres.data(), truth.rotations.data(), nullptr, net.rig.gimbal_m[0], true, kEoRangeM).eo_px;
   out.adjust = adjustNetwork(net, FastAdjustOptions{});
   out.eo_after_px =
-      truthErrors(net, truth.centers.data(), truth.rotations.data(), nullptr, net.rig.gimbal_m[0], true, kEoRangeM).eo_px;
+      truthErrors(net, truth.centres.data(), truth.rotations.data(), nullptr, net.rig.gimbal_m[0], true, kEoRangeM).eo_px;
   const AdjustOutcome& o = out.adjust;
   std::printf("%s adjustment: %s, %d sweeps, %d rejected; rms %.3f px (before %.3f); method 1 dist %.3f -> %.3f px; "
               "EO vs truth (aligned) %.3f -> %.3f px\n",
