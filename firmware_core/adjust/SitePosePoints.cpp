@@ -15,7 +15,7 @@ namespace {
 
 // An observation whose point lies behind its camera is charged far above any real residual, so that an LM
 // step that puts a point behind a camera is rejected.
-constexpr double kBehindCameraCost = 1e10;
+constexpr double kSitePoseBehindCameraCost = 1e10;
 // Resection of a new site (warm start): Gauss-Newton steps on its 6 unknowns, until its step is below this
 // (metres at the nominal range), and the fewest observations it takes (3 points' worth).
 constexpr int32_t kMaxResectionIterations = 10;
@@ -54,7 +54,7 @@ double BasicSitePoseAdjuster<C>::cost(double* rms_px, int32_t* active) const {
     if (!usable(ob)) continue;
     Vec2 e;
     if (!ok(observationError(o, e))) {
-      total += kBehindCameraCost;
+      total += kSitePoseBehindCameraCost;
       continue;
     }
     const double sq = e.squaredNorm();

@@ -8,14 +8,13 @@
 
 #include <Eigen/Dense>
 
+#include "ground/traverse/Angles.hpp"
 #include "ground/traverse/CrossTieSteps.hpp"
 
 namespace areomap::traverse {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
 constexpr int kGaussNewtonSteps = 6;  // per round of the geometric check
 
 struct GeoObservation {

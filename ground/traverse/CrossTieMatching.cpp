@@ -10,14 +10,13 @@
 #include <Eigen/Dense>
 
 #include "firmware_core/match/ForstnerDetector.hpp"
+#include "ground/traverse/Angles.hpp"
 #include "ground/traverse/CrossTieSteps.hpp"
 
 namespace areomap::traverse {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
 // The widest search about a prediction: its cost grows with the square of the radius (32 px at a grid step
 // of one pixel is 65^2 NCCs of the template), and so do the chances of a false peak. A prediction more
 // uncertain than that is not searched: in the first pass the second one, under the pose of the first one's

@@ -11,12 +11,12 @@
 
 #include <Eigen/Dense>
 
+#include "ground/traverse/Angles.hpp"
+
 namespace areomap::traverse {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
 constexpr double kFloorSigmaM = 0.02;  // added to every cell's sigma: no cell weighs more than 2 cm's worth
 constexpr int kMaxGaussNewtonIterations = 40;
 

@@ -8,13 +8,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ground/traverse/Angles.hpp"
+
 namespace areomap::traverse {
 
 using json = nlohmann::json;
 
 namespace {
 
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
 json countsJson(const CrossTieCounts& c) {
   return json{{"interest_points", c.interest_points},

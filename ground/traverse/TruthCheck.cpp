@@ -8,12 +8,12 @@
 
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/CameraFile.hpp"
+#include "ground/traverse/Angles.hpp"
 
 namespace areomap::traverse {
 
 namespace {
 
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
 double wrapDeg(double rad) {
   return std::remainder(rad, 2.0 * 3.14159265358979323846) * kRadToDeg;

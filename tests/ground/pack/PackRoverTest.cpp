@@ -41,10 +41,8 @@
 
 using namespace areomap;
 
-// CppUTest prints a Status by its name.
-SimpleString StringFrom(areomap::Status status) {
-  return SimpleString(areomap::statusName(status));
-}
+// CppUTest prints a Status by its name (PackStreamTest.cpp).
+SimpleString StringFrom(areomap::Status status);
 
 namespace {
 
