@@ -63,6 +63,9 @@ struct Search {
   int min_px = 0, max_px = 0;  // SGBM's range, inclusive (its count rounded up to a multiple of 16)
   int areomap_min_px = 0, areomap_max_px = 0;          // DenseOptions min/max_disparity_px
   const std::vector<dense::RowRange>* rows = nullptr;  // areomap's per-row ranges (nullptr: min..max)
+  // areomap's mask of the pixels it matches (PairMatchSetup::match_mask), of the left view and of the
+  // right view mirrored (rightView); SGBM matches every pixel.
+  cv::Mat mask, mirrored_right_mask;
   int sgbmCount() const { return (max_px - min_px + 1 + 15) / 16 * 16; }
 };
 
@@ -86,7 +89,7 @@ Matcher areomapMatcher(const dense::DenseOptions& base, dense::DenseResult& last
     dense::DenseOptions o = base;
     o.min_disparity_px = s.areomap_min_px;
     o.max_disparity_px = s.areomap_max_px;
-    last = dense::matchRectified(l, r, o, s.rows);
+    last = dense::matchRectified(l, r, o, s.rows, s.mask);
     return last.disparity;
   };
 }
@@ -97,7 +100,9 @@ cv::Mat rightView(const cv::Mat& l, const cv::Mat& r, const Search& s, const Mat
   cv::Mat fl, fr, d;
   cv::flip(r, fl, 1);
   cv::flip(l, fr, 1);
-  cv::flip(match(fl, fr, s), d, 1);
+  Search mirrored = s;
+  mirrored.mask = s.mirrored_right_mask;
+  cv::flip(match(fl, fr, mirrored), d, 1);
   return d;
 }
 
@@ -293,7 +298,8 @@ int main(int argc, char** argv) {
       dense::pairMatchSetup(pd.left, pd.right, inputs.images[pair.left].grey, inputs.images[pair.right].grey,
                             pd.left_ties_px, pd.right_ties_px, pd.options);
   Search pass_search{p.options.min_disparity_px, p.options.max_disparity_px, p.options.min_disparity_px,
-                     p.options.max_disparity_px, p.ranges.empty() ? nullptr : &p.ranges};
+                     p.options.max_disparity_px, p.ranges.empty() ? nullptr : &p.ranges, p.match_mask, cv::Mat()};
+  cv::flip(dense::insideOriginal(p.rect.right_map), pass_search.mirrored_right_mask, 1);
   if (!p.ranges.empty()) {
     pass_search.min_px = p.ranges[0].lo;
     pass_search.max_px = p.ranges[0].hi;
@@ -335,7 +341,7 @@ int main(int argc, char** argv) {
   cv::Mat d_pass;
   compare("As the ground pass matches it", p, reg, range_m, pass_search, repeat, areomap, last, &d_pass);
   if (blind) {
-    Search s{0, p.options.max_disparity_px, 0, 0, nullptr};
+    Search s{0, p.options.max_disparity_px, 0, 0, nullptr, pass_search.mask, pass_search.mirrored_right_mask};
     s.areomap_max_px = s.sgbmCount() - 1;  // both search 0 to SGBM's rounded-up count
     compare("Blind (no ties)", p, reg, range_m, s, repeat, areomap, last, nullptr);
   }
