@@ -42,8 +42,11 @@ struct DenseOptions {
   int coarse_step_px = 5;          // the coarse grid (paper: 5 px)
   int fine_margin_px = 2;          // fine band = coarse min..max of the neighbourhood +- this
   // The fine cost of a pixel: the census distances summed over this odd block about it (1: the pixel's
-  // own). The coarse pass sums over its cell, coarse_step_px wide.
-  int fine_block_px = 5;
+  // own). A larger block (5: the coarse cell's support) gives denser, more left-right consistent matches on
+  // noisy real images, but its errors are correlated over a longer distance than kMatchErrorCorrelationPx
+  // and the left-right disagreement (MatchNoise.hpp) no longer sees all of them: the point and DEM sigmas
+  // are calibrated for 1.
+  int fine_block_px = 1;
   SemiGlobalParams coarse_sgm{8, 64, 8};
   SemiGlobalParams fine_sgm{8, 96, 8};
   int uniqueness_percent = 5;      // best must beat every non-adjacent candidate by this much
