@@ -73,6 +73,9 @@ void checkInput(const cv::Mat& left, const cv::Mat& right, const DenseOptions& o
     throw std::invalid_argument("dense matching: max disparity below min disparity");
   }
   if (o.coarse_step_px < 1) throw std::invalid_argument("dense matching: coarse step < 1");
+  if (o.fine_block_px < 1 || o.fine_block_px % 2 == 0) {
+    throw std::invalid_argument("dense matching: fine block must be odd and positive");
+  }
   if (left.cols < 2 * o.coarse_step_px || left.rows < 2 * o.coarse_step_px) {
     throw std::invalid_argument("dense matching: image smaller than two coarse cells");
   }
@@ -215,9 +218,9 @@ std::vector<RowRange> clampedRowRanges(int rows, const DenseOptions& o,
 }
 
 // Fine band per pixel: min..max of the coarse disparities of the 4x4 nodes around it, +- the margin, within
-// the options' disparities and the image. `no_band` marks the pixels where that leaves nothing (they keep a
-// band of one disparity that never matches).
-BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOptions& o,
+// the options' disparities and the image. `no_band` marks the pixels where that leaves nothing, and those
+// outside `mask` (when not empty): they keep a band of one disparity that never matches.
+BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOptions& o, const cv::Mat& mask,
                     std::vector<uint8_t>& no_band) {
   const int step = o.coarse_step_px;
   const int off = step / 2;
@@ -238,6 +241,7 @@ BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOption
     const int gy = std::clamp((y - off) / step - (y < off ? 1 : 0), 0, coarse.rows - 1);
     const float* min_row = cmin.ptr<float>(gy);
     const float* max_row = cmax.ptr<float>(gy);
+    const uint8_t* mask_row = mask.empty() ? nullptr : mask.ptr<uint8_t>(y);
     for (int x = 0; x < cols; ++x) {
       const int gx = gx_of_x[x];
       const std::size_t p = static_cast<std::size_t>(y) * cols + x;
@@ -245,7 +249,7 @@ BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOption
       int hi = static_cast<int>(max_row[gx]) + o.fine_margin_px;
       lo = std::max(lo, o.min_disparity_px);
       hi = std::min({hi, o.max_disparity_px, x});
-      if (hi < lo) {
+      if (hi < lo || (mask_row != nullptr && mask_row[x] == 0)) {
         no_band[p] = 1;
         hi = lo;
       }
@@ -257,25 +261,76 @@ BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOption
   return v;
 }
 
-// The census cost of every pixel and disparity of the fine band.
-void fineCosts(const cv::Mat& cl, const cv::Mat& cr, const std::vector<uint8_t>& no_band, BandVolume& v) {
-  const int rows = v.rows, cols = v.cols;
+// The census cost of every pixel and disparity of the fine band: the Hamming distances of the census
+// vectors summed over the (2 h + 1)^2 block about the pixel at that disparity (h = block_half_px; borders
+// replicated, right pixels outside the image cost kNoMatchCost), divided by the block's area and rounded, so
+// the cost keeps the one-window scale (0..62 bits) that the penalties and the census-cost test are set in.
+// One window's distance counts the bits that differ between a pair of near-equal grey levels as often as
+// the bits of real structure, and flips with sensor noise and compression; summed over the block, a correct
+// match's cost varies less, as in the coarse pass, which sums over its cell.
+// Per row: the sums over the block's rows (V) for each column over the union of the bands of the pixels
+// whose block holds that column, then each pixel's sum of V over its block's columns.
+void fineCosts(const cv::Mat& cl, const cv::Mat& cr, const std::vector<uint8_t>& no_band, int block_half_px,
+               BandVolume& v) {
+  const int rows = v.rows, cols = v.cols, h = block_half_px;
+  const int area = (2 * h + 1) * (2 * h + 1);
+  std::vector<int> ext_lo(static_cast<std::size_t>(cols)), ext_hi(static_cast<std::size_t>(cols));
+  std::vector<std::size_t> ext_at(static_cast<std::size_t>(cols) + 1);
+  std::vector<int> col_sum, acc;
+  std::vector<const uint64_t*> a(static_cast<std::size_t>(2 * h + 1)), b(a.size());
   for (int y = 0; y < rows; ++y) {
-    const uint64_t* a = censusRow(cl, y);
-    const uint64_t* b = censusRow(cr, y);
+    const std::size_t row = static_cast<std::size_t>(y) * cols;
+    for (int k = -h; k <= h; ++k) {
+      const int yy = std::clamp(y + k, 0, rows - 1);
+      a[static_cast<std::size_t>(k + h)] = censusRow(cl, yy);
+      b[static_cast<std::size_t>(k + h)] = censusRow(cr, yy);
+    }
+    // The disparities each column's V is needed at (empty: lo > hi).
+    ext_at[0] = 0;
+    for (int xc = 0; xc < cols; ++xc) {
+      int lo = INT32_MAX, hi = INT32_MIN;
+      for (int x = std::max(0, xc - h); x <= std::min(cols - 1, xc + h); ++x) {
+        if (no_band[row + x]) continue;
+        lo = std::min(lo, v.lo[row + x]);
+        hi = std::max(hi, v.lo[row + x] + v.count[row + x] - 1);
+      }
+      ext_lo[xc] = lo;
+      ext_hi[xc] = hi;
+      ext_at[xc + 1] = ext_at[xc] + static_cast<std::size_t>(hi >= lo ? hi - lo + 1 : 0);
+    }
+    col_sum.resize(ext_at[cols]);
+    for (int xc = 0; xc < cols; ++xc) {
+      if (ext_hi[xc] < ext_lo[xc]) continue;  // no pixel's block needs this column
+      int* vs = &col_sum[ext_at[xc]];
+      const int n = ext_hi[xc] - ext_lo[xc] + 1;
+      std::fill(vs, vs + n, 0);
+      // xr = xc - ext_lo - j lies in [0, cols) for j in [xc - ext_lo - cols + 1, xc - ext_lo].
+      const int xr0 = xc - ext_lo[xc];
+      const int j_begin = std::clamp(xr0 - cols + 1, 0, n);
+      const int j_end = std::clamp(xr0 + 1, j_begin, n);
+      for (int k = 0; k <= 2 * h; ++k) {
+        const uint64_t ca = a[static_cast<std::size_t>(k)][xc];
+        const uint64_t* bk = b[static_cast<std::size_t>(k)];
+        for (int j = j_begin; j < j_end; ++j) vs[j] += hamming(ca, bk[xr0 - j]);
+      }
+      for (int j = 0; j < j_begin; ++j) vs[j] = (2 * h + 1) * kNoMatchCost;
+      for (int j = j_end; j < n; ++j) vs[j] = (2 * h + 1) * kNoMatchCost;
+    }
     for (int x = 0; x < cols; ++x) {
-      const std::size_t p = static_cast<std::size_t>(y) * cols + x;
+      const std::size_t p = row + x;
       uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
-      const int n = v.count[p];
-      const int x_first = x - v.lo[p];  // the right column of the band's first disparity
-      if (!no_band[p] && x_first < cols && x_first - (n - 1) >= 0) {
-        for (int j = 0; j < n; ++j) c[j] = hamming(a[x], b[x_first - j]);
+      const int n = v.count[p], lo = v.lo[p];
+      if (no_band[p]) {
+        std::fill(c, c + n, kNoMatchCost);
         continue;
       }
-      for (int j = 0; j < n; ++j) {
-        const int xr = x_first - j;
-        c[j] = (xr >= 0 && xr < cols && !no_band[p]) ? hamming(a[x], b[xr]) : kNoMatchCost;
+      acc.assign(static_cast<std::size_t>(n), 0);
+      for (int k = -h; k <= h; ++k) {
+        const int xc = std::clamp(x + k, 0, cols - 1);
+        const int* vs = &col_sum[ext_at[xc]] + (lo - ext_lo[xc]);
+        for (int j = 0; j < n; ++j) acc[static_cast<std::size_t>(j)] += vs[j];
       }
+      for (int j = 0; j < n; ++j) c[j] = static_cast<uint16_t>((acc[static_cast<std::size_t>(j)] + area / 2) / area);
     }
   }
 }
@@ -424,8 +479,11 @@ cv::Mat censusTransform(const cv::Mat& image) {
 }
 
 DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const DenseOptions& o,
-                           const std::vector<RowRange>* row_ranges) {
+                           const std::vector<RowRange>* row_ranges, const cv::Mat& mask) {
   checkInput(left, right, o);
+  if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != left.size())) {
+    throw std::invalid_argument("dense matching: the mask must be 8-bit of the images' size");
+  }
   const int rows = left.rows;
   const int cols = left.cols;
   const std::vector<RowRange> ranges = clampedRowRanges(rows, o, row_ranges);
@@ -439,9 +497,9 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
   res.coarse_seconds = t1 - t0;
 
   std::vector<uint8_t> no_band;
-  BandVolume v = fineBand(res.coarse, rows, cols, o, no_band);
+  BandVolume v = fineBand(res.coarse, rows, cols, o, mask, no_band);
   res.fine_cells = v.cells();
-  fineCosts(cl, cr, no_band, v);
+  fineCosts(cl, cr, no_band, o.fine_block_px / 2, v);
   std::vector<uint16_t> sum;
   aggregateSemiGlobal(v, left, o.fine_sgm, sum);
   const cv::Mat texture = textureMask(left, o);

@@ -41,6 +41,12 @@ struct DenseOptions {
   int max_disparity_px = 64;       // inclusive
   int coarse_step_px = 5;          // the coarse grid (paper: 5 px)
   int fine_margin_px = 2;          // fine band = coarse min..max of the neighbourhood +- this
+  // The fine cost of a pixel: the census distances summed over this odd block about it (1: the pixel's
+  // own). A larger block (5: the coarse cell's support) gives denser, more left-right consistent matches on
+  // noisy real images, but its errors are correlated over a longer distance than kMatchErrorCorrelationPx
+  // and the left-right disagreement (MatchNoise.hpp) no longer sees all of them: the point and DEM sigmas
+  // are calibrated for 1.
+  int fine_block_px = 1;
   SemiGlobalParams coarse_sgm{8, 64, 8};
   SemiGlobalParams fine_sgm{8, 96, 8};
   int uniqueness_percent = 5;      // best must beat every non-adjacent candidate by this much
@@ -79,9 +85,12 @@ struct DenseResult {
 };
 
 // Matches a rectified pair (8-bit grey, same size). `row_ranges` (optional, one per row, e.g. from
-// parallaxRowRanges) restricts the coarse search. Throws std::invalid_argument on bad input.
+// parallaxRowRanges) restricts the coarse search. `mask` (optional, CV_8U of the images' size): only its
+// non-zero pixels are matched (the rest cost one candidate each in the fine pass and get no match; the
+// semi-global paths start afresh where they enter it), e.g. the rectified pixels that show the original.
+// Throws std::invalid_argument on bad input.
 DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const DenseOptions& options,
-                           const std::vector<RowRange>* row_ranges = nullptr);
+                           const std::vector<RowRange>* row_ranges = nullptr, const cv::Mat& mask = cv::Mat());
 
 // Census transform, 9x7 window (62 bits), borders replicated. Exposed for tests.
 cv::Mat censusTransform(const cv::Mat& image);

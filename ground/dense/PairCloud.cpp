@@ -75,6 +75,7 @@ PairMatchSetup pairMatchSetup(const CameraModel& left, const CameraModel& right,
   s.options.min_disparity_px = 0;
   s.options.max_disparity_px = std::max(
       options.max_disparity_px, static_cast<int>(std::ceil(disparityAtRange(s.rect, options.min_range_m))));
+  s.match_mask = insideOriginal(s.rect.left_map);
   if (s.ties.size() >= 3)
     s.ranges = parallaxRowRanges(s.ties, s.left.rows, s.options.min_disparity_px, s.options.max_disparity_px);
   return s;
@@ -105,7 +106,7 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
   t0 = now();
   DenseResult d;
   try {
-    d = matchRectified(l, s.right, s.options, s.ranges.empty() ? nullptr : &s.ranges);
+    d = matchRectified(l, s.right, s.options, s.ranges.empty() ? nullptr : &s.ranges, s.match_mask);
   } catch (const std::exception& e) {
     out.error = std::string("dense matching failed (") + e.what() + ")";
     return out;

@@ -64,6 +64,7 @@ struct PairMatchSetup {
   std::vector<TieDisparity> ties;
   DenseOptions options;
   std::vector<RowRange> ranges;
+  cv::Mat match_mask;  // the rectified left pixels that can give a kept match: insideOriginal(rect.left_map)
 };
 PairMatchSetup pairMatchSetup(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
                               const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,

@@ -20,7 +20,8 @@
 //  that of a point 1 m away, the whole range on every row.
 // StereoSGBM: MODE_SGBM (8 paths), block 5, P1 = 8 cn b^2, P2 = 32 cn b^2 (cn = 1, grey), uniqueness 10 %,
 // disp12MaxDiff 1 (areomap's own left-right tolerance), speckle window 100 px of range 2, pre-filter cap 63.
-// Usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] [LEFT.json RIGHT.json]  (default:
+// Usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] [--fine-block B] [LEFT.json RIGHT.json]
+// (--fine-block: DenseOptions::fine_block_px instead of the pass's; default:
 // the sol 340 pair of ../shared/data/m2020-navcam-stereo-pairs; N: timed runs of each matcher, the fastest
 // is printed; --dump DIR: areomap's left disparity as the pass matches it, DIR/areomap_disparity.bin, raw
 // float32, for byte checks, and PNGs of the rectified left image, the region and both disparities).
@@ -63,6 +64,9 @@ struct Search {
   int min_px = 0, max_px = 0;  // SGBM's range, inclusive (its count rounded up to a multiple of 16)
   int areomap_min_px = 0, areomap_max_px = 0;          // DenseOptions min/max_disparity_px
   const std::vector<dense::RowRange>* rows = nullptr;  // areomap's per-row ranges (nullptr: min..max)
+  // areomap's mask of the pixels it matches (PairMatchSetup::match_mask), of the left view and of the
+  // right view mirrored (rightView); SGBM matches every pixel.
+  cv::Mat mask, mirrored_right_mask;
   int sgbmCount() const { return (max_px - min_px + 1 + 15) / 16 * 16; }
 };
 
@@ -86,7 +90,7 @@ Matcher areomapMatcher(const dense::DenseOptions& base, dense::DenseResult& last
     dense::DenseOptions o = base;
     o.min_disparity_px = s.areomap_min_px;
     o.max_disparity_px = s.areomap_max_px;
-    last = dense::matchRectified(l, r, o, s.rows);
+    last = dense::matchRectified(l, r, o, s.rows, s.mask);
     return last.disparity;
   };
 }
@@ -97,7 +101,9 @@ cv::Mat rightView(const cv::Mat& l, const cv::Mat& r, const Search& s, const Mat
   cv::Mat fl, fr, d;
   cv::flip(r, fl, 1);
   cv::flip(l, fr, 1);
-  cv::flip(match(fl, fr, s), d, 1);
+  Search mirrored = s;
+  mirrored.mask = s.mirrored_right_mask;
+  cv::flip(match(fl, fr, mirrored), d, 1);
   return d;
 }
 
@@ -228,20 +234,22 @@ int main(int argc, char** argv) {
   std::string left_json = dir + "NLF_0340_0697121914_417ECM_N0090364NCAM00420_01_195J.json";
   std::string right_json = dir + "NRF_0340_0697121914_417ECM_N0090364NCAM00420_01_195J.json";
   std::string dump_dir;
-  int repeat = 3, positional = 0;
+  int repeat = 3, positional = 0, fine_block = 0;
   bool blind = true;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
       repeat = std::max(1, std::atoi(argv[++i]));
     } else if (std::strcmp(argv[i], "--dump") == 0 && i + 1 < argc) {
       dump_dir = argv[++i];
+    } else if (std::strcmp(argv[i], "--fine-block") == 0 && i + 1 < argc) {
+      fine_block = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--no-blind") == 0) {
       blind = false;
     } else if (argv[i][0] != '-' && positional < 2) {
       (positional++ == 0 ? left_json : right_json) = argv[i];
     } else {
       std::fprintf(stderr,
-                   "usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] "
+                   "usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] [--fine-block B] "
                    "[LEFT.json RIGHT.json]\n");
       return 2;
     }
@@ -293,7 +301,8 @@ int main(int argc, char** argv) {
       dense::pairMatchSetup(pd.left, pd.right, inputs.images[pair.left].grey, inputs.images[pair.right].grey,
                             pd.left_ties_px, pd.right_ties_px, pd.options);
   Search pass_search{p.options.min_disparity_px, p.options.max_disparity_px, p.options.min_disparity_px,
-                     p.options.max_disparity_px, p.ranges.empty() ? nullptr : &p.ranges};
+                     p.options.max_disparity_px, p.ranges.empty() ? nullptr : &p.ranges, p.match_mask, cv::Mat()};
+  cv::flip(dense::insideOriginal(p.rect.right_map), pass_search.mirrored_right_mask, 1);
   if (!p.ranges.empty()) {
     pass_search.min_px = p.ranges[0].lo;
     pass_search.max_px = p.ranges[0].hi;
@@ -331,11 +340,13 @@ int main(int argc, char** argv) {
       pass_search.max_px, cv::countNonZero(reg.shown), cv::countNonZero(reg.ground), range_m, repeat);
 
   dense::DenseResult last;
-  const Matcher areomap = areomapMatcher(p.options, last);
+  dense::DenseOptions dense_options = p.options;
+  if (fine_block > 0) dense_options.fine_block_px = fine_block;
+  const Matcher areomap = areomapMatcher(dense_options, last);
   cv::Mat d_pass;
   compare("As the ground pass matches it", p, reg, range_m, pass_search, repeat, areomap, last, &d_pass);
   if (blind) {
-    Search s{0, p.options.max_disparity_px, 0, 0, nullptr};
+    Search s{0, p.options.max_disparity_px, 0, 0, nullptr, pass_search.mask, pass_search.mirrored_right_mask};
     s.areomap_max_px = s.sgbmCount() - 1;  // both search 0 to SGBM's rounded-up count
     compare("Blind (no ties)", p, reg, range_m, s, repeat, areomap, last, nullptr);
   }
