@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <exception>
 
+#include "ground/cli/Parallel.hpp"
+
 namespace areomap::cli {
 namespace {
 std::string g_tool_name = "areomap";
@@ -209,6 +211,14 @@ void Progress::print(bool final) {
   }
   last_decile_ = decile;
   std::fflush(stderr);
+}
+
+int threadsOption(Args& args) {
+  const int64_t n = args.integer("--threads", -1);
+  if (n != -1 && (n < 1 || n > kMaxThreads))
+    throw UsageError("--threads needs a whole number from 1 to " + std::to_string(kMaxThreads));
+  setThreads(n == -1 ? 0 : static_cast<int>(n));
+  return threadCount();
 }
 
 }  // namespace areomap::cli

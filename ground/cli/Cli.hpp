@@ -79,6 +79,10 @@ class Args {
 // UsageError -> 2; InputError and any other exception -> 1, the message on stderr prefixed by the tool name.
 int runTool(const char* name, int argc, char** argv, const char* usage, const std::function<int(Args&)>& body);
 
+// `--threads N` (consumed): the process-wide thread count of the ground's parallel work (Parallel.hpp),
+// N >= 1; absent: every core. Set before any work; returns the count that will be used.
+int threadsOption(Args& args);
+
 // "name: warning: text" on stderr.
 void warn(const std::string& text);
 // "name: text" on stderr (progress and information that is not the tool's output).

@@ -4,10 +4,10 @@
 #include <cmath>
 #include <map>
 #include <stdexcept>
-#include <thread>
 
 #include <Eigen/Dense>
 
+#include "ground/cli/Parallel.hpp"
 #include "ground/dense/LineId.hpp"
 
 namespace areomap::dem {
@@ -93,12 +93,20 @@ bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iteration
   };
   Eigen::Vector4d c = Eigen::Vector4d::Zero();
   for (int iter = 0; iter <= iterations; ++iter) {
+    // The lower triangle (what LDLT reads) of sum w x x^T, each term (w x_i) x_j as the outer product
+    // forms it, over the used terms only (the others stay 0, their diagonal 1 below).
     Eigen::Matrix4d ata = Eigen::Matrix4d::Zero();
     Eigen::Vector4d atb = Eigen::Vector4d::Zero();
+    const int used = row_terms + 2;
     for (const WindowPoint& p : win) {
       const Eigen::Vector4d x = basis(p);
-      ata.noalias() += p.w * x * x.transpose();
-      atb.noalias() += p.w * p.q * x;
+      double wx[4];
+      for (int i = 0; i < used; ++i) wx[i] = p.w * x(i);
+      for (int j = 0; j < used; ++j) {
+        for (int i = j; i < used; ++i) ata(i, j) += wx[i] * x(j);
+      }
+      const double wq = p.w * p.q;
+      for (int i = 0; i < used; ++i) atb(i) += wq * x(i);
     }
     for (int k = row_terms + 2; k < 4; ++k) ata(k, k) = 1.0;  // unused terms
     if (ata(0, 0) < 3.0) return false;
@@ -152,12 +160,12 @@ void fitInverseDistance(PairRows& pr, int col_half, int row_half, bool quadratic
     order.push_back(it);
     fitted[it->first];
   }
-  const int threads = std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 16);
-  const auto work = [&](int t) {
+  const int threads =
+      static_cast<int>(std::min<std::size_t>(cli::threadCount(), std::max<std::size_t>(1, order.size())));
+  const auto work = [&](std::size_t t) {
     std::vector<WindowPoint> window;
     std::vector<double> residuals, sorted;
-    for (std::size_t k = static_cast<std::size_t>(t); k < order.size();
-         k += static_cast<std::size_t>(threads)) {
+    for (std::size_t k = t; k < order.size(); k += static_cast<std::size_t>(threads)) {
       const auto& kv = *order[k];
       const std::vector<RayPoint>& row = kv.second;
       const double step = steps.at(kv.first);
@@ -191,10 +199,7 @@ void fitInverseDistance(PairRows& pr, int col_half, int row_half, bool quadratic
       }
     }
   };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(work, t);
-  work(0);
-  for (std::thread& th : pool) th.join();
+  cli::parallelFor(static_cast<std::size_t>(threads), threads, work);
   for (auto& kv : pr.rows) {
     const std::vector<double>& f = fitted[kv.first];
     for (std::size_t i = 0; i < kv.second.size(); ++i) {
@@ -302,7 +307,9 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
   std::vector<double> medians(lines.size());
   for (std::size_t i = 0; i < lines.size(); ++i) medians[i] = lines[i].median_r;
 
-  for (int row = 0; row < grid.rows; ++row) {
+  // Rows in parallel: a cell reads the lines and writes only itself.
+  cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row_index) {
+    const int row = static_cast<int>(row_index);
     const double dn = grid.northOfRow(row) - o.centre_north_m;
     for (int col = 0; col < grid.cols; ++col) {
       const double de = grid.eastOfCol(col) - o.centre_east_m;
@@ -331,7 +338,7 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
       out.at(col, row) = static_cast<float>(below.z + t * (above.z - below.z));
       if (sigma != nullptr) sigma->at(col, row) = static_cast<float>(below.s + t * (above.s - below.s));
     }
-  }
+  });
   return out;
 }
 

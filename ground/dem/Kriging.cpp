@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "ground/cli/Parallel.hpp"
 #include "ground/dem/KdTree.hpp"
 #include "ground/dem/KrigingSystem.hpp"
 #include "ground/dem/PointClusters.hpp"
@@ -345,8 +346,7 @@ RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, in
 // cells solved before it (KrigingSystem's canonical order), so the DEM is the same for any T.
 void krigeCells(const CellInputs& in, const DemGrid& grid, int threads_wanted, KrigingResult& res) {
   const int threads =
-      std::clamp(threads_wanted > 0 ? threads_wanted : static_cast<int>(std::thread::hardware_concurrency()),
-                 1, std::max(1, std::min(grid.rows, kMaxKrigingThreads)));
+      std::clamp(cli::threadCount(threads_wanted), 1, std::max(1, std::min(grid.rows, kMaxKrigingThreads)));
   std::vector<RowCounts> counts(static_cast<std::size_t>(threads));
   const auto run = [&](int t) { counts[static_cast<std::size_t>(t)] = krigeRows(in, grid, t, threads, res); };
   std::vector<std::thread> pool;

@@ -72,7 +72,7 @@ struct KrigingOptions {
   // with point_pairs, each point's pairs): the sigma adds its variance at each cell, unscaled.
   const std::vector<PointPairs>* point_pairs = nullptr;
   const SharedHeightError* shared_error = nullptr;
-  int threads = 0;  // threads for the cells (0: one per core); the result is the same for any number
+  int threads = 0;  // threads for the cells (0: cli::threadCount()); the result is the same for any number
 };
 
 inline constexpr int kMaxKrigingThreads = 64;

@@ -5,6 +5,7 @@
 
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/dense/DenseMatcher.hpp"
 #include "ground/products/ProductStages.hpp"
 
@@ -82,6 +83,41 @@ PairDenseInputs pairDenseInputs(const ProductInputs& inputs, const ProductOption
   return out;
 }
 
+namespace {
+
+// One pair matched off the run's thread: its cloud (the points within its support range, in the cloud's
+// layout) and what the log and the report say of it.
+struct MatchedPair {
+  dense::PairCloud pc;  // without its points (moved into `kept`)
+  Cloud kept;
+  double seconds_keep = 0.0;
+};
+
+MatchedPair matchPair(const Context& ctx, const ProductPair& pair, const ProductImage& L,
+                      const ProductImage& R) {
+  MatchedPair m;
+  const PairDenseInputs p = pairDenseInputs(ctx.in, ctx.options, pair);
+  m.pc =
+      dense::pairCloud(p.left, p.right, L.grey, R.grey, p.left_ties_px, p.right_ties_px, pair.id, p.options);
+  const double t0 = cli::nowSeconds();
+  if (m.pc.error.empty()) {
+    std::size_t n = 0;
+    for (const dense::CloudPoint& c : m.pc.points)
+      n += (c.site_m - ctx.in.gimbal_site_m).head<2>().norm() <= m.pc.support_range_m;
+    m.kept.reserve(n);
+    for (const dense::CloudPoint& c : m.pc.points) {
+      const double range = (c.site_m - ctx.in.gimbal_site_m).head<2>().norm();
+      if (range > m.pc.support_range_m) continue;
+      m.kept.push(c);
+    }
+  }
+  std::vector<dense::CloudPoint>().swap(m.pc.points);
+  m.seconds_keep = cli::nowSeconds() - t0;
+  return m;
+}
+
+}  // namespace
+
 Cloud denseCloud(Context& ctx) {
   Cloud cloud;
   {
@@ -98,40 +134,47 @@ Cloud denseCloud(Context& ctx) {
   std::set<int> sols;
   {
     cli::Progress progress("dense matching", ctx.in.pairs.size());
-    for (const ProductPair& pair : ctx.in.pairs) {
+    const int n_images = static_cast<int>(ctx.in.images.size());
+    const auto inside = [n_images](int image) { return image >= 0 && image < n_images; };
+    // The pairs are matched in parallel (matchPair: no shared state) and handed on in pair order, so that
+    // the cloud, the report and the log are the same for any thread count.
+    const auto match = [&](std::size_t i) {
+      const ProductPair& pair = ctx.in.pairs[i];
+      MatchedPair m;
+      if (!inside(pair.left) || !inside(pair.right)) return m;
+      const ProductImage& L = ctx.in.images[pair.left];
+      const ProductImage& R = ctx.in.images[pair.right];
+      if (!unusableReason(L).empty() || !unusableReason(R).empty()) return m;
+      m = matchPair(ctx, pair, L, R);
+      return m;
+    };
+    const auto use = [&](std::size_t i, MatchedPair m) {
+      const ProductPair& pair = ctx.in.pairs[i];
       progress.step();
       const std::string name = "pair " + std::to_string(pair.id);
-      if (pair.left < 0 || pair.left >= static_cast<int>(ctx.in.images.size())) continue;
-      const ProductImage& L = ctx.in.images[pair.left];
-      const bool left_ok = usable(ctx, L);
+      if (!inside(pair.left)) return;
+      const bool left_ok = usable(ctx, ctx.in.images[pair.left]);
       if (left_ok) sols.insert(pair.sol);
-      if (pair.right < 0 || pair.right >= static_cast<int>(ctx.in.images.size())) continue;
-      const ProductImage& R = ctx.in.images[pair.right];
-      const bool right_ok = usable(ctx, R);
+      if (!inside(pair.right)) return;
+      const bool right_ok = usable(ctx, ctx.in.images[pair.right]);
       if (!left_ok || !right_ok) {
         ctx.warn(name + ": not matched (image or model unusable)");
-        continue;
+        return;
       }
-      const PairDenseInputs p = pairDenseInputs(ctx.in, ctx.options, pair);
-      const dense::PairCloud pc = dense::pairCloud(p.left, p.right, L.grey, R.grey, p.left_ties_px,
-                                                   p.right_ties_px, pair.id, p.options);
+      const dense::PairCloud& pc = m.pc;
       t_rect += pc.seconds_rectify;
       t_dense += pc.seconds_dense;
       if (!pc.error.empty()) {
         ctx.warn(name + ": " + pc.error);
-        continue;
+        return;
       }
       ctx.result.dense_pairs.push_back(ground::DensePairNoise{pair.id, pc.match_noise.sigma_px,
                                                               pc.match_noise.source, pc.match_noise.samples});
       const double t0 = cli::nowSeconds();
-      long long kept = 0;
-      for (const dense::CloudPoint& p : pc.points) {
-        const double range = (p.site_m - ctx.in.gimbal_site_m).head<2>().norm();
-        if (range > pc.support_range_m) continue;
-        cloud.push(p);
-        ++kept;
-      }
-      t_tri += pc.seconds_triangulate + cli::nowSeconds() - t0;
+      cloud.append(m.kept);
+      const long long kept = static_cast<long long>(m.kept.size());
+      Cloud().swap(m.kept);
+      t_tri += pc.seconds_triangulate + m.seconds_keep + cli::nowSeconds() - t0;
       {
         char b[300];
         std::snprintf(b, sizeof b,
@@ -144,10 +187,11 @@ Cloud denseCloud(Context& ctx) {
       }
       if (kept == 0) {
         ctx.warn(name + ": no valid matches triangulated");
-        continue;
+        return;
       }
       ++ctx.result.pairs_matched;
-    }
+    };
+    cli::orderedFor(ctx.in.pairs.size(), 0, match, use);
     progress.done();
   }
   ctx.result.seconds.emplace_back("rectify", t_rect);

@@ -31,6 +31,8 @@ struct Context {
 void writePng(Context& ctx, const std::string& path, const cv::Mat& image);
 // An image is usable when it is present and its model describes an image of its size (warned once).
 bool usable(Context& ctx, const ProductImage& im);
+// Why an image is not usable ("" when it is), without warning: for work done off the run's thread.
+std::string unusableReason(const ProductImage& im);
 // The image's model with the image's size.
 CameraModel sized(const ProductImage& im);
 
@@ -50,6 +52,14 @@ struct Cloud {
   void reserve(std::size_t n) {
     dem.reserve(n);
     extra.reserve(n);
+  }
+  void swap(Cloud& other) {
+    dem.swap(other.dem);
+    extra.swap(other.extra);
+  }
+  void append(const Cloud& other) {
+    dem.insert(dem.end(), other.dem.begin(), other.dem.end());
+    extra.insert(extra.end(), other.extra.begin(), other.extra.end());
   }
   void push(const dense::CloudPoint& c) {
     dem::DemPoint p;

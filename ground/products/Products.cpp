@@ -36,31 +36,26 @@ void writePng(Context& ctx, const std::string& path, const cv::Mat& image) {
   }
 }
 
+std::string unusableReason(const ProductImage& im) {
+  if (im.grey.empty()) return "image " + im.stem + ": missing; its products are skipped";
+  if (im.grey.type() != CV_8U) return "image " + im.stem + ": not 8-bit grey; skipped";
+  const char* field = "";
+  if (validateModel(im.model, field) != Status::kOk)
+    return "model " + im.stem + ": invalid component " + field + "; skipped";
+  if (im.model.width > 0 && (im.model.width != im.grey.cols || im.model.height != im.grey.rows)) {
+    return "model " + im.stem + ": size " + std::to_string(im.model.width) + "x" +
+           std::to_string(im.model.height) + " is inconsistent with the image (" +
+           std::to_string(im.grey.cols) + "x" + std::to_string(im.grey.rows) + "); skipped";
+  }
+  return "";
+}
+
 // An image is usable when it is present and its model describes an image of its size.
 bool usable(Context& ctx, const ProductImage& im) {
-  std::set<std::string>& warned = ctx.warned;
-  if (im.grey.empty()) {
-    if (warned.insert(im.stem).second) ctx.warn("image " + im.stem + ": missing; its products are skipped");
-    return false;
-  }
-  if (im.grey.type() != CV_8U) {
-    if (warned.insert(im.stem).second) ctx.warn("image " + im.stem + ": not 8-bit grey; skipped");
-    return false;
-  }
-  const char* field = "";
-  if (validateModel(im.model, field) != Status::kOk) {
-    if (warned.insert(im.stem).second) ctx.warn("model " + im.stem + ": invalid component " + field + "; skipped");
-    return false;
-  }
-  if (im.model.width > 0 && (im.model.width != im.grey.cols || im.model.height != im.grey.rows)) {
-    if (warned.insert(im.stem).second) {
-      ctx.warn("model " + im.stem + ": size " + std::to_string(im.model.width) + "x" +
-               std::to_string(im.model.height) + " is inconsistent with the image (" + std::to_string(im.grey.cols) +
-               "x" + std::to_string(im.grey.rows) + "); skipped");
-    }
-    return false;
-  }
-  return true;
+  const std::string reason = unusableReason(im);
+  if (reason.empty()) return true;
+  if (ctx.warned.insert(im.stem).second) ctx.warn(reason);
+  return false;
 }
 
 CameraModel sized(const ProductImage& im) {

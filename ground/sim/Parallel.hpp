@@ -1,31 +1,20 @@
-// Runs fn(i) for i in [0, count) on `threads` threads (0 = all cores), taking indices from a shared
-// counter. Work items must be independent so that results do not depend on the thread count.
+// The simulator's parallel loops: the ground's (ground/cli/Parallel.hpp), fn(i) for i in [0, count) on
+// `threads` threads (0 = the process-wide setting, every core by default). Work items must be independent
+// so that results do not depend on the thread count.
 #pragma once
 
-#include <algorithm>
-#include <atomic>
-#include <thread>
-#include <vector>
+#include <cstddef>
+
+#include "ground/cli/Parallel.hpp"
 
 namespace areomap::sim {
 
-inline int threadCount(int requested) {
-  if (requested > 0) return requested;
-  const unsigned hw = std::thread::hardware_concurrency();
-  return hw == 0 ? 1 : static_cast<int>(hw);
-}
+using cli::threadCount;
 
 template <typename Fn>
 void parallelFor(int count, int threads, Fn&& fn) {
-  const int n = std::max(1, std::min(threadCount(threads), count));
-  std::atomic<int> next{0};
-  auto worker = [&] {
-    for (int i = next.fetch_add(1); i < count; i = next.fetch_add(1)) fn(i);
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < n; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
+  cli::parallelFor(static_cast<std::size_t>(count > 0 ? count : 0), threads,
+                   [&fn](std::size_t i) { fn(static_cast<int>(i)); });
 }
 
 }  // namespace areomap::sim

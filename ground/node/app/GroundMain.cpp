@@ -94,6 +94,8 @@ constexpr const char* kUsage =
     "  --no-rover-ties     always match the ground's images (ignore the rover's AREOMAP_TIEPOINTS)\n"
     "  --stream-only       collect and count the stream only (the `stream:` line), no pass, nothing written\n"
     "  --summary-json      print the figures as one JSON line on stdout at the end\n"
+    "  --threads N         threads of the pass's parallel work (pairs, rows, cells; default: every core);\n"
+    "                      the products are the same bytes for any N\n"
     "\n"
     "Exit: 0 ok, 2 usage error, 1 other error (the message names the file or URL and the field); also 1 when "
     "a\n"
@@ -176,6 +178,7 @@ GroundArgs parseArgs(cli::Args& args) {
   options.idle_timeout_s = args.number("--idle-timeout-s", 120.0);
   options.first_message_timeout_s = args.number("--first-timeout-s", 600.0);
   a.summary_json = args.flag("--summary-json");
+  cli::threadsOption(args);
   const double panoramas = args.number("--panoramas", 1.0);
   a.no_record = args.flag("--no-record");
   options.pass.products = !args.flag("--no-products");

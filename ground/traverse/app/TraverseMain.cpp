@@ -12,6 +12,7 @@ namespace {
 constexpr const char* kUsage =
     "usage: areomap-traverse DATASET --out DIR [--cross-ties FILE | --truth-cross-ties [--noise-px S] |\n"
     "                        --no-cross-ties] [--no-products] [--reuse-sites] [--cell-m C] [--quiet]\n"
+    "                        [--threads N]\n"
     "\n"
     "Maps a multi-site traverse: DATASET/traverse.json names the sites in driving order "
     "(docs/traverse.md),\n"
@@ -42,6 +43,8 @@ constexpr const char* kUsage =
     "  --reuse-sites    a site whose DIR/sites/<id> holds a finished pass (report.json, models/) is not\n"
     "                   mapped again (e.g. to adjust the traverse again with other cross-site ties)\n"
     "  --quiet          no progress lines\n"
+    "  --threads N      threads of the passes' parallel work (pairs, rows, cells; default: every core);\n"
+    "                   the products are the same bytes for any N\n"
     "\n"
     "A site whose pass fails (a bad dataset, an unsolvable network) is reported in report.json and skipped;\n"
     "the others are still mapped. Exit: 0 ok, 2 usage error, 1 other error (the message names the file and\n"
@@ -57,6 +60,7 @@ int main(int argc, char** argv) {
     o.products = !args.flag("--no-products");
     o.cell_m = args.number("--cell-m", -1.0);
     o.progress = !args.flag("--quiet");
+    cli::threadsOption(args);
     o.reuse_sites = args.flag("--reuse-sites");
     o.cross_ties_csv = args.option("--cross-ties", "");
     o.truth_cross_ties = args.flag("--truth-cross-ties");

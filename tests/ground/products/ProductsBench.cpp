@@ -1,16 +1,20 @@
 // The whole ground-products pass on a dataset folder, per stage (BENCHMARKS.md "ground products"):
-//   products_bench DATASET OUT [--truth-models]
+//   products_bench DATASET OUT [--truth-models] [--threads N] [--reference]
+// --threads N: the pass on N threads (default every core); --reference: first the same pass on 1 thread
+// into OUT-1thread, the reference of the same run (wall and CPU seconds of both, their ratio).
 // Images and models from panorama.json (with --truth-models: truth/models/<stem>.cahvor, standing in for
 // the adjusted models), tie points from truth/observations.csv when present, truth/dem.tif for the DEM
 // RMSE. Prints the stage timings and figures. Not a CTest test (minutes on the full navcam preset).
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <map>
 #include <set>
 #include <string>
 
 #include "ground/cli/Cli.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/dataset/TruthFiles.hpp"
@@ -26,7 +30,13 @@ int main(int argc, char** argv) {
   }
   const std::string root = argv[1];
   const std::string out = argv[2];
-  const bool truth_models = argc > 3 && std::strcmp(argv[3], "--truth-models") == 0;
+  bool truth_models = false, reference = false;
+  int threads = 0;
+  for (int k = 3; k < argc; ++k) {
+    if (std::strcmp(argv[k], "--truth-models") == 0) truth_models = true;
+    if (std::strcmp(argv[k], "--reference") == 0) reference = true;
+    if (std::strcmp(argv[k], "--threads") == 0 && k + 1 < argc) threads = std::atoi(argv[++k]);
+  }
   const double t0 = cli::nowSeconds();
   const Dataset ds = readDataset(root);
   products::ProductInputs in;
@@ -68,8 +78,23 @@ int main(int argc, char** argv) {
   }
   if (std::filesystem::exists(root + "/truth/dem.tif")) in.truth_dem = readDemGeoTiff(root + "/truth/dem.tif");
   const double t_load = cli::nowSeconds() - t0;
+  double ref_wall = 0.0, ref_cpu = 0.0;
+  if (reference) {
+    cli::setThreads(1);
+    const double w0 = cli::nowSeconds(), c0 = static_cast<double>(std::clock()) / CLOCKS_PER_SEC;
+    ground::AdjustReport one;
+    products::makeProducts(in, products::ProductOptions{}, out + "-1thread", &one);
+    ref_wall = cli::nowSeconds() - w0;
+    ref_cpu = static_cast<double>(std::clock()) / CLOCKS_PER_SEC - c0;
+  }
+  cli::setThreads(threads);
+  const double w0 = cli::nowSeconds(), c0 = static_cast<double>(std::clock()) / CLOCKS_PER_SEC;
   ground::AdjustReport report;
   const products::ProductsResult r = products::makeProducts(in, products::ProductOptions{}, out, &report);
+  const double wall = cli::nowSeconds() - w0, cpu = static_cast<double>(std::clock()) / CLOCKS_PER_SEC - c0;
+  std::printf("%d threads: wall %.1f s, CPU %.1f s", cli::threadCount(), wall, cpu);
+  if (reference) std::printf("; reference 1 thread: wall %.1f s (%.2fx), CPU %.1f s", ref_wall, ref_wall / wall, ref_cpu);
+  std::printf("\n");
   products::mergeIntoReport(r, report);
   std::printf("| load (%zu images) | %.1f s |\n", in.images.size(), t_load);
   double total = t_load;
