@@ -43,6 +43,9 @@ void RoverNode::start(platform::Transport& out, platform::JpegCodec& codec, cons
   for (eo_entry_t& e : eo_.images) e.stem.reserve(kMaxMessageStringChars + 1);
   status_.last_error.reserve(sizeof(last_error_));
   prepareSite(site_in_);
+  for (std::string* text : {&site_pose_.traverse, &site_pose_.site_id, &site_pose_.panorama})
+    text->reserve(kMaxMessageStringChars + 1);
+  traverse_.reset();
   site_panorama_[0] = '\0';
   ended_panorama_[0] = '\0';
   site_announced_ = false;
@@ -138,7 +141,8 @@ void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
     const bool known = print == static_cast<uint64_t>(tiepoints_t::getHash()) ||
                        print == static_cast<uint64_t>(eo_solution_t::getHash()) ||
                        print == static_cast<uint64_t>(coarse_dem_t::getHash()) ||
-                       print == static_cast<uint64_t>(rover_status_t::getHash());
+                       print == static_cast<uint64_t>(rover_status_t::getHash()) ||
+                       print == static_cast<uint64_t>(site_pose_t::getHash());
     rejectAndPublish(Status::kUnsupported, -1, -1,
                      known ? "another areomap message type on the stereo-pair channel"
                            : "not a stereo_pair_t (unknown fingerprint)");
@@ -204,6 +208,7 @@ void RoverNode::handleSite(const uint8_t* data, std::size_t size) {
   copyText(site_in_.panorama.c_str(), site_panorama_, sizeof(site_panorama_));
   site_announced_ = true;
   last_site_announced_ = site_in_.is_last;
+  traverse_.announce(site_in_);
   if (options_.log_to_stderr) {
     std::fprintf(stderr, "areomap-rover: site %s (%d/%d), panorama %s%s\n", site_in_.site_id.c_str(),
                  static_cast<int>(site_in_.site_index + 1), static_cast<int>(site_in_.sites_planned),
@@ -516,6 +521,7 @@ void RoverNode::finishPanorama() {
     std::snprintf(last_error_, sizeof(last_error_), "end of panorama without any accepted pair");
     if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
     counters_.finished = true;
+    finishTraverseSite();
     publishStatus();
     return;
   }
@@ -525,7 +531,20 @@ void RoverNode::finishPanorama() {
   counters_.finished = true;
   counters_.panorama_seconds = now() - panorama_start_s_;
   publishEo(-1, true);
+  finishTraverseSite();
   publishStatus();
+}
+
+void RoverNode::finishTraverseSite() {
+  if (!site_announced_ || std::strcmp(ended_panorama_, site_panorama_) != 0) return;
+  const Status s = traverse_.finishSite();
+  if (!ok(s)) {
+    std::snprintf(last_error_, sizeof(last_error_), "site %s: %s: not in the site-pose adjustment",
+                  site_in_.site_id.c_str(), statusName(s));
+    if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
+    if (traverse_.siteCount() == 0) return;
+  }
+  publishSitePoses();
 }
 
 }  // namespace areomap
