@@ -263,6 +263,7 @@ void RoverNode::processPair(int64_t sequence) {
   if (!enterNetwork(sequence, pair_id, sol_index, models)) return;
   setRigFromMessage(sol_index);
   counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
+  keepForTraverse(w[0], h[0]);
   counters_.pairs_accepted += 1;
   // Incremental adjustment, warm-started from the previous solution.
   t = now();
@@ -468,6 +469,15 @@ bool RoverNode::enterNetwork(int64_t sequence, int32_t pair_id, int32_t sol_inde
   return true;
 }
 
+// The pair's left image kept for the cross-site matching when it belongs to the announced site.
+void RoverNode::keepForTraverse(int32_t width, int32_t height) {
+  if (!site_announced_ || std::strcmp(panorama_, site_panorama_) != 0) return;
+  const int32_t image = network_builder_.networkImage(2 * (matcher_.pairCount() - 1));
+  if (image < 0) return;
+  const ImageView left{left_pixels_, width, height, width};
+  traverse_.keepImage(left, image, network_builder_.model(image), network_builder_.camera(image));
+}
+
 void RoverNode::setRigFromMessage(int32_t sol_index) {
   RigConstraints& rigc = net_.rig;
   rigc.gimbal_m[sol_index] = vec(in_.gimbal_m);
@@ -521,7 +531,7 @@ void RoverNode::finishPanorama() {
     std::snprintf(last_error_, sizeof(last_error_), "end of panorama without any accepted pair");
     if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
     counters_.finished = true;
-    finishTraverseSite();
+    finishTraverseSite(false);
     publishStatus();
     return;
   }
@@ -531,13 +541,25 @@ void RoverNode::finishPanorama() {
   counters_.finished = true;
   counters_.panorama_seconds = now() - panorama_start_s_;
   publishEo(-1, true);
-  finishTraverseSite();
+  finishTraverseSite(true);
   publishStatus();
 }
 
-void RoverNode::finishTraverseSite() {
+void RoverNode::finishTraverseSite(bool mapped) {
   if (!site_announced_ || std::strcmp(ended_panorama_, site_panorama_) != 0) return;
-  const Status s = traverse_.finishSite();
+  const double t = now();
+  const Status s = mapped ? traverse_.finishSite(&net_, &network_builder_) : traverse_.finishSite(nullptr, nullptr);
+  counters_.traverse_seconds += now() - t;
+  const RoverLegReport& leg = traverse_.lastLeg();
+  if (options_.log_to_stderr && leg.candidates_a > 0) {
+    std::fprintf(stderr,
+                 "areomap-rover: site %s: DEM registration %s (%d samples, %.3f m RMS), %d cross-site ties "
+                 "(%d candidates, %d predictions), %d observations into the site-pose adjustment\n",
+                 site_in_.site_id.c_str(), demRegistrationStatusName(leg.registration.status),
+                 static_cast<int>(leg.registration.overlap), leg.registration.rms_m, static_cast<int>(leg.ties),
+                 static_cast<int>(leg.candidates_a), static_cast<int>(leg.counts.predicted),
+                 static_cast<int>(leg.observations_added));
+  }
   if (!ok(s)) {
     std::snprintf(last_error_, sizeof(last_error_), "site %s: %s: not in the site-pose adjustment",
                   site_in_.site_id.c_str(), statusName(s));

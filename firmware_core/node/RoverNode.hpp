@@ -122,6 +122,7 @@ struct RoverCounters {
   int32_t site_poses_published = 0;  // AREOMAP_SITE_POSE messages
   double stage_seconds[8] = {};
   double panorama_seconds = 0.0;  // first pair message to the final EO
+  double traverse_seconds = 0.0;  // the site-pose steps after each site (registration, matching, adjustment)
   int32_t last_sweeps = 0;
   double last_rms_px = 0.0;
   bool finished = false;
@@ -204,7 +205,8 @@ class RoverNode {
   void publishStatus();
   void publishSitePoses();
   // The announced site's panorama ended: the site into the traverse adjustment, its poses published.
-  void finishTraverseSite();
+  void finishTraverseSite(bool mapped);
+  void keepForTraverse(int32_t width, int32_t height);
   template <class Message>
   void publishMessage(const char* channel, Message& message);
   double now() const;

@@ -17,7 +17,11 @@
 
 #include "areomap/site_pose_t.hpp"
 #include "areomap/site_t.hpp"
+#include "firmware_core/adjust/Network.hpp"
+#include "firmware_core/adjust/NetworkBuilder.hpp"
 #include "firmware_core/adjust/SitePoseAdjuster.hpp"
+#include "firmware_core/dem/CoarseDemRegistration.hpp"
+#include "firmware_core/match/CrossSiteMatcher.hpp"
 #include "firmware_core/base/Capacities.hpp"
 #include "firmware_core/base/Status.hpp"
 
@@ -43,6 +47,24 @@ struct RoverSiteRecord {
   int32_t tie_observations = 0;
 };
 
+// A camera of a site as its panorama's adjustment left it (site frame): what the site-pose adjuster carries.
+struct RoverSiteCamera {
+  InteriorOrientation io;
+  Vec3 centre_m = Vec3::Zero();
+  Mat3 m = Mat3::Identity();
+  int32_t adjuster_camera = -1;  // added to the adjuster when a tie first needs it
+};
+
+// The cross-site matching of the last leg (into the site just finished).
+struct RoverLegReport {
+  DemRegistrationResult registration;
+  CrossMatchCounts counts;
+  int32_t ties = 0;               // matched (candidate, image) ties
+  int32_t observations_added = 0; // into the adjuster
+  int32_t observations_refused = 0;
+  int32_t candidates_a = 0, kept_images_b = 0;
+};
+
 struct RoverTraverseCounters {
   int32_t sites_adjusted = 0;
   int32_t sites_refused = 0;
@@ -58,21 +80,31 @@ class RoverTraverse {
   void reset();
   // The announcement of the site whose pairs follow (decoded and checked: decodeSite).
   void announce(const site_t& site);
-  // The announced site's panorama has ended: the site enters the adjustment and the window is solved.
-  // Returns kOk, or why the site was refused (the record is still kept, STATUS_FAILED).
-  [[nodiscard]] Status finishSite();
+  // A pair's left image of the announced site (the matcher's frame, its network image and a-priori model).
+  void keepImage(const ImageView& image, int32_t net_image, const CameraModel& apriori_model,
+                 const PhotogrammetricCamera& apriori_camera);
+  // The announced site's panorama has ended: the site enters the adjustment (with its ties to the site
+  // before when `net` holds its adjusted panorama: its DEM, cameras and candidates are taken from it) and
+  // the window is solved. Returns kOk, or why the site was refused (the record is still kept, STATUS_FAILED).
+  [[nodiscard]] Status finishSite(const Network* net, const NetworkBuilder* builder);
 
   int32_t siteCount() const { return site_count_; }
   const RoverSiteRecord& site(int32_t k) const { return sites_[k]; }
   // The records of the last solve's window, oldest first: [firstPublished(), siteCount()).
   int32_t firstPublished() const { return first_published_; }
   const RoverTraverseCounters& counters() const { return counters_; }
+  const RoverLegReport& lastLeg() const { return leg_; }
   const char* traverseName() const { return traverse_; }
   SitePoseAdjuster& adjuster() { return adjuster_; }
 
  private:
   Status refuse(Status cause);
   void solveWindow();
+  // The site's record from its adjusted panorama: DEM, cameras, kept images' models, candidates.
+  void capture(const Network& net, const NetworkBuilder& builder);
+  // Registration and matching from the previous record into the current one; the ties into the adjuster.
+  void tieLeg(int32_t record_b, int32_t site_a, int32_t site_b);
+  int32_t cameraFor(int32_t record, int32_t site, int32_t image);
 
   SitePoseAdjuster adjuster_;
   RoverSiteRecord sites_[kMaxSites];
@@ -88,6 +120,17 @@ class RoverTraverse {
   double pending_leg_distance_m_ = 0.0;
   TraverseFromSite pending_apriori_;
   RoverTraverseCounters counters_;
+
+  // Cross-site matching: the previous site's record and the current one (they swap after each site).
+  CrossSiteRecord records_[2];
+  RoverSiteCamera cameras_[2][kMaxImages];
+  int32_t camera_count_[2] = {0, 0};
+  bool captured_[2] = {false, false};
+  int32_t current_ = 0;
+  CoarseDemRegistration registration_;
+  CrossSiteMatcher matcher_;
+  RoverCrossTie ties_[kMaxCrossSiteTiesPerLeg];
+  RoverLegReport leg_;
 };
 
 // A pose's heading clockwise from north (degrees): atan2(r10, r00) of traverse_from_site.
