@@ -409,7 +409,7 @@ if t:
         t.get("eo_px_before") or float("nan"), t.get("eo_px"), t.get("eo_px_raw")))
 if rv.get("heap_allocs_after_init") is not None:
     st = rv.get("stage_seconds_per_pair", {})
-    print("rover:     %s pairs accepted, %s sweeps (final), rms %.3f px, heap allocations after start-up %s, memory (static and start-up reserve) %.1f of 64 MiB" % (
+    print("rover:     %s pairs accepted, %s sweeps (final), rms %.3f px, heap allocations after start-up %s, memory (static and start-up reserve) %.1f of 72 MiB" % (
         rv.get("pairs_accepted"), rv.get("sweeps"), rv.get("rms_px") or float("nan"), rv.get("heap_allocs_after_init"),
         (rv.get("static_bytes") or 0) / 2**20))
     print("rover:     per pair %.2f s (%s)" % (rv.get("seconds_per_pair") or 0,
