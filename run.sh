@@ -35,7 +35,8 @@ areomap-sim --preset traverse into OUT/traverse-C-sN-seedS, packs it (each site 
 then its pairs and end-of-panorama marker), and the two nodes map it site after site: the rover adjusts and
 publishes each site's pass as it arrives, the ground (areomap-ground --traverse) writes each site's
 products into OUT/products-NAME/sites/<id>/ and, after the last site, the traverse steps of
-areomap-traverse (poses.csv, the merged dem.tif / dem_sigma.tif / ortho.tif, report.json). The summary gives
+areomap-traverse (poses.csv, the rover's own poses as rover_poses.csv, the merged dem.tif / dem_sigma.tif /
+ortho.tif, report.json). The summary gives
 the sites, the distance driven, the position error a priori and after, the cross-site ties and the merged
 DEM's RMSE against the truth.
 
@@ -351,6 +352,14 @@ print("position:  error %s m a priori (%s %% of the distance) -> %s m after (%s 
     num(t.get("position_error_apriori_m"), "%.3f"), num(t.get("position_error_apriori_pct"), "%.2f"),
     num(t.get("position_error_m"), "%.3f"), num(t.get("position_error_pct"), "%.2f")))
 print("ties:      cross-site ties %s (method 1 %s px)" % (t.get("cross_site_ties"), num(t.get("cross_site_method1_px"), "%.3f")))
+rp = r.get("rover_poses")
+if rp:
+    print("rover:     on board, %s site poses (rover_poses.csv): error %s m (%s %% of the distance), ground %s m (%s %%) over them; %s m RMS apart" % (
+        rp.get("sites"), num(rp.get("position_error_m"), "%.3f"), num(rp.get("position_error_pct"), "%.2f"),
+        num(rp.get("ground_position_error_m"), "%.3f"), num(rp.get("ground_position_error_pct"), "%.2f"),
+        num(rp.get("vs_ground_rms_m"), "%.3f")))
+else:
+    print("rover:     no site pose from the rover (AREOMAP_SITE_POSE)")
 tr = r.get("truth", {})
 print("dem:       merged DEM RMSE against the truth %s m over %s cells (within %s m of a site)" % (
     num(tr.get("dem_rmse_m"), "%.3f"), tr.get("dem_cells", "n/a"), tr.get("dem_radius_m", "n/a")))
@@ -400,7 +409,7 @@ if t:
         t.get("eo_px_before") or float("nan"), t.get("eo_px"), t.get("eo_px_raw")))
 if rv.get("heap_allocs_after_init") is not None:
     st = rv.get("stage_seconds_per_pair", {})
-    print("rover:     %s pairs accepted, %s sweeps (final), rms %.3f px, heap allocations after start-up %s, memory (static and start-up reserve) %.1f of 64 MiB" % (
+    print("rover:     %s pairs accepted, %s sweeps (final), rms %.3f px, heap allocations after start-up %s, memory (static and start-up reserve) %.1f of 72 MiB" % (
         rv.get("pairs_accepted"), rv.get("sweeps"), rv.get("rms_px") or float("nan"), rv.get("heap_allocs_after_init"),
         (rv.get("static_bytes") or 0) / 2**20))
     print("rover:     per pair %.2f s (%s)" % (rv.get("seconds_per_pair") or 0,

@@ -11,5 +11,6 @@ constexpr const char* kRoverStatus = "AREOMAP_ROVER_STATUS";  // areomap::rover_
 constexpr const char* kProduct = "AREOMAP_PRODUCT";           // areomap::product_t (ground manifest)
 constexpr const char* kSite =
     "AREOMAP_SITE";  // areomap::site_t (camera stream: a traverse site, before its pairs)
+constexpr const char* kSitePose = "AREOMAP_SITE_POSE";  // areomap::site_pose_t (rover: its site poses)
 
 }  // namespace areomap::channels

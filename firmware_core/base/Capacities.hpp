@@ -38,8 +38,13 @@ constexpr int32_t kMaxJpegBytes = 2 * 1024 * 1024;
 // Iteration bounds (JPL Power of Ten rule 2: every loop has a named maximum).
 constexpr int32_t kMaxCameraInverseIterations = 50;  // CAHVOR/CAHVORE pixel -> ray Newton steps
 
-// Total static memory of the rover side for a full panorama.
-constexpr std::size_t kStaticMemoryBudgetBytes = 64u * 1024u * 1024u;
+// Total memory of the rover side (static and start-up reserve): 64 MiB for mapping a full panorama, and
+// kTraverseMemoryBudgetBytes for localising the rover over a traverse (its site-pose adjustment and the
+// cross-site matcher's records of the last sites), which the panorama's workspaces cannot lend since the
+// traverse keeps its records from site to site.
+constexpr std::size_t kPanoramaMemoryBudgetBytes = 64u * 1024u * 1024u;
+constexpr std::size_t kTraverseMemoryBudgetBytes = 8u * 1024u * 1024u;
+constexpr std::size_t kStaticMemoryBudgetBytes = kPanoramaMemoryBudgetBytes + kTraverseMemoryBudgetBytes;
 
 static_assert(kMaxImages == 2 * kMaxPairs, "one left and one right image per pair");
 static_assert(kMaxObservations >= 2 * kMaxTiePoints, "every tie point needs two observations");

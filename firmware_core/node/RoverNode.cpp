@@ -43,6 +43,9 @@ void RoverNode::start(platform::Transport& out, platform::JpegCodec& codec, cons
   for (eo_entry_t& e : eo_.images) e.stem.reserve(kMaxMessageStringChars + 1);
   status_.last_error.reserve(sizeof(last_error_));
   prepareSite(site_in_);
+  for (std::string* text : {&site_pose_.traverse, &site_pose_.site_id, &site_pose_.panorama})
+    text->reserve(kMaxMessageStringChars + 1);
+  traverse_.reset();
   site_panorama_[0] = '\0';
   ended_panorama_[0] = '\0';
   site_announced_ = false;
@@ -138,7 +141,8 @@ void RoverNode::handleStereoPair(const uint8_t* data, std::size_t size) {
     const bool known = print == static_cast<uint64_t>(tiepoints_t::getHash()) ||
                        print == static_cast<uint64_t>(eo_solution_t::getHash()) ||
                        print == static_cast<uint64_t>(coarse_dem_t::getHash()) ||
-                       print == static_cast<uint64_t>(rover_status_t::getHash());
+                       print == static_cast<uint64_t>(rover_status_t::getHash()) ||
+                       print == static_cast<uint64_t>(site_pose_t::getHash());
     rejectAndPublish(Status::kUnsupported, -1, -1,
                      known ? "another areomap message type on the stereo-pair channel"
                            : "not a stereo_pair_t (unknown fingerprint)");
@@ -204,6 +208,7 @@ void RoverNode::handleSite(const uint8_t* data, std::size_t size) {
   copyText(site_in_.panorama.c_str(), site_panorama_, sizeof(site_panorama_));
   site_announced_ = true;
   last_site_announced_ = site_in_.is_last;
+  traverse_.announce(site_in_);
   if (options_.log_to_stderr) {
     std::fprintf(stderr, "areomap-rover: site %s (%d/%d), panorama %s%s\n", site_in_.site_id.c_str(),
                  static_cast<int>(site_in_.site_index + 1), static_cast<int>(site_in_.sites_planned),
@@ -258,6 +263,7 @@ void RoverNode::processPair(int64_t sequence) {
   if (!enterNetwork(sequence, pair_id, sol_index, models)) return;
   setRigFromMessage(sol_index);
   counters_.stage_seconds[stageIndex(RoverStage::kAdjust)] += now() - t;
+  keepForTraverse(w[0], h[0]);
   counters_.pairs_accepted += 1;
   // Incremental adjustment, warm-started from the previous solution.
   t = now();
@@ -463,6 +469,15 @@ bool RoverNode::enterNetwork(int64_t sequence, int32_t pair_id, int32_t sol_inde
   return true;
 }
 
+// The pair's left image kept for the cross-site matching when it belongs to the announced site.
+void RoverNode::keepForTraverse(int32_t width, int32_t height) {
+  if (!site_announced_ || std::strcmp(panorama_, site_panorama_) != 0) return;
+  const int32_t image = network_builder_.networkImage(2 * (matcher_.pairCount() - 1));
+  if (image < 0) return;
+  const ImageView left{left_pixels_, width, height, width};
+  traverse_.keepImage(left, image, network_builder_.model(image), network_builder_.camera(image));
+}
+
 void RoverNode::setRigFromMessage(int32_t sol_index) {
   RigConstraints& rigc = net_.rig;
   rigc.gimbal_m[sol_index] = vec(in_.gimbal_m);
@@ -516,6 +531,7 @@ void RoverNode::finishPanorama() {
     std::snprintf(last_error_, sizeof(last_error_), "end of panorama without any accepted pair");
     if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
     counters_.finished = true;
+    finishTraverseSite(false);
     publishStatus();
     return;
   }
@@ -525,7 +541,32 @@ void RoverNode::finishPanorama() {
   counters_.finished = true;
   counters_.panorama_seconds = now() - panorama_start_s_;
   publishEo(-1, true);
+  finishTraverseSite(true);
   publishStatus();
+}
+
+void RoverNode::finishTraverseSite(bool mapped) {
+  if (!site_announced_ || std::strcmp(ended_panorama_, site_panorama_) != 0) return;
+  const double t = now();
+  const Status s = mapped ? traverse_.finishSite(&net_, &network_builder_) : traverse_.finishSite(nullptr, nullptr);
+  counters_.traverse_seconds += now() - t;
+  const RoverLegReport& leg = traverse_.lastLeg();
+  if (options_.log_to_stderr && leg.candidates_a > 0) {
+    std::fprintf(stderr,
+                 "areomap-rover: site %s: DEM registration %s (%d samples, %.3f m RMS), %d cross-site ties "
+                 "(%d candidates, %d predictions), %d observations into the site-pose adjustment\n",
+                 site_in_.site_id.c_str(), demRegistrationStatusName(leg.registration.status),
+                 static_cast<int>(leg.registration.overlap), leg.registration.rms_m, static_cast<int>(leg.ties),
+                 static_cast<int>(leg.candidates_a), static_cast<int>(leg.counts.predicted),
+                 static_cast<int>(leg.observations_added));
+  }
+  if (!ok(s)) {
+    std::snprintf(last_error_, sizeof(last_error_), "site %s: %s: not in the site-pose adjustment",
+                  site_in_.site_id.c_str(), statusName(s));
+    if (options_.log_to_stderr) std::fprintf(stderr, "areomap-rover: %s\n", last_error_);
+    if (traverse_.siteCount() == 0) return;
+  }
+  publishSitePoses();
 }
 
 }  // namespace areomap

@@ -30,6 +30,7 @@
 #include "areomap/coarse_dem_t.hpp"
 #include "areomap/eo_solution_t.hpp"
 #include "areomap/rover_status_t.hpp"
+#include "areomap/site_pose_t.hpp"
 #include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "areomap/tiepoints_t.hpp"
@@ -40,6 +41,7 @@
 #include "firmware_core/base/Status.hpp"
 #include "firmware_core/dem/CoarseDem.hpp"
 #include "firmware_core/match/PanoramaMatcher.hpp"
+#include "firmware_core/node/RoverTraverse.hpp"
 #include "msgs/adapters/MessageAdapters.hpp"
 #include "platform/Clock.hpp"
 #include "platform/JpegCodec.hpp"
@@ -80,14 +82,16 @@ constexpr int64_t kCoarseDem = kStringBytes + static_cast<int64_t>(kCoarseDemCel
 constexpr int64_t kEo =
     kStringBytes + kImages * static_cast<int64_t>(sizeof(eo_entry_t)) + kImages * kStringBytes;
 constexpr int64_t kStatus = kMaxLastErrorChars + 2;
-constexpr int64_t kSite = 4 * kStringBytes;  // traverse, site id, panorama, odometry_from
-// stereo pair 5, tie points 1 + 1 + kImages + 5, coarse DEM 2, EO 1 + 1 + kImages, status 1, site 4.
-constexpr int64_t kAllocations = 5 + (7 + kImages) + 2 + (2 + kImages) + 1 + 4;
+constexpr int64_t kSite = 4 * kStringBytes;      // traverse, site id, panorama, odometry_from
+constexpr int64_t kSitePose = 3 * kStringBytes;  // traverse, site id, panorama
+// stereo pair 5, tie points 1 + 1 + kImages + 5, coarse DEM 2, EO 1 + 1 + kImages, status 1, site 4,
+// site pose 3.
+constexpr int64_t kAllocations = 5 + (7 + kImages) + 2 + (2 + kImages) + 1 + 4 + 3;
 constexpr int64_t kAllocatorBytes = 32 * kAllocations + 2 * 4096;
 }  // namespace rover_reserve
 constexpr int64_t kRoverStartupReserveBytes =
     rover_reserve::kStereoPair + rover_reserve::kTiePoints + rover_reserve::kCoarseDem + rover_reserve::kEo +
-    rover_reserve::kStatus + rover_reserve::kSite + rover_reserve::kAllocatorBytes;
+    rover_reserve::kStatus + rover_reserve::kSite + rover_reserve::kSitePose + rover_reserve::kAllocatorBytes;
 
 enum class RoverStage : uint8_t {
   kDecode = 0,
@@ -115,8 +119,10 @@ struct RoverCounters {
   int32_t end_markers = 0;
   int32_t sites_announced = 0;  // AREOMAP_SITE announcements accepted
   int32_t sites_rejected = 0;   // ... refused (also in rejected_by_cause)
+  int32_t site_poses_published = 0;  // AREOMAP_SITE_POSE messages
   double stage_seconds[8] = {};
   double panorama_seconds = 0.0;  // first pair message to the final EO
+  double traverse_seconds = 0.0;  // the site-pose steps after each site (registration, matching, adjustment)
   int32_t last_sweeps = 0;
   double last_rms_px = 0.0;
   bool finished = false;
@@ -156,7 +162,7 @@ class RoverNode {
   int64_t staticBytes() const;
   // Heap reserved once by start() for the generated message types' vectors and strings (an upper bound).
   static constexpr int64_t reservedBytes() { return kRoverStartupReserveBytes; }
-  // The memory the rover holds from start-up on, static and start-up reserve together: what the 64 MiB
+  // The memory the rover holds from start-up on, static and start-up reserve together: what the 72 MiB
   // budget covers, and static_bytes in AREOMAP_ROVER_STATUS.
   int64_t memoryBytes() const { return staticBytes() + reservedBytes(); }
 
@@ -165,6 +171,7 @@ class RoverNode {
   const NetworkBuilder& networkBuilder() const { return network_builder_; }
   const char* stemOfImage(int32_t net_image) const { return stem_of_image_[net_image]; }
   const char* lastError() const { return last_error_; }
+  const RoverTraverse& traverse() const { return traverse_; }
 
  private:
   void resetPanorama();
@@ -196,6 +203,10 @@ class RoverNode {
   void publishDem(int32_t pair_id);
   void publishEo(int32_t pair_id, bool final_solution);
   void publishStatus();
+  void publishSitePoses();
+  // The announced site's panorama ended: the site into the traverse adjustment, its poses published.
+  void finishTraverseSite(bool mapped);
+  void keepForTraverse(int32_t width, int32_t height);
   template <class Message>
   void publishMessage(const char* channel, Message& message);
   double now() const;
@@ -213,6 +224,7 @@ class RoverNode {
   NetworkBuilder network_builder_;
   Network net_;
   FastAdjuster adjuster_;
+  RoverTraverse traverse_;
   uint8_t out_buffer_[kMaxOutgoingBytes];
 
   // Messages (vectors reserved at start-up).
@@ -222,6 +234,7 @@ class RoverNode {
   eo_solution_t eo_;
   rover_status_t status_;
   site_t site_in_;
+  site_pose_t site_pose_;
   int64_t extra_static_bytes_ = 0;
 
   // Traverse state: the last site announced (its panorama name, and whether it is the traverse's last).
@@ -256,13 +269,14 @@ class RoverNode {
   RoverCounters counters_;
   int64_t heap_pipeline_ = -1;
   int64_t heap_process_ = -1;
-  int64_t seq_tiepoints_ = 0, seq_dem_ = 0, seq_eo_ = 0, seq_status_ = 0;
+  int64_t seq_tiepoints_ = 0, seq_dem_ = 0, seq_eo_ = 0, seq_status_ = 0, seq_site_pose_ = 0;
   char last_error_[kMaxLastErrorChars + 1] = {0};
 };
 
-// The rover's share of the 64 MiB budget (DESIGN.md "Capacities and memory"); the node program checks the
-// whole, its own buffers included.
+// The rover's share of the budget (Capacities.hpp: 64 MiB for the panorama, 8 MiB for the traverse); the
+// node program checks the whole, its own buffers included.
+static_assert(sizeof(RoverTraverse) <= kTraverseMemoryBudgetBytes, "the traverse exceeds its 8 MiB budget");
 static_assert(sizeof(RoverNode) + kRoverStartupReserveBytes <= kStaticMemoryBudgetBytes,
-              "RoverNode and its start-up reserve exceed the 64 MiB budget");
+              "RoverNode and its start-up reserve exceed the 72 MiB budget");
 
 }  // namespace areomap

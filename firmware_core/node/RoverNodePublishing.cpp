@@ -3,6 +3,8 @@
 // messages' vectors and strings were sized by start(), so filling them makes no heap allocation.
 #include "firmware_core/node/RoverNode.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 
 #include "firmware_core/camera/Binning.hpp"
@@ -143,6 +145,39 @@ void RoverNode::publishStatus() {
   std::size_t n = std::strlen(last_error_);
   status_.last_error.assign(last_error_, n);
   publishMessage(channels::kRoverStatus, status_);
+}
+
+void RoverNode::publishSitePoses() {
+  for (int32_t k = traverse_.firstPublished(); k < traverse_.siteCount(); ++k) {
+    const RoverSiteRecord& rec = traverse_.site(k);
+    site_pose_t& m = site_pose_;
+    m.utime = clock_->wallUtime();
+    m.sequence = seq_site_pose_++;
+    setString(m.traverse, traverse_.traverseName());
+    setString(m.site_id, rec.site_id);
+    setString(m.panorama, rec.panorama);
+    m.site_index = rec.site_index;
+    m.latest_site_index = traverse_.site(traverse_.siteCount() - 1).site_index;
+    for (int32_t i = 0; i < 3; ++i) {
+      m.position_m[i] = rec.pose.position_m[i];
+      m.sigma_position_m[i] = std::sqrt(std::max(0.0, rec.covariance(i, i)));
+      m.sigma_rotation_rad[i] = std::sqrt(std::max(0.0, rec.covariance(3 + i, 3 + i)));
+      for (int32_t j = 0; j < 3; ++j) m.rotation[3 * i + j] = rec.pose.rotation(i, j);
+    }
+    for (int32_t i = 0; i < 6; ++i) {
+      for (int32_t j = 0; j < 6; ++j) m.covariance[6 * i + j] = rec.covariance(i, j);
+    }
+    m.heading_deg = headingDegOf(rec.pose.rotation);
+    m.status = rec.status;
+    m.tie_observations = rec.tie_observations;
+    m.registration = rec.registration;
+    m.distance_m = rec.distance_m;
+    m.window_sites = traverse_.counters().last_window_sites;
+    m.iterations = traverse_.counters().last_iterations;
+    m.sigma0 = traverse_.counters().last_sigma0;
+    publishMessage(channels::kSitePose, m);
+    counters_.site_poses_published += 1;
+  }
 }
 
 void RoverNode::heartbeat() {

@@ -185,7 +185,10 @@ GroundNodeResult runGroundNode(platform::Transport& transport, const std::string
   collector.setTraverse(options.traverse);
   std::vector<const char*> subscribed = {channels::kStereoPair, channels::kTiePoints, channels::kEoSolution,
                                          channels::kCoarseDem, channels::kRoverStatus};
-  if (options.traverse) subscribed.push_back(channels::kSite);
+  if (options.traverse) {
+    subscribed.push_back(channels::kSite);
+    subscribed.push_back(channels::kSitePose);
+  }
   for (const char* channel : subscribed) {
     const Status s = record ? transport.subscribe(channel, &EventRecorder::onMessage, &tee)
                             : transport.subscribe(channel, &StreamCollector::onMessage, &collector);
@@ -211,6 +214,7 @@ GroundNodeResult runGroundNode(platform::Transport& transport, const std::string
     }
     GroundNodeResult result = makePanorama(transport, options, collector, k, receive_seconds);
     result.sites = collector.sites();
+    result.rover_site_poses = collector.roverSitePoses();
     result.site_counts = collector.siteCounts();
     const site_t* site = options.traverse ? collector.siteOfPanorama(collector.panorama()) : nullptr;
     const bool last_site = site != nullptr && site->is_last;

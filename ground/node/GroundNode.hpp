@@ -56,6 +56,7 @@ struct GroundNodeResult {
   std::string site_id;           // traverse: the site this panorama belongs to
   // Traverse: the accepted site announcements and the refusals over the whole run (on every result).
   std::vector<site_t> sites;
+  std::map<std::string, site_pose_t> rover_site_poses;  // the rover's own (AREOMAP_SITE_POSE), latest per site
   SiteStreamCounts site_counts;
   // The recording (GroundNodeOptions::record_path) over the whole run: events appended, and received
   // messages that could not be appended (a full disk); set on the result runGroundNode returns.

@@ -206,6 +206,13 @@ void StreamCollector::receive(const std::string& channel, const uint8_t* data, s
       o.kind = ties.kind[static_cast<std::size_t>(k)] == tiepoints_t::KIND_INTER ? "inter" : "intra";
       rover_ties_.push_back(o);
     }
+  } else if (channel == channels::kSitePose) {
+    site_pose_t pose;
+    const std::string cause = decodeOrCause(data, size, pose);
+    if (!cause.empty()) return reject("rover_site_pose_" + cause);
+    if (!track(pose.sequence)) return;
+    const auto it = rover_site_poses_.find(pose.site_id);
+    if (it == rover_site_poses_.end() || pose.sequence > it->second.sequence) rover_site_poses_[pose.site_id] = pose;
   } else if (channel == channels::kCoarseDem) {
     coarse_dem_t dem;
     const std::string cause = decodeOrCause(data, size, dem);

@@ -23,6 +23,7 @@
 
 #include "areomap/eo_solution_t.hpp"
 #include "areomap/rover_status_t.hpp"
+#include "areomap/site_pose_t.hpp"
 #include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "firmware_core/camera/CameraModel.hpp"
@@ -126,6 +127,8 @@ class StreamCollector {
   // The rover's results (latest by sequence).
   const std::optional<eo_solution_t>& roverEo() const { return rover_eo_; }
   const std::optional<rover_status_t>& roverStatus() const { return rover_status_; }
+  // The rover's own site poses (AREOMAP_SITE_POSE): the latest message of each site, by site id.
+  const std::map<std::string, site_pose_t>& roverSitePoses() const { return rover_site_poses_; }
   int32_t roverTiePointMessages() const { return rover_tie_messages_; }
   int32_t roverTieObservations() const { return rover_tie_observations_; }
   int32_t roverDemMessages() const { return rover_dem_messages_; }
@@ -164,6 +167,7 @@ class StreamCollector {
   std::optional<stereo_pair_t> rig_source_;  // the first kept pair (rig values), images cleared
   std::optional<eo_solution_t> rover_eo_;
   std::optional<rover_status_t> rover_status_;
+  std::map<std::string, site_pose_t> rover_site_poses_;
   int32_t rover_tie_messages_ = 0;
   int32_t rover_tie_observations_ = 0;
   int32_t rover_dem_messages_ = 0;

@@ -79,6 +79,31 @@ Traverse traverseFromAnnouncements(const std::vector<site_t>& announced, const s
   return t;
 }
 
+SitePoseSolution roverPoseSolution(const Traverse& traverse, const std::map<std::string, site_pose_t>& poses) {
+  SitePoseSolution out;
+  for (const TraverseSite& site : traverse.sites) {
+    const auto it = poses.find(site.id);
+    if (it == poses.end()) continue;
+    const site_pose_t& m = it->second;
+    SitePoseEstimate e;
+    e.id = site.id;
+    e.pose.position_m = Eigen::Vector3d(m.position_m[0], m.position_m[1], m.position_m[2]);
+    e.pose.heading_rad = m.heading_deg * kRadPerDeg;
+    // [x, y, z, heading] of the 6 x 6 [dp, dtheta]: the rotation about the vertical is dtheta_z.
+    const int index[4] = {0, 1, 2, 5};
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) e.covariance(r, c) = m.covariance[6 * index[r] + index[c]];
+    e.source = m.status == site_pose_t::STATUS_DATUM ? PoseSource::kFirstSite
+               : m.status == site_pose_t::STATUS_TIED ||
+                       (m.status == site_pose_t::STATUS_HELD && m.tie_observations > 0)
+                   ? PoseSource::kCrossSiteTies
+                   : PoseSource::kOdometry;
+    e.distance_m = m.distance_m;
+    out.sites.push_back(e);
+  }
+  return out;
+}
+
 TraverseResult finishStreamTraverse(const StreamTraverseInputs& in, const TraverseRunOptions& o) {
   std::vector<std::string> warnings = in.site_counts.warnings;
   const Traverse t = traverseFromAnnouncements(in.sites, o.out_dir, warnings);
@@ -129,6 +154,7 @@ TraverseResult finishStreamTraverse(const StreamTraverseInputs& in, const Traver
   figures.sites_announced = in.site_counts.sites_announced;
   figures.site_duplicates = in.site_counts.site_duplicates;
   figures.rejected = in.site_counts.rejected;
+  if (!in.rover_site_poses.empty()) figures.rover_poses = roverPoseSolution(t, in.rover_site_poses);
   return finishTraverse(t, std::move(outcomes), o, truth, warnings, figures);
 }
 

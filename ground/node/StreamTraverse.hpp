@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "areomap/site_pose_t.hpp"
 #include "areomap/site_t.hpp"
 #include "ground/dataset/Traverse.hpp"
 #include "ground/node/StreamCollector.hpp"
@@ -34,7 +35,13 @@ struct StreamTraverseInputs {
   // The passes of the sites whose panorama was made into OUT/sites/<id>, by site id.
   std::map<std::string, std::shared_ptr<const ground::SitePass>> passes;
   std::string truth_traverse;             // a traverse folder with truth/ (the dataset packed), "" none
+  std::map<std::string, site_pose_t> rover_site_poses;  // the rover's own, latest per site id (may be empty)
 };
+
+// The rover's poses as poses.csv rows, in the traverse's site order (the sites it published): the
+// position, the heading, the sigmas of x, y, z and of the rotation about the vertical from its covariance,
+// and the source (first_site; cross_site_ties when tied, or held after a tied solve; else odometry).
+SitePoseSolution roverPoseSolution(const Traverse& traverse, const std::map<std::string, site_pose_t>& poses);
 
 // Rebuilds the traverse, writes OUT/traverse.json and runs finishTraverse into options.out_dir. Truth (when
 // `truth_traverse` is given): its truth/traverse.json poses of the announced sites and truth/dem.tif, and

@@ -114,7 +114,7 @@ json roverFigures(const RoverInputs* rover, const Network& net, const std::vecto
     if (rover->status) {
       const rover_status_t& s = *rover->status;
       rover_json["heap_allocs_after_init"] = s.heap_allocs_after_init;
-      rover_json["static_bytes"] = s.static_bytes;  // static and start-up reserve, against the 64 MiB budget
+      rover_json["static_bytes"] = s.static_bytes;  // static and start-up reserve, against the 72 MiB budget
       const int32_t accepted = std::max(1, s.pairs_accepted);
       double total = 0.0;
       json stages = json::object();

@@ -323,6 +323,21 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
                         {"site_duplicates", r.stream->site_duplicates},
                         {"rejected", rejected}};
   }
+  if (r.rover) {
+    const auto figure = [](double v) { return v >= 0.0 ? json(v) : json(nullptr); };
+    report["rover_poses"] = {{"sites", r.rover->sites},
+                             {"missing", r.rover->missing},
+                             {"vs_ground_m", r.rover->vs_ground_m},
+                             {"vs_ground_rms_m", r.rover->vs_ground_rms_m},
+                             {"position_error_m", figure(r.rover->error_m)},
+                             {"position_error_pct", figure(r.rover->error_pct)},
+                             {"ground_position_error_m", figure(r.rover->ground_error_m)},
+                             {"ground_position_error_pct", figure(r.rover->ground_error_pct)},
+                             {"figures",
+                              "the rover's poses (rover_poses.csv, AREOMAP_SITE_POSE) over the sites it "
+                              "published: vs_ground_m per site |p_rover - p_ground|; position_error_*: as "
+                              "traverse.position_error_*, the rover's and the ground's over those sites"}};
+  }
   cli::writeFileAtomic(o.out_dir + "/report.json", report.dump(1) + "\n");
 }
 
@@ -423,6 +438,11 @@ TraverseResult finishTraverse(const Traverse& traverse, std::vector<SiteOutcome>
     result.files.push_back(o.out_dir + "/cross_ties.csv");
   }
   writePoses(result.poses, o.out_dir + "/poses.csv");
+  if (stream && stream->rover_poses) {
+    writePoses(*stream->rover_poses, o.out_dir + "/rover_poses.csv");
+    result.files.push_back(o.out_dir + "/rover_poses.csv");
+    result.rover = compareRoverPoses(result.poses, *stream->rover_poses, truth.poses);
+  }
   writeTraverseModels(result.sites, result.poses, o.out_dir, result);
   result.files.push_back(o.out_dir + "/poses.csv");
   if (o.products) writeMergedMap(traverse, truth, result.sites, result.poses, o, result);

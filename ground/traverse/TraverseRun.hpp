@@ -20,6 +20,7 @@
 
 #include "ground/dataset/Traverse.hpp"
 #include "ground/pass/GroundPass.hpp"
+#include "ground/traverse/RoverPoses.hpp"
 #include "ground/traverse/SiteDatum.hpp"
 #include "ground/traverse/SitePoses.hpp"
 
@@ -70,6 +71,9 @@ struct TraverseStreamFigures {
   int32_t sites_announced = 0;              // site announcements accepted
   int32_t site_duplicates = 0;              // announcements whose sequence was seen before (dropped)
   std::map<std::string, int32_t> rejected;  // cause -> count (site announcements and unannounced pairs)
+  // The rover's own poses (AREOMAP_SITE_POSE), traverse order, the sites it published (written as
+  // rover_poses.csv, compared in report.json rover_poses).
+  std::optional<SitePoseSolution> rover_poses;
 };
 
 struct TraverseResult {
@@ -88,6 +92,7 @@ struct TraverseResult {
   std::vector<std::string> warnings;  // also in report.json
   std::vector<std::string> write_errors;
   std::optional<TraverseStreamFigures> stream;
+  std::optional<RoverPoseComparison> rover;  // when the stream carried the rover's poses
   // The merged dem.tif against DATASET/truth/dem.tif within kTruthDemRadiusM of a site's true position
   // (cells < 0: no truth).
   double truth_dem_rms_m = -1.0;

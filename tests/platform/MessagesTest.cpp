@@ -60,7 +60,7 @@ TEST_GROUP(Messages){};
 
 TEST(Messages, SchemaOfEveryTypeParses) {
   STRCMP_EQUAL("", areomap::msgs::schemaError());
-  CHECK_EQUAL(10, areomap::msgs::schemaTypeCount());
+  CHECK_EQUAL(11, areomap::msgs::schemaTypeCount());
 }
 
 TEST(Messages, StereoPairRoundTrips) {

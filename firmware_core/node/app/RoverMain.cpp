@@ -55,9 +55,13 @@ uint8_t g_jpeg_arena[areomap::platform::ArenaJpegDecoder::kArenaBytes];
 
 constexpr std::size_t kStaticBytes = sizeof(areomap::RoverNode) + kInboxBytes + kOutboxBytes +
                                      kReplayBufferBytes + areomap::platform::ArenaJpegDecoder::kArenaBytes;
+static_assert(kStaticBytes - sizeof(areomap::RoverTraverse) +
+                      static_cast<std::size_t>(areomap::kRoverStartupReserveBytes) <=
+                  areomap::kPanoramaMemoryBudgetBytes,
+              "the rover's panorama pipeline exceeds its 64 MiB share of the budget");
 static_assert(kStaticBytes + static_cast<std::size_t>(areomap::kRoverStartupReserveBytes) <=
                   areomap::kStaticMemoryBudgetBytes,
-              "the rover's static memory and start-up reserve exceed its 64 MiB budget");
+              "the rover's static memory and start-up reserve exceed its 72 MiB budget");
 
 // The 1 Hz heartbeat while the pipeline is busy with a pair (a matcher call takes seconds): the transport
 // thread re-publishes the last status with a fresh utime. It numbers every AREOMAP_ROVER_STATUS it sends

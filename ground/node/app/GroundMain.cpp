@@ -302,6 +302,7 @@ int finishTraverse(const GroundArgs& a, const ground::GroundNodeResult& result, 
   in.site_counts = result.site_counts;
   in.passes = run.passes;
   in.truth_traverse = a.truth_traverse;
+  in.rover_site_poses = result.rover_site_poses;
   traverse::TraverseRunOptions o;
   o.out_dir = a.out;
   o.products = a.options.pass.products;
@@ -315,6 +316,16 @@ int finishTraverse(const GroundArgs& a, const ground::GroundNodeResult& result, 
   for (const traverse::SiteOutcome& site : r.sites) mapped += site.ok ? 1 : 0;
   std::printf("traverse: %d of %zu sites mapped, %d site announcement(s) accepted, %zu file(s) in %s\n",
               mapped, r.sites.size(), result.site_counts.sites_announced, r.files.size(), a.out.c_str());
+  if (r.rover) {
+    std::printf("rover on board: %d site pose(s), %.3f m RMS from the ground's", r.rover->sites,
+                r.rover->vs_ground_rms_m);
+    if (r.rover->error_pct >= 0.0)
+      std::printf("; position error %.2f %% of the distance driven (ground %.2f %%)", r.rover->error_pct,
+                  r.rover->ground_error_pct);
+    std::printf("\n");
+  } else {
+    std::printf("rover on board: no AREOMAP_SITE_POSE received\n");
+  }
   run.write_errors.insert(run.write_errors.end(), r.write_errors.begin(), r.write_errors.end());
   return writeErrorsExit(run.write_errors);
 }

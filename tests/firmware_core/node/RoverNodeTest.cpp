@@ -1,5 +1,6 @@
 // RoverNode's stream handling without images (builds for the cross targets too): sequence gaps, duplicates,
 // reordering, bad messages by cause, status publication, zero heap after start().
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -7,7 +8,10 @@
 
 #include <malloc.h>
 
+#include <Eigen/Core>
+
 #include "areomap/rover_status_t.hpp"
+#include "areomap/site_pose_t.hpp"
 #include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "firmware_core/node/RoverNode.hpp"
@@ -229,6 +233,125 @@ TEST(RoverNodeStream, SiteAnnouncementsAndEndOfRun) {
   CHECK_EQUAL(0, c.sequence_gaps);
   CHECK_EQUAL(2, c.end_markers);
   CHECK_EQUAL(2, c.rejected_by_cause[static_cast<int>(Status::kMissingField)]);  // the pairs carry no JPEG
+}
+
+namespace {
+
+// A traverse site announcement: site `index` of `count`, its leg (when index > 0) from the site before.
+std::vector<uint8_t> encodeTraverseSite(int32_t index, int32_t count, const double delta_m[3],
+                                        double delta_heading_deg, const double sigma_m[3],
+                                        double sigma_heading_deg) {
+  site_t m{};
+  m.sequence = index;
+  m.traverse = "odometry-traverse";
+  char id[16];
+  std::snprintf(id, sizeof(id), "site%02d", static_cast<int>(index + 1));
+  m.site_id = id;
+  m.site_index = index;
+  m.sites_planned = count;
+  m.panorama = std::string("pano-") + id;
+  m.has_odometry = index > 0;
+  if (index > 0) {
+    std::snprintf(id, sizeof(id), "site%02d", static_cast<int>(index));
+    m.odometry_from = id;
+    for (int k = 0; k < 3; ++k) {
+      m.delta_m[k] = delta_m[k];
+      m.sigma_m[k] = sigma_m[k];
+    }
+    m.delta_heading_deg = delta_heading_deg;
+    m.distance_m = std::sqrt(delta_m[0] * delta_m[0] + delta_m[1] * delta_m[1]);
+    m.sigma_heading_deg = sigma_heading_deg;
+  }
+  m.is_last = index == count - 1;
+  std::vector<uint8_t> b(static_cast<std::size_t>(m.getEncodedSize()));
+  (void)m.encode(b.data(), 0, static_cast<int>(b.size()));
+  return b;
+}
+
+struct SitePoses {
+  site_pose_t last[8];
+  int count = 0;
+  static void on(void* ctx, const char*, const uint8_t* data, std::size_t size) {
+    auto* self = static_cast<SitePoses*>(ctx);
+    site_pose_t m;
+    if (!ok(msgs::decodeMessage(data, size, m))) return;
+    if (m.site_index >= 0 && m.site_index < 8) self->last[m.site_index] = m;
+    self->count += 1;
+  }
+};
+
+Eigen::Matrix3d rz(double deg) {
+  const double h = deg * 3.14159265358979323846 / 180.0;
+  Eigen::Matrix3d r;
+  r << std::cos(h), -std::sin(h), 0.0, std::sin(h), std::cos(h), 0.0, 0.0, 0.0, 1.0;
+  return r;
+}
+
+Eigen::Matrix3d skewOf(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d s;
+  s << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return s;
+}
+
+}  // namespace
+
+// Three sites announced with their odometry legs, each panorama without images: after each, AREOMAP_SITE_POSE
+// for every site of the window (1 + 2 + 3 messages); the last sites' poses are the odometry chained, their
+// covariance the legs' propagated to first order (computed here independently: position sigmas along the
+// previous site's axes, the previous site's rotation swinging the leg), status ODOMETRY; no heap.
+TEST(RoverNodeStream, SitePosesFromOdometryWithTheirCovariance) {
+  const double d1[3] = {12.0, 3.0, 0.2}, d2[3] = {15.0, -4.0, -0.1};
+  const double s1[3] = {0.6, 0.5, 0.1}, s2[3] = {0.8, 0.7, 0.15};
+  const double h1 = 30.0, h2 = -20.0, sh = 2.0;
+  const std::vector<uint8_t> sites[3] = {encodeTraverseSite(0, 3, d1, 0.0, s1, sh),
+                                         encodeTraverseSite(1, 3, d1, h1, s1, sh),
+                                         encodeTraverseSite(2, 3, d2, h2, s2, sh)};
+  std::vector<uint8_t> ends[3];
+  for (int k = 0; k < 3; ++k) {
+    stereo_pair_t p;
+    const std::vector<uint8_t> marker = encodeMarker(0, stereo_pair_t::KIND_END_OF_PANORAMA);
+    CHECK(ok(msgs::decodeMessage(marker.data(), marker.size(), p)));
+    site_t announced;
+    CHECK(ok(msgs::decodeMessage(sites[k].data(), sites[k].size(), announced)));
+    p.panorama = announced.panorama;
+    ends[k].resize(static_cast<std::size_t>(p.getEncodedSize()));
+    (void)p.encode(ends[k].data(), 0, static_cast<int>(ends[k].size()));
+  }
+  SitePoses poses;
+  CHECK(ok(out.subscribe(channels::kSitePose, SitePoses::on, &poses)));
+  HeapAllocationScope scope;
+  for (int k = 0; k < 3; ++k) {
+    g_node.handleSite(sites[k].data(), sites[k].size());
+    g_node.handleStereoPair(ends[k].data(), ends[k].size());
+  }
+  const uint64_t allocations = scope.allocations();
+  for (int i = 0; i < 200 && ok(out.handle(0)); ++i) {
+  }
+  CHECK_EQUAL(0u, allocations);
+  CHECK_EQUAL(6, poses.count);
+  CHECK_EQUAL(site_pose_t::STATUS_DATUM, poses.last[0].status);
+  CHECK_EQUAL(site_pose_t::STATUS_ODOMETRY, poses.last[2].status);
+  // The odometry chain and its first-order covariance.
+  const Eigen::Vector3d leg1(d1[0], d1[1], d1[2]), leg2(d2[0], d2[1], d2[2]);
+  const Eigen::Matrix3d q1 = rz(h1), q2 = rz(h1 + h2);
+  const Eigen::Vector3d p1 = leg1, p2 = p1 + q1 * leg2;
+  const double level = 1e-3, heading = sh * 3.14159265358979323846 / 180.0;
+  const Eigen::Matrix3d rot1 = q1 * Eigen::Vector3d(level * level, level * level, heading * heading).asDiagonal() *
+                               q1.transpose();
+  const Eigen::Matrix3d cov_p1 = Eigen::Vector3d(s1[0] * s1[0], s1[1] * s1[1], s1[2] * s1[2]).asDiagonal();
+  const Eigen::Matrix3d cov_p2 =
+      cov_p1 + q1 * Eigen::Vector3d(s2[0] * s2[0], s2[1] * s2[1], s2[2] * s2[2]).asDiagonal() * q1.transpose() +
+      skewOf(q1 * leg2) * rot1 * skewOf(q1 * leg2).transpose();
+  for (int k = 0; k < 3; ++k) {
+    DOUBLES_EQUAL(p2[k], poses.last[2].position_m[k], 1e-6);
+    DOUBLES_EQUAL(std::sqrt(cov_p2(k, k)), poses.last[2].sigma_position_m[k], 0.01 * std::sqrt(cov_p2(k, k)));
+    DOUBLES_EQUAL(std::sqrt(cov_p1(k, k)), poses.last[1].sigma_position_m[k], 0.01 * std::sqrt(cov_p1(k, k)));
+    for (int j = 0; j < 3; ++j) DOUBLES_EQUAL(q2(k, j), poses.last[2].rotation[3 * k + j], 1e-9);
+  }
+  DOUBLES_EQUAL(h1 + h2, poses.last[2].heading_deg, 1e-9);
+  DOUBLES_EQUAL(std::sqrt(2.0) * heading, poses.last[2].sigma_rotation_rad[2], 0.01 * heading);
+  DOUBLES_EQUAL(std::hypot(d1[0], d1[1]) + std::hypot(d2[0], d2[1]), poses.last[2].distance_m, 1e-9);
+  DOUBLES_EQUAL(0.0, poses.last[0].sigma_position_m[0], 0.0);  // the datum
 }
 
 TEST_GROUP(RoverNodeMemory){};

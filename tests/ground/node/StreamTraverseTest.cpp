@@ -7,11 +7,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "areomap/site_pose_t.hpp"
 #include "areomap/site_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "ground/dataset/Dataset.hpp"
@@ -356,4 +358,64 @@ TEST(StreamTraverseAnnouncements, TraverseRebuiltAndABrokenChainBridged) {
   DOUBLES_EQUAL(0.5 * std::sqrt(2.0), leg.sigma_m.x(), 1e-12);
   DOUBLES_EQUAL(2.0 * std::sqrt(2.0) * M_PI / 180.0, leg.sigma_heading_rad, 1e-12);
   DOUBLES_EQUAL(20.0, leg.distance_m, 1e-12);
+}
+
+// The rover's AREOMAP_SITE_POSE messages as poses.csv rows (traverse order, the sites it published; the
+// heading's variance the rotation's about the vertical) and their comparison with the ground's poses and the
+// truth, checked against figures worked out by hand.
+TEST(StreamTraverseAnnouncements, RoverPosesAgainstTheGroundsAndTheTruth) {
+  areomap::Traverse t;
+  for (const char* id : {"site01", "site02", "site03"}) {
+    areomap::TraverseSite s;
+    s.id = id;
+    t.sites.push_back(s);
+  }
+  std::map<std::string, areomap::site_pose_t> published;
+  areomap::site_pose_t first{}, third{};
+  first.site_id = "site01";
+  first.status = areomap::site_pose_t::STATUS_DATUM;
+  first.position_m[1] = 3.0;  // where the ground and the truth put it
+  third.site_id = "site03";
+  third.status = areomap::site_pose_t::STATUS_TIED;
+  third.position_m[0] = 20.0;
+  third.position_m[1] = 3.0;
+  third.heading_deg = 30.0;
+  third.distance_m = 20.0;
+  third.covariance[0] = 0.04;        // x
+  third.covariance[6 * 5 + 5] = 1e-4;  // rotation about the vertical
+  third.covariance[5] = 2e-3;        // x with it
+  published["site03"] = third;
+  published["site01"] = first;
+  const areomap::traverse::SitePoseSolution rover = areomap::traverse::roverPoseSolution(t, published);
+  CHECK_EQUAL(2u, rover.sites.size());
+  STRCMP_EQUAL("site03", rover.sites[1].id.c_str());
+  CHECK_TRUE(rover.sites[0].source == areomap::traverse::PoseSource::kFirstSite);
+  CHECK_TRUE(rover.sites[1].source == areomap::traverse::PoseSource::kCrossSiteTies);
+  DOUBLES_EQUAL(30.0 * M_PI / 180.0, rover.sites[1].pose.heading_rad, 1e-12);
+  DOUBLES_EQUAL(0.04, rover.sites[1].covariance(0, 0), 0.0);
+  DOUBLES_EQUAL(1e-4, rover.sites[1].covariance(3, 3), 0.0);
+  DOUBLES_EQUAL(2e-3, rover.sites[1].covariance(0, 3), 0.0);
+
+  areomap::traverse::SitePoseSolution ground;
+  areomap::TraverseTruth truth;
+  const double xs[3] = {0.0, 10.0, 20.3}, distance[3] = {0.0, 10.0, 20.0};
+  for (int k = 0; k < 3; ++k) {
+    areomap::traverse::SitePoseEstimate e;
+    e.id = t.sites[static_cast<std::size_t>(k)].id;
+    e.pose.position_m = Eigen::Vector3d(xs[k], 3.0, 0.0);
+    e.distance_m = distance[k];
+    ground.sites.push_back(e);
+    areomap::SitePose p;
+    p.position_m = Eigen::Vector3d(10.0 * k, 3.0, 0.0);
+    truth.ids.push_back(e.id);
+    truth.poses.push_back(p);
+  }
+  const areomap::traverse::RoverPoseComparison c = areomap::traverse::compareRoverPoses(ground, rover, truth);
+  CHECK_EQUAL(2, c.sites);
+  CHECK_EQUAL(1u, c.missing.size());
+  DOUBLES_EQUAL(0.3, c.vs_ground_m[1], 1e-12);
+  DOUBLES_EQUAL(0.3 / std::sqrt(2.0), c.vs_ground_rms_m, 1e-12);
+  DOUBLES_EQUAL(0.0, c.error_m, 1e-12);               // the rover's site 3 is the truth
+  DOUBLES_EQUAL(0.3 / std::sqrt(2.0), c.ground_error_m, 1e-12);  // over sites 1 and 3
+  DOUBLES_EQUAL(1.5, c.ground_error_pct, 1e-9);       // 0.3 m of 20 m, the only site with a distance
 }

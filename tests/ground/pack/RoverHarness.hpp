@@ -7,6 +7,7 @@
 
 #include "firmware_core/node/RoverNode.hpp"
 #include "ground/pack/Pack.hpp"
+#include "msgs/Channels.hpp"
 #include "platform/heap/HeapCounter.hpp"
 #include "platform/posix/ArenaJpegDecoder.hpp"
 #include "platform/posix/PosixClock.hpp"
@@ -24,8 +25,8 @@ inline uint8_t g_harness_arena[platform::ArenaJpegDecoder::kArenaBytes];
 inline uint8_t g_harness_outbox[4 * 1024 * 1024];
 
 // Starts the node, lets `subscribe(outbox)` attach handlers to its publications, feeds every event
-// (AREOMAP_STEREO_PAIR messages) and forwards the publications after each. Returns the heap allocations of
-// the pipeline (handleStereoPair) alone.
+// (AREOMAP_STEREO_PAIR and AREOMAP_SITE messages) and forwards the publications after each. Returns the heap
+// allocations of the pipeline (handleStereoPair, handleSite) alone.
 template <class Subscribe>
 uint64_t feedRover(const std::vector<LogEvent>& events, Subscribe subscribe) {
   platform::MemoryTransport outbox(g_harness_outbox, sizeof(g_harness_outbox));
@@ -39,7 +40,11 @@ uint64_t feedRover(const std::vector<LogEvent>& events, Subscribe subscribe) {
   uint64_t allocations = 0;
   for (const LogEvent& e : events) {
     const uint64_t before = heapAllocationCountThisThread();
-    harnessRover().handleStereoPair(e.data.data(), e.data.size());
+    if (e.channel == channels::kSite) {
+      harnessRover().handleSite(e.data.data(), e.data.size());
+    } else {
+      harnessRover().handleStereoPair(e.data.data(), e.data.size());
+    }
     allocations += heapAllocationCountThisThread() - before;
     for (int k = 0; k < 100 && outbox.handle(0) == Status::kOk; ++k) {
     }
