@@ -1,5 +1,6 @@
 #include "ground/traverse/SlurmJobs.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -123,6 +124,7 @@ void waitForTraverse(SlurmRun& run, const TraverseCommand& command, const Traver
   const std::string ids = run.sites_job.empty() ? run.join_job : run.sites_job + "," + run.join_job;
   std::map<std::string, std::pair<std::string, std::string>> states;
   std::string last_line;
+  double pause_s = o.poll_s;
   for (;;) {
     states = jobStates(ids);
     int done = 0, running = 0, pending = 0, failed = 0;
@@ -144,9 +146,10 @@ void waitForTraverse(SlurmRun& run, const TraverseCommand& command, const Traver
                              " failed of " + std::to_string(run.sites.size()) + "; join " + run.join_state +
                              (run.join_reason.empty() || run.join_reason == "None" ? "" : " (" + run.join_reason + ")");
     if (o.progress && line != last_line) cli::info(line);
+    pause_s = line != last_line ? o.poll_s : std::min(o.poll_max_s, pause_s * 1.25);
     last_line = line;
     if (tasks_ended && slurmFinal(run.join_state)) break;
-    std::this_thread::sleep_for(std::chrono::duration<double>(o.poll_s));
+    std::this_thread::sleep_for(std::chrono::duration<double>(pause_s));
   }
   for (std::size_t k : run.sites) {
     const std::string task = run.sites_job + "_" + std::to_string(k + 1);

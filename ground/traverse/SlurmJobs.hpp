@@ -20,7 +20,10 @@ struct SlurmOptions {
   std::string partition;                 // "" : the cluster's default
   std::vector<std::string> sbatch_args;  // given to both sbatch calls after the tool's own options
   bool progress = true;
-  double poll_s = 2.0;  // between two squeue calls while waiting
+  // Between two squeue calls while waiting: from poll_s after a change up to poll_max_s while nothing
+  // changes (a cluster's controller is shared).
+  double poll_s = 1.0;
+  double poll_max_s = 15.0;
 };
 
 struct SlurmRun {

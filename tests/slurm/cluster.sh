@@ -17,28 +17,33 @@ usage() { sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; }
 action=$1
 dir=$2
 
-# stop_pid NAME PIDFILE: TERM, then KILL after 10 s; the pid file is removed.
-stop_pid() {
-  local name=$1 file=$2 pid k
-  [[ -f $file ]] || return 0
-  pid=$(cat "$file" 2>/dev/null || true)
-  if [[ -n $pid ]] && kill -0 "$pid" 2>/dev/null; then
-    kill "$pid" 2>/dev/null || true
+# stop_all PIDFILE...: TERM to every daemon at once (each takes about 2 s to end), then KILL what is left
+# after 10 s; the pid files are removed.
+stop_all() {
+  local file pid k pids=()
+  for file in "$@"; do
+    [[ -f $file ]] || continue
+    pid=$(cat "$file" 2>/dev/null || true)
+    if [[ -n $pid ]] && kill -0 "$pid" 2>/dev/null; then
+      kill "$pid" 2>/dev/null || true
+      pids+=("$pid")
+    fi
+    rm -f "$file"
+  done
+  for pid in "${pids[@]}"; do
     for ((k = 0; k < 100; k++)); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
     if kill -0 "$pid" 2>/dev/null; then
-      echo "cluster: $name ($pid) did not stop on TERM: KILL" >&2
+      echo "cluster: $pid did not stop on TERM: KILL" >&2
       kill -9 "$pid" 2>/dev/null || true
     fi
-  fi
-  rm -f "$file"
+  done
 }
 
 case "$action" in
   stop)
     [[ -d $dir ]] || exit 0
-    stop_pid slurmd "$dir/slurmd.pid"
-    stop_pid slurmctld "$dir/slurmctld.pid"
-    stop_pid munged "$dir/munged.pid"
+    stop_all "$dir/slurmctld.pid" "$dir/slurmd.pid" "$dir/munged.pid"
+    rm -f "$dir/env.sh"
     echo "cluster: stopped ($dir)"
     exit 0
     ;;

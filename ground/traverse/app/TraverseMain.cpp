@@ -165,6 +165,7 @@ int runOnSlurm(const Traverse& t, const traverse::TraverseCommand& command, cons
       traverse::submitTraverse(command, traverse::sitesToRun(t, o.out_dir, o.resume, o.progress), e.slurm);
   std::printf("slurm: sites job %s (%zu tasks), join job %s\n", run.sites_job.empty() ? "-" : run.sites_job.c_str(),
               run.sites.size(), run.join_job.c_str());
+  std::fflush(stdout);
   if (!e.wait) {
     std::printf("slurm: the join job finishes the run with\n  %s\n", traverse::shellLine(command.join()).c_str());
     std::printf("slurm: if a task fails the join is cancelled; then, once the cause is fixed:\n  %s\n",
