@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -19,10 +20,13 @@ using json = nlohmann::json;
 
 namespace {
 
-// A number as the command line gives it back exactly.
+// A number as the command line gives it back exactly, in the fewest digits that do.
 std::string exactNumber(double v) {
   char b[40];
-  std::snprintf(b, sizeof b, "%.17g", v);
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(b, sizeof b, "%.*g", digits, v);
+    if (std::strtod(b, nullptr) == v) break;
+  }
   return b;
 }
 

@@ -12,7 +12,7 @@
 # as its user, which needs root).
 set -euo pipefail
 
-usage() { sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; }
 [[ $# -eq 2 ]] || { usage >&2; exit 2; }
 action=$1
 dir=$2
