@@ -222,7 +222,7 @@ TEST(GroundEndToEnd, TinyThroughMemq) {
     if (product.names[k] == "report.json") {
       has_report = true;
       CHECK_EQUAL(static_cast<int64_t>(std::filesystem::file_size(out + "/report.json")), product.bytes[k]);
-      STRCMP_EQUAL(ground::sha256File(out + "/report.json").c_str(), product.sha256_hex[k].c_str());
+      STRCMP_EQUAL(cli::sha256File(out + "/report.json").c_str(), product.sha256_hex[k].c_str());
     }
   }
   CHECK(has_report);
