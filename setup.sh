@@ -39,6 +39,7 @@ packages=(
   libpng-dev iproute2 util-linux procps python3 time
   chromium  # tests/ground/products ReportHtmlTest: report.html rendered in headless Chromium
   libmrcal-dev  # tests/ground/io/mrcal: our CAHVOR/CAHVORE projection against mrcal's
+  slurm-wlm munge  # tests/slurm: areomap-traverse --executor slurm on a one-node cluster (cluster.sh)
 )
 
 # --fuzz: Debian bookworm's clang 14 with its runtime (libFuzzer, ASan, UBSan: libclang-rt-14-dev) and llvm

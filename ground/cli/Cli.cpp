@@ -45,20 +45,25 @@ bool Args::flag(const std::string& name) {
 }
 
 std::optional<std::string> Args::option(const std::string& name) {
-  std::optional<std::string> value;
+  std::vector<std::string> values = options(name);
+  if (values.empty()) return std::nullopt;
+  return values.back();
+}
+
+std::vector<std::string> Args::options(const std::string& name) {
+  std::vector<std::string> values;
   for (std::size_t i = 0; i < tokens_.size(); ++i) {
     if (used_[i]) continue;
     if (tokens_[i] == name) {
       if (i + 1 >= tokens_.size() || used_[i + 1]) throw UsageError(name + " needs a value");
       used_[i] = used_[i + 1] = true;
-      value = tokens_[i + 1];
-      ++i;
+      values.push_back(tokens_[++i]);
     } else if (tokens_[i].rfind(name + "=", 0) == 0) {
       used_[i] = true;
-      value = tokens_[i].substr(name.size() + 1);
+      values.push_back(tokens_[i].substr(name.size() + 1));
     }
   }
-  return value;
+  return values;
 }
 
 std::string Args::option(const std::string& name, const std::string& fallback) {

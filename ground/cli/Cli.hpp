@@ -52,6 +52,9 @@ class Args {
   // `--name VALUE` or `--name=VALUE`; consumes both. The last occurrence wins.
   std::optional<std::string> option(const std::string& name);
   std::string option(const std::string& name, const std::string& fallback);
+  // Every `--name VALUE` / `--name=VALUE`, in order (a repeatable option); consumes them. VALUE may itself
+  // start with "--" (a command line passed on).
+  std::vector<std::string> options(const std::string& name);
   std::string required(const std::string& name);  // UsageError when absent
   double number(const std::string& name, double fallback);
   int64_t integer(const std::string& name, int64_t fallback);

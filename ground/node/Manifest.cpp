@@ -1,29 +1,14 @@
 #include "ground/node/Manifest.hpp"
 
-#include <algorithm>
-#include <filesystem>
-
 #include "ground/cli/Cli.hpp"
 #include "ground/node/EventRecorder.hpp"
-#include "ground/node/Sha256.hpp"
 
 namespace areomap::ground {
 
-namespace fs = std::filesystem;
-
 std::vector<ManifestEntry> buildManifest(const std::string& out_dir, const std::string& exclude_prefix) {
-  std::vector<ManifestEntry> files;
-  for (const fs::directory_entry& e : fs::recursive_directory_iterator(out_dir)) {
-    if (!e.is_regular_file()) continue;
-    const std::string rel = fs::relative(e.path(), out_dir).generic_string();
-    if (!exclude_prefix.empty() && rel.rfind(exclude_prefix, 0) == 0) continue;
-    if (rel == kRecordingName) continue;
-    if (rel.find(".tmp-") != std::string::npos) continue;
-    files.push_back(ManifestEntry{rel, static_cast<int64_t>(e.file_size()), sha256File(e.path().string())});
-  }
-  std::sort(files.begin(), files.end(),
-            [](const ManifestEntry& a, const ManifestEntry& b) { return a.name < b.name; });
-  return files;
+  return cli::folderChecksums(out_dir, [&](const std::string& rel) {
+    return (!exclude_prefix.empty() && rel.rfind(exclude_prefix, 0) == 0) || rel == kRecordingName;
+  });
 }
 
 product_t manifestMessage(const std::string& panorama, const std::string& out_dir,

@@ -7,14 +7,12 @@
 #include <vector>
 
 #include "areomap/product_t.hpp"
+#include "ground/cli/Sha256.hpp"
 
 namespace areomap::ground {
 
-struct ManifestEntry {
-  std::string name;  // relative to the out dir
-  int64_t bytes = 0;
-  std::string sha256_hex;
-};
+// A file: its name relative to the out dir, size and SHA-256.
+using ManifestEntry = cli::FileChecksum;
 
 // Every file under out_dir (recursively, sorted), except `exclude_prefix` ("" = none) and the node's
 // recording (kRecordingName at the top).

@@ -1,5 +1,6 @@
-// A site's pass rebuilt from the folder a finished pass wrote (areomap-traverse --reuse-sites): the one
-// place the traverse reads a pass back from disk; every other step works on the SitePass the run made.
+// A site's pass rebuilt from the folder a finished pass wrote (areomap-traverse --reuse-sites, --resume, and
+// --join after the sites' jobs): the one place the traverse reads a pass back from disk; every other step
+// works on the SitePass the run made.
 #pragma once
 
 #include <memory>

@@ -20,6 +20,7 @@
 #include "ground/pass/GroundPass.hpp"
 #include "ground/raster/RasterFiles.hpp"
 #include "ground/traverse/CrossSiteAdjustment.hpp"
+#include "ground/traverse/SiteManifest.hpp"
 #include "ground/traverse/SitePassFiles.hpp"
 #include "ground/traverse/TraverseMatching.hpp"
 #include "ground/traverse/TraverseMosaic.hpp"
@@ -31,37 +32,52 @@ using json = nlohmann::json;
 
 namespace {
 
-// One site mapped alone into OUT/sites/<id>.
-SiteOutcome runSite(const TraverseSite& site, const TraverseRunOptions& o, std::size_t k, std::size_t n) {
-  const std::string out_dir = o.out_dir + "/sites/" + site.id;
-  if (o.progress) cli::info("site " + std::to_string(k + 1) + "/" + std::to_string(n) + ": " + site.id);
-  if (o.reuse_sites && hasFinishedPass(out_dir)) {
-    try {
-      std::shared_ptr<const ground::SitePass> pass = loadSitePass(site, out_dir);
-      if (pass) {
-        if (o.progress) cli::info("site " + site.id + ": its pass is there (--reuse-sites)");
-        return siteOutcome(site.id, std::move(pass));
-      }
-    } catch (const std::exception& e) {
-      cli::warn("site " + site.id + ": its pass cannot be reused (" + e.what() + "); it is mapped again");
+// Empties (or makes) a site's folder before its pass: what a killed or failed pass left there must not mix
+// with the new pass's files. Something there that is not a folder is not this tool's to remove.
+void prepareSiteFolder(const std::string& dir) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    throw cli::InputError(dir, "--out", "the site's output is there but is not a folder");
+  if (fs::is_directory(dir, ec)) {
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+      if (!ec) fs::remove_all(e.path(), ec);
+      if (ec) throw cli::InputError(dir, "--out", "cannot empty the site's folder: " + ec.message());
     }
   }
-  SiteOutcome s;
-  s.id = site.id;
-  s.out_dir = out_dir;
-  try {
-    const Dataset dataset = readDataset(site.dir);
-    ground::GroundPassOptions options;
-    options.out_dir = s.out_dir;
-    options.progress = o.progress;
-    options.products = o.products;
-    s = siteOutcome(site.id, std::make_shared<const ground::SitePass>(
-                                 ground::runGroundPass(dataset, options, nullptr, nullptr)));
-  } catch (const std::exception& e) {
-    s.error = e.what();
-    cli::warn("site " + site.id + " not mapped: " + s.error);
+  fs::create_directories(dir, ec);
+  if (ec) throw cli::InputError(dir, "--out", "cannot create the site's folder: " + ec.message());
+}
+
+// A site's earlier pass taken as it is (--reuse-sites: report.json and models/ there; --resume: a complete
+// manifest of a mapped site); nullopt: it is mapped again.
+std::optional<SiteOutcome> earlierPass(const TraverseSite& site, const std::string& out_dir,
+                                       const TraverseRunOptions& o) {
+  std::string why;
+  if (o.resume) {
+    std::optional<SiteOutcome> s;
+    try {
+      s = recordedSite(site, out_dir, &why);
+    } catch (const std::exception& e) {
+      why = e.what();
+    }
+    if (s && s->ok) {
+      if (o.progress) cli::info("site " + site.id + ": its pass is complete (--resume)");
+      return s;
+    }
+    if (o.progress) cli::info("site " + site.id + ": mapped again (" + (s ? "it was not mapped" : why) + ")");
+    return std::nullopt;
   }
-  return s;
+  if (!o.reuse_sites || !hasFinishedPass(out_dir)) return std::nullopt;
+  try {
+    std::shared_ptr<const ground::SitePass> pass = loadSitePass(site, out_dir);
+    if (pass) {
+      if (o.progress) cli::info("site " + site.id + ": its pass is there (--reuse-sites)");
+      return siteOutcome(site.id, std::move(pass));
+    }
+  } catch (const std::exception& e) {
+    cli::warn("site " + site.id + ": its pass cannot be reused (" + e.what() + "); it is mapped again");
+  }
+  return std::nullopt;
 }
 
 void writePoses(const SitePoseSolution& poses, const std::string& path) {
@@ -364,14 +380,79 @@ SiteOutcome siteOutcome(const std::string& id, std::shared_ptr<const ground::Sit
   return s;
 }
 
+SiteOutcome mapSite(const Traverse& traverse, std::size_t k, const TraverseRunOptions& o) {
+  const TraverseSite& site = traverse.sites.at(k);
+  const std::string out_dir = o.out_dir + "/sites/" + site.id;
+  if (o.progress)
+    cli::info("site " + std::to_string(k + 1) + "/" + std::to_string(traverse.sites.size()) + ": " + site.id);
+  if (std::optional<SiteOutcome> earlier = earlierPass(site, out_dir, o)) return std::move(*earlier);
+  prepareSiteFolder(out_dir);
+  SiteOutcome s;
+  s.id = site.id;
+  s.out_dir = out_dir;
+  try {
+    const Dataset dataset = readDataset(site.dir);
+    ground::GroundPassOptions options;
+    options.out_dir = s.out_dir;
+    options.progress = o.progress;
+    options.products = o.products;
+    s = siteOutcome(site.id, std::make_shared<const ground::SitePass>(
+                                 ground::runGroundPass(dataset, options, nullptr, nullptr)));
+  } catch (const std::exception& e) {
+    s.error = e.what();
+    cli::warn("site " + site.id + " not mapped: " + s.error);
+  }
+  writeSiteManifest(out_dir, site.id, s.ok, s.error);
+  return s;
+}
+
+std::optional<SiteOutcome> recordedSite(const TraverseSite& site, const std::string& out_dir, std::string* why) {
+  const SiteRecord record = checkSiteManifest(out_dir, site.id);
+  if (!record.complete) {
+    if (why) *why = record.why_not;
+    return std::nullopt;
+  }
+  if (!record.mapped) {
+    SiteOutcome s;
+    s.id = site.id;
+    s.out_dir = out_dir;
+    s.error = record.error;
+    return s;
+  }
+  std::shared_ptr<const ground::SitePass> pass = loadSitePass(site, out_dir);
+  if (!pass) {
+    if (why) *why = "report.json cannot be read";
+    return std::nullopt;
+  }
+  return siteOutcome(site.id, std::move(pass));
+}
+
 TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& o) {
   std::error_code ec;
   fs::create_directories(o.out_dir + "/sites", ec);
   if (ec) throw cli::InputError(o.out_dir, "--out", "cannot create the folder: " + ec.message());
   std::vector<SiteOutcome> sites;
-  for (std::size_t k = 0; k < traverse.sites.size(); ++k) {
-    sites.push_back(runSite(traverse.sites[k], o, k, traverse.sites.size()));
+  for (std::size_t k = 0; k < traverse.sites.size(); ++k) sites.push_back(mapSite(traverse, k, o));
+  return finishTraverse(traverse, std::move(sites), o, readTraverseTruthInput(traverse));
+}
+
+TraverseResult joinTraverse(const Traverse& traverse, const TraverseRunOptions& o) {
+  std::vector<SiteOutcome> sites;
+  std::string missing;
+  for (const TraverseSite& site : traverse.sites) {
+    const std::string out_dir = o.out_dir + "/sites/" + site.id;
+    std::string why;
+    std::optional<SiteOutcome> s = recordedSite(site, out_dir, &why);
+    if (s) {
+      sites.push_back(std::move(*s));
+    } else {
+      missing += (missing.empty() ? "" : "; ") + site.id + ": " + why;
+    }
   }
+  if (!missing.empty())
+    throw cli::InputError(o.out_dir + "/sites", kSiteManifestName,
+                          "sites without a complete pass (map them with --site ID, or run with --resume): " +
+                              missing);
   return finishTraverse(traverse, std::move(sites), o, readTraverseTruthInput(traverse));
 }
 

@@ -33,6 +33,9 @@ struct TraverseRunOptions {
   bool progress = true;
   // A site whose OUT/sites/<id> already holds a finished pass (report.json and models/) is not mapped again.
   bool reuse_sites = false;
+  // A site whose OUT/sites/<id> holds a complete pass of a mapped site (its manifest.json and every file
+  // it names, checksums included: SiteManifest.hpp) is not mapped again; any other site is.
+  bool resume = false;
   // Cross-site tie points: matched between neighbouring sites' products (TraverseMatching.hpp; the
   // default, needs `products`), from a file (point,site,image,sample_px,line_px), or from the truth of a
   // synthetic traverse (CrossSiteAdjustment.hpp truthCrossSiteTies) with this noise; none: the poses are
@@ -113,8 +116,25 @@ struct TraverseTruthInput {
 // From traverse.root (a synthetic traverse's truth/), nothing when absent.
 TraverseTruthInput readTraverseTruthInput(const Traverse& traverse);
 
-// Runs everything into options.out_dir. Throws cli::InputError for an out_dir that cannot be made.
+// Runs everything into options.out_dir, site after site. Throws cli::InputError for an out_dir that cannot
+// be made, and when a site's folder or manifest cannot be written (mapSite).
 TraverseResult runTraverse(const Traverse& traverse, const TraverseRunOptions& options);
+
+// Site k (0-based) mapped alone into OUT/sites/<id> (emptied first), ending with its manifest.json
+// (SiteManifest.hpp): areomap-traverse --site, and each site of runTraverse. A pass that fails for its
+// data is an outcome (ok false, `error`, also in the manifest); a site folder or manifest that cannot be
+// written throws cli::InputError (the run cannot go on as if the site were done). With options.resume or
+// reuse_sites an earlier pass is taken instead when it qualifies.
+SiteOutcome mapSite(const Traverse& traverse, std::size_t k, const TraverseRunOptions& options);
+
+// What a site's manifest records: its pass rebuilt from its files (SitePassFiles.hpp) when it was mapped,
+// or the error that kept it from being mapped. nullopt when the manifest is missing or does not match the
+// files (the reason in `why`).
+std::optional<SiteOutcome> recordedSite(const TraverseSite& site, const std::string& out_dir, std::string* why);
+
+// The cross-site step alone, on the passes the sites' manifests record (areomap-traverse --join, the job
+// that follows the sites' jobs). Throws cli::InputError naming every site without a complete pass.
+TraverseResult joinTraverse(const Traverse& traverse, const TraverseRunOptions& options);
 
 // A mapped site's outcome: its pass and the pass's figures (report.json's method 1-3 and truth EO).
 SiteOutcome siteOutcome(const std::string& id, std::shared_ptr<const ground::SitePass> pass);

@@ -27,7 +27,7 @@
 #include "ground/node/EventRecorder.hpp"
 #include "ground/node/GroundNode.hpp"
 #include "ground/pack/Pack.hpp"
-#include "ground/node/Sha256.hpp"
+#include "ground/cli/Sha256.hpp"
 #include "ground/node/StreamCollector.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
@@ -127,12 +127,12 @@ TEST_GROUP(Sha256){};
 
 // FIPS 180-4 / NIST examples: "", "abc", the 448-bit message, and one million 'a' (many blocks).
 TEST(Sha256, MatchesTheNistExamples) {
-  STRCMP_EQUAL("e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855", ground::sha256Hex("").c_str());
-  STRCMP_EQUAL("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad", ground::sha256Hex("abc").c_str());
+  STRCMP_EQUAL("e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855", cli::sha256Hex("").c_str());
+  STRCMP_EQUAL("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad", cli::sha256Hex("abc").c_str());
   STRCMP_EQUAL("248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1",
-               ground::sha256Hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq").c_str());
+               cli::sha256Hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq").c_str());
   STRCMP_EQUAL("cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0",
-               ground::sha256Hex(std::string(1000000, 'a')).c_str());
+               cli::sha256Hex(std::string(1000000, 'a')).c_str());
 }
 
 TEST_GROUP(StreamFaults){};
@@ -222,7 +222,7 @@ TEST(GroundEndToEnd, TinyThroughMemq) {
     if (product.names[k] == "report.json") {
       has_report = true;
       CHECK_EQUAL(static_cast<int64_t>(std::filesystem::file_size(out + "/report.json")), product.bytes[k]);
-      STRCMP_EQUAL(ground::sha256File(out + "/report.json").c_str(), product.sha256_hex[k].c_str());
+      STRCMP_EQUAL(cli::sha256File(out + "/report.json").c_str(), product.sha256_hex[k].c_str());
     }
   }
   CHECK(has_report);

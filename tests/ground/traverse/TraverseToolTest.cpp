@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 
 #include <sys/wait.h>
@@ -40,6 +41,31 @@ std::string traverseDataset() {
 
 using areomap::test::lines;
 using areomap::test::readJson;
+
+// A file's bytes; a site's report.json without its stage times ("seconds": they differ from run to run).
+std::string productBytes(const fs::path& path, const std::string& rel) {
+  std::ifstream in(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (rel.rfind("sites/", 0) != 0 || path.filename() != "report.json") return bytes;
+  json r = json::parse(bytes, nullptr, false);
+  r.erase("seconds");
+  return r.dump();
+}
+
+// The name of the first file that differs between two runs' folders (one only in either counts), "" when
+// every product is the same; left out: logs/ and the sites' manifest.json (it checksums report.json).
+std::string firstDifference(const std::string& a, const std::string& b) {
+  std::map<std::string, int> seen;
+  for (const std::string& root : {a, b})
+    for (const fs::directory_entry& e : fs::recursive_directory_iterator(root)) {
+      const std::string rel = fs::relative(e.path(), root).generic_string();
+      if (e.is_regular_file() && rel.rfind("logs/", 0) != 0 && e.path().filename() != "manifest.json")
+        seen[rel] += 1;
+    }
+  for (const auto& [rel, count] : seen)
+    if (count != 2 || productBytes(a + "/" + rel, rel) != productBytes(b + "/" + rel, rel)) return rel;
+  return seen.empty() ? "(no files)" : "";
+}
 
 }  // namespace
 
@@ -193,6 +219,55 @@ TEST(TraverseTool, ABrokenSiteIsReportedAndTheOtherMapped) {
   CHECK_TRUE(r["traverse"]["site"][1]["error"].get<std::string>().find("panorama.json") != std::string::npos);
 }
 
+TEST(TraverseTool, SitePassesAsJobsGiveTheSerialRunsProducts) {
+  // The same traverse site after site in one process, as child processes two at a time, and by hand a
+  // site's own command (--site) then the cross-site step (--join): the same products, byte for byte.
+  const std::string ds = traverseDataset();
+  CHECK_FALSE(ds.empty());
+  const std::string dir = areomap::test::scratchDir("traverse-tool-jobs");
+  const std::string opts = " --no-products --truth-cross-ties --quiet";
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", ds + " --out " + dir + "/serial --jobs 1" + opts));
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", ds + " --out " + dir + "/jobs --jobs 2" + opts));
+  STRCMP_EQUAL("", firstDifference(dir + "/serial", dir + "/jobs").c_str());
+  CHECK_TRUE(fs::exists(dir + "/jobs/logs/site-2.log"));
+  // By hand: the serial run's site01 (complete), site02 mapped by its own command, then the join.
+  fs::create_directories(dir + "/hand/sites");
+  fs::copy(dir + "/serial/sites/site01", dir + "/hand/sites/site01", fs::copy_options::recursive);
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse",
+                                        ds + " --out " + dir + "/hand --site site02 --no-products --quiet"));
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", ds + " --out " + dir + "/hand --join" + opts));
+  STRCMP_EQUAL("", firstDifference(dir + "/serial", dir + "/hand").c_str());
+  // --resume: a product written again since its pass (other bytes) makes that site be mapped again, alone;
+  // the complete site is left as it is.
+  const std::string site01_manifest = dir + "/jobs/sites/site01/manifest.json";
+  const auto site01_time = fs::last_write_time(site01_manifest);
+  std::ofstream(dir + "/jobs/sites/site02/eo.csv", std::ios::app) << "half written\n";
+  CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", ds + " --out " + dir + "/jobs --jobs 2 --resume" + opts));
+  CHECK_TRUE(site01_time == fs::last_write_time(site01_manifest));
+  STRCMP_EQUAL("", firstDifference(dir + "/serial", dir + "/jobs").c_str());
+  // The cross-site step refuses a site without a complete pass, naming it.
+  fs::remove(dir + "/hand/sites/site02/manifest.json");
+  CHECK_EQUAL(1, areomap::test::runTool("areomap-traverse", ds + " --out " + dir + "/hand --join" + opts));
+}
+
+TEST(TraverseTool, ASiteJobThatFailsKeepsTheCrossSiteStepFromRunning) {
+  // A site's folder that cannot be made (a file is in its place) fails that site's job: no cross-site step,
+  // report.json "incomplete" with the site and the reason, exit 1; the other site is mapped and complete.
+  const std::string ds = traverseDataset();
+  CHECK_FALSE(ds.empty());
+  const std::string out = areomap::test::scratchDir("traverse-tool-job-fails") + "/out";
+  fs::create_directories(out + "/sites");
+  std::ofstream(out + "/sites/site02") << "not a folder\n";
+  CHECK_EQUAL(1, areomap::test::runTool("areomap-traverse", ds + " --out " + out + " --jobs 2 --no-products --quiet"));
+  const json r = readJson(out + "/report.json");
+  STRCMP_EQUAL("incomplete", r["status"].get<std::string>().c_str());
+  CHECK_TRUE(r["traverse"]["site"][0]["mapped"].get<bool>());
+  const std::string reason = r["traverse"]["site"][1]["job_failed"]["reason"].get<std::string>();
+  CHECK_TRUE(reason.find("not a folder") != std::string::npos);
+  CHECK_FALSE(fs::exists(out + "/poses.csv"));
+  CHECK_TRUE(r["resume"].get<std::string>().find("--resume") != std::string::npos);
+}
+
 TEST(TraverseTool, BadUsageAndMissingTraverse) {
   const std::string dir = areomap::test::scratchDir("traverse-tool-usage");
   CHECK_EQUAL(2, areomap::test::runTool("areomap-traverse", dir));  // no --out
@@ -207,4 +282,8 @@ TEST(TraverseTool, BadUsageAndMissingTraverse) {
   CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", "--help"));
   CHECK_EQUAL(2, areomap::test::runTool("areomap-traverse",
                                         dir + " --out " + dir + "/o --no-cross-ties --truth-cross-ties"));
+  CHECK_EQUAL(2, areomap::test::runTool("areomap-traverse", dir + " --out " + dir + "/o --executor pbs"));
+  CHECK_EQUAL(2, areomap::test::runTool("areomap-traverse", dir + " --out " + dir + "/o --partition p"));
+  CHECK_EQUAL(2, areomap::test::runTool("areomap-traverse", dir + " --out " + dir + "/o --site 1 --join"));
+  CHECK_EQUAL(2, areomap::test::runTool("areomap-traverse", dir + " --out " + dir + "/o --jobs 0"));
 }

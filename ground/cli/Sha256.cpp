@@ -1,13 +1,15 @@
-#include "ground/node/Sha256.hpp"
+#include "ground/cli/Sha256.hpp"
 
 #include <cstdio>
+#include <algorithm>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <vector>
 
 #include "ground/cli/Cli.hpp"
 
-namespace areomap::ground {
+namespace areomap::cli {
 namespace {
 
 constexpr uint32_t kRound[64] = {
@@ -110,4 +112,18 @@ std::string sha256File(const std::string& path) {
   return hash.hexDigest();
 }
 
-}  // namespace areomap::ground
+std::vector<FileChecksum> folderChecksums(const std::string& dir,
+                                          const std::function<bool(const std::string& name)>& skip) {
+  namespace fs = std::filesystem;
+  std::vector<FileChecksum> files;
+  for (const fs::directory_entry& e : fs::recursive_directory_iterator(dir)) {
+    if (!e.is_regular_file()) continue;
+    const std::string rel = fs::relative(e.path(), dir).generic_string();
+    if (rel.find(".tmp-") != std::string::npos || (skip && skip(rel))) continue;
+    files.push_back(FileChecksum{rel, static_cast<int64_t>(e.file_size()), sha256File(e.path().string())});
+  }
+  std::sort(files.begin(), files.end(), [](const FileChecksum& a, const FileChecksum& b) { return a.name < b.name; });
+  return files;
+}
+
+}  // namespace areomap::cli
