@@ -1,5 +1,7 @@
 #include "ground/dense/DenseMatcher.hpp"
 
+#include "ground/dense/BlockFill.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -75,6 +77,9 @@ void checkInput(const cv::Mat& left, const cv::Mat& right, const DenseOptions& o
   if (o.coarse_step_px < 1) throw std::invalid_argument("dense matching: coarse step < 1");
   if (o.fine_block_px < 1 || o.fine_block_px % 2 == 0) {
     throw std::invalid_argument("dense matching: fine block must be odd and positive");
+  }
+  if (o.fill_block_px < 0 || (o.fill_block_px > 0 && o.fill_block_px % 2 == 0)) {
+    throw std::invalid_argument("dense matching: fill block must be 0 (off) or odd and positive");
   }
   if (left.cols < 2 * o.coarse_step_px || left.rows < 2 * o.coarse_step_px) {
     throw std::invalid_argument("dense matching: image smaller than two coarse cells");
@@ -365,8 +370,11 @@ float rightSubpixel(const BandVolume& v, const std::vector<uint16_t>& sum, int y
 // Winner per left pixel into res.disparity and res.valid, and the right image's winner from the same
 // aggregated volume for the left-right check; `occluded` marks the pixels that check finds occluded. Where
 // the check passes, res.lr_diff_px gets the left sub-pixel disparity less the right one (rightSubpixel).
+// `evidence` marks the pixels inside their band whose window has texture and whose own census cost at the
+// winner is below chance: those that only the uniqueness or the left-right test refused can be refilled.
 void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const std::vector<uint8_t>& no_band,
-                   const cv::Mat& texture, const DenseOptions& o, DenseResult& res, cv::Mat& occluded) {
+                   const cv::Mat& texture, const DenseOptions& o, DenseResult& res, cv::Mat& occluded,
+                   cv::Mat& evidence) {
   const int rows = v.rows, cols = v.cols;
   res.disparity = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   res.valid = cv::Mat::zeros(rows, cols, CV_8UC1);
@@ -395,7 +403,9 @@ void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const 
       // The winner's own census cost: above chance level the pixel's window gives no evidence for it, only
       // the aggregation does (sky, parts of the left image the right one does not see).
       const uint16_t own_cost = v.cost[static_cast<std::size_t>(v.offset[p]) + (w.integer - v.lo[p])];
-      if (w.unique && !no_band[p] && texture.at<uint8_t>(y, x) && own_cost <= o.max_census_cost_bits) {
+      const bool evident = !no_band[p] && texture.at<uint8_t>(y, x) && own_cost <= o.max_census_cost_bits;
+      if (evident) evidence.at<uint8_t>(y, x) = 255;
+      if (w.unique && evident) {
         drow[x] = w.disparity;
         vrow[x] = 255;
       }
@@ -504,12 +514,25 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
   aggregateSemiGlobal(v, left, o.fine_sgm, sum);
   const cv::Mat texture = textureMask(left, o);
   cv::Mat occluded = cv::Mat::zeros(rows, cols, CV_8UC1);
-  selectWinners(v, sum, no_band, texture, o, res, occluded);
+  cv::Mat evidence = cv::Mat::zeros(rows, cols, CV_8UC1);
+  selectWinners(v, sum, no_band, texture, o, res, occluded, evidence);
+  res.block = cv::Mat::zeros(rows, cols, CV_8UC1);
+  res.block_lr_diff_px = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  if (o.fill_block_px > 0) {
+    // Not the pixels whose own window is at chance level at the aggregated winner (sky, the parts of the
+    // left image that the right one does not see): a block there finds chance minima as well.
+    const cv::Mat candidate = evidence & (res.valid == 0);
+    const BlockFillParams bp{o.fill_block_px / 2, o.uniqueness_percent, o.max_census_cost_bits,
+                             o.lr_max_diff_px, kNoMatchCost};
+    blockFill(cl, cr, v, candidate, bp, res.disparity, res.valid, res.block, res.block_lr_diff_px);
+  }
   double t2 = seconds();
   res.fine_seconds = t2 - t1;
 
   removeSpeckles(o, res);
   res.lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
+  res.block_lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
+  res.block.setTo(0, res.valid == 0);
   if (o.refine_subpixel) {
     res.subpixel = refineSubpixel(left, right, res.disparity, res.valid, o.subpixel, &res.sigma_px);
   }

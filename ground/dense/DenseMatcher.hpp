@@ -47,6 +47,11 @@ struct DenseOptions {
   // and the left-right disagreement (MatchNoise.hpp) no longer sees all of them: the point and DEM sigmas
   // are calibrated for 1.
   int fine_block_px = 1;
+  // The fill pass (BlockFill.hpp): pixels with texture and a below-chance census cost at their winner that
+  // the uniqueness or left-right test refused are matched again over this odd block (0: off). Off by
+  // default: its matches form a class of their own (DenseResult::block) whose noise and error correlation
+  // the point and DEM sigmas do not yet carry.
+  int fill_block_px = 0;
   SemiGlobalParams coarse_sgm{8, 64, 8};
   SemiGlobalParams fine_sgm{8, 96, 8};
   int uniqueness_percent = 5;      // best must beat every non-adjacent candidate by this much
@@ -69,13 +74,15 @@ struct DenseResult {
   cv::Mat disparity;  // CV_32F, left image geometry; NaN = no match
   cv::Mat valid;      // CV_8U, 255 where disparity is a match (or a filled value, see `filled`)
   cv::Mat filled;     // CV_8U, 255 where the value was filled rather than matched
+  cv::Mat block;      // CV_8U, 255 where the match is the fill pass's block match (fill_block_px)
   cv::Mat coarse;     // CV_32F, the coarse-grid disparities (grid rows x grid cols)
   cv::Mat sigma_px;   // CV_32F, least-squares matching's a-posteriori sd per match (empty without it)
   // CV_32F: where a match passed the left-right check, its parabola sub-pixel disparity less the right
   // image's at the matched right pixel (from the same aggregated costs); NaN elsewhere. The input of the
   // pair's matching-noise estimate (MatchNoise.hpp). Refers to the parabola's disparities, also when
   // least-squares matching replaces them.
-  cv::Mat lr_diff_px;
+  cv::Mat lr_diff_px;  // of the one-pixel matches only
+  cv::Mat block_lr_diff_px;  // the same for the block matches (BlockFill.hpp), from their block costs
   SubpixelStats subpixel;
   double coarse_seconds = 0.0;
   double fine_seconds = 0.0;

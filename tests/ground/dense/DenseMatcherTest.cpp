@@ -162,6 +162,54 @@ TEST(DenseMatcher, NoMatchesInANoiseOnlySky) {
   CHECK(fraction(with, sky) < 0.025);    // chance (2.8 % of windows) less the speckle filter
   CHECK(fraction(with, ground) > 0.97);
   CHECK(fraction(with, ground) > fraction(without, ground) - 0.01);
+  // The fill pass (DenseOptions::fill_block_px) must not bring them back.
+  o.max_census_cost_bits = DenseOptions{}.max_census_cost_bits;
+  o.fill_block_px = 5;
+  const DenseResult filled = matchRectified(left, right, o, &ranges);
+  std::printf("with the 5x5 fill pass: sky %.1f %%, ground %.1f %%\n", 100.0 * fraction(filled, sky),
+              100.0 * fraction(filled, ground));
+  CHECK(fraction(filled, sky) < 0.025);
+  CHECK(fraction(filled, ground) >= fraction(with, ground));
+}
+
+// Strong independent noise in both images (sd 8 DN): the one-pixel census cost is noisy and its tests refuse
+// matches; the fill pass (fill_block_px) matches more of them and flags them as block matches with their own
+// left-right differences (their errors are printed: the refused pixels include the occlusions beside the
+// raised square, where no match is right).
+TEST(DenseMatcher, FillPassMatchesWhatTheNoisyOnePixelCostRefuses) {
+  cv::Mat left, right, truth;
+  syntheticPair(left, right, truth);
+  cv::RNG rng(5);
+  for (cv::Mat* image : {&left, &right}) {
+    cv::Mat noise(image->size(), CV_16SC1);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, 8.0);
+    cv::Mat sum;
+    cv::add(*image, noise, sum, cv::noArray(), CV_16SC1);
+    sum.convertTo(*image, CV_8UC1);
+  }
+  DenseOptions o;
+  o.max_disparity_px = 48;
+  const DenseResult one = matchRectified(left, right, o);
+  o.fill_block_px = 5;
+  const DenseResult both = matchRectified(left, right, o);
+  const int blocks = cv::countNonZero(both.block);
+  long long bad = 0, lr = 0, lr_on_one_px = 0;
+  for (int y = 0; y < truth.rows; ++y)
+    for (int x = 0; x < truth.cols; ++x) {
+      if (!both.block.at<uint8_t>(y, x)) {
+        if (std::isfinite(both.block_lr_diff_px.at<float>(y, x))) ++lr_on_one_px;
+        continue;
+      }
+      if (std::fabs(both.disparity.at<float>(y, x) - truth.at<float>(y, x)) > 1.0f) ++bad;
+      if (std::isfinite(both.block_lr_diff_px.at<float>(y, x))) ++lr;
+    }
+  std::printf("\nnoisy pair: density %.1f %% one-pixel, %.1f %% with the fill (%d block matches, %.1f %% > 1 px "
+              "off)\n", 100.0 * one.matched_fraction, 100.0 * both.matched_fraction, blocks,
+              100.0 * static_cast<double>(bad) / std::max(1, blocks));
+  CHECK(both.matched_fraction > one.matched_fraction);
+  CHECK(lr > blocks / 2);
+  CHECK_EQUAL(0, lr_on_one_px);
+  CHECK(cv::countNonZero(both.block & (both.valid == 0)) == 0);
 }
 
 TEST(DenseMatcher, ConesAgainstStereoSgbm) {

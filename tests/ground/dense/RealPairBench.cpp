@@ -20,8 +20,9 @@
 //  that of a point 1 m away, the whole range on every row.
 // StereoSGBM: MODE_SGBM (8 paths), block 5, P1 = 8 cn b^2, P2 = 32 cn b^2 (cn = 1, grey), uniqueness 10 %,
 // disp12MaxDiff 1 (areomap's own left-right tolerance), speckle window 100 px of range 2, pre-filter cap 63.
-// Usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] [--fine-block B] [LEFT.json RIGHT.json]
-// (--fine-block: DenseOptions::fine_block_px instead of the pass's; default:
+// Usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] [--fine-block B] [--fill-block F]
+// [LEFT.json RIGHT.json] (--fine-block, --fill-block: DenseOptions::fine_block_px, fill_block_px instead of
+// the pass's; default:
 // the sol 340 pair of ../shared/data/m2020-navcam-stereo-pairs; N: timed runs of each matcher, the fastest
 // is printed; --dump DIR: areomap's left disparity as the pass matches it, DIR/areomap_disparity.bin, raw
 // float32, for byte checks, and PNGs of the rectified left image, the region and both disparities).
@@ -234,7 +235,7 @@ int main(int argc, char** argv) {
   std::string left_json = dir + "NLF_0340_0697121914_417ECM_N0090364NCAM00420_01_195J.json";
   std::string right_json = dir + "NRF_0340_0697121914_417ECM_N0090364NCAM00420_01_195J.json";
   std::string dump_dir;
-  int repeat = 3, positional = 0, fine_block = 0;
+  int repeat = 3, positional = 0, fine_block = 0, fill_block = -1;
   bool blind = true;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
@@ -243,6 +244,8 @@ int main(int argc, char** argv) {
       dump_dir = argv[++i];
     } else if (std::strcmp(argv[i], "--fine-block") == 0 && i + 1 < argc) {
       fine_block = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--fill-block") == 0 && i + 1 < argc) {
+      fill_block = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--no-blind") == 0) {
       blind = false;
     } else if (argv[i][0] != '-' && positional < 2) {
@@ -250,7 +253,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] [--fine-block B] "
-                   "[LEFT.json RIGHT.json]\n");
+                   "[--fill-block F] [LEFT.json RIGHT.json]\n");
       return 2;
     }
   }
@@ -342,6 +345,7 @@ int main(int argc, char** argv) {
   dense::DenseResult last;
   dense::DenseOptions dense_options = p.options;
   if (fine_block > 0) dense_options.fine_block_px = fine_block;
+  if (fill_block >= 0) dense_options.fill_block_px = fill_block;
   const Matcher areomap = areomapMatcher(dense_options, last);
   cv::Mat d_pass;
   compare("As the ground pass matches it", p, reg, range_m, pass_search, repeat, areomap, last, &d_pass);

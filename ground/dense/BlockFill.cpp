@@ -1,0 +1,90 @@
+#include "ground/dense/BlockFill.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+namespace areomap::dense {
+
+namespace {
+
+// The right view's cost of a left pixel beyond the image: never a winner.
+constexpr int kOutside = std::numeric_limits<int>::max() / 2;
+
+// The census distance summed over the block about (x, y) at disparity d.
+int blockCost(const cv::Mat& cl, const cv::Mat& cr, int x, int y, int d, const BlockFillParams& p) {
+  const int h = p.block_half_px;
+  int t = 0;
+  for (int dy = -h; dy <= h; ++dy) {
+    const int yy = std::clamp(y + dy, 0, cl.rows - 1);
+    const uint64_t* a = cl.ptr<uint64_t>(yy);
+    const uint64_t* b = cr.ptr<uint64_t>(yy);
+    for (int dx = -h; dx <= h; ++dx) {
+      const int xl = std::clamp(x + dx, 0, cl.cols - 1), xr = xl - d;
+      t += (xr >= 0 && xr < cl.cols) ? __builtin_popcountll(a[xl] ^ b[xr]) : p.no_match_cost;
+    }
+  }
+  return t;
+}
+
+// Parabola sub-pixel offset of the minimum at index `best` of `c` (n values); 0 at the band's ends.
+double parabola(const int* c, int best, int n) {
+  if (best <= 0 || best + 1 >= n) return 0.0;
+  const double denom = static_cast<double>(c[best - 1]) + c[best + 1] - 2.0 * c[best];
+  return denom > 0.0 ? (static_cast<double>(c[best - 1]) - c[best + 1]) / (2.0 * denom) : 0.0;
+}
+
+int argmin(const int* c, int n) {
+  int best = 0;
+  for (int j = 1; j < n; ++j)
+    if (c[j] < c[best]) best = j;
+  return best;
+}
+
+}  // namespace
+
+long long blockFill(const cv::Mat& cl, const cv::Mat& cr, const BandVolume& v, const cv::Mat& candidate,
+                    const BlockFillParams& p, cv::Mat& disparity, cv::Mat& valid, cv::Mat& block,
+                    cv::Mat& lr_diff_px) {
+  const int area = (2 * p.block_half_px + 1) * (2 * p.block_half_px + 1);
+  std::vector<int> left, right;
+  long long filled = 0;
+  for (int y = 0; y < v.rows; ++y) {
+    const uint8_t* cand = candidate.ptr<uint8_t>(y);
+    for (int x = 0; x < v.cols; ++x) {
+      if (!cand[x]) continue;
+      const std::size_t px = static_cast<std::size_t>(y) * v.cols + x;
+      const int lo = v.lo[px], n = v.count[px];
+      if (n < 3) continue;  // no minimum inside the band
+      left.resize(static_cast<std::size_t>(n));
+      for (int j = 0; j < n; ++j) left[j] = blockCost(cl, cr, x, y, lo + j, p);
+      const int best = argmin(left.data(), n);
+      if (best == 0 || best == n - 1) continue;  // the minimum lies at or beyond the band's end
+      if (left[best] > p.max_census_cost_bits * area) continue;
+      bool unique = true;
+      for (int j = 0; j < n && unique; ++j)
+        unique = std::abs(j - best) <= 1 || left[j] * (100 - p.uniqueness_percent) > left[best] * 100;
+      if (!unique) continue;
+      // The right view at the matched pixel: its block winner over the same disparities.
+      const int xr = x - (lo + best);
+      right.resize(static_cast<std::size_t>(n));
+      for (int j = 0; j < n; ++j) {
+        const int xl = xr + lo + j;
+        right[j] = xl < v.cols ? blockCost(cl, cr, xl, y, lo + j, p) : kOutside;
+      }
+      const int rbest = argmin(right.data(), n);
+      if (std::abs(rbest - best) > p.lr_max_diff_px) continue;
+      const float d = static_cast<float>(lo + best + parabola(left.data(), best, n));
+      disparity.at<float>(y, x) = d;
+      valid.at<uint8_t>(y, x) = 255;
+      block.at<uint8_t>(y, x) = 255;
+      if (rbest > 0 && rbest + 1 < n && right[rbest - 1] < kOutside && right[rbest + 1] < kOutside)
+        lr_diff_px.at<float>(y, x) = d - static_cast<float>(lo + rbest + parabola(right.data(), rbest, n));
+      ++filled;
+    }
+  }
+  return filled;
+}
+
+}  // namespace areomap::dense
