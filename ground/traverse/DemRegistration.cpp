@@ -473,6 +473,15 @@ std::string windowCut(const RegistrationParams& p) {
   return s.empty() ? s : "the DEM registration's search window covers only " + s;
 }
 
+DemRegistration registerOrthosInstead(const SiteProducts& a, const SiteProducts& b, DemRegistration refused,
+                                      const std::string& why, const RegistrationParams& params) {
+  refused.status = RegistrationStatus::kNotConverged;
+  refused.a_from_b = refused.apriori;
+  refused.message = why;
+  tryOrthos(a, samplesOf(b, b.dem, params.sample_spacing_m, params), b, params, refused);
+  return refused;
+}
+
 const char* registrationStatusName(RegistrationStatus status) {
   switch (status) {
     case RegistrationStatus::kOk:

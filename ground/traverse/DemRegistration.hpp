@@ -116,4 +116,10 @@ std::string windowCut(const RegistrationParams& params);
 DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
                              const RegistrationParams& params = {});
 
+// The orthoimages' registration (OrthoRegistration.hpp) in place of `refused`, a DEM registration that
+// `why` (its message) says cannot be used: kOk with method "ortho" where the orthos register, else
+// kNotConverged at the a-priori pose.
+DemRegistration registerOrthosInstead(const SiteProducts& a, const SiteProducts& b, DemRegistration refused,
+                                      const std::string& why, const RegistrationParams& params);
+
 }  // namespace areomap::traverse

@@ -18,7 +18,7 @@ struct OrthoSample {
   double grey = 0.0;
 };
 
-bool hasGrey(const DemGrid& g, float v) {
+bool orthoHasGrey(const DemGrid& g, float v) {
   return v != g.nodata && std::isfinite(v) && v > 0.0f;
 }
 
@@ -28,7 +28,7 @@ std::vector<OrthoSample> orthoSamples(const DemGrid& ortho, double spacing_m, do
   for (int r = stride / 2; r < ortho.rows; r += stride) {
     for (int c = stride / 2; c < ortho.cols; c += stride) {
       const float v = ortho.at(c, r);
-      if (!hasGrey(ortho, v)) continue;
+      if (!orthoHasGrey(ortho, v)) continue;
       const Eigen::Vector2d p(ortho.northOfRow(r), ortho.eastOfCol(c));
       if (p.norm() <= max_range_m) out.push_back({p, v});
     }
@@ -62,13 +62,13 @@ double orthoNcc(const DemGrid& ortho_a, const std::vector<OrthoSample>& samples,
 }
 
 // The vertex of the parabola through (-1, lo), (0, mid), (1, hi), in steps (0 when not a peak).
-double vertex(double lo, double mid, double hi) {
+double orthoVertex(double lo, double mid, double hi) {
   const double d = lo - 2.0 * mid + hi;
   return d < 0.0 ? std::clamp(0.5 * (lo - hi) / d, -0.5, 0.5) : 0.0;
 }
 
 // The NCC over a grid of poses about `centre`: n steps each side of `step_m` in x and y, nh of `step_rad`.
-struct NccGrid {
+struct OrthoNccGrid {
   int n = 0, nh = 0;
   double step_m = 0.0, step_rad = 0.0;
   std::vector<double> ncc;
@@ -79,8 +79,8 @@ struct NccGrid {
   }
 };
 
-void fillGrid(const DemGrid& ortho_a, const std::vector<OrthoSample>& samples, const RelativePose& centre,
-              double max_range_m, NccGrid& g) {
+void orthoFillGrid(const DemGrid& ortho_a, const std::vector<OrthoSample>& samples,
+                   const RelativePose& centre, double max_range_m, OrthoNccGrid& g) {
   g.ncc.assign(static_cast<std::size_t>(g.side()) * g.side() * (2 * g.nh + 1), -1.0);
   for (int k = 0; k <= 2 * g.nh; ++k) {
     for (int j = 0; j < g.side(); ++j) {
@@ -95,13 +95,13 @@ void fillGrid(const DemGrid& ortho_a, const std::vector<OrthoSample>& samples, c
   }
 }
 
-struct Peak {
+struct OrthoPeak {
   int i = 0, j = 0, k = 0;
   double ncc = -1.0;
 };
 
-Peak bestOf(const NccGrid& g) {
-  Peak best;
+OrthoPeak orthoBestOf(const OrthoNccGrid& g) {
+  OrthoPeak best;
   for (int k = 0; k <= 2 * g.nh; ++k)
     for (int j = 0; j < g.side(); ++j)
       for (int i = 0; i < g.side(); ++i)
@@ -109,7 +109,7 @@ Peak bestOf(const NccGrid& g) {
   return best;
 }
 
-bool localPeak(const NccGrid& g, int i, int j, int k) {
+bool orthoLocalPeak(const OrthoNccGrid& g, int i, int j, int k) {
   const double v = g.at(i, j, k);
   for (int dk = -1; dk <= 1; ++dk) {
     for (int dj = -1; dj <= 1; ++dj) {
@@ -126,7 +126,7 @@ bool localPeak(const NccGrid& g, int i, int j, int k) {
 }
 
 // The highest local peak away from `best` (as DemRegistration's second minimum), -1 when none.
-double secondPeak(const NccGrid& g, const Peak& best, const RegistrationParams& params) {
+double orthoSecondPeak(const OrthoNccGrid& g, const OrthoPeak& best, const RegistrationParams& params) {
   double second = -1.0;
   for (int k = 0; k <= 2 * g.nh; ++k) {
     for (int j = 0; j < g.side(); ++j) {
@@ -137,7 +137,7 @@ double secondPeak(const NccGrid& g, const Peak& best, const RegistrationParams& 
         if (d < params.second_min_distance_m &&
             std::fabs(k - best.k) * g.step_rad < params.second_min_deg * kOrthoDegToRad)
           continue;
-        if (localPeak(g, i, j, k)) second = v;
+        if (orthoLocalPeak(g, i, j, k)) second = v;
       }
     }
   }
@@ -161,7 +161,7 @@ OrthoRegistration registerOrthos(const SiteProducts& a, const SiteProducts& b, c
     return out;
   }
   // Coarse: about ten steps each side, the orthos averaged to the step.
-  NccGrid coarse;
+  OrthoNccGrid coarse;
   coarse.step_m = std::max(0.2, params.search_m / 10.0);
   coarse.step_rad = std::max(1.0, params.search_deg / 5.0) * kOrthoDegToRad;
   coarse.n = static_cast<int>(std::lround(params.search_m / coarse.step_m));
@@ -170,9 +170,9 @@ OrthoRegistration registerOrthos(const SiteProducts& a, const SiteProducts& b, c
   const int fb = std::max(1, static_cast<int>(std::lround(coarse.step_m / b.ortho->cell_m)));
   const DemGrid coarse_a = fa > 1 ? coarsenDem(*a.ortho, fa) : *a.ortho;
   const DemGrid coarse_b = fb > 1 ? coarsenDem(*b.ortho, fb) : *b.ortho;
-  fillGrid(coarse_a, orthoSamples(coarse_b, std::max(0.25, coarse.step_m), params.max_range_m), apriori,
-           params.max_range_m, coarse);
-  const Peak best = bestOf(coarse);
+  orthoFillGrid(coarse_a, orthoSamples(coarse_b, std::max(0.25, coarse.step_m), params.max_range_m), apriori,
+                params.max_range_m, coarse);
+  const OrthoPeak best = orthoBestOf(coarse);
   if (best.ncc <= 0.0) {
     out.message = "their orthoimages share too few cells within the search window";
     return out;
@@ -182,9 +182,9 @@ OrthoRegistration registerOrthos(const SiteProducts& a, const SiteProducts& b, c
     if (v > -1.0) all.push_back(v);
   std::nth_element(all.begin(), all.begin() + all.size() / 2, all.end());
   out.median_ncc = all[all.size() / 2];
-  out.second_ncc = std::max(0.0, secondPeak(coarse, best, params));
+  out.second_ncc = std::max(0.0, orthoSecondPeak(coarse, best, params));
   // Fine: quarter steps about the coarse peak on the full orthos, then a parabola per axis.
-  NccGrid fine;
+  OrthoNccGrid fine;
   fine.step_m = coarse.step_m / 4.0;
   fine.step_rad = coarse.step_rad / 4.0;
   fine.n = 4;
@@ -192,16 +192,17 @@ OrthoRegistration registerOrthos(const SiteProducts& a, const SiteProducts& b, c
   const RelativePose centre =
       shiftedPose(apriori, (best.i - coarse.n) * coarse.step_m, (best.j - coarse.n) * coarse.step_m,
                   (best.k - coarse.nh) * coarse.step_rad);
-  fillGrid(*a.ortho,
-           orthoSamples(*b.ortho, std::max(params.sample_spacing_m, b.ortho->cell_m), params.max_range_m),
-           centre, params.max_range_m, fine);
-  const Peak top = bestOf(fine);
+  orthoFillGrid(
+      *a.ortho,
+      orthoSamples(*b.ortho, std::max(params.sample_spacing_m, b.ortho->cell_m), params.max_range_m), centre,
+      params.max_range_m, fine);
+  const OrthoPeak top = orthoBestOf(fine);
   const auto clampIndex = [](int v, int hi) { return std::clamp(v, 1, hi - 1); };
   const int i = clampIndex(top.i, fine.side() - 1), j = clampIndex(top.j, fine.side() - 1),
             k = clampIndex(top.k, 2 * fine.nh);
-  const double di = vertex(fine.at(i - 1, j, k), fine.at(i, j, k), fine.at(i + 1, j, k));
-  const double dj = vertex(fine.at(i, j - 1, k), fine.at(i, j, k), fine.at(i, j + 1, k));
-  const double dk = vertex(fine.at(i, j, k - 1), fine.at(i, j, k), fine.at(i, j, k + 1));
+  const double di = orthoVertex(fine.at(i - 1, j, k), fine.at(i, j, k), fine.at(i + 1, j, k));
+  const double dj = orthoVertex(fine.at(i, j - 1, k), fine.at(i, j, k), fine.at(i, j + 1, k));
+  const double dk = orthoVertex(fine.at(i, j, k - 1), fine.at(i, j, k), fine.at(i, j, k + 1));
   out.a_from_b = shiftedPose(centre, (i + di - fine.n) * fine.step_m, (j + dj - fine.n) * fine.step_m,
                              (k + dk - fine.nh) * fine.step_rad);
   out.ncc = orthoNcc(*a.ortho, orthoSamples(*b.ortho, a.ortho->cell_m, params.max_range_m), out.a_from_b,
