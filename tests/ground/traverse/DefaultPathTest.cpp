@@ -3,8 +3,9 @@
 // pointing errors) at 256 x 256 pixels, on a terrain of 3 cm cells, so that a site renders and maps in
 // seconds. Each run asserts that the position error after is at most 0.2 % of the distance driven and below
 // the a-priori one, and that a pair of sites left untied is said on the console as well as in report.json.
-// TraverseDefaultPath (default suite): two sites on level ground. TraverseDefaultPathLong (label long,
-// AREOMAP_LONG_TESTS=1): three sites on seeds 21, 22, 23, each on level ground and on slopes up to 10 deg.
+// Both groups are labelled long and run with AREOMAP_LONG_TESTS=1: TraverseDefaultPath, two sites on level
+// ground (about 170 s of CPU); TraverseDefaultPathLong, three sites on seeds 21, 22, 23, each on level
+// ground and on slopes up to 10 deg.
 // No constant here was tuned on these seeds.
 #include <cstdio>
 #include <cstdlib>
@@ -76,11 +77,20 @@ bool checkDefaultRun(const DefaultRun& run, const char* name) {
   return all_tied;
 }
 
+// Whether AREOMAP_LONG_TESTS=1 asks for the long groups (otherwise they print SKIP and pass).
+bool longTestsWanted(const char* what) {
+  const char* enabled = std::getenv("AREOMAP_LONG_TESTS");
+  if (enabled != nullptr && std::string(enabled) == "1") return true;
+  std::printf("SKIP: %s run with AREOMAP_LONG_TESTS=1 (ctest -L long)\n", what);
+  return false;
+}
+
 }  // namespace
 
 TEST_GROUP(TraverseDefaultPath){};
 
 TEST(TraverseDefaultPath, TwoNavcamLikeSitesAreTiedAndPlacedWithinATenthOfTheOdometrysError) {
+  if (!longTestsWanted("two navcam-like sites")) return;
   const DefaultRun run = defaultRun("default-path-2", "--sites 2 --seed 5");
   CHECK_TRUE(checkDefaultRun(run, "seed 5, 2 sites, level"));
   const json& t = run.report["traverse"];
@@ -93,11 +103,7 @@ TEST(TraverseDefaultPath, TwoNavcamLikeSitesAreTiedAndPlacedWithinATenthOfTheOdo
 TEST_GROUP(TraverseDefaultPathLong){};
 
 TEST(TraverseDefaultPathLong, ThreeSitesOnThreeSeedsLevelAndSloped) {
-  const char* enabled = std::getenv("AREOMAP_LONG_TESTS");
-  if (enabled == nullptr || std::string(enabled) != "1") {
-    std::printf("SKIP: six navcam-like traverses run with AREOMAP_LONG_TESTS=1 (ctest -L long)\n");
-    return;
-  }
+  if (!longTestsWanted("six navcam-like traverses")) return;
   for (int seed = 21; seed <= 23; ++seed) {
     for (const bool sloped : {false, true}) {
       const std::string name = "seed " + std::to_string(seed) + (sloped ? ", sloped" : ", level");
