@@ -1,12 +1,11 @@
 // The default path of areomap-traverse (no truth ties, no stops): DATASET --out DIR matches the sites
 // itself and places them. A navcam-like camera (navcam's 45 deg field, its 18-pair tier and its angular
 // pointing errors) at 256 x 256 pixels, on a terrain of 3 cm cells, so that a site renders and maps in
-// about a minute of CPU. Each run asserts that the position error after is at most 0.2 % of the distance driven and below
-// the a-priori one, and that a pair of sites left untied is said on the console as well as in report.json.
-// Both groups are labelled long and run with AREOMAP_LONG_TESTS=1: TraverseDefaultPath, two sites on level
-// ground (about 170 s of CPU); TraverseDefaultPathLong, three sites on seeds 21, 22, 23, each on level
-// ground and on slopes up to 10 deg.
-// No constant here was tuned on these seeds.
+// about a minute of CPU. Each run asserts that the position error after is at most 0.2 % of the distance
+// driven and below the a-priori one, and that a pair of sites left untied is said on the console as well as
+// in report.json. Both groups are labelled long and run with AREOMAP_LONG_TESTS=1: TraverseDefaultPath, two
+// sites on level ground (about 170 s of CPU); TraverseDefaultPathLong, three sites on seeds 21, 22, 23, each
+// on level ground and on slopes up to 10 deg. No constant here was tuned on these seeds.
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
