@@ -120,7 +120,9 @@ TraverseFromSite fromSitePose(const SitePose& p) {
 // The leg between two sites as an observation of their camera sets' relative pose: the odometry, its tilt
 // known to the levelling of both frames, and both sites' datum sigmas added (SiteDatum.hpp): each camera set
 // is rotated against its own levelled frame by its datum error.
-LegMeasurement legOf(const OdometryLeg& leg, const SiteDatum& from, const SiteDatum& to) {
+LegMeasurement legOf(const TraverseSite& from_site, const TraverseSite& to_site, const SiteDatum& from,
+                     const SiteDatum& to) {
+  const OdometryLeg& leg = *to_site.odometry;
   LegMeasurement m;
   m.delta_position_m = leg.delta_m;
   m.delta_rotation = SitePose{Eigen::Vector3d::Zero(), leg.delta_heading_rad}.rotation();
@@ -128,7 +130,10 @@ LegMeasurement legOf(const OdometryLeg& leg, const SiteDatum& from, const SiteDa
   const auto tilt2 = [](const SiteDatum& d) {
     return 0.5 * (d.sigma_rad.x() * d.sigma_rad.x() + d.sigma_rad.y() * d.sigma_rad.y());
   };
-  const double tilt = std::sqrt(kLevelSigmaRad * kLevelSigmaRad + tilt2(from) + tilt2(to));
+  const double level2 =
+      std::max(kLevelSigmaRad * kLevelSigmaRad, from_site.attitude_sigma_rad * from_site.attitude_sigma_rad +
+                                                    to_site.attitude_sigma_rad * to_site.attitude_sigma_rad);
+  const double tilt = std::sqrt(level2 + tilt2(from) + tilt2(to));
   m.sigma_rotation_rad =
       Vec3(tilt, tilt,
            std::sqrt(leg.sigma_heading_rad * leg.sigma_heading_rad + from.sigma_rad.z() * from.sigma_rad.z() +
@@ -148,7 +153,9 @@ struct CameraRef {
 void addDatumUncertainty(const Traverse& traverse, CrossSiteAdjustment& out) {
   const std::size_t n = traverse.sites.size();
   if (!out.datum[0].known) return;
-  const Vec3 var = out.datum[0].sigma_rad.cwiseAbs2();
+  // The first site's attitude error (its IMU levelled its frame) tilts the traverse frame alike.
+  const double attitude2 = traverse.sites[0].attitude_sigma_rad * traverse.sites[0].attitude_sigma_rad;
+  const Vec3 var = out.datum[0].sigma_rad.cwiseAbs2() + Vec3(attitude2, attitude2, 0.0);
   for (std::size_t k = 1; k < n; ++k) {
     SitePoseEstimate& e = out.poses.sites[k];
     if (e.source != PoseSource::kCrossSiteTies) continue;
@@ -332,8 +339,8 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
     throw std::runtime_error("traverse adjustment: cannot add the first site");
   for (std::size_t k = 1; k < n; ++k) {
     const TraverseFromSite apriori = fromSitePose(traverse.sites[k].apriori);
-    const Status s =
-        adjuster->addSite(legOf(*traverse.sites[k].odometry, out.datum[k - 1], out.datum[k]), &apriori, site);
+    const Status s = adjuster->addSite(
+        legOf(traverse.sites[k - 1], traverse.sites[k], out.datum[k - 1], out.datum[k]), &apriori, site);
     if (!ok(s))
       throw std::runtime_error(std::string("traverse adjustment: site ") + traverse.sites[k].id + ": " +
                                statusName(s));

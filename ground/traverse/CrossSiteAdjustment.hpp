@@ -18,8 +18,10 @@ namespace areomap::traverse {
 
 // The tilt sigma of an odometry leg between two levelled site frames (rad): a site frame is levelled by the
 // rover's accelerometers, far better than wheel odometry measures heading (0.06 deg; the levelled frames
-// of traverse.json have no tilt unknown of their own). The leg's observation of the two camera sets adds
-// both sites' datum sigmas (SiteDatum.hpp).
+// of traverse.json have no tilt unknown of their own). Where traverse.json gives the rovers' attitudes (an
+// IMU on sloped ground), each site's frame is levelled by its attitude, and the leg's tilt sigma is the root
+// sum of both sites' attitude sigmas when that is the larger. The leg's observation of the two camera sets
+// adds both sites' datum sigmas (SiteDatum.hpp).
 inline constexpr double kLevelSigmaRad = 1e-3;
 
 // A cross-site tie observation: a point id shared by observations of images of different sites, the

@@ -29,19 +29,19 @@ int CrossTieResult::observationCount() const {
   return n;
 }
 
-CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
-                                 const CrossTieParams& params, int64_t first_point) {
-  CrossTieResult out;
-  out.site_a = a.id;
-  out.site_b = b.id;
-  out.registration = registerDems(a, b, apriori, params.registration);
+namespace {
+
+// The two passes of matching and checking under out.registration (none when it was refused) and the
+// result's status.
+void matchRegistered(const SiteProducts& a, const SiteProducts& b, const CrossTieParams& params,
+                     int64_t first_point, CrossTieResult& out) {
   out.a_from_b = out.registration.a_from_b;
   if (out.registration.status != RegistrationStatus::kOk) {
     out.status = out.registration.status == RegistrationStatus::kNoOverlap
                      ? CrossTieStatus::kNoOverlap
                      : CrossTieStatus::kRegistrationFailed;
     out.message = out.registration.message;
-    return out;
+    return;
   }
   // A first pass under the registered pose (every first_pass_stride-th interest point, a wide search: the
   // registration's error is 10-30 cm on ground-pass DEMs, ten pixels and more at navcam scale), a second
@@ -72,6 +72,32 @@ CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, c
                   " cross-site ties (at least " + std::to_string(params.min_ties) + " wanted)";
   } else {
     out.status = CrossTieStatus::kOk;
+  }
+}
+
+}  // namespace
+
+CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
+                                 const CrossTieParams& params, int64_t first_point) {
+  CrossTieResult out;
+  out.site_a = a.id;
+  out.site_b = b.id;
+  out.registration = registerDems(a, b, apriori, params.registration);
+  matchRegistered(a, b, params, first_point, out);
+  // A DEM registration the images do not confirm (too few ties under it: the DEMs' errors, not their relief,
+  // placed it) is replaced by the orthoimages' where they register.
+  if (out.status == CrossTieStatus::kTooFewTies && out.registration.method == "dem") {
+    const std::string why = "sites " + a.id + " and " + b.id + ": the DEM registration gave " +
+                            std::to_string(out.ties.size()) + " ties";
+    DemRegistration ortho = registerOrthosInstead(a, b, out.registration, why, params.registration);
+    if (ortho.status == RegistrationStatus::kOk) {
+      CrossTieResult again;
+      again.site_a = a.id;
+      again.site_b = b.id;
+      again.registration = std::move(ortho);
+      matchRegistered(a, b, params, first_point, again);
+      if (again.ties.size() > out.ties.size()) out = std::move(again);
+    }
   }
   return out;
 }

@@ -2,8 +2,10 @@
 // tied to images of site A that see the same ground from 10-30 m away (large scale and perspective
 // change), found through each site's DEM and the a-priori relative pose.
 //
-//  1. The relative pose of the sites is registered on their DEMs (DemRegistration.hpp); a pair whose DEMs
-//     do not overlap, or match ambiguously, gets that status and no ties.
+//  1. The relative pose of the sites is registered on their DEMs (DemRegistration.hpp), or on their
+//     orthoimages where the DEMs are refused or the ties under the DEMs' pose are too few
+//     (OrthoRegistration.hpp); a pair whose DEMs do not overlap, or that neither registers, gets that status
+//     and no ties.
 //  2. Förstner points of every image of B are cast onto B's DEM, moved into A's frame by the registered
 //     pose and kept where A's DEM agrees. Each is predicted into every image of A (and every other image of
 //     B, e.g. its stereo partner) that sees it unoccluded through that site's DEM, within range.

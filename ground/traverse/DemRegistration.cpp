@@ -1,5 +1,7 @@
 #include "ground/traverse/DemRegistration.hpp"
 
+#include "ground/traverse/OrthoRegistration.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -85,14 +87,6 @@ struct Candidate {
   double dx = 0.0, dy = 0.0, dh = 0.0, cost = std::numeric_limits<double>::infinity();
 };
 
-RelativePose shifted(const RelativePose& base, double dx, double dy, double dh) {
-  RelativePose p = base;
-  p.translation_m.x() += dx;
-  p.translation_m.y() += dy;
-  p.heading_rad += dh;
-  return p;
-}
-
 // The variance inflation of a mean of the elevation differences under `pose` through their spatial
 // correlation: over square blocks of side L, (variance of the block means) / (variance of one difference /
 // samples a block), the largest over L doubling from 4 sample spacings while at least 8 blocks are filled;
@@ -172,8 +166,10 @@ std::string noiseAgainstRelief(const DemRegistration& r, const RegistrationParam
     if (snr < std::sqrt(1.0 / params.max_cost_ratio - 1.0))
       s += format(": the DEMs are too noisy for the relief they share (signal to noise %.2f)", snr);
   }
-  if (r.status == RegistrationStatus::kNotConverged && r.drift_m + r.drift_deg > 0.0)
+  if (r.status == RegistrationStatus::kNotConverged && r.drift_m + r.drift_deg > 0.0) {
+    if (s.size() >= 2 && s.compare(s.size() - 2, 2, "; ") == 0) s.resize(s.size() - 2);
     s += format("; the fit drifted %.2f m and %.1f deg from the search's best", r.drift_m, r.drift_deg);
+  }
   return s;
 }
 
@@ -201,10 +197,10 @@ void coarseCosts(const SiteProducts& a, const DemGrid& coarse_a, const std::vect
   for (int k = 0; k < g.sh; ++k) {
     for (int j = 0; j < g.sx; ++j) {
       for (int i = 0; i < g.sx; ++i) {
-        const Moments m =
-            moments(a, coarse_a, coarse_samples,
-                    shifted(apriori, (i - g.nxy) * g.step_m, (j - g.nxy) * g.step_m, (k - g.nh) * g.step_rad),
-                    params);
+        const Moments m = moments(
+            a, coarse_a, coarse_samples,
+            shiftedPose(apriori, (i - g.nxy) * g.step_m, (j - g.nxy) * g.step_m, (k - g.nh) * g.step_rad),
+            params);
         if (m.n >= min_coarse) g.cost[g.index(i, j, k)] = m.variance();
       }
     }
@@ -275,7 +271,7 @@ Candidate fineSearch(const SiteProducts& a, const SiteProducts& b, const Relativ
       for (int i = -6; i <= 6; ++i) {
         const double dx = best.dx + g.step_m / 4.0 * i, dy = best.dy + g.step_m / 4.0 * j;
         const double dh = best.dh + g.step_rad / 5.0 * k;
-        const Moments m = moments(a, a.dem, fine_samples, shifted(apriori, dx, dy, dh), params);
+        const Moments m = moments(a, a.dem, fine_samples, shiftedPose(apriori, dx, dy, dh), params);
         if (m.n >= min_samples / 2 && m.variance() < fine.cost) fine = {dx, dy, dh, m.variance()};
       }
     }
@@ -383,6 +379,31 @@ void judgeSolution(const SiteProducts& a, const std::vector<Sample>& samples, co
   }
 }
 
+// A refused DEM registration is tried again on the orthoimages (OrthoRegistration.hpp): where they
+// register, theirs is the pose (its height the DEMs' weighted mean difference there) and `message` keeps
+// why the DEMs did not.
+void tryOrthos(const SiteProducts& a, const std::vector<Sample>& samples, const SiteProducts& b,
+               const RegistrationParams& params, DemRegistration& out) {
+  const OrthoRegistration o = registerOrthos(a, b, out.apriori, params);
+  out.ortho_ncc = o.ncc;
+  if (!o.ok) {
+    if (a.ortho && b.ortho) out.message += "; " + o.message;
+    return;
+  }
+  RelativePose pose = o.a_from_b;
+  const Moments m = moments(a, a.dem, samples, pose, params);
+  if (m.n < 20) return;
+  pose.translation_m.z() -= m.mean();
+  out.a_from_b = pose;
+  out.covariance = o.covariance;
+  out.covariance(2, 2) = m.variance();  // the height from the mean difference: the differences' spread
+  for (int i = 0; i < 4; ++i) out.sigma[i] = std::sqrt(std::max(0.0, out.covariance(i, i)));
+  out.status = RegistrationStatus::kOk;
+  out.method = "ortho";
+  out.message += format("; the orthoimages registered instead (NCC %.2f, second peak %.2f, median %.2f)",
+                        o.ncc, o.second_ncc, o.median_ncc);
+}
+
 }  // namespace
 
 Eigen::Matrix3d RelativePose::rotation() const {
@@ -399,6 +420,14 @@ RelativePose RelativePose::inverse() const {
   return inv;
 }
 
+RelativePose shiftedPose(const RelativePose& base, double dx, double dy, double dh) {
+  RelativePose p = base;
+  p.translation_m.x() += dx;
+  p.translation_m.y() += dy;
+  p.heading_rad += dh;
+  return p;
+}
+
 RelativePose relativePose(const SitePose& a, const SitePose& b) {
   RelativePose p;
   p.heading_rad = b.heading_rad - a.heading_rad;
@@ -407,16 +436,50 @@ RelativePose relativePose(const SitePose& a, const SitePose& b) {
 }
 
 RegistrationParams searchWindowOf(const Traverse& traverse, int i, int j, const RegistrationParams& base) {
-  double var_m = 0.0, var_rad = 0.0;
+  // Site k's pose in site i's frame, x_k = x_{k-1} + Rz(h_{k-1}) delta_k, h_k = h_{k-1} + dh_k, its
+  // covariance propagated leg by leg (as odometryPoses does from the first site).
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();  // x, y, heading
+  double h = 0.0;
   for (int k = i + 1; k <= j; ++k) {
     const OdometryLeg& leg = *traverse.sites[k].odometry;
-    var_m += std::pow(std::max(leg.sigma_m.x(), leg.sigma_m.y()), 2);
-    var_rad += std::pow(leg.sigma_heading_rad, 2);
+    const double c = std::cos(h), s = std::sin(h);
+    Eigen::Matrix3d f = Eigen::Matrix3d::Identity();
+    f(0, 2) = -s * leg.delta_m.x() - c * leg.delta_m.y();
+    f(1, 2) = c * leg.delta_m.x() - s * leg.delta_m.y();
+    Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
+    g << c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0;
+    const Eigen::Vector3d q(leg.sigma_m.x() * leg.sigma_m.x(), leg.sigma_m.y() * leg.sigma_m.y(),
+                            leg.sigma_heading_rad * leg.sigma_heading_rad);
+    cov = f * cov * f.transpose() + g * q.asDiagonal() * g.transpose();
+    h += leg.delta_heading_rad;
   }
   RegistrationParams p = base;
-  p.search_m = std::clamp(3.0 * std::sqrt(var_m), 2.0, 6.0);
-  p.search_deg = std::clamp(3.0 * std::sqrt(var_rad) / kDegToRad, 5.0, 12.0);
+  // The window is square in x and y: 3 sigmas along the covariance's major axis.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> xy(cov.topLeftCorner<2, 2>());
+  p.three_sigma_m = 3.0 * std::sqrt(std::max(0.0, xy.eigenvalues().maxCoeff()));
+  p.three_sigma_deg = 3.0 * std::sqrt(std::max(0.0, cov(2, 2))) / kDegToRad;
+  p.search_m = std::min(std::max(p.three_sigma_m, base.search_m), kMaxSearchM);
+  p.search_deg = std::min(std::max(p.three_sigma_deg, base.search_deg), kMaxSearchDeg);
   return p;
+}
+
+std::string windowCut(const RegistrationParams& p) {
+  std::string s;
+  if (p.three_sigma_m > p.search_m * (1.0 + 1e-9))
+    s = format("+-%.1f m of the odometry's 3-sigma +-%.1f m", p.search_m, p.three_sigma_m);
+  if (p.three_sigma_deg > p.search_deg * (1.0 + 1e-9))
+    s += (s.empty() ? "" : " and ") +
+         format("+-%.1f deg of its 3-sigma +-%.1f deg", p.search_deg, p.three_sigma_deg);
+  return s.empty() ? s : "the DEM registration's search window covers only " + s;
+}
+
+DemRegistration registerOrthosInstead(const SiteProducts& a, const SiteProducts& b, DemRegistration refused,
+                                      const std::string& why, const RegistrationParams& params) {
+  refused.status = RegistrationStatus::kNotConverged;
+  refused.a_from_b = refused.apriori;
+  refused.message = why;
+  tryOrthos(a, samplesOf(b, b.dem, params.sample_spacing_m, params), b, params, refused);
+  return refused;
 }
 
 const char* registrationStatusName(RegistrationStatus status) {
@@ -483,7 +546,7 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
 
   const Candidate fine = fineSearch(a, b, apriori, params, grid, best, min_samples);
   Fit fit;
-  fit.pose = shifted(apriori, fine.dx, fine.dy, fine.dh);
+  fit.pose = shiftedPose(apriori, fine.dx, fine.dy, fine.dh);
   const Moments start = moments(a, a.dem, samples, fit.pose, params);
   if (start.n < min_samples) {
     out.message = pair + ": too few common DEM samples at the best pose";
@@ -503,9 +566,10 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   if (!enough) {
     out.status = RegistrationStatus::kNotConverged;
     out.message = pair + ": too few common DEM samples after trimming: " + noiseAgainstRelief(out, params);
-    return out;
+  } else {
+    judgeSolution(a, samples, apriori, params, fit, converged, pair, out);
   }
-  judgeSolution(a, samples, apriori, params, fit, converged, pair, out);
+  if (out.status != RegistrationStatus::kOk) tryOrthos(a, samples, b, params, out);
   return out;
 }
 

@@ -17,7 +17,8 @@
 // message says why in the data's figures: the DEMs' differences against their dem_sigma layers, and the
 // change the relief they share makes to them between the best pose and the second minimum against the
 // differences themselves (on the tiny camera's own products 0.5-2.6 cm against 6-7 cm: the DEMs are too
-// noisy for their relief, and the fit drifts to where they are least noisy).
+// noisy for their relief, and the fit drifts to where they are least noisy). A refused match is tried again
+// on the sites' orthoimages when both have one (OrthoRegistration.hpp).
 #pragma once
 
 #include <string>
@@ -42,6 +43,9 @@ struct RelativePose {
   RelativePose inverse() const;
 };
 
+// `base` moved by dx, dy (m) and turned by dh (rad) in heading.
+RelativePose shiftedPose(const RelativePose& base, double dx, double dy, double dh);
+
 // A's frame from B's through two site poses in the traverse frame.
 RelativePose relativePose(const SitePose& a, const SitePose& b);
 
@@ -58,7 +62,16 @@ struct RegistrationParams {
   double max_cost_ratio = 0.7;         // best / second-best minimum of the coarse search above it: kAmbiguous
   double second_min_distance_m = 0.6;  // a second minimum lies this far from the best (or second_min_deg)
   double second_min_deg = 2.0;
+  // What the window was asked to cover (searchWindowOf: 3 sigmas of the odometry between the sites;
+  // 0: not known). A window narrower than this cuts the a-priori pose's 3-sigma range (windowCut).
+  double three_sigma_m = 0.0;
+  double three_sigma_deg = 0.0;
 };
+
+// The widest window searchWindowOf gives: the coarse grid keeps about 10 steps each side, so a wider window
+// coarsens the DEMs it compares beyond the relief a registration needs (the step is a tenth of the window).
+inline constexpr double kMaxSearchM = 15.0;
+inline constexpr double kMaxSearchDeg = 30.0;
 
 struct DemRegistration {
   RegistrationStatus status = RegistrationStatus::kNoOverlap;
@@ -84,14 +97,29 @@ struct DemRegistration {
   double second_offset_deg = 0.0;
   double drift_m = 0.0;
   double drift_deg = 0.0;
+  // "dem", or "ortho" where the DEMs were refused and the orthoimages registered (OrthoRegistration.hpp;
+  // `message` then says why the DEMs were refused); the orthos' NCC at their solution (0: not tried).
+  std::string method = "dem";
+  double ortho_ncc = 0.0;
 };
 
-// The search window of sites i < j of a traverse: 3 sigmas of the odometry between them (the legs' sigmas
-// added in quadrature), within 2-6 m and 5-12 degrees; the other parameters as in `base`.
+// The search window of sites i < j of a traverse: 3 sigmas of the odometry between them (the legs'
+// covariances chained from site i's frame: a heading error at a site between swings the legs after it), at
+// least base.search_m and base.search_deg, at most kMaxSearchM and kMaxSearchDeg; three_sigma_m and
+// three_sigma_deg say what 3 sigmas are. The other parameters as in `base`.
 RegistrationParams searchWindowOf(const Traverse& traverse, int i, int j,
                                   const RegistrationParams& base = {});
 
+// One sentence when the window cuts the a-priori pose's 3-sigma range ("" when it does not).
+std::string windowCut(const RegistrationParams& params);
+
 DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
                              const RegistrationParams& params = {});
+
+// The orthoimages' registration (OrthoRegistration.hpp) in place of `refused`, a DEM registration that
+// `why` (its message) says cannot be used: kOk with method "ortho" where the orthos register, else
+// kNotConverged at the a-priori pose.
+DemRegistration registerOrthosInstead(const SiteProducts& a, const SiteProducts& b, DemRegistration refused,
+                                      const std::string& why, const RegistrationParams& params);
 
 }  // namespace areomap::traverse

@@ -70,6 +70,11 @@ void setSigma(SiteProducts& s, std::optional<DemGrid> sigma) {
   if (sigma && sigma->cols == s.dem.cols && sigma->rows == s.dem.rows) s.dem_sigma = std::move(sigma);
 }
 
+// The orthoimage when it is on the DEM's grid.
+void setOrtho(SiteProducts& s, std::optional<DemGrid> ortho) {
+  if (ortho && ortho->cols == s.dem.cols && ortho->rows == s.dem.rows) s.ortho = std::move(ortho);
+}
+
 }  // namespace
 
 int SiteProducts::indexOf(const std::string& stem) const {
@@ -88,6 +93,8 @@ SiteProducts loadSiteProducts(const TraverseSite& site, const std::string& produ
   s.dem = readDemGeoTiff(dem);
   const std::string sigma = products_dir + "/dem_sigma.tif";
   if (std::filesystem::exists(sigma)) setSigma(s, readDemGeoTiff(sigma));
+  const std::string ortho = products_dir + "/ortho.tif";
+  if (std::filesystem::exists(ortho)) setOrtho(s, readDemGeoTiff(ortho));
   return s;
 }
 
@@ -113,6 +120,7 @@ SiteProducts siteProducts(const TraverseSite& site, const ground::SitePass& pass
       });
   s.dem = *pass.dem;
   setSigma(s, pass.dem_sigma);
+  setOrtho(s, pass.ortho);
   return s;
 }
 

@@ -37,6 +37,7 @@ struct SiteProducts {
   std::vector<SiteImage> images;
   DemGrid dem;                       // elevation up (-Z), site frame
   std::optional<DemGrid> dem_sigma;  // same grid, metres
+  std::optional<DemGrid> ortho;      // same grid, grey values (0 or nodata: none); the products' ortho.tif
   // Index of an image stem in `images`, or -1.
   int indexOf(const std::string& stem) const;
 };

@@ -145,6 +145,7 @@ std::string pairMatchLine(const Traverse& traverse, const SitePairMatch& m) {
   std::snprintf(buffer, sizeof buffer, "%s, %zu ties, %d observations, rms %.3f px",
                 crossTieStatusName(r.status), r.ties.size(), r.observationCount(), r.rms_px);
   std::string line = sites + buffer;
+  if (const std::string cut = windowCut(m.params.registration); !cut.empty()) line += "; " + cut;
   if (m.truth) {
     const TruthCheck& t = *m.truth;
     std::snprintf(buffer, sizeof buffer,
@@ -178,6 +179,9 @@ json matchingJson(const Traverse& traverse, const std::string& products, const T
     if (!r.message.empty()) pj["message"] = r.message;
     const DemRegistration& g = r.registration;
     pj["registration"] = {{"status", registrationStatusName(g.status)},
+                          {"method", g.method},
+                          {"ortho_ncc", g.ortho_ncc},
+                          {"message", g.message},
                           {"apriori", poseJson(g.apriori)},
                           {"a_from_b", poseJson(g.a_from_b)},
                           {"sigma", {g.sigma[0], g.sigma[1], g.sigma[2], g.sigma[3] * kRadToDeg}},
@@ -196,7 +200,12 @@ json matchingJson(const Traverse& traverse, const std::string& products, const T
     pj["a_from_b_sigma"] = {r.a_from_b_sigma[0], r.a_from_b_sigma[1], r.a_from_b_sigma[2],
                             r.a_from_b_sigma[3] * kRadToDeg};
     pj["rms_px"] = r.rms_px;
-    pj["search"] = {{"m", m.params.registration.search_m}, {"deg", m.params.registration.search_deg}};
+    const RegistrationParams& w = m.params.registration;
+    pj["search"] = {{"m", w.search_m},
+                    {"deg", w.search_deg},
+                    {"three_sigma_m", w.three_sigma_m},
+                    {"three_sigma_deg", w.three_sigma_deg}};
+    if (const std::string cut = windowCut(w); !cut.empty()) pj["search"]["cut"] = cut;
     pj["first_pass_ties"] = r.first_pass_ties;
     pj["ties"] = r.ties.size();
     pj["observations"] = r.observationCount();

@@ -190,6 +190,12 @@ void writeMergedMap(const Traverse& traverse, const TraverseTruthInput& truth,
   }
 }
 
+// A warning for the console and for report.json.
+void warnTraverse(TraverseResult& result, const std::string& text) {
+  cli::warn(text);
+  result.warnings.push_back(text);
+}
+
 // Cross-site ties matched between every pair of neighbouring sites that were mapped (their passes);
 // cross_ties.json says what each pair gave.
 std::vector<CrossSiteTie> matchSites(const Traverse& traverse, const std::optional<TraverseTruth>& truth,
@@ -220,6 +226,14 @@ std::vector<CrossSiteTie> matchSites(const Traverse& traverse, const std::option
     p.message = m.error.empty() ? m.result.message : m.error;
     p.ties = static_cast<int32_t>(m.result.ties.size());
     p.observations = m.result.observationCount();
+    p.search_cut = windowCut(m.params.registration);
+    // Said on the console as well as in report.json: a pair that gave no ties leaves the poses across it to
+    // the odometry, and a window that cuts the odometry's 3 sigmas may miss the true pose.
+    const std::string pair = p.site_a + "-" + p.site_b;
+    if (!p.search_cut.empty()) warnTraverse(result, pair + ": " + p.search_cut);
+    if (p.status != "ok")
+      warnTraverse(result, pair + " untied (" + p.status + ", " + std::to_string(p.ties) + " ties): " +
+                               p.message + "; the poses across it rest on the odometry, with its sigmas");
     result.site_pairs.push_back(p);
   }
   return crossSiteObservations(matching.ties);
@@ -283,6 +297,7 @@ void writeReport(const Traverse& traverse, const std::optional<TraverseTruth>& t
                  {"ties", p.ties},
                  {"observations", p.observations}};
       if (!p.message.empty()) pj["message"] = p.message;
+      if (!p.search_cut.empty()) pj["search_cut"] = p.search_cut;
       pairs.push_back(pj);
     }
     t["site_pairs"] = pairs;

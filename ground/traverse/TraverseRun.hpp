@@ -62,8 +62,9 @@ struct SiteOutcome {
 // One pair of sites the matcher tried (report.json traverse.site_pairs).
 struct SitePairOutcome {
   std::string site_a, site_b;
-  std::string status;   // crossTieStatusName, or "not_matched" (a site without products)
-  std::string message;  // why not ok
+  std::string status;      // crossTieStatusName, or "not_matched" (a site without products)
+  std::string message;     // why not ok
+  std::string search_cut;  // the DEM registration's window cut the odometry's 3 sigmas (windowCut)
   int32_t ties = 0;
   int32_t observations = 0;
 };
