@@ -80,6 +80,28 @@ struct WindowPoint {
   double col, row, q, w;  // column and row offsets from the centre point, inverse distance, weight
 };
 
+// The lower triangle of sum w x x^T and sum w q x over the window, x = (1, col, row, row^2) with only its
+// first Used terms (the others stay 0), each term (w x_i) x_j as the outer product forms it, in the
+// window's order. A template on Used so that the loops unroll.
+template <int Used>
+void epNormalEquations(const std::vector<WindowPoint>& win, Eigen::Matrix4d& ata, Eigen::Vector4d& atb) {
+  double a[4][4] = {}, b[4] = {};
+  for (const WindowPoint& p : win) {
+    const double x[4] = {1.0, p.col, Used >= 3 ? p.row : 0.0, Used >= 4 ? p.row * p.row : 0.0};
+    double wx[4];
+    for (int i = 0; i < Used; ++i) wx[i] = p.w * x[i];
+    for (int j = 0; j < Used; ++j) {
+      for (int i = j; i < Used; ++i) a[i][j] += wx[i] * x[j];
+    }
+    const double wq = p.w * p.q;
+    for (int i = 0; i < Used; ++i) b[i] += wq * x[i];
+  }
+  for (int j = 0; j < Used; ++j) {
+    for (int i = j; i < Used; ++i) ata(i, j) = a[i][j];
+    atb(j) = b[j];
+  }
+}
+
 // Fit q = c0 + c1 col [+ c2 row [+ c3 row^2]] (row_terms 0, 1 or 2) of the window, then `iterations`
 // reweightings with Tukey's biweight (c = 4.685 robust sigmas, the sigma from the median absolute
 // residual): mismatches (the disparity errors are heavy-tailed, ~6 % above 1 px on a rendered navcam pair)
@@ -97,16 +119,10 @@ bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iteration
     // forms it, over the used terms only (the others stay 0, their diagonal 1 below).
     Eigen::Matrix4d ata = Eigen::Matrix4d::Zero();
     Eigen::Vector4d atb = Eigen::Vector4d::Zero();
-    const int used = row_terms + 2;
-    for (const WindowPoint& p : win) {
-      const Eigen::Vector4d x = basis(p);
-      double wx[4];
-      for (int i = 0; i < used; ++i) wx[i] = p.w * x(i);
-      for (int j = 0; j < used; ++j) {
-        for (int i = j; i < used; ++i) ata(i, j) += wx[i] * x(j);
-      }
-      const double wq = p.w * p.q;
-      for (int i = 0; i < used; ++i) atb(i) += wq * x(i);
+    switch (row_terms) {
+      case 0: epNormalEquations<2>(win, ata, atb); break;
+      case 1: epNormalEquations<3>(win, ata, atb); break;
+      default: epNormalEquations<4>(win, ata, atb); break;
     }
     for (int k = row_terms + 2; k < 4; ++k) ata(k, k) = 1.0;  // unused terms
     if (ata(0, 0) < 3.0) return false;

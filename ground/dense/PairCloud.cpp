@@ -90,6 +90,13 @@ double keepMatchesInside(const RectifiedPair& rect, cv::Mat& disparity) {
 PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
                     const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
                     const std::vector<Vec2>& right_ties_px, int pair_id, const PairCloudOptions& options) {
+  return pairCloud(left, right, left_grey, right_grey, left_ties_px, right_ties_px, pair_id, options, nullptr);
+}
+
+PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
+                    const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
+                    const std::vector<Vec2>& right_ties_px, int pair_id, const PairCloudOptions& options,
+                    const PointSink& sink) {
   PairCloud out;
   double t0 = now();
   PairMatchSetup s;
@@ -128,9 +135,15 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
     out.match_noise.source = "constant";
   }
   t0 = now();
-  out.points = triangulateDisparity(rect.left, rect.right, d.disparity, out.match_noise.sigma_px, pair_id, l,
-                                    out.stats);
   out.support_range_m = supportRangeM(rect, options.max_range_m);
+  if (sink) {
+    const double support = out.support_range_m;
+    triangulateDisparity(rect.left, rect.right, d.disparity, out.match_noise.sigma_px, pair_id, l, out.stats,
+                         kMaxDenseResidualPx, [&](const CloudPoint& p) { sink(p, support); });
+  } else {
+    out.points = triangulateDisparity(rect.left, rect.right, d.disparity, out.match_noise.sigma_px, pair_id,
+                                      l, out.stats, kMaxDenseResidualPx);
+  }
   out.seconds_triangulate = now() - t0;
   return out;
 }

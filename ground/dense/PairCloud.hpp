@@ -6,6 +6,7 @@
 // go on.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,7 @@ struct PairCloud {
 };
 
 inline constexpr double kSupportDisparityPx = 1.0;
+inline constexpr double kMaxDenseResidualPx = 1.0;  // triangulateDisparity's default residual limit
 
 // left/right: the adjusted models in the pixel frames of left_grey/right_grey (CV_8U); left_ties_px and
 // right_ties_px: the measured pixels of the pair's tie points, one entry per point in both; pair_id names
@@ -82,5 +84,12 @@ double keepMatchesInside(const RectifiedPair& rect, cv::Mat& disparity);
 PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
                     const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
                     const std::vector<Vec2>& right_ties_px, int pair_id, const PairCloudOptions& options);
+// pairCloud with each point handed to sink(point, support_range_m) in the same order instead of kept in
+// `points` (which stays empty): for a caller that keeps a part of the points or a smaller record of each.
+using PointSink = std::function<void(const CloudPoint&, double support_range_m)>;
+PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv::Mat& left_grey,
+                    const cv::Mat& right_grey, const std::vector<Vec2>& left_ties_px,
+                    const std::vector<Vec2>& right_ties_px, int pair_id, const PairCloudOptions& options,
+                    const PointSink& sink);
 
 }  // namespace areomap::dense

@@ -38,28 +38,25 @@ bool intersectRays(const std::vector<const CameraModel*>& models, const std::vec
   return true;
 }
 
-std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const CameraModel& right,
-                                             const cv::Mat& disparity, double sigma_px, int64_t pair_id,
-                                             const cv::Mat& grey, TriangulationStats& stats,
-                                             double max_residual_px) {
+namespace {
+
+void checkDisparityInputs(const cv::Mat& disparity, const cv::Mat& grey) {
   if (disparity.type() != CV_32FC1) throw std::invalid_argument("triangulateDisparity: CV_32F disparity expected");
   if (!grey.empty() && (grey.type() != CV_8UC1 || grey.size() != disparity.size())) {
     throw std::invalid_argument("triangulateDisparity: grey image must be CV_8U of the disparity's size");
   }
-  std::vector<CloudPoint> cloud;
-  {
-    // Reserved for every match (a pair's cloud is ~1e6 points of 120 B: growing would copy it and, at the
-    // copy, hold it nearly three times over).
-    std::size_t finite = 0;
-    for (int y = 0; y < disparity.rows; ++y) {
-      const float* row = disparity.ptr<float>(y);
-      for (int x = 0; x < disparity.cols; ++x) finite += std::isfinite(row[x]) ? 1 : 0;
-    }
-    cloud.reserve(finite);
-  }
+}
+
+}  // namespace
+
+void triangulateDisparity(const CameraModel& left, const CameraModel& right, const cv::Mat& disparity,
+                          double sigma_px, int64_t pair_id, const cv::Mat& grey, TriangulationStats& stats,
+                          double max_residual_px, const std::function<void(const CloudPoint&)>& sink) {
+  checkDisparityInputs(disparity, grey);
   for (int y = 0; y < disparity.rows; ++y) {
+    const float* row = disparity.ptr<float>(y);
     for (int x = 0; x < disparity.cols; ++x) {
-      const float dsp = disparity.at<float>(y, x);
+      const float dsp = row[x];
       if (!std::isfinite(dsp)) continue;
       ++stats.matches;
       CloudPoint p;
@@ -73,10 +70,30 @@ std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const Came
       }
       p.grey = grey.empty() ? 0 : grey.at<uint8_t>(y, x);
       p.line = lineId(pair_id, y);
-      cloud.push_back(p);
+      sink(p);
       ++stats.triangulated;
     }
   }
+}
+
+std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const CameraModel& right,
+                                             const cv::Mat& disparity, double sigma_px, int64_t pair_id,
+                                             const cv::Mat& grey, TriangulationStats& stats,
+                                             double max_residual_px) {
+  checkDisparityInputs(disparity, grey);
+  std::vector<CloudPoint> cloud;
+  {
+    // Reserved for every match (a pair's cloud is ~1e6 points of 120 B: growing would copy it and, at the
+    // copy, hold it nearly three times over).
+    std::size_t finite = 0;
+    for (int y = 0; y < disparity.rows; ++y) {
+      const float* row = disparity.ptr<float>(y);
+      for (int x = 0; x < disparity.cols; ++x) finite += std::isfinite(row[x]) ? 1 : 0;
+    }
+    cloud.reserve(finite);
+  }
+  triangulateDisparity(left, right, disparity, sigma_px, pair_id, grey, stats, max_residual_px,
+                       [&cloud](const CloudPoint& p) { cloud.push_back(p); });
   return cloud;
 }
 

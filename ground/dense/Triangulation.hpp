@@ -56,6 +56,11 @@ std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const Came
                                              const cv::Mat& disparity, double sigma_px, int64_t pair_id,
                                              const cv::Mat& grey, TriangulationStats& stats,
                                              double max_residual_px = 1.0);
+// triangulateDisparity with each point handed to `sink` in the same order instead of kept: for a caller that
+// keeps a part of the points or a smaller record of each (a pair's cloud is ~1e6 points of 120 B).
+void triangulateDisparity(const CameraModel& left, const CameraModel& right, const cv::Mat& disparity,
+                          double sigma_px, int64_t pair_id, const cv::Mat& grey, TriangulationStats& stats,
+                          double max_residual_px, const std::function<void(const CloudPoint&)>& sink);
 
 // Binary little-endian PLY: double x y z (site frame), float sigma_x sigma_y sigma_z (m), uchar grey,
 // int line. Throws std::runtime_error naming the file when it cannot be written (checked after close).

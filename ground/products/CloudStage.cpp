@@ -88,31 +88,24 @@ namespace {
 // One pair matched off the run's thread: its cloud (the points within its support range, in the cloud's
 // layout) and what the log and the report say of it.
 struct MatchedPair {
-  dense::PairCloud pc;  // without its points (moved into `kept`)
+  dense::PairCloud pc;  // without its points (in `kept`)
   Cloud kept;
-  double seconds_keep = 0.0;
 };
 
 MatchedPair matchPair(const Context& ctx, const ProductPair& pair, const ProductImage& L,
                       const ProductImage& R) {
   MatchedPair m;
   const PairDenseInputs p = pairDenseInputs(ctx.in, ctx.options, pair);
-  m.pc =
-      dense::pairCloud(p.left, p.right, L.grey, R.grey, p.left_ties_px, p.right_ties_px, pair.id, p.options);
-  const double t0 = cli::nowSeconds();
-  if (m.pc.error.empty()) {
-    std::size_t n = 0;
-    for (const dense::CloudPoint& c : m.pc.points)
-      n += (c.site_m - ctx.in.gimbal_site_m).head<2>().norm() <= m.pc.support_range_m;
-    m.kept.reserve(n);
-    for (const dense::CloudPoint& c : m.pc.points) {
-      const double range = (c.site_m - ctx.in.gimbal_site_m).head<2>().norm();
-      if (range > m.pc.support_range_m) continue;
-      m.kept.push(c);
-    }
-  }
-  std::vector<dense::CloudPoint>().swap(m.pc.points);
-  m.seconds_keep = cli::nowSeconds() - t0;
+  // The points go straight into the cloud's layout as they are triangulated (never a pair's cloud of full
+  // points); reserved for one point per left pixel (address space: pages are touched as points arrive).
+  m.kept.reserve(L.grey.total());
+  const Vec3 gimbal = ctx.in.gimbal_site_m;
+  const auto keep = [&m, &gimbal](const dense::CloudPoint& c, double support_range_m) {
+    if ((c.site_m - gimbal).head<2>().norm() <= support_range_m) m.kept.push(c);
+  };
+  m.pc = dense::pairCloud(p.left, p.right, L.grey, R.grey, p.left_ties_px, p.right_ties_px, pair.id, p.options,
+                          keep);
+  if (!m.pc.error.empty()) Cloud().swap(m.kept);
   return m;
 }
 
@@ -174,7 +167,7 @@ Cloud denseCloud(Context& ctx) {
       cloud.append(m.kept);
       const long long kept = static_cast<long long>(m.kept.size());
       Cloud().swap(m.kept);
-      t_tri += pc.seconds_triangulate + m.seconds_keep + cli::nowSeconds() - t0;
+      t_tri += pc.seconds_triangulate + cli::nowSeconds() - t0;
       {
         char b[300];
         std::snprintf(b, sizeof b,

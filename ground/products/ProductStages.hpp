@@ -38,11 +38,16 @@ CameraModel sized(const ProductImage& im);
 
 // The dense cloud as the products keep it (a navcam panorama has ~1.7e7 points): the DEM points (40 B
 // each) in a vector of their own, so that the DEM step takes them over by a move, and beside them what
-// points.ply needs besides (sigma per axis, grey: 16 B), freed before the DEM is made.
+// points.ply needs besides (9 B, packed), freed before the DEM is made: the sigmas north and east and the
+// grey value; the sigma down is the DEM point's sigma_m as a float (both are sqrt of the same variance).
+#pragma pack(push, 1)
 struct PlyExtra {
-  float sigma_xyz_m[3] = {0.f, 0.f, 0.f};
+  float sigma_north_m = 0.f;
+  float sigma_east_m = 0.f;
   uint8_t grey = 0;
 };
+#pragma pack(pop)
+static_assert(sizeof(PlyExtra) == 9, "PlyExtra is packed");
 
 struct Cloud {
   std::vector<dem::DemPoint> dem;
@@ -70,8 +75,8 @@ struct Cloud {
     p.line = c.line;
     dem.push_back(p);
     PlyExtra e;
-    for (int k = 0; k < 3; ++k)
-      e.sigma_xyz_m[k] = static_cast<float>(std::sqrt(std::max(0.0, c.covariance_m2(k, k))));
+    e.sigma_north_m = static_cast<float>(std::sqrt(std::max(0.0, c.covariance_m2(0, 0))));
+    e.sigma_east_m = static_cast<float>(std::sqrt(std::max(0.0, c.covariance_m2(1, 1))));
     e.grey = c.grey;
     extra.push_back(e);
   }
@@ -79,10 +84,10 @@ struct Cloud {
     const dem::DemPoint& p = dem[i];
     dense::CloudPoint c;
     c.site_m = Vec3(p.north_m, p.east_m, -p.elevation_m);
-    for (int k = 0; k < 3; ++k) {
-      c.covariance_m2(k, k) = static_cast<double>(extra[i].sigma_xyz_m[k]) * extra[i].sigma_xyz_m[k];
-    }
-    c.grey = extra[i].grey;
+    const PlyExtra e = extra[i];
+    const float sigma[3] = {e.sigma_north_m, e.sigma_east_m, static_cast<float>(p.sigma_m)};
+    for (int k = 0; k < 3; ++k) c.covariance_m2(k, k) = static_cast<double>(sigma[k]) * sigma[k];
+    c.grey = e.grey;
     c.line = p.line;
     return c;
   }
