@@ -46,6 +46,17 @@ void supportInfo(const std::string& product, const KrigingResult& kr) {
   cli::info(b);
 }
 
+// The cells of `kr` classified and the unseen ones emptied (DemSeen.hpp), said on the console.
+DemSeen seenCells(const std::string& product, KrigingResult& kr, const BinnedCloud& binned,
+                  const std::vector<CameraModel>& cameras) {
+  DemSeen seen = classifyDemCells(kr, measuredCells(binned.points, kr.elevation), cameras);
+  char b[240];
+  std::snprintf(b, sizeof b, "%s: %lld cells measured, %lld interpolated, %lld kriged cells no camera sees left empty",
+                product.c_str(), seen.measured, seen.interpolated, seen.emptied);
+  cli::info(b);
+  return seen;
+}
+
 }  // namespace
 
 double autoDemCell(double extent_m) {
@@ -139,6 +150,7 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
         kr.sigma.at(c, r) = kr.sigma.nodata;
       }
     }
+    out.dem_seen = seenCells("dem.tif", kr, binned, o.cameras);
     out.dem = std::move(kr);
   } catch (const std::exception& e) {
     warn(std::string("DEM not made: ") + e.what());
@@ -148,6 +160,7 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
       KrigingResult nk = krigeDem(near_binned.points, *near_grid,
                                   binnedKrigingOptions(near_binned, *near_grid, o.correlation_px, o.shared_error));
       supportInfo("dem_near.tif", nk);
+      out.near_seen = seenCells("dem_near.tif", nk, near_binned, o.cameras);
       out.near = std::move(nk);
     } catch (const std::exception& e) {
       warn(std::string("near-rover DEM not made: ") + e.what());

@@ -66,10 +66,7 @@ const NavcamRun& navcam() {
 // A ground point is seen in truth (test::seenInTruth) when the ray from the camera reaches it before
 // hitting the terrain elsewhere.
 bool seenInTruth(const NavcamRun& run, const Vec3& point) {
-  return test::seenInTruth(run.scene.inputs, point, [&run](const Vec3& c, const Vec3& u, double dist) {
-    double t = 0;
-    return run.terrain.castRay(c, u, t, dist + 1.0) && t >= dist - 0.03;
-  });
+  return test::seenInTerrain(run.scene.inputs, run.terrain, point);
 }
 
 }  // namespace
