@@ -6,12 +6,16 @@
 //     them hides it;
 //   unseen (0): beyond the reach (nodata), or no camera sees it (the shadow of nearer terrain behind a rock,
 //     ground outside every image): the DEM leaves it empty.
-// An interpolated cell is tested at its estimate; only measured cells hide, each lowered by two of its
-// sigmas (noise does not hide the cells behind it); the horizons are ground/dem Viewshed's.
-// Limit: behind a rock the kriging spreads the rock's top along the lines of sight that graze it, so the
-// estimate there lies on or above those lines and the test at the estimate cannot tell it from seen
-// ground; testing lower (the estimate less its sigmas) hides seen ground behind its noisy neighbours
-// first. Such cells stay interpolated (docs/products.md "Seen and unseen cells" gives the figures).
+// Whether a camera sees an interpolated cell is read from a depth buffer of the measured cells in that
+// camera's image (a z-buffer over bins of a few pixels), not from the estimate's height: behind a rock the
+// kriging spreads the rock's top along the lines of sight that graze it, so a visibility test at the
+// estimate cannot tell shadow from seen ground, while the image shows a jump in depth from the rock's top
+// to the ground beyond, over the cell. The cost is one projection per measured cell and per tested cell
+// in each camera whose image holds it (O(cells x cameras)).
+// Limit: the classes are the measured data's; a cell that holds points is measured even where the true
+// ground at its centre lies a millimetre in the shadow of a pebble, and a shadow shorter than the spacing
+// of the ground's samples (a few pixels at the grazing angle) cannot show as a jump (docs/products.md
+// "Seen and unseen cells" gives the figures).
 #pragma once
 
 #include <cstdint>

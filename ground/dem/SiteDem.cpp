@@ -1,6 +1,7 @@
 #include "ground/dem/SiteDem.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -49,10 +50,13 @@ void supportInfo(const std::string& product, const KrigingResult& kr) {
 // The cells of `kr` classified and the unseen ones emptied (DemSeen.hpp), said on the console.
 DemSeen seenCells(const std::string& product, KrigingResult& kr, const BinnedCloud& binned,
                   const std::vector<CameraModel>& cameras) {
+  const auto start = std::chrono::steady_clock::now();
   DemSeen seen = classifyDemCells(kr, measuredCells(binned.points, kr.elevation), cameras);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   char b[240];
-  std::snprintf(b, sizeof b, "%s: %lld cells measured, %lld interpolated, %lld kriged cells no camera sees left empty",
-                product.c_str(), seen.measured, seen.interpolated, seen.emptied);
+  std::snprintf(b, sizeof b,
+                "%s: %lld cells measured, %lld interpolated, %lld kriged cells no camera sees left empty (%.1f s)",
+                product.c_str(), seen.measured, seen.interpolated, seen.emptied, seconds);
   cli::info(b);
   return seen;
 }

@@ -244,14 +244,15 @@ void truthSeenStage(Context& ctx, const ortho::OrthoResult* orth) {
   }
   const cv::Mat* ortho_image = orth != nullptr && orth->grid.cols == ctx.result.dem->cols ? &orth->image : nullptr;
   const SeenTruth t = seenAgainstTruth(*ctx.result.dem, ortho_image, *in.truth_dem, images, models,
-                                       in.gimbal_site_m, ctx.options.max_range_m);
+                                       in.gimbal_site_m, ctx.options.max_range_m, &ctx.result.dem_seen);
   ctx.result.seen_truth = t;
   const auto pc = [](const std::optional<double>& f) { return f ? 100.0 * *f : -1.0; };
   char b[320];
   std::snprintf(b, sizeof b,
-                "truth: of %lld cells the true cameras do not see %.1f %% empty; of %lld they see %.1f %% filled, "
-                "the ortho agreeing with truth's on %.1f %% (-1: none)",
-                t.cells_unseen, pc(t.unseen_empty), t.cells_seen, pc(t.seen_filled), pc(t.ortho_agreement));
+                "truth: of %lld cells the true cameras do not see %.1f %% empty (%lld hold points); of %lld they "
+                "see %.1f %% filled, the ortho agreeing with truth's on %.1f %% (-1: none)",
+                t.cells_unseen, pc(t.unseen_empty), t.unseen_measured, t.cells_seen, pc(t.seen_filled),
+                pc(t.ortho_agreement));
   cli::info(b);
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ground/dem/DemSeen.hpp"
 #include "ground/dem/Viewshed.hpp"
 #include "ground/ortho/Orthoimage.hpp"
 
@@ -70,7 +71,7 @@ std::vector<uint8_t> cellsSeen(const DemGrid& surface, const std::vector<cv::Mat
 
 SeenTruth seenAgainstTruth(const DemGrid& dem, const cv::Mat* ortho_image, const DemGrid& truth_dem,
                            const std::vector<cv::Mat>& images, const std::vector<CameraModel>& truth_models,
-                           const Vec3& g, double max_range_m) {
+                           const Vec3& g, double max_range_m, const std::vector<uint8_t>* classes) {
   SeenTruth out;
   const DemGrid truth = sampled(truth_dem, dem);
   const std::vector<uint8_t> seen = cellsSeen(truth, images, truth_models, kTruthToleranceM);
@@ -91,6 +92,7 @@ SeenTruth seenAgainstTruth(const DemGrid& dem, const cv::Mat* ortho_image, const
       if (!seen[i]) {
         ++out.cells_unseen;
         empty += !has;
+        out.unseen_measured += classes != nullptr && i < classes->size() && (*classes)[i] == dem::kCellMeasured;
         continue;
       }
       ++out.cells_seen;

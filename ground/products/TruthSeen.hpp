@@ -26,14 +26,16 @@ namespace areomap::products {
 
 struct SeenTruth {
   long long cells_unseen = 0, cells_seen = 0, cells_compared = 0;
+  long long unseen_measured = 0;  // cells not seen in truth that points fall in (given the DEM's classes)
   std::optional<double> unseen_empty, seen_filled, ortho_agreement;  // absent: no such cell
 };
 
 // `images` and `truth_models` in one order (an empty image is skipped; the models sized to their
-// images); `ortho` on the DEM's grid (0 = no data), may be null.
+// images); `ortho` on the DEM's grid (0 = no data), may be null; `classes` (dem_seen.tif's, may be null).
 SeenTruth seenAgainstTruth(const DemGrid& dem, const cv::Mat* ortho, const DemGrid& truth_dem,
                            const std::vector<cv::Mat>& images, const std::vector<CameraModel>& truth_models,
-                           const Vec3& gimbal_site_m, double max_range_m);
+                           const Vec3& gimbal_site_m, double max_range_m,
+                           const std::vector<uint8_t>* classes = nullptr);
 
 // Per cell of `grid`'s geometry: whether some camera of `models` (with `images`, an empty one skipped)
 // holds the point at `surface`'s elevation (nodata: not seen) in its image and `surface` does not hide it

@@ -116,8 +116,9 @@ TEST(SeenCells, UnseenEmptySeenFilledAgainstTruth) {
   CHECK(t.dem_unseen_empty && t.dem_seen_filled && t.ortho_agreement);
   DOUBLES_EQUAL(unseen_empty, *t.dem_unseen_empty, 0.02);
   DOUBLES_EQUAL(seen_filled, *t.dem_seen_filled, 0.02);
-  // Not asserted: the 95 % of both that the goal sets (the shadows the kriging fills behind rocks that
-  // the 256-px images barely resolve stay interpolated: ground/dem/DemSeen.hpp "Limit").
+  // Not asserted: the 95 % of both that the goal sets. The 256-px images sample the ground at 5-10 m every
+  // 10-25 cm along the line of sight, about the length of most shadows here, and beyond 10 m the kriging's
+  // reach leaves seen ground empty (ground/dem/DemSeen.hpp "Limit"; docs/products.md has the figures).
 }
 
 TEST(SeenCells, SeenRasterMatchesTheDem) {
