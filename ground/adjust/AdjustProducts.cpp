@@ -78,7 +78,10 @@ nlohmann::json reportJson(const AdjustReport& r) {
                   {"dem_rmse_m", optionalJson(r.truth->dem_rmse_m)},
                   {"eo_px_raw", r.truth->eo_px_raw},
                   {"ground_m_raw", optionalJson(r.truth->ground_m_raw)},
-                  {"eo_px_before", optionalJson(r.truth->eo_px_before)}};
+                  {"eo_px_before", optionalJson(r.truth->eo_px_before)},
+                  {"dem_unseen_empty", optionalJson(r.truth->dem_unseen_empty)},
+                  {"dem_seen_filled", optionalJson(r.truth->dem_seen_filled)},
+                  {"ortho_agreement", optionalJson(r.truth->ortho_agreement)}};
   }
   j["warnings"] = r.warnings;
   j["adjustment"] = {{"solver", r.solver},

@@ -26,6 +26,10 @@ struct TruthFigures {
   double eo_px_raw = 0.0;
   std::optional<double> ground_m_raw;
   std::optional<double> eo_px_before;  // a-priori, aligned
+  // What the true cameras see against the products (ground/products/TruthSeen.hpp; absent without the
+  // true models and DEM): of the cells they do not see, the fraction dem.tif leaves empty; of those they
+  // see, the fraction it fills, and the fraction where ortho.tif agrees with an ortho made from truth.
+  std::optional<double> dem_unseen_empty, dem_seen_filled, ortho_agreement;
 };
 
 // One stereo pair's matching noise as the dense products estimated it (ground/dense/MatchNoise.hpp):

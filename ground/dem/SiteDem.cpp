@@ -1,6 +1,7 @@
 #include "ground/dem/SiteDem.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -44,6 +45,20 @@ void supportInfo(const std::string& product, const KrigingResult& kr) {
       "cells left empty",
       product.c_str(), kr.isolated_points, kr.min_cluster_points, kr.max_gap_m, kr.cells_unsupported);
   cli::info(b);
+}
+
+// The cells of `kr` classified and the unseen ones emptied (DemSeen.hpp), said on the console.
+DemSeen seenCells(const std::string& product, KrigingResult& kr, const BinnedCloud& binned,
+                  const std::vector<CameraModel>& cameras) {
+  const auto start = std::chrono::steady_clock::now();
+  DemSeen seen = classifyDemCells(kr, measuredCells(binned.points, kr.elevation), cameras);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  char b[240];
+  std::snprintf(b, sizeof b,
+                "%s: %lld cells measured, %lld interpolated, %lld kriged cells no camera sees left empty (%.1f s)",
+                product.c_str(), seen.measured, seen.interpolated, seen.emptied, seconds);
+  cli::info(b);
+  return seen;
 }
 
 }  // namespace
@@ -139,6 +154,7 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
         kr.sigma.at(c, r) = kr.sigma.nodata;
       }
     }
+    out.dem_seen = seenCells("dem.tif", kr, binned, o.cameras);
     out.dem = std::move(kr);
   } catch (const std::exception& e) {
     warn(std::string("DEM not made: ") + e.what());
@@ -148,6 +164,7 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
       KrigingResult nk = krigeDem(near_binned.points, *near_grid,
                                   binnedKrigingOptions(near_binned, *near_grid, o.correlation_px, o.shared_error));
       supportInfo("dem_near.tif", nk);
+      out.near_seen = seenCells("dem_near.tif", nk, near_binned, o.cameras);
       out.near = std::move(nk);
     } catch (const std::exception& e) {
       warn(std::string("near-rover DEM not made: ") + e.what());

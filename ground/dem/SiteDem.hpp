@@ -2,8 +2,9 @@
 // within max_range_m (cell automatic or given), the cloud binned to it, ordinary kriging of the bins with
 // the matcher's error correlation (the DEM sigma), equi-parallax interpolation beyond the seam blended
 // into it, cells beyond max_range_m emptied; and, when that grid is coarser than near_cell_m, the finer
-// near-rover DEM (the points within near_range_m binned and kriged again at near_cell_m). Writing the
-// rasters is the caller's (DemProducts.hpp).
+// near-rover DEM (the points within near_range_m binned and kriged again at near_cell_m). Each DEM's cells
+// are then classified measured, interpolated or unseen, and the unseen ones emptied (DemSeen.hpp). Writing
+// the rasters is the caller's (DemProducts.hpp).
 #pragma once
 
 #include <optional>
@@ -11,6 +12,8 @@
 #include <vector>
 
 #include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+#include "ground/dem/DemSeen.hpp"
 #include "ground/dem/Kriging.hpp"
 
 namespace areomap::dem {
@@ -26,11 +29,15 @@ struct SiteDemOptions {
   // The cameras' error, shared by each pair's points and correlated between pairs (SharedHeightError.hpp;
   // nullptr: the sigma leaves it out).
   const SharedHeightError* shared_error = nullptr;
+  // Every image of the panorama (its size set): what they see decides which cells are seen (DemSeen.hpp);
+  // none: interpolated cells are kept untested.
+  std::vector<CameraModel> cameras;
 };
 
 struct SiteDem {
   std::optional<KrigingResult> dem;   // absent when it could not be made (see warnings)
   std::optional<KrigingResult> near;  // the near-rover DEM, when made
+  DemSeen dem_seen, near_seen;        // their cells' classes (dem_seen.tif, dem_near_seen.tif)
   std::vector<std::string> warnings;  // also printed (cli::warn) when they arise
 };
 

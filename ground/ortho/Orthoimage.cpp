@@ -7,6 +7,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "firmware_core/camera/CahvInternal.hpp"
+#include "ground/dem/Viewshed.hpp"
 
 namespace areomap::ortho {
 
@@ -103,13 +104,59 @@ struct SourceChoice {
   Vec2 best_px = Vec2::Zero(), next_px = Vec2::Zero();
 };
 
+// Per DEM cell and source: whether the DEM's terrain leaves the cell's ground point in the source camera's
+// view (OrthoOptions::occlusion; everything is seen when it is off).
+struct TerrainVisibility {
+  bool on = false;
+  std::size_t words = 0;        // per cell
+  std::vector<uint64_t> bits;   // cell * words + source / 64, bit source % 64
+  bool sees(std::size_t cell, std::size_t source) const {
+    return !on || ((bits[cell * words + source / 64] >> (source % 64)) & 1u) != 0;
+  }
+};
+
+// The DEM, each filled cell lowered by twice its sigma (when given on the same grid), hides; a cell is
+// seen from a source's centre when its elevation clears the horizon there (ground/dem Viewshed).
+TerrainVisibility terrainVisibility(const DemGrid& dem, const std::vector<OrthoSource>& sources,
+                                    const OrthoOptions& options) {
+  TerrainVisibility vis;
+  if (!options.occlusion) return vis;
+  vis.on = true;
+  vis.words = (sources.size() + 63) / 64;
+  vis.bits.assign(dem.values.size() * std::max<std::size_t>(1, vis.words), 0);
+  DemGrid hiding = dem;
+  const DemGrid* sigma = options.dem_sigma;
+  if (sigma != nullptr && sigma->values.size() == dem.values.size()) {
+    for (std::size_t i = 0; i < hiding.values.size(); ++i) {
+      const float s = sigma->values[i];
+      if (hiding.values[i] != dem.nodata && s != sigma->nodata && std::isfinite(s)) hiding.values[i] -= 2.0f * s;
+    }
+  }
+  std::vector<float> horizon;
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    if (sources[k].grey.empty()) continue;
+    dem::horizonFrom(hiding, sources[k].model.c, horizon, true);
+    cv::parallel_for_(cv::Range(0, dem.rows), [&](const cv::Range& range) {
+      for (int r = range.start; r < range.end; ++r) {
+        for (int c = 0; c < dem.cols; ++c) {
+          const std::size_t i = static_cast<std::size_t>(r) * dem.cols + c;
+          const float v = dem.values[i];
+          if (v != dem.nodata && v >= horizon[i]) vis.bits[i * vis.words + k / 64] |= uint64_t{1} << (k % 64);
+        }
+      }
+    });
+  }
+  return vis;
+}
+
 SourceChoice chooseSources(const Vec3& ground, const std::vector<OrthoSource>& sources,
-                           const SourceGeometry& geometry, const OrthoOptions& options) {
+                           const SourceGeometry& geometry, const OrthoOptions& options,
+                           const TerrainVisibility& visibility, std::size_t dem_cell) {
   SourceChoice choice;
   double best_d = 1e300, next_d = 1e300;
   for (std::size_t i = 0; i < sources.size(); ++i) {
     const cv::Mat& g = sources[i].grey;
-    if (g.empty()) continue;
+    if (g.empty() || !visibility.sees(dem_cell, i)) continue;
     Vec2 px;
     if (project(sources[i].model, ground, px) != Status::kOk) continue;
     if (!inside(g, px, options.border_px)) continue;
@@ -135,6 +182,7 @@ SourceChoice chooseSources(const Vec3& ground, const std::vector<OrthoSource>& s
 void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, const OrthoOptions& options,
                OrthoResult& out, SeamCandidates& candidates) {
   const SourceGeometry geometry = sourceGeometry(sources);
+  const TerrainVisibility visibility = terrainVisibility(dem, sources, options);
   const int s = options.supersample;
   const int cols = out.grid.cols;
   cv::parallel_for_(cv::Range(0, out.grid.rows), [&](const cv::Range& range) {
@@ -150,7 +198,9 @@ void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, cons
         } else if (!demElevation(dem, north, east, elev)) {
           continue;
         }
-        const SourceChoice choice = chooseSources(Vec3(north, east, -elev), sources, geometry, options);
+        const std::size_t dem_cell = static_cast<std::size_t>(r / s) * dem.cols + static_cast<std::size_t>(c / s);
+        const SourceChoice choice =
+            chooseSources(Vec3(north, east, -elev), sources, geometry, options, visibility, dem_cell);
         if (choice.best < 0) continue;
         const Vec2& bp = choice.best_px;
         out.image.at<uint8_t>(r, c) = static_cast<uint8_t>(

@@ -30,6 +30,11 @@ struct OrthoOptions {
   int seam_search_px = 3;       // NCC search radius for the seam check, pixels
   int seam_patch_half_px = 5;   // half size of the NCC patch, pixels
   int max_seam_samples = 4000;  // seam cells checked (evenly subsampled)
+  // An image paints a cell only when the DEM's own terrain does not hide the cell from the camera
+  // (ground/dem Viewshed: a DEM cell hides when it rises above the line of sight by more than twice its
+  // sigma, `dem_sigma` on the DEM's grid; none: by any amount).
+  bool occlusion = true;
+  const DemGrid* dem_sigma = nullptr;
 };
 
 struct SeamStats {
@@ -52,7 +57,8 @@ struct OrthoResult {
 
 // Makes the orthoimage of `dem` (nodata cells stay empty). Cells whose ground point projects behind a
 // camera or outside its image take no value from it, nor from an image whose pixel there does not see the
-// point (its ray misses it: CAHVOR/CAHVORE distortion folds points far beyond the field into the image).
+// point (its ray misses it: CAHVOR/CAHVORE distortion folds points far beyond the field into the image),
+// nor from an image from which the DEM's terrain hides it (OrthoOptions::occlusion).
 OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& sources, const OrthoOptions& options);
 
 // The DEM elevation at a site point (bilinear over the four nearest cells; nodata if any is nodata).

@@ -11,6 +11,7 @@
 #include "ground/adjust/FullEoCovariance.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/DemRaster.hpp"
+#include "ground/io/CameraFile.hpp"
 
 namespace areomap::ground {
 
@@ -115,12 +116,29 @@ products::ProductOptions passProductOptions() {
   return products::ProductOptions{};
 }
 
+// The true models of `images` from truth_root/truth/models/<stem>.cahvor; none unless every one is there.
+namespace {
+
+std::vector<CameraModel> passTrueModels(const std::string& truth_root,
+                                        const std::vector<products::ProductImage>& images) {
+  std::vector<CameraModel> models;
+  for (const products::ProductImage& im : images) {
+    const std::string path = truth_root + "/truth/models/" + im.stem + ".cahvor";
+    if (!std::filesystem::exists(path)) return {};
+    models.push_back(io::readCameraModelFile(path, im.grey.cols, im.grey.rows));
+  }
+  return models;
+}
+
+}  // namespace
+
 // The products of ground/products (dense matching, DEM, ortho, previews, report.html) from the pass.
 products::ProductsResult makePassProducts(const ProductContext& c) {
   products::ProductInputs in = passProductInputs(c);
   in.eo_uncertainty = eoUncertainty(*c.net, c.report->warnings, in.pairs);
   if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
     in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
+    in.truth_models = passTrueModels(c.truth_root, in.images);
   }
   products::ProductsResult made = products::makeProducts(in, passProductOptions(), c.out_dir, c.report);
   products::mergeIntoReport(made, *c.report);

@@ -146,6 +146,9 @@ void demStage(Context& ctx, Cloud& cloud) {
     so.max_range_m = ctx.options.max_range_m;
     so.seam_m = ctx.options.seam_m;
     so.correlation_px = dense::kMatchErrorCorrelationPx;
+    for (const ProductImage& im : ctx.in.images) {
+      if (usable(ctx, im)) so.cameras.push_back(sized(im));
+    }
     const std::optional<dem::SharedHeightError> cameras = cameraHeightError(ctx.in);
     if (cameras) so.shared_error = &*cameras;
     dem::SiteDem dems = dem::makeSiteDem(std::move(cloud.dem), so);
@@ -154,11 +157,11 @@ void demStage(Context& ctx, Cloud& cloud) {
       const dem::KrigingResult& kr = *dems.dem;
       ctx.result.dem = kr.elevation;
       ctx.result.dem_sigma = kr.sigma;
+      ctx.result.dem_seen = dems.dem_seen.classes;
       coverageStage(ctx, kr.elevation, kr.sigma);
       try {
-        dem::writeDemProducts(ctx.out_dir, kr, ctx.meta);
-        ctx.result.files.push_back(ctx.out_dir + "/dem.tif");
-        ctx.result.files.push_back(ctx.out_dir + "/dem_sigma.tif");
+        dem::writeDemProducts(ctx.out_dir, kr, ctx.meta, "dem", &dems.dem_seen);
+        for (const char* f : {"/dem.tif", "/dem_sigma.tif", "/dem_seen.tif"}) ctx.result.files.push_back(ctx.out_dir + f);
       } catch (const cli::InputError& e) {
         ctx.writeFailed(e);  // the DEM is still used for the ortho and the previews
       }
@@ -167,9 +170,9 @@ void demStage(Context& ctx, Cloud& cloud) {
     if (dems.near) {
       ctx.result.dem_near = dems.near->elevation;
       try {
-        dem::writeDemProducts(ctx.out_dir, *dems.near, ctx.meta, "dem_near");
-        ctx.result.files.push_back(ctx.out_dir + "/dem_near.tif");
-        ctx.result.files.push_back(ctx.out_dir + "/dem_near_sigma.tif");
+        dem::writeDemProducts(ctx.out_dir, *dems.near, ctx.meta, "dem_near", &dems.near_seen);
+        for (const char* f : {"/dem_near.tif", "/dem_near_sigma.tif", "/dem_near_seen.tif"})
+          ctx.result.files.push_back(ctx.out_dir + f);
       } catch (const cli::InputError& e) {
         ctx.writeFailed(e);
       }
@@ -193,7 +196,9 @@ std::optional<ortho::OrthoResult> orthoStage(Context& ctx) {
       sources.push_back(s);
     }
     try {
-      made = ortho::makeOrthoimage(*ctx.result.dem, sources, ortho::OrthoOptions{});
+      ortho::OrthoOptions oo;
+      if (ctx.result.dem_sigma) oo.dem_sigma = &*ctx.result.dem_sigma;
+      made = ortho::makeOrthoimage(*ctx.result.dem, sources, oo);
       const ortho::OrthoResult& orth =
           *made;  // the preview and the report show it even when ortho.tif cannot be written
       ctx.result.ortho = orthoGrid(orth);
@@ -220,6 +225,32 @@ std::optional<ortho::OrthoResult> orthoStage(Context& ctx) {
   return made;
 }
 
+// What the true cameras see against the DEM and the ortho (TruthSeen.hpp), with the true models and DEM.
+void truthSeenStage(Context& ctx, const ortho::OrthoResult* orth) {
+  const ProductInputs& in = ctx.in;
+  if (!ctx.result.dem || !in.truth_dem || in.truth_models.size() != in.images.size()) return;
+  std::vector<cv::Mat> images;
+  std::vector<CameraModel> models;
+  for (std::size_t k = 0; k < in.images.size(); ++k) {
+    images.push_back(in.images[k].grey);
+    models.push_back(in.truth_models[k]);
+    models.back().width = in.images[k].grey.cols;
+    models.back().height = in.images[k].grey.rows;
+  }
+  const cv::Mat* ortho_image = orth != nullptr && orth->grid.cols == ctx.result.dem->cols ? &orth->image : nullptr;
+  const SeenTruth t = seenAgainstTruth(*ctx.result.dem, ortho_image, *in.truth_dem, images, models,
+                                       in.gimbal_site_m, ctx.options.max_range_m, &ctx.result.dem_seen);
+  ctx.result.seen_truth = t;
+  const auto pc = [](const std::optional<double>& f) { return f ? 100.0 * *f : -1.0; };
+  char b[320];
+  std::snprintf(b, sizeof b,
+                "truth: of %lld cells the true cameras do not see %.1f %% empty (%lld hold points); of %lld they "
+                "see %.1f %% filled, the ortho agreeing with truth's on %.1f %% (-1: none)",
+                t.cells_unseen, pc(t.unseen_empty), t.unseen_measured, t.cells_seen, pc(t.seen_filled),
+                pc(t.ortho_agreement));
+  cli::info(b);
+}
+
 }  // namespace
 
 ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& options,
@@ -232,6 +263,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
   Cloud cloud = denseCloud(ctx);
   demStage(ctx, cloud);
   const std::optional<ortho::OrthoResult> orth = orthoStage(ctx);
+  truthSeenStage(ctx, orth ? &*orth : nullptr);
   previewsAndReport(ctx, orth ? &*orth : nullptr, adjustment);
   return ctx.result;
 }
@@ -241,7 +273,14 @@ void mergeIntoReport(const ProductsResult& products, ground::AdjustReport& repor
   for (const std::string& w : products.warnings) report.warnings.push_back(w);
   report.dense_pairs = products.dense_pairs;
   report.dem_coverage = products.coverage;
-  if (report.truth) report.truth->dem_rmse_m = products.dem_rmse_m;
+  if (report.truth) {
+    report.truth->dem_rmse_m = products.dem_rmse_m;
+    if (products.seen_truth) {
+      report.truth->dem_unseen_empty = products.seen_truth->unseen_empty;
+      report.truth->dem_seen_filled = products.seen_truth->seen_filled;
+      report.truth->ortho_agreement = products.seen_truth->ortho_agreement;
+    }
+  }
 }
 
 }  // namespace areomap::products

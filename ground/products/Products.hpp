@@ -5,7 +5,9 @@
 //   coarse-to-fine matching (parallax ranges from the pair's tie points), space intersection through the
 //   adjusted CAHVOR models -> one cloud `points.ply` (site frame, per-point sigma);
 //   DEM: ordinary kriging (fitted variogram, k-d tree) + equi-parallax beyond 20 m blended at the seam ->
-//   `dem.tif`, `dem_sigma.tif` (float32 GeoTIFF, nodata, local site CRS, metadata: site and sols); when
+//   `dem.tif`, `dem_sigma.tif` (float32 GeoTIFF, nodata, local site CRS, metadata: site and sols) and
+//   `dem_seen.tif` (8-bit: 0 unseen, 1 interpolated, 2 measured; unseen cells are empty in dem.tif and
+//   ortho.tif: ground/dem/DemSeen.hpp); when
 //   dem.tif is coarser than 2 cm (a large cloud), also `dem_near.tif`, `dem_near_sigma.tif`: 2 cm within
 //   10 m of the rover (DESIGN.md fixes dem.tif as one grid, so the finer grid is an extra product);
 //   orthoimage on the DEM grid (ground/ortho) -> `ortho.tif` (8-bit GeoTIFF, same georeferencing);
@@ -38,6 +40,7 @@
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/dense/PairCloud.hpp"
 #include "ground/products/DemCoverage.hpp"
+#include "ground/products/TruthSeen.hpp"
 
 namespace areomap::products {
 
@@ -80,6 +83,9 @@ struct ProductInputs {
   Vec3 gimbal_site_m = Vec3::Zero();  // centre of the panorama (ranges, finer grid near the rover)
   // Optional truth (synthetic datasets): the true DEM (truth/dem.tif) -> truth.dem_rmse_m.
   std::optional<DemGrid> truth_dem;
+  // Optional truth: the true models, per `images` (empty: none) -> truth.dem_unseen_empty, dem_seen_filled,
+  // ortho_agreement (TruthSeen.hpp), with truth_dem.
+  std::vector<CameraModel> truth_models;
   std::optional<EoUncertainty> eo_uncertainty;  // absent: the DEM sigma leaves the cameras' error out
 };
 
@@ -110,9 +116,11 @@ struct ProductsResult {
   std::vector<ground::DensePairNoise> dense_pairs;  // each matched pair's matching noise (report.json dense)
   std::optional<DemGrid> dem;                       // the DEM written (absent when no points)
   std::optional<DemGrid> dem_sigma;                 // its sigma (dem_sigma.tif), same grid
+  std::vector<uint8_t> dem_seen;  // its cells' classes (dem_seen.tif, ground/dem/DemSeen.hpp), same grid
   std::optional<DemGrid> ortho;  // ortho.tif's grey values (0 = no data) on its grid (absent: none made)
   std::optional<DemGrid> dem_near;   // the finer near-rover DEM (absent when dem.tif is already that fine)
   std::optional<double> dem_rmse_m;  // against truth_dem over cells present in both
+  std::optional<SeenTruth> seen_truth;  // with truth_models and truth_dem (TruthSeen.hpp)
   double ortho_seam_px = -1.0;       // median geometric disagreement at ortho seams, px (-1: no seams)
   std::vector<double> residuals_px;  // tie back-projection residuals plotted in report.html
   // Per stereo pair (in ProductInputs::pairs order, both images present): of the cells both cameras see
@@ -142,7 +150,7 @@ ProductsResult makeProducts(const ProductInputs& inputs, const ProductOptions& o
 
 // What the products add to report.json: their stage timings after the adjustment's, their warnings,
 // dense.pairs (each pair's matching noise) and truth.dem_rmse_m (when the report has a truth section). Call
-// before writeReportJson.
+// before writeReportJson. With seen_truth also truth.dem_unseen_empty, dem_seen_filled, ortho_agreement.
 void mergeIntoReport(const ProductsResult& products, ground::AdjustReport& report);
 
 }  // namespace areomap::products

@@ -323,3 +323,54 @@ TEST(Kriging, CloudSmallerThanANeighbourhoodIsKriged) {
   CHECK_EQUAL(9, r.cells_kriged);
   CHECK_EQUAL(0, r.isolated_points);
 }
+
+// The sigma of a cell between or beyond the points grows with its distance d from the nearest one as the
+// variogram says: ordinary kriging is the best unbiased estimate from its neighbours, so its variance is at
+// most that of the nearest point alone, 2 gamma(d), and beyond the edge of a lattice (the points all
+// farther than d, on one side) at least gamma(d); it rises with d (to the steps where the k nearest
+// points change). The sigma is the kriging sigma times the
+// leave-one-out calibration factor (sigma_scale), which the bounds divide out.
+TEST(Kriging, SigmaGrowsWithDistanceFromTheNearestPointAsTheVariogramSays) {
+  std::vector<DemPoint> pts = latticePlane(10, 0.0, 0.0);
+  uint32_t state = 12345u;
+  for (DemPoint& p : pts) {  // white heights: a finite calibration factor
+    state = state * 1664525u + 1013904223u;
+    p.elevation_m = 0.3 * ((state >> 8) / 16777216.0 - 0.5);
+  }
+  VariogramModel model;
+  model.kind = VariogramKind::kExponential;
+  model.partial_sill_m2 = 1.0;
+  model.range_m = 6.0;
+  KrigingOptions o;
+  o.model = &model;
+  o.max_gap_m = 6.0;
+  areomap::DemGrid g;
+  g.cell_m = 0.25;
+  g.east0_m = 4.5 - 0.125;  // one column through the lattice's middle (east 4.5: between two columns)
+  g.north0_m = 14.0;         // north 14 down to -1: across the lattice (0..9) and 5 m beyond its edge
+  g.cols = 1;
+  g.rows = 60;
+  const KrigingResult r = krigeDem(pts, g, o);
+  CHECK(r.sigma_scale > 0.0);
+  double previous = -1.0;
+  int beyond = 0;
+  for (int row = 0; row < g.rows; ++row) {
+    const double n = g.northOfRow(row), e = g.eastOfCol(0);
+    double d = 1e9;
+    for (const DemPoint& p : pts) d = std::min(d, std::hypot(p.north_m - n, p.east_m - e));
+    const float s = r.sigma.at(0, row);
+    CHECK(s != r.sigma.nodata);
+    const double var = std::pow(s / r.sigma_scale, 2);
+    CHECK_TEXT(var <= 2.0 * model.gamma(d) * (1.0 + 1e-6) + 1e-9, "at most the nearest point's alone");
+    if (n <= 9.0) continue;
+    // Beyond the north edge (rows go south: d falls row by row).
+    CHECK_TEXT(var >= model.gamma(d) * (1.0 - 1e-6), "at least gamma(d) beyond the edge");
+    // The k nearest points change along the way: a step of a few tenths of a percent where they do.
+    if (previous >= 0.0) CHECK_TEXT(var < previous * 1.01, "falls towards the points");
+    previous = var;
+    ++beyond;
+  }
+  CHECK(beyond >= 15);
+  const auto sigmaAt = [&](double north) { return r.sigma.at(0, static_cast<int>((g.north0_m - north) / g.cell_m)); };
+  CHECK(sigmaAt(13.5) > 1.2 * sigmaAt(10.0));  // 4.5 m out against 1 m out
+}

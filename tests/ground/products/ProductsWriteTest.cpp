@@ -151,11 +151,20 @@ TEST(ProductsWrite, FullDiskLeavesOnlyCompleteProducts) {
   CHECK(namedIn(r.write_errors, out + "/points.ply"));
   const std::map<std::string, std::string> files = snapshot(out);
   for (const auto& kv : ref.files) {
-    // A DEM is renamed into place only with its sigma raster (dem.tif with dem_sigma.tif).
-    const std::string sigma = kv.first.substr(0, kv.first.size() - 4) + "_sigma.tif";
-    const bool big = kv.second.size() > 65536 || (ref.files.count(sigma) == 1 && ref.files.at(sigma).size() > 65536);
-    const std::size_t at = kv.first.find("_sigma.tif");
-    const std::string named = at == std::string::npos ? kv.first : kv.first.substr(0, at) + ".tif";
+    // A DEM is renamed into place only with its sigma and seen rasters (dem.tif, dem_sigma.tif,
+    // dem_seen.tif), all named by the DEM when one is too big.
+    std::string named = kv.first;
+    for (const char* suffix : {"_sigma.tif", "_seen.tif"}) {
+      const std::size_t at = kv.first.find(suffix);
+      if (at != std::string::npos && at + std::string(suffix).size() == kv.first.size())
+        named = kv.first.substr(0, at) + ".tif";
+    }
+    bool big = kv.second.size() > 65536;
+    if (named.size() > 4 && named.compare(named.size() - 4, 4, ".tif") == 0) {
+      const std::string stem = named.substr(0, named.size() - 4);
+      for (const std::string& member : {named, stem + "_sigma.tif", stem + "_seen.tif"})
+        big = big || (ref.files.count(member) == 1 && ref.files.at(member).size() > 65536);
+    }
     if (big) CHECK_TEXT(namedIn(r.write_errors, out + "/" + named), kv.first.c_str());
     CHECK_TEXT(big == (files.count(kv.first) == 0), kv.first.c_str());
   }

@@ -94,4 +94,13 @@ bool seenInTruth(const products::ProductInputs& in, const Vec3& point, const Cle
   return false;
 }
 
+// seenInTruth with the ray cast exactly against the true terrain (sim::Terrain::castRay): the ray from the
+// camera reaches the point before hitting the terrain elsewhere (3 cm).
+inline bool seenInTerrain(const products::ProductInputs& in, const sim::Terrain& terrain, const Vec3& point) {
+  return seenInTruth(in, point, [&terrain](const Vec3& c, const Vec3& u, double dist) {
+    double t = 0;
+    return terrain.castRay(c, u, t, dist + 1.0) && t >= dist - 0.03;
+  });
+}
+
 }  // namespace areomap::test

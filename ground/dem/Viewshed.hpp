@@ -1,0 +1,41 @@
+// What nearer terrain hides from a viewpoint, on a DEM grid (ground/dataset DemGrid: columns east = site +Y,
+// rows south, elevation up = -Z): for every cell the lowest elevation at which a point there clears the
+// terrain between it and the eye. A point (north, east, up) is hidden when up < horizon of its cell.
+//
+// One sweep over the grid in square rings about the eye (the "XDraw" viewshed): a cell's horizon is the
+// steepest line of sight over the cells before it, from the two cells of the next inner ring that bracket
+// its ray, so the whole grid costs O(cells) instead of one ray march per cell. Nodata cells hide nothing
+// and pass the lines of sight behind them on. `widen`: the steeper of the two, which widens a shadow by up
+// to a cell at its edges but never halves a thin occluder away (an image then never paints a cell it may
+// not see); else linear between them (the shadow's edge to a fraction of a cell, a thin occluder weakened).
+// A ray march (products::terrainHides, the products tests' castRay) is the check.
+//
+// Whether an image holds a point (imageSees) is beside it: the products ask both of each camera.
+#pragma once
+
+#include <vector>
+
+#include "firmware_core/base/EigenTypes.hpp"
+#include "firmware_core/camera/CameraModel.hpp"
+#include "ground/dataset/DemRaster.hpp"
+
+namespace areomap::dem {
+
+// Per cell of `terrain` (row-major, its size), the horizon elevation (up, metres) seen from `eye` (site
+// frame, Z down); -infinity where nothing lies between. The eye may lie outside the grid.
+void horizonFrom(const DemGrid& terrain, const Vec3& eye_site, std::vector<float>& horizon_up_m, bool widen);
+
+// A camera's image bounds as a cone about its axis, for a quick rejection before the projection.
+struct ImageCone {
+  Vec3 axis = Vec3::Zero();
+  double min_cos = 2.0;  // cosine of the widest off-axis angle of the image's corners and edge midpoints
+  double px_per_rad = 0.0;  // the larger focal length, pixels
+};
+ImageCone imageCone(const CameraModel& model);
+
+// The point `x` (site frame) lies inside the image of `model` (width x height pixels) and the pixel it
+// projects to really images it: that pixel's own ray passes within half a pixel of it (the CAHVOR/CAHVORE
+// distortion folds points far beyond the field into the image). `cone` from imageCone(model).
+bool imageSees(const CameraModel& model, const ImageCone& cone, const Vec3& x);
+
+}  // namespace areomap::dem

@@ -1,0 +1,177 @@
+// Seen, interpolated, unseen (ground/dem/DemSeen.hpp, ground/products/TruthSeen.hpp) on a small rendered
+// scene with rocks: the tiny preset's camera (256 px), four pairs, three times its rock density, the true
+// models standing in for the adjusted ones.
+//  - Against truth with the products tests' own ray cast (test::seenInTruth, the ray cast exactly against
+//    the true terrain, sim::Terrain::castRay): per 5 m band, of the cells the true cameras do not see the
+//    fraction empty in dem.tif, of those they see the fraction filled (>= 95 % within 5 m); report.json's
+//    figures (their own horizon sweep in the true DEM) agree with the ray cast's within 2 points.
+//  - dem_seen.tif: on dem.tif's grid, 0 exactly where dem.tif is empty, 2 where a point lies.
+//  - The ortho never paints a cell from an image that the DEM itself hides it from (a ray marched through
+//    dem.tif, products::terrainHides, with the same two-sigma tolerance).
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "ground/dataset/DemRaster.hpp"
+#include "ground/dem/DemSeen.hpp"
+#include "ground/ortho/Orthoimage.hpp"
+#include "ground/products/DemCoverage.hpp"
+#include "ground/products/Products.hpp"
+#include "ground/raster/RasterFiles.hpp"
+#include "tests/ground/products/SimScene.hpp"
+#include "tests/support/TestData.hpp"
+
+#include <CppUTest/TestHarness.h>
+
+using namespace areomap;
+
+namespace {
+
+void rocky(sim::SimConfig& c) {
+  c.rock_k = 0.24;  // three times the preset's: shadows behind many rocks
+  test::seedFromEnvironment(c, "AREOMAP_SEEN_SEED");  // diagnostic knob
+}
+
+struct SeenRun {
+  test::SimScene scene;
+  sim::Terrain terrain;
+  products::ProductsResult result;
+  ground::AdjustReport report;
+  std::string out;
+};
+
+const SeenRun& seenRun() {
+  static const SeenRun run = [] {
+    SeenRun r;
+    sim::SimConfig config = sim::presetConfig("tiny");
+    sim::setPairCount(config, 4);
+    rocky(config);
+    r.terrain = sim::Terrain::build(config);
+    r.scene = test::makeSimScene("tiny", 4, &rocky);
+    for (const products::ProductImage& im : r.scene.inputs.images) r.scene.inputs.truth_models.push_back(im.model);
+    r.out = test::scratchDir("products_seen");
+    r.report.truth = ground::TruthFigures{};
+    products::ProductOptions options;
+    options.dense_max_disparity_px = 64;
+    options.max_range_m = 18.0;  // the tiny terrain ends at 20 m
+    r.result = products::makeProducts(r.scene.inputs, options, r.out, &r.report);
+    products::mergeIntoReport(r.result, r.report);
+    return r;
+  }();
+  return run;
+}
+
+}  // namespace
+
+TEST_GROUP(SeenCells){};
+
+TEST(SeenCells, UnseenEmptySeenFilledAgainstTruth) {
+  const SeenRun& run = seenRun();
+  CHECK(run.result.dem.has_value());
+  const DemGrid& dem = *run.result.dem;
+  const DemGrid truth = run.terrain.dem();
+  const Vec3 g = run.scene.inputs.gimbal_site_m;
+  long long unseen = 0, empty = 0, seen = 0, filled = 0;
+  long long band[4][4] = {};
+  long long wrong_class[3] = {};  // per 5 m band: unseen, empty, seen, filled
+  constexpr int kStep = 3;  // every third cell each way: the ray cast is exact and slow
+  for (int r = 0; r < dem.rows; r += kStep) {
+    for (int c = 0; c < dem.cols; c += kStep) {
+      const double n = dem.northOfRow(r), e = dem.eastOfCol(c);
+      if (std::hypot(n - g.x(), e - g.y()) > 18.0) continue;
+      double t = 0;
+      if (!ortho::demElevation(truth, n, e, t)) continue;
+      const bool has = dem.at(c, r) != dem.nodata;
+      long long* b = band[std::min(3, static_cast<int>(std::hypot(n - g.x(), e - g.y()) / 5.0))];
+      const bool s = test::seenInTerrain(run.scene.inputs, run.terrain, Vec3(n, e, -t));
+      b[s ? 2 : 0] += 1;
+      b[s ? 3 : 1] += has == s;
+      if (!s && has) ++wrong_class[run.result.dem_seen[static_cast<std::size_t>(r) * dem.cols + c]];
+      if (s) {
+        ++seen;
+        filled += has;
+      } else {
+        ++unseen;
+        empty += !has;
+      }
+    }
+  }
+  const double unseen_empty = static_cast<double>(empty) / std::max(1LL, unseen);
+  const double seen_filled = static_cast<double>(filled) / std::max(1LL, seen);
+  const ground::TruthFigures& t = *run.report.truth;
+  std::printf("\n  unseen in truth but filled: %lld interpolated, %lld measured", wrong_class[1], wrong_class[2]);
+  for (int k = 0; k < 4; ++k)
+    std::printf("\n  %d-%d m: %lld unseen, %.1f %% empty; %lld seen, %.1f %% filled", 5 * k, 5 * k + 5, band[k][0],
+                100.0 * band[k][1] / std::max(1LL, band[k][0]), band[k][2], 100.0 * band[k][3] / std::max(1LL, band[k][2]));
+  std::printf("\n  rocky tiny x4: ray cast: %lld cells unseen, %.2f %% empty; %lld seen, %.2f %% filled; report.json: "
+              "%.2f %% / %.2f %%, ortho agreement %.2f %%\n",
+              unseen, 100 * unseen_empty, seen, 100 * seen_filled, 100 * t.dem_unseen_empty.value_or(-1),
+              100 * t.dem_seen_filled.value_or(-1), 100 * t.ortho_agreement.value_or(-1));
+  CHECK(unseen > 1000);
+  CHECK(seen > 1000);
+  // Within 5 m (where 256-px images measure the ground densely) the seen ground stays filled.
+  CHECK_TEXT(band[0][3] >= 0.95 * band[0][2], "seen cells within 5 m filled");
+  // report.json's figures (their own sweep in the true DEM) against the ray cast.
+  CHECK(t.dem_unseen_empty && t.dem_seen_filled && t.ortho_agreement);
+  DOUBLES_EQUAL(unseen_empty, *t.dem_unseen_empty, 0.02);
+  DOUBLES_EQUAL(seen_filled, *t.dem_seen_filled, 0.02);
+  // Not asserted: the 95 % of both that the goal sets. The 256-px images sample the ground at 5-10 m every
+  // 10-25 cm along the line of sight, about the length of most shadows here, and beyond 10 m the kriging's
+  // reach leaves seen ground empty (ground/dem/DemSeen.hpp "Limit"; docs/products.md has the figures).
+}
+
+TEST(SeenCells, SeenRasterMatchesTheDem) {
+  const SeenRun& run = seenRun();
+  const DemGrid dem = readDemGeoTiff(run.out + "/dem.tif");
+  const raster::Float32Raster seen = raster::readGeoTiff(run.out + "/dem_seen.tif");  // 8-bit, read as float
+  CHECK(seen.nodata.has_value());
+  DOUBLES_EQUAL(0.0, *seen.nodata, 0.0);
+  CHECK_EQUAL(dem.cols, seen.geometry.cols);
+  CHECK_EQUAL(dem.rows, seen.geometry.rows);
+  DOUBLES_EQUAL(dem.east0_m, seen.geometry.east0_m, 1e-9);
+  DOUBLES_EQUAL(dem.north0_m, seen.geometry.north0_m, 1e-9);
+  DOUBLES_EQUAL(dem.cell_m, seen.geometry.cell_m, 1e-12);
+  long long counts[3] = {0, 0, 0}, wrong = 0;
+  for (std::size_t i = 0; i < dem.values.size(); ++i) {
+    const int v = static_cast<int>(seen.values[i]);
+    CHECK(v >= 0 && v <= dem::kCellMeasured && v == seen.values[i]);
+    ++counts[v];
+    wrong += (v == dem::kCellUnseen) != (dem.values[i] == dem.nodata);
+  }
+  std::printf("\n  dem_seen.tif: %lld unseen, %lld interpolated, %lld measured\n", counts[0], counts[1], counts[2]);
+  CHECK_EQUAL(0, wrong);
+  CHECK(counts[1] > 0 && counts[2] > 0);
+}
+
+TEST(SeenCells, OrthoPaintsOnlyFromImagesThatSeeTheCell) {
+  const SeenRun& run = seenRun();
+  const DemGrid dem = readDemGeoTiff(run.out + "/dem.tif");
+  const DemGrid sigma = readDemGeoTiff(run.out + "/dem_sigma.tif");
+  std::vector<ortho::OrthoSource> sources;
+  for (const products::ProductImage& im : run.scene.inputs.images) sources.push_back({im.grey, im.model});
+  ortho::OrthoOptions with, without;
+  with.dem_sigma = &sigma;
+  without.occlusion = false;
+  const ortho::OrthoResult made = ortho::makeOrthoimage(dem, sources, with);
+  const ortho::OrthoResult old = ortho::makeOrthoimage(dem, sources, without);
+  long long painted = 0, hidden = 0, hidden_before = 0;
+  for (int r = 0; r < dem.rows; r += 2) {
+    for (int c = 0; c < dem.cols; c += 2) {
+      const int k = made.source.at<int16_t>(r, c), k_old = old.source.at<int16_t>(r, c);
+      if (k < 0 && k_old < 0) continue;
+      const Vec3 x(dem.northOfRow(r), dem.eastOfCol(c), -static_cast<double>(dem.at(c, r)));
+      if (k >= 0) {
+        ++painted;
+        hidden += products::terrainHides(dem, &sigma, sources[static_cast<std::size_t>(k)].model.c, x);
+      }
+      if (k_old >= 0) hidden_before += products::terrainHides(dem, &sigma, sources[static_cast<std::size_t>(k_old)].model.c, x);
+    }
+  }
+  std::printf("\n  ortho: %lld cells painted, %lld from an image the DEM hides them from (without the rule: %lld)\n",
+              painted, hidden, hidden_before);
+  CHECK(painted > 1000);
+  CHECK(hidden_before > 0);  // the scene has shadows that the rule has to keep out
+  // The sweep's horizon is interpolated between cells: a cell at the very edge of a shadow may differ.
+  CHECK(hidden <= painted / 1000);
+}
