@@ -6,10 +6,10 @@
 
 #include <Eigen/Cholesky>
 
+#include "firmware_core/base/Angles.hpp"
+
 namespace areomap {
 namespace {
-
-constexpr double kRegDegToRad = 3.14159265358979323846 / 180.0;
 
 int32_t stepsFor(double half_width, double step) {
   const int32_t n = static_cast<int32_t>(std::lround(half_width / step));
@@ -169,7 +169,7 @@ DemRegistrationResult CoarseDemRegistration::run(const CoarseDem& a, const Coars
     for (int32_t j = 0; j <= 2 * nxy; ++j) {
       for (int32_t i = 0; i <= 2 * nxy; ++i) {
         const Moments m =
-            moments(a, shiftedPose(apriori, (i - nxy) * cell, (j - nxy) * cell, (k - nh) * kRegDegToRad),
+            moments(a, shiftedPose(apriori, (i - nxy) * cell, (j - nxy) * cell, (k - nh) * kDegToRad),
                     params.max_range_m, kStride);
         double v = std::numeric_limits<double>::infinity();
         if (m.n >= min_grid) v = std::max(0.0, m.sum2 / m.n - (m.sum / m.n) * (m.sum / m.n));
@@ -212,7 +212,7 @@ DemRegistrationResult CoarseDemRegistration::run(const CoarseDem& a, const Coars
   // Equal minima (flat ground: every cost 0) are as ambiguous as they come.
   out.cost_ratio = !std::isfinite(second) ? 0.0 : (second > 0.0 ? best / second : 1.0);
 
-  LevelledPose pose = shiftedPose(apriori, (bi - nxy) * cell, (bj - nxy) * cell, (bk - nh) * kRegDegToRad);
+  LevelledPose pose = shiftedPose(apriori, (bi - nxy) * cell, (bj - nxy) * cell, (bk - nh) * kDegToRad);
   const Moments start = moments(a, pose, params.max_range_m, 1);
   pose.translation_m.z() -= start.sum / std::max(1, start.n);  // d = e_a - z: moving B down by d zeroes it
   out.status = DemRegistrationStatus::kOk;

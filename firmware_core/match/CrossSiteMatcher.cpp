@@ -2,13 +2,12 @@
 
 #include <cmath>
 
+#include "firmware_core/base/Angles.hpp"
 #include "firmware_core/camera/Binning.hpp"
 #include "firmware_core/match/Ncc.hpp"
 
 namespace areomap {
 namespace {
-
-constexpr double kCrossDegToRad = 3.14159265358979323846 / 180.0;
 
 // Bilinear sample of a kept image at (x, y) (pixel centres at integers); false outside.
 bool keptSample(const KeptImage& k, double x, double y, double& value) {
@@ -154,7 +153,7 @@ bool CrossSiteMatcher::matchOne(const CrossSiteRecord& a, const CrossSiteCandida
   }
   const Mat3 r = a_from_b.rotation();
   const Vec3 normal_a = r * normal_b;
-  const double min_sin = std::sin(params.min_incidence_deg * kCrossDegToRad);
+  const double min_sin = std::sin(params.min_incidence_deg * kDegToRad);
   if (incidenceSin(ray_b.normalized(), normal_b) < min_sin || incidenceSin(ray_a.normalized(), normal_a) < min_sin) {
     counts.grazing += 1;
     return false;

@@ -4,12 +4,12 @@
 #include <cmath>
 #include <cstring>
 
+#include "firmware_core/base/Angles.hpp"
 #include "msgs/adapters/MessageAdapters.hpp"
 
 namespace areomap {
 namespace {
 
-constexpr double kRoverDegToRad = 3.14159265358979323846 / 180.0;
 // The tilt sigma of a leg between two levelled site frames: the rover's accelerometers level each frame
 // far better than wheel odometry measures heading (the ground's kLevelSigmaRad, CrossSiteAdjustment.hpp).
 constexpr double kRoverLevelSigmaRad = 1e-3;
@@ -18,7 +18,7 @@ constexpr double kRoverLevelSigmaRad = 1e-3;
 constexpr double kRoverTieSigmaPx = 0.3;
 
 Mat3 headingRotation(double heading_deg) {
-  const double h = heading_deg * kRoverDegToRad;
+  const double h = heading_deg * kDegToRad;
   const double c = std::cos(h), s = std::sin(h);
   Mat3 r;
   r << c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0;
@@ -48,7 +48,7 @@ Mat6 carried(const Mat6& held_cov, const Vec3& held_p, const Vec3& site_p) {
 }  // namespace
 
 double headingDegOf(const Mat3& rotation) {
-  return std::atan2(rotation(1, 0), rotation(0, 0)) / kRoverDegToRad;
+  return std::atan2(rotation(1, 0), rotation(0, 0)) / kDegToRad;
 }
 
 void RoverTraverse::reset() {
@@ -85,7 +85,7 @@ void RoverTraverse::announce(const site_t& site) {
   pending_leg_.delta_rotation = headingRotation(site.delta_heading_deg);
   pending_leg_.sigma_position_m = Vec3(site.sigma_m[0], site.sigma_m[1], site.sigma_m[2]);
   pending_leg_.sigma_rotation_rad =
-      Vec3(kRoverLevelSigmaRad, kRoverLevelSigmaRad, site.sigma_heading_deg * kRoverDegToRad);
+      Vec3(kRoverLevelSigmaRad, kRoverLevelSigmaRad, site.sigma_heading_deg * kDegToRad);
   pending_apriori_.position_m = Vec3(site.position_m[0], site.position_m[1], site.position_m[2]);
   pending_apriori_.rotation = headingRotation(site.heading_deg);
 }
@@ -263,7 +263,7 @@ void RoverTraverse::tieLeg(int32_t record_b, int32_t site_a, int32_t site_b) {
   DemRegistrationParams params;
   const double sigma_m = std::max(pending_leg_.sigma_position_m.x(), pending_leg_.sigma_position_m.y());
   params.search_m = std::min(6.0, std::max(2.0, 3.0 * sigma_m));
-  params.search_deg = std::min(12.0, std::max(5.0, 3.0 * pending_leg_.sigma_rotation_rad.z() / kRoverDegToRad));
+  params.search_deg = std::min(12.0, std::max(5.0, 3.0 * pending_leg_.sigma_rotation_rad.z() / kDegToRad));
   leg_.candidates_a = a.candidateCount();
   leg_.kept_images_b = b.imageCount();
   leg_.registration = registration_.run(a.dem(), b.dem(), apriori, params);

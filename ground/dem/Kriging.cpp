@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
-#include <thread>
 
 #include "ground/cli/Parallel.hpp"
 #include "ground/dem/KdTree.hpp"
@@ -348,11 +347,9 @@ void krigeCells(const CellInputs& in, const DemGrid& grid, int threads_wanted, K
   const int threads =
       std::clamp(cli::threadCount(threads_wanted), 1, std::max(1, std::min(grid.rows, kMaxKrigingThreads)));
   std::vector<RowCounts> counts(static_cast<std::size_t>(threads));
-  const auto run = [&](int t) { counts[static_cast<std::size_t>(t)] = krigeRows(in, grid, t, threads, res); };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(run, t);
-  run(0);
-  for (std::thread& th : pool) th.join();
+  cli::parallelFor(static_cast<std::size_t>(threads), threads, [&](std::size_t t) {
+    counts[t] = krigeRows(in, grid, static_cast<int>(t), threads, res);
+  });
   for (const RowCounts& c : counts) {
     res.cells_kriged += c.kriged;
     res.cells_unsupported += c.unsupported;

@@ -7,6 +7,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "firmware_core/camera/CahvInternal.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/dem/Viewshed.hpp"
 
 namespace areomap::ortho {
@@ -136,13 +137,11 @@ TerrainVisibility terrainVisibility(const DemGrid& dem, const std::vector<OrthoS
   for (std::size_t k = 0; k < sources.size(); ++k) {
     if (sources[k].grey.empty()) continue;
     dem::horizonFrom(hiding, sources[k].model.c, horizon, true);
-    cv::parallel_for_(cv::Range(0, dem.rows), [&](const cv::Range& range) {
-      for (int r = range.start; r < range.end; ++r) {
-        for (int c = 0; c < dem.cols; ++c) {
-          const std::size_t i = static_cast<std::size_t>(r) * dem.cols + c;
-          const float v = dem.values[i];
-          if (v != dem.nodata && v >= horizon[i]) vis.bits[i * vis.words + k / 64] |= uint64_t{1} << (k % 64);
-        }
+    cli::parallelFor(static_cast<std::size_t>(dem.rows), 0, [&](std::size_t r) {
+      for (int c = 0; c < dem.cols; ++c) {
+        const std::size_t i = r * dem.cols + c;
+        const float v = dem.values[i];
+        if (v != dem.nodata && v >= horizon[i]) vis.bits[i * vis.words + k / 64] |= uint64_t{1} << (k % 64);
       }
     });
   }

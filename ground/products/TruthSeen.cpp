@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ground/cli/Parallel.hpp"
 #include "ground/dem/DemSeen.hpp"
 #include "ground/dem/Viewshed.hpp"
 #include "ground/ortho/Orthoimage.hpp"
@@ -55,14 +56,13 @@ std::vector<uint8_t> cellsSeen(const DemGrid& surface, const std::vector<cv::Mat
     const CameraModel& m = models[k];
     dem::horizonFrom(surface, m.c, horizon, false);
     const dem::ImageCone cone = dem::imageCone(m);
-    cv::parallel_for_(cv::Range(0, surface.rows), [&](const cv::Range& range) {
-      for (int r = range.start; r < range.end; ++r) {
-        for (int c = 0; c < surface.cols; ++c) {
-          const std::size_t i = static_cast<std::size_t>(r) * surface.cols + c;
-          const float z = surface.values[i];
-          if (seen[i] || z == surface.nodata || z + tolerance_m < horizon[i]) continue;
-          seen[i] = dem::imageSees(m, cone, Vec3(surface.northOfRow(r), surface.eastOfCol(c), -z));
-        }
+    cli::parallelFor(static_cast<std::size_t>(surface.rows), 0, [&](std::size_t row) {
+      const int r = static_cast<int>(row);
+      for (int c = 0; c < surface.cols; ++c) {
+        const std::size_t i = row * surface.cols + c;
+        const float z = surface.values[i];
+        if (seen[i] || z == surface.nodata || z + tolerance_m < horizon[i]) continue;
+        seen[i] = dem::imageSees(m, cone, Vec3(surface.northOfRow(r), surface.eastOfCol(c), -z));
       }
     });
   }

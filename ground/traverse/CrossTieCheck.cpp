@@ -8,7 +8,7 @@
 
 #include <Eigen/Dense>
 
-#include "ground/traverse/Angles.hpp"
+#include "firmware_core/base/Angles.hpp"
 #include "ground/traverse/CrossTieSteps.hpp"
 
 namespace areomap::traverse {

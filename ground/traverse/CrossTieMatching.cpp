@@ -9,8 +9,8 @@
 
 #include <Eigen/Dense>
 
+#include "firmware_core/base/Angles.hpp"
 #include "firmware_core/match/ForstnerDetector.hpp"
-#include "ground/traverse/Angles.hpp"
 #include "ground/traverse/CrossTieSteps.hpp"
 
 namespace areomap::traverse {

@@ -1,7 +1,5 @@
 #include "ground/traverse/DemRegistration.hpp"
 
-#include "ground/traverse/OrthoRegistration.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -13,7 +11,8 @@
 
 #include <Eigen/Dense>
 
-#include "ground/traverse/Angles.hpp"
+#include "firmware_core/base/Angles.hpp"
+#include "ground/traverse/OrthoRegistration.hpp"
 
 namespace areomap::traverse {
 

@@ -6,11 +6,12 @@
 #include <limits>
 #include <vector>
 
+#include "firmware_core/base/Angles.hpp"
+
 namespace areomap::traverse {
 
 namespace {
 
-constexpr double kOrthoDegToRad = 3.14159265358979323846 / 180.0;
 constexpr int kOrthoMinCells = 200;  // common cells below which a correlation is not taken
 
 struct OrthoSample {
@@ -135,7 +136,7 @@ double orthoSecondPeak(const OrthoNccGrid& g, const OrthoPeak& best, const Regis
         if (v <= second) continue;
         const double d = std::hypot(i - best.i, j - best.j) * g.step_m;
         if (d < params.second_min_distance_m &&
-            std::fabs(k - best.k) * g.step_rad < params.second_min_deg * kOrthoDegToRad)
+            std::fabs(k - best.k) * g.step_rad < params.second_min_deg * kDegToRad)
           continue;
         if (orthoLocalPeak(g, i, j, k)) second = v;
       }
@@ -163,9 +164,9 @@ OrthoRegistration registerOrthos(const SiteProducts& a, const SiteProducts& b, c
   // Coarse: about ten steps each side, the orthos averaged to the step.
   OrthoNccGrid coarse;
   coarse.step_m = std::max(0.2, params.search_m / 10.0);
-  coarse.step_rad = std::max(1.0, params.search_deg / 5.0) * kOrthoDegToRad;
+  coarse.step_rad = std::max(1.0, params.search_deg / 5.0) * kDegToRad;
   coarse.n = static_cast<int>(std::lround(params.search_m / coarse.step_m));
-  coarse.nh = static_cast<int>(std::lround(params.search_deg * kOrthoDegToRad / coarse.step_rad));
+  coarse.nh = static_cast<int>(std::lround(params.search_deg * kDegToRad / coarse.step_rad));
   const int fa = std::max(1, static_cast<int>(std::lround(coarse.step_m / a.ortho->cell_m)));
   const int fb = std::max(1, static_cast<int>(std::lround(coarse.step_m / b.ortho->cell_m)));
   const DemGrid coarse_a = fa > 1 ? coarsenDem(*a.ortho, fa) : *a.ortho;

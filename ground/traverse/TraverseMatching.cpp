@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ground/traverse/Angles.hpp"
+#include "firmware_core/base/Angles.hpp"
 
 namespace areomap::traverse {
 

@@ -6,9 +6,9 @@
 #include <cstdlib>
 #include <map>
 
+#include "firmware_core/base/Angles.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/CameraFile.hpp"
-#include "ground/traverse/Angles.hpp"
 
 namespace areomap::traverse {
 
@@ -16,7 +16,7 @@ namespace {
 
 
 double wrapDeg(double rad) {
-  return std::remainder(rad, 2.0 * 3.14159265358979323846) * kRadToDeg;
+  return std::remainder(rad, 2.0 * kPi) * kRadToDeg;
 }
 
 double quantile(std::vector<double> v, double q) {
