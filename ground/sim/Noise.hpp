@@ -61,4 +61,67 @@ inline double fbm(uint64_t seed, double x, double y, double wavelength, int octa
   return sum / norm;
 }
 
+// fbm() along a line of constant x, for grids filled row by row: per octave the x lattice column and its
+// weight are fixed, and the two x-interpolated lattice values are reused while y stays in one lattice cell
+// (an octave's cell spans several grid nodes). Every value is fbm()'s bit for bit: the same operations on the
+// same operands, in the same order.
+class FbmAlongY {
+ public:
+  static constexpr int kMaxOctaves = 16;
+
+  // `octaves` beyond kMaxOctaves are not evaluated.
+  FbmAlongY(uint64_t seed, double x, double wavelength, int octaves, double gain)
+      : octaves_(octaves < kMaxOctaves ? octaves : kMaxOctaves) {
+    double amplitude = 1.0, freq = 1.0 / wavelength;
+    for (int o = 0; o < octaves_; ++o) {
+      Octave& v = octave_[o];
+      v.seed = seed + 0x51ed2701ULL * static_cast<uint64_t>(o + 1);
+      v.freq = freq;
+      v.y_offset = 0.61 * o;
+      v.amplitude = amplitude;
+      const double xo = x * freq + 0.37 * o;
+      const double fx = std::floor(xo);
+      v.ix = static_cast<int64_t>(fx);
+      const double tx = xo - fx;
+      v.sx = tx * tx * tx * (tx * (tx * 6.0 - 15.0) + 10.0);
+      norm_ += amplitude;
+      amplitude *= gain;
+      freq *= 2.0;
+    }
+  }
+
+  double operator()(double y) {
+    double sum = 0.0;
+    for (int o = 0; o < octaves_; ++o) {
+      Octave& v = octave_[o];
+      const double yo = y * v.freq - v.y_offset;
+      const double fy = std::floor(yo);
+      const int64_t iy = static_cast<int64_t>(fy);
+      const double ty = yo - fy;
+      const double sy = ty * ty * ty * (ty * (ty * 6.0 - 15.0) + 10.0);
+      if (!v.cached || iy != v.iy) {
+        const double v00 = unit(latticeHash(v.seed, v.ix, iy)), v10 = unit(latticeHash(v.seed, v.ix + 1, iy));
+        const double v01 = unit(latticeHash(v.seed, v.ix, iy + 1)), v11 = unit(latticeHash(v.seed, v.ix + 1, iy + 1));
+        v.a = v00 + (v10 - v00) * v.sx;
+        v.b = v01 + (v11 - v01) * v.sx;
+        v.iy = iy;
+        v.cached = true;
+      }
+      sum += v.amplitude * (2.0 * (v.a + (v.b - v.a) * sy) - 1.0);
+    }
+    return sum / norm_;
+  }
+
+ private:
+  struct Octave {
+    uint64_t seed = 0;
+    double freq = 0.0, y_offset = 0.0, amplitude = 0.0, sx = 0.0, a = 0.0, b = 0.0;
+    int64_t ix = 0, iy = 0;
+    bool cached = false;
+  };
+  Octave octave_[kMaxOctaves];
+  int octaves_ = 0;
+  double norm_ = 0.0;
+};
+
 }  // namespace areomap::sim

@@ -160,9 +160,11 @@ void Terrain::fillRelief(Grid& g, const Relief& r, int threads) {
   g.albedo.assign(static_cast<std::size_t>(gn) * gn, 0.0f);
   parallelFor(gn, threads, [&](int ix) {
     const double x = g.x0 + ix * g.cell;
+    FbmAlongY relief_noise(r.s_relief, x, 32.0, r.octaves, 0.55), patch_noise(r.s_patch, x, 8.0, 3, 0.5);
+    FbmAlongY dust_noise(r.s_dust, x, 1.5, 3, 0.6), mottle_noise(r.s_mottle, x, 0.4, 3, 0.7);
     for (int iy = 0; iy < gn; ++iy) {
       const double y = g.y0 + iy * g.cell;
-      const double relief = r.relief_scale * fbm(r.s_relief, x, y, 32.0, r.octaves, 0.55);
+      const double relief = r.relief_scale * relief_noise(y);
       const double regional = r.slope * (x * std::cos(r.slope_az) + y * std::sin(r.slope_az));
       double height = relief + regional;
       if (r.swell_gradient > 0.0) {
@@ -172,10 +174,10 @@ void Terrain::fillRelief(Grid& g, const Relief& r, int threads) {
       }
       g.h[static_cast<std::size_t>(ix) * gn + iy] = static_cast<float>(height);
       // Bright and dark patches (smooth threshold of low-frequency noise), dust mottling, fine variation.
-      const double patch = fbm(r.s_patch, x, y, 8.0, 3, 0.5);
+      const double patch = patch_noise(y);
       const double patches = std::tanh(4.0 * patch) * 0.22;
-      const double dust = 0.15 * fbm(r.s_dust, x, y, 1.5, 3, 0.6);
-      const double mottle = 0.2 * fbm(r.s_mottle, x, y, 0.4, 3, 0.7);
+      const double dust = 0.15 * dust_noise(y);
+      const double mottle = 0.2 * mottle_noise(y);
       g.albedo[static_cast<std::size_t>(ix) * gn + iy] =
           static_cast<float>(0.24 * (1.0 + patches) * (1.0 + dust) * (1.0 + mottle));
     }

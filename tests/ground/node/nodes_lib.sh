@@ -34,9 +34,10 @@ node_test_start() {
 # A udpm URL of loopback for this test (ttl=0; receive buffers for a whole panorama, as run.sh).
 node_url() { echo "udpm://239.255.76.67:$(( 20000 + $$ % 20000 ))?ttl=0&recv_buf_size=67108864"; }
 
-# make_dataset PRESET DIR: areomap-sim --preset PRESET --seed 1, reused when DIR holds it already.
+# make_dataset PRESET DIR [SIM_OPTION...]: areomap-sim --preset PRESET --seed 1 [SIM_OPTION...], reused when
+# DIR holds it already with the same options.
 make_dataset() {
-  local preset=$1 dir=$2 options="--preset $1 --seed 1"
+  local preset=$1 dir=$2 options="--preset $1 --seed 1${3:+ ${*:3}}"
   if [[ -f "$dir/panorama.json" && -f "$dir.options" && "$(cat "$dir.options")" == "$options" ]]; then
     echo "reusing $dir ($options)"
     return 0

@@ -3,17 +3,19 @@
 # replayed at full speed (stock `lcm-logplayer -s 0`) over udpm on loopback to both nodes: the ground's
 # collector (areomap-ground --stream-only) and the rover must see every pair: 0 sequence gaps, nothing
 # rejected, every pair accepted by the rover and its final EO arrived.
-# The dataset is made once and kept in $AREOMAP_NAVCAM_DATASET or BUILD_DIR/test-scratch/navcam-seed1
-# (areomap-sim takes 6-20 min on 2 shared cores; the replay test itself 1-3 min: the rover's panorama).
+# The dataset is made once and kept in $AREOMAP_NAVCAM_DATASET or BUILD_DIR/test-scratch/navcam-seed1-ss1
+# (areomap-sim takes a few minutes on 2 shared cores; the replay test itself 1-3 min: the rover's panorama).
 # Usage: run_navcam_replay.sh BUILD_DIR SCRATCH_DIR
 set -euo pipefail
 BUILD=$1
 SCRATCH=$2
 source "$(dirname "$0")/nodes_lib.sh"
 node_test_start "$SCRATCH" "$0" "$@"
-DATASET=${AREOMAP_NAVCAM_DATASET:-$BUILD/test-scratch/navcam-seed1}
+DATASET=${AREOMAP_NAVCAM_DATASET:-$BUILD/test-scratch/navcam-seed1-ss1}
 mkdir -p "$(dirname "$DATASET")"
-make_dataset navcam "$DATASET"
+# One ray per pixel: what this test checks (transport at full speed, every pair taken by the rover) does not
+# depend on the renderer's anti-aliasing, and one ray is a quarter of the sim's work.
+make_dataset navcam "$DATASET" --supersample 1
 "$BUILD/bin/areomap-pack" "$DATASET" --out "$SCRATCH/navcam.lcm" > /dev/null 2>&1 || fail "areomap-pack"
 URL=$(node_url)
 rmem=$(sysctl -n net.core.rmem_max 2> /dev/null || echo 0)
