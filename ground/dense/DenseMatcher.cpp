@@ -534,7 +534,7 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
     bp.max_census_cost_bits = o.max_census_cost_bits;
     bp.lr_max_diff_px = o.lr_max_diff_px;
     bp.no_match_cost = kNoMatchCost;
-    blockCheck(cl, cr, v, res.valid, res.disparity, 3, bp, res.block_check_px);
+    blockCheck(cl, cr, v, res.valid, res.disparity, 6, bp, res.block_check_px);
     blockFill(cl, cr, v, candidate, bp, res.disparity, res.valid, res.block, res.block_lr_diff_px);
   }
   double t2 = seconds();

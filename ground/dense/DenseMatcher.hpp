@@ -88,7 +88,7 @@ struct DenseResult {
   // least-squares matching replaces them.
   cv::Mat lr_diff_px;  // of the one-pixel matches only
   cv::Mat block_lr_diff_px;  // the same for the block matches (BlockFill.hpp), from their block costs
-  // CV_32F: at every third pixel (rows and columns) of the one-pixel matches, the fill pass's block disparity
+  // CV_32F: at every sixth pixel (rows and columns) of the one-pixel matches, the fill pass's block disparity
   // less the one-pixel one (blockCheck); NaN elsewhere. The block class's noise (PairCloud::block_noise).
   cv::Mat block_check_px;
   SubpixelStats subpixel;
