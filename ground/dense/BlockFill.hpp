@@ -41,10 +41,10 @@ long long blockFill(const cv::Mat& cl, const cv::Mat& cr, const BandVolume& v, c
 // The class's noise from the pair's own data: its left-right disagreement misses the errors both views'
 // block costs share (the block's smoothing of relief: on a textured pair with relief the block matches'
 // left-right estimate falls well below their actual errors, tests/ground/dense/MatchNoiseTest.cpp), so the
-// block winner is also found at every every_px-th pixel (rows and columns) of the one-pixel matches (`valid`,
-// `disparity`), the same tests on its left view. `check_px` (CV_32F) gets the block disparity less the
-// one-pixel one there, NaN elsewhere: its spread holds both classes' errors where they are independent, an
-// upper bound of the block class's.
+// block winner is also found at every every_px-th pixel (rows and columns) of the one-pixel matches
+// (`valid`, `disparity`), with the same tests on its left view. `check_px` (CV_32F) gets the block disparity
+// less the one-pixel one there, NaN elsewhere: its spread holds both classes' errors where they are
+// independent, an upper bound of the block class's.
 void blockCheck(const cv::Mat& cl, const cv::Mat& cr, const BandVolume& v, const cv::Mat& valid,
                 const cv::Mat& disparity, int every_px, const BlockFillParams& p, cv::Mat& check_px);
 
