@@ -231,6 +231,8 @@ void compare(const char* title, const dense::PairMatchSetup& p, const Regions& r
 
 }  // namespace
 
+// Long because: the benchmark's steps (arguments, the ground pass, the pair's set-up, both tables, the dump)
+// in the order they run, each printed as it goes.
 int main(int argc, char** argv) {
   const std::string dir = test::sharedDataDir() + "/m2020-navcam-stereo-pairs/";
   std::string left_json = dir + "NLF_0340_0697121914_417ECM_N0090364NCAM00420_01_195J.json";
