@@ -342,8 +342,10 @@ void fineCosts(const cv::Mat& cl, const cv::Mat& cr, const std::vector<uint8_t>&
 
 // Texture: the grey range inside the census window. Below the threshold the census bits are noise or zero
 // and a "match" would only be the aggregation's guess.
-cv::Mat textureMask(const cv::Mat& left, const DenseOptions& o) {
-  const cv::Mat window = cv::Mat::ones(2 * kCensusHalfHeight + 1, 2 * kCensusHalfWidth + 1, CV_8UC1);
+// block_half_px > 0: the grey range inside the union of the census windows of a block (the fill pass).
+cv::Mat textureMask(const cv::Mat& left, const DenseOptions& o, int block_half_px = 0) {
+  const cv::Mat window = cv::Mat::ones(2 * (kCensusHalfHeight + block_half_px) + 1,
+                                       2 * (kCensusHalfWidth + block_half_px) + 1, CV_8UC1);
   cv::Mat hi_img, lo_img;
   cv::dilate(left, hi_img, window, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
   cv::erode(left, lo_img, window, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
@@ -370,11 +372,12 @@ float rightSubpixel(const BandVolume& v, const std::vector<uint16_t>& sum, int y
 // Winner per left pixel into res.disparity and res.valid, and the right image's winner from the same
 // aggregated volume for the left-right check; `occluded` marks the pixels that check finds occluded. Where
 // the check passes, res.lr_diff_px gets the left sub-pixel disparity less the right one (rightSubpixel).
-// `evidence` marks the pixels inside their band whose window has texture and whose own census cost at the
-// winner is below chance: those that only the uniqueness or the left-right test refused can be refilled.
+// `interior` marks the pixels inside their band whose aggregated winner lies strictly inside it: at a band's
+// end the evidence points beyond the band (the coarse pass's range does not hold the match), and the fill
+// pass, which searches the same band, has nothing to find there.
 void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const std::vector<uint8_t>& no_band,
                    const cv::Mat& texture, const DenseOptions& o, DenseResult& res, cv::Mat& occluded,
-                   cv::Mat& evidence) {
+                   cv::Mat& interior) {
   const int rows = v.rows, cols = v.cols;
   res.disparity = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   res.valid = cv::Mat::zeros(rows, cols, CV_8UC1);
@@ -404,7 +407,8 @@ void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const 
       // the aggregation does (sky, parts of the left image the right one does not see).
       const uint16_t own_cost = v.cost[static_cast<std::size_t>(v.offset[p]) + (w.integer - v.lo[p])];
       const bool evident = !no_band[p] && texture.at<uint8_t>(y, x) && own_cost <= o.max_census_cost_bits;
-      if (evident) evidence.at<uint8_t>(y, x) = 255;
+      if (!no_band[p] && w.integer > v.lo[p] && w.integer < v.lo[p] + v.count[p] - 1)
+        interior.at<uint8_t>(y, x) = 255;
       if (w.unique && evident) {
         drow[x] = w.disparity;
         vrow[x] = 255;
@@ -514,24 +518,34 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
   aggregateSemiGlobal(v, left, o.fine_sgm, sum);
   const cv::Mat texture = textureMask(left, o);
   cv::Mat occluded = cv::Mat::zeros(rows, cols, CV_8UC1);
-  cv::Mat evidence = cv::Mat::zeros(rows, cols, CV_8UC1);
-  selectWinners(v, sum, no_band, texture, o, res, occluded, evidence);
+  cv::Mat interior = cv::Mat::zeros(rows, cols, CV_8UC1);
+  selectWinners(v, sum, no_band, texture, o, res, occluded, interior);
   res.block = cv::Mat::zeros(rows, cols, CV_8UC1);
   res.block_lr_diff_px = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  const double t_fill = seconds();
   if (o.fill_block_px > 0) {
-    // Not the pixels whose own window is at chance level at the aggregated winner (sky, the parts of the
-    // left image that the right one does not see): a block there finds chance minima as well.
-    const cv::Mat candidate = evidence & (res.valid == 0);
-    const BlockFillParams bp{o.fill_block_px / 2, o.uniqueness_percent, o.max_census_cost_bits,
-                             o.lr_max_diff_px, kNoMatchCost};
+    // The pixels left without a match whose block has texture (the grey range over the union of its census
+    // windows; a pixel's own window may have none, the block's evidence is the block).
+    const cv::Mat candidate = textureMask(left, o, o.fill_block_px / 2) & interior & (res.valid == 0);
+    BlockFillParams bp;
+    bp.block_half_px = o.fill_block_px / 2;
+    bp.stride_px = bp.block_half_px % 2 == 0 ? 2 : 1;
+    bp.uniqueness_percent = o.uniqueness_percent;
+    bp.max_census_cost_bits = o.max_census_cost_bits;
+    bp.lr_max_diff_px = o.lr_max_diff_px;
+    bp.no_match_cost = kNoMatchCost;
+    blockCheck(cl, cr, v, res.valid, res.disparity, 6, bp, res.block_check_px);
     blockFill(cl, cr, v, candidate, bp, res.disparity, res.valid, res.block, res.block_lr_diff_px);
   }
   double t2 = seconds();
   res.fine_seconds = t2 - t1;
+  res.fill_seconds = t2 - t_fill;
 
   removeSpeckles(o, res);
   res.lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
   res.block_lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
+  if (!res.block_check_px.empty())
+    res.block_check_px.setTo(std::numeric_limits<float>::quiet_NaN(), res.valid == 0);
   res.block.setTo(0, res.valid == 0);
   if (o.refine_subpixel) {
     res.subpixel = refineSubpixel(left, right, res.disparity, res.valid, o.subpixel, &res.sigma_px);

@@ -5,7 +5,8 @@
 //     semi-global aggregation over the grid);
 //  3. fine matching on the 1-px grid in a small range around the coarse result (min..max of the coarse
 //     disparities of the 4x4 surrounding grid nodes, +- a margin), census cost + semi-global aggregation;
-//  4. uniqueness and left-right consistency checks, speckle removal, and a validity mask;
+//  4. uniqueness and left-right consistency checks, a fill pass over a block for the pixels they refuse
+//     (BlockFill.hpp), speckle removal, and a validity mask;
 //  5. sub-pixel disparities by least-squares matching (SubpixelRefine.hpp) from the integer winner and the
 //     parabola through its aggregated costs.
 // Rows of a rectified pair are epipolar lines, so every search is restricted to the epipolar line.
@@ -47,11 +48,11 @@ struct DenseOptions {
   // and the left-right disagreement (MatchNoise.hpp) no longer sees all of them: the point and DEM sigmas
   // are calibrated for 1.
   int fine_block_px = 1;
-  // The fill pass (BlockFill.hpp): pixels with texture and a below-chance census cost at their winner that
-  // the uniqueness or left-right test refused are matched again over this odd block (0: off). Off by
-  // default: its matches form a class of their own (DenseResult::block) whose noise and error correlation
-  // the point and DEM sigmas do not yet carry.
-  int fill_block_px = 0;
+  // The fill pass (BlockFill.hpp): pixels left without a match whose block has texture are matched again
+  // over this odd block (0: off), with the one-pixel pass's tests on the block's cost. Its matches form a
+  // class of their own (DenseResult::block) with their own left-right differences (block_lr_diff_px), from
+  // which the pair's cloud gives them their own noise estimate (PairCloud::block_noise).
+  int fill_block_px = 9;
   SemiGlobalParams coarse_sgm{8, 64, 8};
   SemiGlobalParams fine_sgm{8, 96, 8};
   int uniqueness_percent = 5;      // best must beat every non-adjacent candidate by this much
@@ -62,8 +63,12 @@ struct DenseOptions {
   // left image that the right one does not see (points metres off at the far range).
   int max_census_cost_bits = 23;
   double lr_max_diff_px = 1.0;     // left-right consistency tolerance
-  int speckle_max_area_px = -1;    // connected disparity blobs smaller than this are removed (-1: auto)
-  double speckle_max_step_px = 1.0;
+  // Connected disparity blobs (neighbours within speckle_max_step_px) smaller than this are removed (-1: a
+  // 2000th of the image). The values of OpenCV's StereoSGBM as its documentation advises them (window 50-200
+  // px, range 1-2 px) and as the real-pair benchmark runs it, so that both matchers' densities count the
+  // same.
+  int speckle_max_area_px = 100;
+  double speckle_max_step_px = 2.0;
   bool refine_subpixel = false;  // least-squares matching (SubpixelRefine.hpp); false: the parabola's
   SubpixelOptions subpixel;
   bool fill_holes = false;         // fill LR-check failures: occlusions from the background side,
@@ -83,9 +88,13 @@ struct DenseResult {
   // least-squares matching replaces them.
   cv::Mat lr_diff_px;  // of the one-pixel matches only
   cv::Mat block_lr_diff_px;  // the same for the block matches (BlockFill.hpp), from their block costs
+  // CV_32F: at every sixth pixel (rows and columns) of the one-pixel matches, the fill pass's block disparity
+  // less the one-pixel one (blockCheck); NaN elsewhere. The block class's noise (PairCloud::block_noise).
+  cv::Mat block_check_px;
   SubpixelStats subpixel;
   double coarse_seconds = 0.0;
-  double fine_seconds = 0.0;
+  double fine_seconds = 0.0;  // the fine pass, its fill pass included
+  double fill_seconds = 0.0;  // the fill pass
   double post_seconds = 0.0;  // speckles, sub-pixel refinement, holes
   long long fine_cells = 0;   // size of the fine banded volume (pixels x candidates)
   double matched_fraction = 0.0;  // valid pixels / all pixels

@@ -28,6 +28,37 @@ double supportRangeM(const RectifiedPair& rect, double max_range_m) {
                                             : 2.0 * max_range_m;
 }
 
+// The pixel sigma of every kept match (PairCloud::block_noise): the pair's estimate for the one-pixel
+// matches, the fill pass's own for its block matches, from the block disparities less the one-pixel ones at a
+// sample of the one-pixel matches (DenseResult::block_check_px, BlockFill.hpp blockCheck): 1.4826 MAD of
+// those differences, which hold the block class's errors whole (not the half of each of two views that
+// estimateMatchNoise takes), and the one-pixel class's besides. Block matches without an estimate of their
+// own (fewer than kMinMatchNoiseSamples differences, or a constant sigma asked for, which is calibrated for
+// the one-pixel matches) are dropped from `d.disparity`: they would carry a sigma that is not theirs.
+cv::Mat blockClassSigma(DenseResult& d, const PairCloudOptions& options, PairCloud& out) {
+  cv::Mat sigma(d.disparity.size(), CV_32FC1, cv::Scalar(out.match_noise.sigma_px));
+  if (d.block.empty()) return sigma;
+  const cv::Mat block = d.block & (d.disparity == d.disparity);
+  out.block_noise.samples = 0;
+  if (cv::countNonZero(block) == 0) return sigma;
+  if (options.estimate_match_sigma && !d.block_check_px.empty()) {
+    out.block_noise = estimateMatchNoise(d.block_check_px, 0.0);
+    out.block_noise.lr_sigma_px *= std::sqrt(2.0);
+    if (out.block_noise.source == "left_right") {
+      out.block_noise.sigma_px = out.block_noise.lr_sigma_px;
+      out.block_noise.source = "block_check";
+    }
+  }
+  if (out.block_noise.source == "block_check") {
+    sigma.setTo(out.block_noise.sigma_px, block);
+  } else {
+    d.disparity.setTo(std::numeric_limits<float>::quiet_NaN(), block);
+    out.block_noise.source = "dropped";
+    out.block_noise.sigma_px = 0.0;
+  }
+  return sigma;
+}
+
 }  // namespace
 
 cv::Mat insideOriginal(const cv::Mat& map) {
@@ -120,8 +151,11 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
   }
   // Of the rectified pixels that show the left original (the rectified image may be larger than it).
   out.matched_fraction = keepMatchesInside(rect, d.disparity);
-  // The noise estimate from the kept matches only (a NaN disparity is unequal to itself).
-  d.lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), d.disparity != d.disparity);
+  // The noise estimates from the kept matches only (a NaN disparity is unequal to itself).
+  const cv::Mat unkept = d.disparity != d.disparity;
+  d.lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), unkept);
+  d.block_lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), unkept);
+  if (!d.block_check_px.empty()) d.block_check_px.setTo(std::numeric_limits<float>::quiet_NaN(), unkept);
   out.seconds_dense = now() - t0;
   if (out.matched_fraction < options.min_matched_fraction) {
     out.error = "no valid dense matches (" + std::to_string(out.matched_fraction * 100) +
@@ -134,15 +168,18 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
     out.match_noise.sigma_px = options.match_sigma_px;
     out.match_noise.source = "constant";
   }
+  const cv::Mat sigma_px = blockClassSigma(d, options, out);
   t0 = now();
   out.support_range_m = supportRangeM(rect, options.max_range_m);
   if (sink) {
     const double support = out.support_range_m;
-    triangulateDisparity(rect.left, rect.right, d.disparity, out.match_noise.sigma_px, pair_id, l, out.stats,
+    triangulateDisparity(rect.left, rect.right, d.disparity, sigma_px, pair_id, l, out.stats,
                          kMaxDenseResidualPx, [&](const CloudPoint& p) { sink(p, support); });
   } else {
-    out.points = triangulateDisparity(rect.left, rect.right, d.disparity, out.match_noise.sigma_px, pair_id,
-                                      l, out.stats, kMaxDenseResidualPx);
+    std::vector<CloudPoint>& points = out.points;
+    points.reserve(static_cast<std::size_t>(cv::countNonZero(d.disparity == d.disparity)));
+    triangulateDisparity(rect.left, rect.right, d.disparity, sigma_px, pair_id, l, out.stats,
+                         kMaxDenseResidualPx, [&points](const CloudPoint& p) { points.push_back(p); });
   }
   out.seconds_triangulate = now() - t0;
   return out;

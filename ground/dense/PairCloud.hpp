@@ -40,8 +40,12 @@ struct PairCloud {
   double matched_fraction =
       0.0;  // valid matches inside both images / rectified pixels showing the left image
   TriangulationStats stats;
+  MatchNoise match_noise;  // the matching sigma the one-pixel matches' points carry, and where it came from
+  // The same for the fill pass's block matches (DenseResult::block, BlockFill.hpp): source "block_check"
+  // (from DenseResult::block_check_px), or "dropped" when they had too few samples to estimate it (their
+  // points are then not made).
+  MatchNoise block_noise;
   // Points are kept beyond max_range_m as support for the DEM, which stops at max_range_m: out to the
-  MatchNoise match_noise;  // the matching sigma the points carry, and where it came from
   // range whose disparity is kSupportDisparityPx below that of max_range_m (about 3 sd of the far matches'
   // disparity error, 0.33-0.36 px in tests/ground/products/far/FarRangeTest.cpp), at most twice
   // max_range_m. Cut at max_range_m itself, the outermost rows would keep only their points measured nearer

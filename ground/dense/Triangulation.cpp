@@ -49,9 +49,13 @@ void checkDisparityInputs(const cv::Mat& disparity, const cv::Mat& grey) {
 
 }  // namespace
 
-void triangulateDisparity(const CameraModel& left, const CameraModel& right, const cv::Mat& disparity,
-                          double sigma_px, int64_t pair_id, const cv::Mat& grey, TriangulationStats& stats,
-                          double max_residual_px, const std::function<void(const CloudPoint&)>& sink) {
+namespace {
+
+// triangulateDisparity with the pixel sigma of each match from sigmaAt(y, x).
+template <typename SigmaAt>
+void triangulateEach(const CameraModel& left, const CameraModel& right, const cv::Mat& disparity,
+                     const SigmaAt& sigmaAt, int64_t pair_id, const cv::Mat& grey, TriangulationStats& stats,
+                     double max_residual_px, const std::function<void(const CloudPoint&)>& sink) {
   checkDisparityInputs(disparity, grey);
   for (int y = 0; y < disparity.rows; ++y) {
     const float* row = disparity.ptr<float>(y);
@@ -60,7 +64,7 @@ void triangulateDisparity(const CameraModel& left, const CameraModel& right, con
       if (!std::isfinite(dsp)) continue;
       ++stats.matches;
       CloudPoint p;
-      if (!triangulate(left, right, Vec2(x, y), Vec2(x - dsp, y), sigma_px, p)) {
+      if (!triangulate(left, right, Vec2(x, y), Vec2(x - dsp, y), sigmaAt(y, x), p)) {
         ++stats.rejected_geometry;
         continue;
       }
@@ -74,6 +78,29 @@ void triangulateDisparity(const CameraModel& left, const CameraModel& right, con
       ++stats.triangulated;
     }
   }
+}
+
+}  // namespace
+
+void triangulateDisparity(const CameraModel& left, const CameraModel& right, const cv::Mat& disparity,
+                          double sigma_px, int64_t pair_id, const cv::Mat& grey, TriangulationStats& stats,
+                          double max_residual_px, const std::function<void(const CloudPoint&)>& sink) {
+  triangulateEach(
+      left, right, disparity, [sigma_px](int, int) { return sigma_px; }, pair_id, grey, stats,
+      max_residual_px, sink);
+}
+
+void triangulateDisparity(const CameraModel& left, const CameraModel& right, const cv::Mat& disparity,
+                          const cv::Mat& sigma_px, int64_t pair_id, const cv::Mat& grey,
+                          TriangulationStats& stats, double max_residual_px,
+                          const std::function<void(const CloudPoint&)>& sink) {
+  if (sigma_px.type() != CV_32FC1 || sigma_px.size() != disparity.size())
+    throw std::invalid_argument(
+        "triangulateDisparity: the sigma raster must be CV_32F of the disparity's size");
+  triangulateEach(
+      left, right, disparity,
+      [&sigma_px](int y, int x) { return static_cast<double>(sigma_px.at<float>(y, x)); }, pair_id, grey,
+      stats, max_residual_px, sink);
 }
 
 std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const CameraModel& right,

@@ -61,6 +61,12 @@ std::vector<CloudPoint> triangulateDisparity(const CameraModel& left, const Came
 void triangulateDisparity(const CameraModel& left, const CameraModel& right, const cv::Mat& disparity,
                           double sigma_px, int64_t pair_id, const cv::Mat& grey, TriangulationStats& stats,
                           double max_residual_px, const std::function<void(const CloudPoint&)>& sink);
+// The same with each match's own pixel sigma (`sigma_px`, CV_32F of the disparity's size): the matcher's
+// classes of matches (DenseResult::block) carry noise estimates of their own (PairCloud::block_noise).
+void triangulateDisparity(const CameraModel& left, const CameraModel& right, const cv::Mat& disparity,
+                          const cv::Mat& sigma_px, int64_t pair_id, const cv::Mat& grey,
+                          TriangulationStats& stats, double max_residual_px,
+                          const std::function<void(const CloudPoint&)>& sink);
 
 // Binary little-endian PLY: double x y z (site frame), float sigma_x sigma_y sigma_z (m), uchar grey,
 // int line. Throws std::runtime_error naming the file when it cannot be written (checked after close).

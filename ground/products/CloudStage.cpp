@@ -169,13 +169,16 @@ Cloud denseCloud(Context& ctx) {
       Cloud().swap(m.kept);
       t_tri += pc.seconds_triangulate + cli::nowSeconds() - t0;
       {
-        char b[300];
-        std::snprintf(b, sizeof b,
-                      "%s: %zu ties, %.1f %% matched, %lld triangulated (%lld geometry, %lld residual "
-                      "rejected), %lld kept; matching noise %.3f px (%s, %lld samples)",
-                      name.c_str(), pc.ties, 100 * pc.matched_fraction, pc.stats.triangulated,
-                      pc.stats.rejected_geometry, pc.stats.rejected_residual, kept, pc.match_noise.sigma_px,
-                      pc.match_noise.source.c_str(), pc.match_noise.samples);
+        char b[400];
+        std::snprintf(
+            b, sizeof b,
+            "%s: %zu ties, %.1f %% matched, %lld triangulated (%lld geometry, %lld residual "
+            "rejected), %lld kept; matching noise %.3f px (%s, %lld samples), block matches %.3f px "
+            "(%s, %lld samples)",
+            name.c_str(), pc.ties, 100 * pc.matched_fraction, pc.stats.triangulated,
+            pc.stats.rejected_geometry, pc.stats.rejected_residual, kept, pc.match_noise.sigma_px,
+            pc.match_noise.source.c_str(), pc.match_noise.samples, pc.block_noise.sigma_px,
+            pc.block_noise.source.empty() ? "none" : pc.block_noise.source.c_str(), pc.block_noise.samples);
         cli::info(b);
       }
       if (kept == 0) {

@@ -147,7 +147,9 @@ TEST(DenseMatcher, NoMatchesInANoiseOnlySky) {
     const int d = static_cast<int>(10.0 + 0.03 * std::max(y, sky_rows));
     ranges[static_cast<std::size_t>(y)] = RowRange{d - 4, d + 4};
   }
-  const cv::Rect sky(50, 0, left.cols - 50, sky_rows - 4);  // 4 rows: the census window's reach
+  // The census window's reach (4 rows) and the fill block's (DenseOptions::fill_block_px): the rows within it
+  // of the ground see the ground's texture.
+  const cv::Rect sky(50, 0, left.cols - 50, sky_rows - 4 - DenseOptions{}.fill_block_px / 2);
   const cv::Rect ground(230, sky_rows + 4, left.cols - 230, 40);  // right of the raised square
   const DenseResult with = matchRectified(left, right, o, &ranges);
   o.max_census_cost_bits = 62;  // the test off
@@ -162,14 +164,13 @@ TEST(DenseMatcher, NoMatchesInANoiseOnlySky) {
   CHECK(fraction(with, sky) < 0.025);    // chance (2.8 % of windows) less the speckle filter
   CHECK(fraction(with, ground) > 0.97);
   CHECK(fraction(with, ground) > fraction(without, ground) - 0.01);
-  // The fill pass (DenseOptions::fill_block_px) must not bring them back.
+  // The fill pass (DenseOptions::fill_block_px, on in `with`) must not bring them back.
   o.max_census_cost_bits = DenseOptions{}.max_census_cost_bits;
-  o.fill_block_px = 5;
-  const DenseResult filled = matchRectified(left, right, o, &ranges);
-  std::printf("with the 5x5 fill pass: sky %.1f %%, ground %.1f %%\n", 100.0 * fraction(filled, sky),
-              100.0 * fraction(filled, ground));
-  CHECK(fraction(filled, sky) < 0.025);
-  CHECK(fraction(filled, ground) >= fraction(with, ground));
+  o.fill_block_px = 0;
+  const DenseResult one = matchRectified(left, right, o, &ranges);
+  std::printf("without the fill pass: sky %.1f %%, ground %.1f %%\n", 100.0 * fraction(one, sky),
+              100.0 * fraction(one, ground));
+  CHECK(fraction(with, ground) >= fraction(one, ground));
 }
 
 // Strong independent noise in both images (sd 8 DN): the one-pixel census cost is noisy and its tests refuse
@@ -189,8 +190,9 @@ TEST(DenseMatcher, FillPassMatchesWhatTheNoisyOnePixelCostRefuses) {
   }
   DenseOptions o;
   o.max_disparity_px = 48;
+  o.fill_block_px = 0;
   const DenseResult one = matchRectified(left, right, o);
-  o.fill_block_px = 5;
+  o.fill_block_px = DenseOptions{}.fill_block_px;
   const DenseResult both = matchRectified(left, right, o);
   const int blocks = cv::countNonZero(both.block);
   long long bad = 0, lr = 0, lr_on_one_px = 0;

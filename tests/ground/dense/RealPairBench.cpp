@@ -2,8 +2,8 @@
 // same run, on the same rectified pair, with areomap's matcher run as the ground pass runs it. The pair's
 // records are written as a dataset (tests/ground/pass PassChecks: writeRecordDatasets) and the ground pass
 // runs on it (ground/pass runGroundPass: the ground's own tie matching, the adjustment, the hold-out check);
-// the products' inputs come from the pass it returns (ground/pass passProductInputs: adjusted models, ties) and
-// the pair's dense inputs as the cloud stage makes them (products::pairDenseInputs), then
+// the products' inputs come from the pass it returns (ground/pass passProductInputs: adjusted models, ties)
+// and the pair's dense inputs as the cloud stage makes them (products::pairDenseInputs), then
 // dense::pairMatchSetup gives the rectified pair, the matcher's options and the per-row parallax ranges
 // from the ties, exactly what dense::pairCloud matches. StereoSGBM gets the same rectified images and the
 // disparity range that the parallax ranges span (minDisparity = their lowest, numDisparities = their span
@@ -16,13 +16,13 @@
 //    pair with the same ranges);
 //  each over the pixels that show the left original, over those whose ray meets the level ground within the
 //  DEM's range, and over those of the latter whose terrain lies within that range by either matcher's
-//  parallax (nearTerrain); and the ratios areomap / SGBM. A second table (unless --no-blind) runs both without ties: disparity 0 to
-//  that of a point 1 m away, the whole range on every row.
+//  parallax (nearTerrain); and the ratios areomap / SGBM. A second table (unless --no-blind) runs both
+//  without ties: disparity 0 to that of a point 1 m away, the whole range on every row.
 // StereoSGBM: MODE_SGBM (8 paths), block 5, P1 = 8 cn b^2, P2 = 32 cn b^2 (cn = 1, grey), uniqueness 10 %,
 // disp12MaxDiff 1 (areomap's own left-right tolerance), speckle window 100 px of range 2, pre-filter cap 63.
 // Usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] [--fine-block B] [--fill-block F]
-// [LEFT.json RIGHT.json] (--fine-block, --fill-block: DenseOptions::fine_block_px, fill_block_px instead of
-// the pass's; default:
+// [--speckle AREA STEP] [LEFT.json RIGHT.json] (--fine-block, --fill-block, --speckle: DenseOptions::
+// fine_block_px, fill_block_px, speckle_max_area_px and speckle_max_step_px instead of the pass's; default:
 // the sol 340 pair of ../shared/data/m2020-navcam-stereo-pairs; N: timed runs of each matcher, the fastest
 // is printed; --dump DIR: areomap's left disparity as the pass matches it, DIR/areomap_disparity.bin, raw
 // float32, for byte checks, and PNGs of the rectified left image, the region and both disparities).
@@ -198,9 +198,10 @@ void compare(const char* title, const dense::PairMatchSetup& p, const Regions& r
     t_sgbm = std::min(t_sgbm, t1 - t0);
     t_areomap = std::min(t_areomap, t2 - t1);
     std::printf(
-        "%s run %d: SGBM %.3f s, areomap %.3f s (coarse %.3f, fine %.3f, post %.3f; fine cells %lld)\n",
-        title, k + 1, t1 - t0, t2 - t1, last.coarse_seconds, last.fine_seconds, last.post_seconds,
-        last.fine_cells);
+        "%s run %d: SGBM %.3f s, areomap %.3f s (coarse %.3f, fine %.3f of which fill %.3f, post %.3f; fine "
+        "cells %lld)\n",
+        title, k + 1, t1 - t0, t2 - t1, last.coarse_seconds, last.fine_seconds, last.fill_seconds,
+        last.post_seconds, last.fine_cells);
   }
   if (areomap_disparity != nullptr) *areomap_disparity = d_areomap.clone();
   dense::keepMatchesInside(p.rect, d_areomap);
@@ -230,12 +231,15 @@ void compare(const char* title, const dense::PairMatchSetup& p, const Regions& r
 
 }  // namespace
 
+// Long because: the benchmark's steps (arguments, the ground pass, the pair's set-up, both tables, the dump)
+// in the order they run, each printed as it goes.
 int main(int argc, char** argv) {
   const std::string dir = test::sharedDataDir() + "/m2020-navcam-stereo-pairs/";
   std::string left_json = dir + "NLF_0340_0697121914_417ECM_N0090364NCAM00420_01_195J.json";
   std::string right_json = dir + "NRF_0340_0697121914_417ECM_N0090364NCAM00420_01_195J.json";
   std::string dump_dir;
-  int repeat = 3, positional = 0, fine_block = 0, fill_block = -1;
+  int repeat = 3, positional = 0, fine_block = 0, fill_block = -1, speckle_area = -2;
+  double speckle_step = 0.0;
   bool blind = true;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
@@ -246,6 +250,9 @@ int main(int argc, char** argv) {
       fine_block = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--fill-block") == 0 && i + 1 < argc) {
       fill_block = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--speckle") == 0 && i + 2 < argc) {
+      speckle_area = std::atoi(argv[++i]);
+      speckle_step = std::atof(argv[++i]);
     } else if (std::strcmp(argv[i], "--no-blind") == 0) {
       blind = false;
     } else if (argv[i][0] != '-' && positional < 2) {
@@ -253,7 +260,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: ground_real_pair_bench [--repeat N] [--no-blind] [--dump DIR] [--fine-block B] "
-                   "[--fill-block F] [LEFT.json RIGHT.json]\n");
+                   "[--fill-block F] [--speckle AREA STEP] [LEFT.json RIGHT.json]\n");
       return 2;
     }
   }
@@ -346,6 +353,10 @@ int main(int argc, char** argv) {
   dense::DenseOptions dense_options = p.options;
   if (fine_block > 0) dense_options.fine_block_px = fine_block;
   if (fill_block >= 0) dense_options.fill_block_px = fill_block;
+  if (speckle_area >= -1) {
+    dense_options.speckle_max_area_px = speckle_area;
+    dense_options.speckle_max_step_px = speckle_step;
+  }
   const Matcher areomap = areomapMatcher(dense_options, last);
   cv::Mat d_pass;
   compare("As the ground pass matches it", p, reg, range_m, pass_search, repeat, areomap, last, &d_pass);
