@@ -57,12 +57,19 @@ DemGrid truthInProducts(const DemGrid& truth, const DemGrid& grid, const TruthFr
   return s;
 }
 
-// Whether `value` lies within the values of `truth` at (r, c) and its eight neighbours (filled ones).
+// The truth ortho's samples per DEM cell along each axis: the grey of the true ground over the cell and
+// its neighbours, not nine point samples of it (near the rover a cell covers tens of pixels, and a sample
+// moved by a fraction of a cell lands on other pixels).
+constexpr int kTruthOrthoSamples = 3;
+
+// Whether `value` lies within the values of `truth` (kTruthOrthoSamples per DEM cell) over the DEM cell
+// (r, c) and its eight neighbours (filled ones).
 bool agrees(const cv::Mat& truth, int r, int c, int value) {
   int lo = 256, hi = -1;
-  for (int dr = -1; dr <= 1; ++dr) {
-    for (int dc = -1; dc <= 1; ++dc) {
-      const int rr = r + dr, cc = c + dc;
+  constexpr int s = kTruthOrthoSamples;
+  for (int dr = -s; dr < 2 * s; ++dr) {
+    for (int dc = -s; dc < 2 * s; ++dc) {
+      const int rr = r * s + dr, cc = c * s + dc;
       if (rr < 0 || cc < 0 || rr >= truth.rows || cc >= truth.cols) continue;
       const int t = truth.at<uint8_t>(rr, cc);
       if (t == 0) continue;
@@ -180,7 +187,9 @@ SeenTruth seenAgainstTruth(const DemGrid& dem, const cv::Mat* ortho_image, const
     const Mat3 back = frame.r.transpose();
     for (std::size_t k = 0; k < truth_models.size() && k < images.size(); ++k)
       sources.push_back(ortho::OrthoSource{images[k], movedModel(truth_models[k], back, frame.toProducts(truth_models[k].c))});
-    truth_ortho = ortho::makeOrthoimage(truth, sources, ortho::OrthoOptions{}).image;
+    ortho::OrthoOptions options;
+    options.supersample = kTruthOrthoSamples;
+    truth_ortho = ortho::makeOrthoimage(truth, sources, options).image;
   }
   long long empty = 0, filled = 0, agree = 0;
   for (int r = 0; r < dem.rows; ++r) {
@@ -202,7 +211,9 @@ SeenTruth seenAgainstTruth(const DemGrid& dem, const cv::Mat* ortho_image, const
       ++out.cells_seen;
       filled += has;
       if (truth_ortho.empty()) continue;
-      const int v = ortho_image->at<uint8_t>(r, c), t = truth_ortho.at<uint8_t>(r, c);
+      const int v = ortho_image->at<uint8_t>(r, c);
+      const int t = truth_ortho.at<uint8_t>(r * kTruthOrthoSamples + kTruthOrthoSamples / 2,
+                                            c * kTruthOrthoSamples + kTruthOrthoSamples / 2);
       if (v == 0 || t == 0) continue;
       ++out.cells_compared;
       agree += agrees(truth_ortho, r, c, v);

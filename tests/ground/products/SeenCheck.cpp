@@ -7,7 +7,8 @@
 // many of the second it leaves empty, with the distance from each such cell to the nearest measured cell
 // (marginal cells left out). Environment: SEEN_CHECK_PNG=FILE draws the classes against truth
 // (SEEN_CHECK_CROP=x,y,w,h a window, 4x); SEEN_CHECK_MARGIN the measured cells' margins over the DEM's own
-// horizon; SEEN_CHECK_ORTHO the ortho's agreement per band, same source or not.
+// horizon; SEEN_CHECK_ORTHO the ortho's agreement per band, same source or not; SEEN_CHECK_NO_OCCLUSION
+// the figures for an ortho made without its occlusion rule instead of ortho.tif.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -77,13 +78,20 @@ int main(int argc, char** argv) {
         stems.push_back(ref->stem);
       }
   const cv::Mat classes = byteRaster(out + "/dem_seen.tif", dem.rows, dem.cols);
-  const cv::Mat ortho = byteRaster(out + "/ortho.tif", dem.rows, dem.cols);
+  cv::Mat ortho = byteRaster(out + "/ortho.tif", dem.rows, dem.cols);
   std::vector<uint8_t> class_vec(classes.data, classes.data + classes.total());
   const Vec3 g = datum.centre;
   std::vector<CameraModel> adjusted;
   for (std::size_t k = 0; k < images.size(); ++k)
     adjusted.push_back(io::readCameraModelFile(out + "/models/" + stems[k] + ".cahvor", images[k].cols, images[k].rows));
   const products::TruthFrame frame = products::truthFrame(adjusted, datum.truth_models, g);
+  if (std::getenv("SEEN_CHECK_NO_OCCLUSION") != nullptr) {  // the ortho as made without the occlusion rule
+    std::vector<ortho::OrthoSource> sources;
+    for (std::size_t k = 0; k < images.size(); ++k) sources.push_back({images[k], adjusted[k]});
+    ortho::OrthoOptions o;
+    o.occlusion = false;
+    ortho = ortho::makeOrthoimage(dem, sources, o).image;
+  }
   const products::SeenTruth t =
       products::seenAgainstTruth(dem, &ortho, truth, images, datum.truth_models, frame, range_m, &class_vec);
   std::printf("%s: cell %.3f m, %d x %d; datum rotation %.3f mrad\n", out.c_str(), dem.cell_m, dem.cols, dem.rows,
