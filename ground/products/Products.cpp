@@ -230,16 +230,18 @@ void truthSeenStage(Context& ctx, const ortho::OrthoResult* orth) {
   const ProductInputs& in = ctx.in;
   if (!ctx.result.dem || !in.truth_dem || in.truth_models.size() != in.images.size()) return;
   std::vector<cv::Mat> images;
-  std::vector<CameraModel> models;
+  std::vector<CameraModel> models, adjusted;
   for (std::size_t k = 0; k < in.images.size(); ++k) {
     images.push_back(in.images[k].grey);
+    adjusted.push_back(in.images[k].model);
     models.push_back(in.truth_models[k]);
     models.back().width = in.images[k].grey.cols;
     models.back().height = in.images[k].grey.rows;
   }
   const cv::Mat* ortho_image = orth != nullptr && orth->grid.cols == ctx.result.dem->cols ? &orth->image : nullptr;
   const SeenTruth t = seenAgainstTruth(*ctx.result.dem, ortho_image, *in.truth_dem, images, models,
-                                       in.gimbal_site_m, ctx.options.max_range_m, &ctx.result.dem_seen);
+                                       truthFrame(adjusted, models, in.gimbal_site_m), ctx.options.max_range_m,
+                                       &ctx.result.dem_seen);
   ctx.result.seen_truth = t;
   const auto pc = [](const std::optional<double>& f) { return f ? 100.0 * *f : -1.0; };
   char b[320];

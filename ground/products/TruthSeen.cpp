@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
+#include "firmware_core/adjust/Datum.hpp"
+#include "firmware_core/camera/CameraConversion.hpp"
 #include "ground/cli/Parallel.hpp"
 #include "ground/dem/DemSeen.hpp"
 #include "ground/dem/Viewshed.hpp"
@@ -12,29 +15,61 @@ namespace areomap::products {
 
 namespace {
 
-constexpr double kTruthToleranceM = 0.001;  // the true surface is exact: only rounding
+constexpr double kTruthToleranceM = 0.001;  // rounding of the true surface's float elevations
 constexpr int kGreyTolerance = 2;            // rounding of two bilinear samples
 
-// The true DEM at the cell centres of `grid` (bilinear; nodata where it has no value).
-DemGrid sampled(const DemGrid& truth, const DemGrid& grid) {
+// The site -> camera rotation of a model (identity if it does not convert).
+Mat3 siteToCamera(const CameraModel& m) {
+  PhotogrammetricCamera p;
+  ConversionResidual residual;
+  return cahvorToPhotogrammetric(m, p, residual) == Status::kOk ? p.m : Mat3::Identity();
+}
+
+// Where the products' cell centre (north, east) at the true elevation lies in the truth's frame: the
+// point p of the products' frame with p = (north, east, -z) and z the true surface at g + R (p - g)
+// (a few fixed-point steps: R is within a few mrad of the identity). False where the truth has no value.
+bool alignedGround(const TruthFrame& f, const DemGrid& truth, double north, double east, Vec3& in_truth) {
+  double z = 0.0;
+  if (!ortho::demElevation(truth, north, east, z)) return false;
+  for (int it = 0; it < 3; ++it) {
+    in_truth = f.toTruth(Vec3(north, east, -z));
+    double t = 0.0;
+    if (!ortho::demElevation(truth, in_truth.x(), in_truth.y(), t)) return false;
+    z += t + in_truth.z();  // the aligned point's height above the true surface, removed
+  }
+  in_truth = f.toTruth(Vec3(north, east, -z));
+  return true;
+}
+
+// The true surface in the products' frame at the cell centres of `grid` (nodata where it has no value).
+DemGrid truthInProducts(const DemGrid& truth, const DemGrid& grid, const TruthFrame& f) {
   DemGrid s = grid;
   s.nodata = truth.nodata;
   s.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, s.nodata);
-  for (int r = 0; r < grid.rows; ++r) {
+  cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
+    const int r = static_cast<int>(row);
     for (int c = 0; c < grid.cols; ++c) {
-      double t = 0.0;
-      if (ortho::demElevation(truth, grid.northOfRow(r), grid.eastOfCol(c), t)) s.at(c, r) = static_cast<float>(t);
+      Vec3 q;
+      if (!alignedGround(f, truth, grid.northOfRow(r), grid.eastOfCol(c), q)) continue;
+      s.at(c, r) = static_cast<float>(-f.toProducts(q).z());
     }
-  }
+  });
   return s;
 }
 
-// Whether `value` lies within the values of `truth` at (r, c) and its eight neighbours (filled ones).
+// The truth ortho's samples per DEM cell along each axis: the grey of the true ground over the cell and
+// its neighbours, not nine point samples of it (near the rover a cell covers tens of pixels, and a sample
+// moved by a fraction of a cell lands on other pixels).
+constexpr int kTruthOrthoSamples = 3;
+
+// Whether `value` lies within the values of `truth` (kTruthOrthoSamples per DEM cell) over the DEM cell
+// (r, c) and its eight neighbours (filled ones).
 bool agrees(const cv::Mat& truth, int r, int c, int value) {
   int lo = 256, hi = -1;
-  for (int dr = -1; dr <= 1; ++dr) {
-    for (int dc = -1; dc <= 1; ++dc) {
-      const int rr = r + dr, cc = c + dc;
+  constexpr int s = kTruthOrthoSamples;
+  for (int dr = -s; dr < 2 * s; ++dr) {
+    for (int dc = -s; dc < 2 * s; ++dc) {
+      const int rr = r * s + dr, cc = c * s + dc;
       if (rr < 0 || cc < 0 || rr >= truth.rows || cc >= truth.cols) continue;
       const int t = truth.at<uint8_t>(rr, cc);
       if (t == 0) continue;
@@ -45,24 +80,93 @@ bool agrees(const cv::Mat& truth, int r, int c, int value) {
   return value >= lo - kGreyTolerance && value <= hi + kGreyTolerance;
 }
 
+// The truth nodes (cell centres of `truth`) within the square of side `cell` centred on (north, east):
+// [c0, c1] x [r0, r1]; the nearest node when none is (a cell finer than the truth's).
+void nodesAround(const DemGrid& truth, double north, double east, double cell, int& c0, int& c1, int& r0, int& r1) {
+  const double w = east - 0.5 * cell, n = north + 0.5 * cell;
+  c0 = static_cast<int>(std::ceil((w - truth.east0_m) / truth.cell_m - 0.5));
+  c1 = static_cast<int>(std::ceil((w + cell - truth.east0_m) / truth.cell_m - 0.5)) - 1;
+  r0 = static_cast<int>(std::ceil((truth.north0_m - n) / truth.cell_m - 0.5));
+  r1 = static_cast<int>(std::ceil((truth.north0_m - n + cell) / truth.cell_m - 0.5)) - 1;
+  if (c1 < c0) c0 = c1 = static_cast<int>(std::floor((east - truth.east0_m) / truth.cell_m));
+  if (r1 < r0) r0 = r1 = static_cast<int>(std::floor((truth.north0_m - north) / truth.cell_m));
+  c0 = std::max(c0, 0);
+  r0 = std::max(r0, 0);
+  c1 = std::min(c1, truth.cols - 1);
+  r1 = std::min(r1, truth.rows - 1);
+}
+
 }  // namespace
 
-std::vector<uint8_t> cellsSeen(const DemGrid& surface, const std::vector<cv::Mat>& images,
-                               const std::vector<CameraModel>& models, double tolerance_m) {
-  std::vector<uint8_t> seen(surface.values.size(), 0);
+TruthFrame truthFrame(const std::vector<CameraModel>& products_models, const std::vector<CameraModel>& truth_models,
+                      const Vec3& gimbal_site_m) {
+  TruthFrame f;
+  f.gimbal = gimbal_site_m;
+  std::vector<Mat3> est, tru;
+  for (std::size_t k = 0; k < products_models.size() && k < truth_models.size(); ++k) {
+    est.push_back(siteToCamera(products_models[k]));
+    tru.push_back(siteToCamera(truth_models[k]));
+  }
+  if (!est.empty()) f.r = commonRotation(est.data(), tru.data(), static_cast<int32_t>(est.size()));
+  return f;
+}
+
+std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, const std::vector<cv::Mat>& images,
+                                    const std::vector<CameraModel>& models, const TruthFrame& frame) {
+  const std::size_t n = static_cast<std::size_t>(grid.cols) * grid.rows;
+  std::vector<uint8_t> seen(n, 0);
+  // Each cell's centre in the truth's frame (the square about it, of the cell's side, is the cell there).
+  std::vector<double> north(n, std::numeric_limits<double>::quiet_NaN()), east(n, north[0]), centre_up(n, 0.0);
+  cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
+    for (int c = 0; c < grid.cols; ++c) {
+      Vec3 q;
+      if (!alignedGround(frame, truth, grid.northOfRow(static_cast<int>(row)), grid.eastOfCol(c), q)) continue;
+      north[row * grid.cols + c] = q.x();
+      east[row * grid.cols + c] = q.y();
+      centre_up[row * grid.cols + c] = -q.z();
+    }
+  });
   std::vector<float> horizon;
   for (std::size_t k = 0; k < models.size() && k < images.size(); ++k) {
     if (images[k].empty()) continue;
     const CameraModel& m = models[k];
-    dem::horizonFrom(surface, m.c, horizon, false);
+    dem::horizonFrom(truth, m.c, horizon, false);
     const dem::ImageCone cone = dem::imageCone(m);
-    cli::parallelFor(static_cast<std::size_t>(surface.rows), 0, [&](std::size_t row) {
-      const int r = static_cast<int>(row);
-      for (int c = 0; c < surface.cols; ++c) {
-        const std::size_t i = row * surface.cols + c;
-        const float z = surface.values[i];
-        if (seen[i] || z == surface.nodata || z + tolerance_m < horizon[i]) continue;
-        seen[i] = dem::imageSees(m, cone, Vec3(surface.northOfRow(r), surface.eastOfCol(c), -z));
+    const double rad_per_px = 1.0 / cone.px_per_rad;
+    cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
+      for (int c = 0; c < grid.cols; ++c) {
+        const std::size_t i = row * grid.cols + c;
+        if (seen[i] == kTruthSeen || std::isnan(north[i])) continue;
+        const double tolerance = kTruthToleranceM + rad_per_px * std::hypot(north[i] - m.c.x(), east[i] - m.c.y());
+        int c0, c1, r0, r1;
+        nodesAround(truth, north[i], east[i], grid.cell_m, c0, c1, r0, r1);
+        // The centre: the true surface there against the horizon between its four nodes (bilinear).
+        const double fc = (east[i] - truth.east0_m) / truth.cell_m - 0.5, fr = (truth.north0_m - north[i]) / truth.cell_m - 0.5;
+        const int bc = static_cast<int>(std::floor(fc)), br = static_cast<int>(std::floor(fr));
+        if (bc >= 0 && br >= 0 && bc + 1 < truth.cols && br + 1 < truth.rows) {
+          double h = 0.0, wsum = 0.0;
+          for (int q = 0; q < 4; ++q) {
+            const float hq = horizon[static_cast<std::size_t>(br + q / 2) * truth.cols + bc + q % 2];
+            const double w = (q % 2 ? fc - bc : 1.0 - (fc - bc)) * (q / 2 ? fr - br : 1.0 - (fr - br));
+            if (hq == -std::numeric_limits<float>::infinity()) continue;
+            h += w * hq;
+            wsum += w;
+          }
+          const Vec3 x(north[i], east[i], -centre_up[i]);
+          if ((wsum < 1e-9 || centre_up[i] + kTruthToleranceM >= h / wsum) && dem::imageSees(m, cone, x)) {
+            seen[i] = kTruthSeen;
+            continue;
+          }
+        }
+        if (seen[i] == kTruthMarginal) continue;
+        for (int tr = r0; tr <= r1 && seen[i] == kTruthUnseen; ++tr) {
+          for (int tc = c0; tc <= c1 && seen[i] == kTruthUnseen; ++tc) {
+            const std::size_t j = static_cast<std::size_t>(tr) * truth.cols + tc;
+            const float z = truth.values[j];
+            if (z == truth.nodata || z + tolerance < horizon[j]) continue;
+            if (dem::imageSees(m, cone, Vec3(truth.northOfRow(tr), truth.eastOfCol(tc), -z))) seen[i] = kTruthMarginal;
+          }
+        }
       }
     });
   }
@@ -71,16 +175,21 @@ std::vector<uint8_t> cellsSeen(const DemGrid& surface, const std::vector<cv::Mat
 
 SeenTruth seenAgainstTruth(const DemGrid& dem, const cv::Mat* ortho_image, const DemGrid& truth_dem,
                            const std::vector<cv::Mat>& images, const std::vector<CameraModel>& truth_models,
-                           const Vec3& g, double max_range_m, const std::vector<uint8_t>* classes) {
+                           const TruthFrame& frame, double max_range_m, const std::vector<uint8_t>* classes) {
   SeenTruth out;
-  const DemGrid truth = sampled(truth_dem, dem);
-  const std::vector<uint8_t> seen = cellsSeen(truth, images, truth_models, kTruthToleranceM);
+  const Vec3& g = frame.gimbal;
+  const DemGrid truth = truthInProducts(truth_dem, dem, frame);
+  out.seen = truthCellsSeen(dem, truth_dem, images, truth_models, frame);
+  const std::vector<uint8_t>& seen = out.seen;
   cv::Mat truth_ortho;
   if (ortho_image != nullptr && ortho_image->rows == dem.rows && ortho_image->cols == dem.cols) {
     std::vector<ortho::OrthoSource> sources;
+    const Mat3 back = frame.r.transpose();
     for (std::size_t k = 0; k < truth_models.size() && k < images.size(); ++k)
-      sources.push_back(ortho::OrthoSource{images[k], truth_models[k]});
-    truth_ortho = ortho::makeOrthoimage(truth, sources, ortho::OrthoOptions{}).image;
+      sources.push_back(ortho::OrthoSource{images[k], movedModel(truth_models[k], back, frame.toProducts(truth_models[k].c))});
+    ortho::OrthoOptions options;
+    options.supersample = kTruthOrthoSamples;
+    truth_ortho = ortho::makeOrthoimage(truth, sources, options).image;
   }
   long long empty = 0, filled = 0, agree = 0;
   for (int r = 0; r < dem.rows; ++r) {
@@ -89,7 +198,11 @@ SeenTruth seenAgainstTruth(const DemGrid& dem, const cv::Mat* ortho_image, const
       if (truth.values[i] == truth.nodata) continue;
       if (std::hypot(dem.northOfRow(r) - g.x(), dem.eastOfCol(c) - g.y()) > max_range_m) continue;
       const bool has = dem.values[i] != dem.nodata && std::isfinite(dem.values[i]);
-      if (!seen[i]) {
+      if (seen[i] == kTruthMarginal) {
+        ++out.cells_marginal;
+        continue;
+      }
+      if (seen[i] == kTruthUnseen) {
         ++out.cells_unseen;
         empty += !has;
         out.unseen_measured += classes != nullptr && i < classes->size() && (*classes)[i] == dem::kCellMeasured;
@@ -98,7 +211,9 @@ SeenTruth seenAgainstTruth(const DemGrid& dem, const cv::Mat* ortho_image, const
       ++out.cells_seen;
       filled += has;
       if (truth_ortho.empty()) continue;
-      const int v = ortho_image->at<uint8_t>(r, c), t = truth_ortho.at<uint8_t>(r, c);
+      const int v = ortho_image->at<uint8_t>(r, c);
+      const int t = truth_ortho.at<uint8_t>(r * kTruthOrthoSamples + kTruthOrthoSamples / 2,
+                                            c * kTruthOrthoSamples + kTruthOrthoSamples / 2);
       if (v == 0 || t == 0) continue;
       ++out.cells_compared;
       agree += agrees(truth_ortho, r, c, v);
