@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "firmware_core/adjust/RigShape.hpp"
 #include "firmware_core/camera/Binning.hpp"
 #include "msgs/MessageCheck.hpp"
 
@@ -72,6 +73,7 @@ void RoverNode::resetPanorama() {
   network_builder_.reset();
   net_.clear();
   sol_count_ = 0;
+  counters_.fido_model = false;
   workspace_full_ = false;
   panorama_open_ = false;
   panorama_[0] = '\0';
@@ -496,7 +498,33 @@ void RoverNode::setRigFromMessage(int32_t sol_index) {
   rigc.hold_base = !in_.sigmas_given;
 }
 
+// The rig model by the rule of RigShape.hpp on the a-priori cameras the network has: Eq. 3 with the
+// message's values, or the FIDO model fitted to them when they do not turn about one point (a first tier
+// alone fits Eq. 3; a later one may show that the axes do not meet). Said once per panorama on stderr.
+void RoverNode::chooseRigModel() {
+  const RigShape shape = checkRigShape(net_);
+  RigConstraints& rig = net_.rig;
+  counters_.rig_fit_rms_m = shape.fit_rms_m;
+  if (shape.one_point) {
+    rig.use_gimbal = true;
+    rig.use_spin_centre = false;
+    rig.use_lr_distance = false;
+    counters_.fido_model = false;
+    return;
+  }
+  (void)fitFidoRig(net_);
+  useFidoModel(net_);
+  if (!counters_.fido_model && options_.log_to_stderr) {
+    std::fprintf(stderr,
+                 "areomap-rover: %s: Eq. 3 misses the a-priori cameras by %.2f mm RMS (one point: at most "
+                 "%.2f mm): FIDO model (a virtual spin centre per tier, distances, stereo base; Eq. 3 off)\n",
+                 panorama_, shape.fit_rms_m * 1000.0, shape.threshold_m * 1000.0);
+  }
+  counters_.fido_model = true;
+}
+
 Status RoverNode::adjustNow(bool final_solve) {
+  chooseRigModel();
   // Incremental: new points (and points that gained rays) are triangulated with the current EO, the solve
   // warm-starts from the previous solution. Final: the batch solve of the whole network from the a-priori
   // EO, rejections cleared, every point re-triangulated (the computation of areomap-ties --adjust). A final

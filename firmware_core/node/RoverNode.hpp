@@ -125,6 +125,10 @@ struct RoverCounters {
   double traverse_seconds = 0.0;  // the site-pose steps after each site (registration, matching, adjustment)
   int32_t last_sweeps = 0;
   double last_rms_px = 0.0;
+  // The rig model of the last adjustment (firmware_core/adjust/RigShape.hpp): the FIDO model when the
+  // a-priori cameras do not turn about one point, and Eq. 3's fit RMS that decided it.
+  bool fido_model = false;
+  double rig_fit_rms_m = 0.0;
   bool finished = false;
 };
 
@@ -197,6 +201,7 @@ class RoverNode {
   void setRigFromMessage(int32_t sol_index);
   void finishPanorama();
   Status decodeSide(const stereo_image_t& side, int32_t bin, uint8_t* pixels, int32_t& width, int32_t& height);
+  void chooseRigModel();
   Status adjustNow(bool final_solve);
   // Publications (RoverNodePublishing.cpp).
   void publishTiePoints(int32_t pair_id, int32_t first_observation);

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "firmware_core/adjust/NetworkBuilder.hpp"
+#include "firmware_core/adjust/RigShape.hpp"
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/RigEstimate.hpp"
 #include "ground/dataset/RigSigmas.hpp"
@@ -138,16 +139,15 @@ void buildNetwork(const Dataset& dataset, const std::vector<ImageObservation>& o
   source.estimated.insert(source.estimated.end(), rig.estimated.begin(), rig.estimated.end());
   source.warnings.insert(source.warnings.end(), rig.warnings.begin(), rig.warnings.end());
   source.rig_fit_rms_m = rig.fit_rms_m;
-  // Pointing-derived models of a gimbal rig share one gimbal point exactly (a pointing error turns the head
-  // about it), so a fit that misses their centres by 10x the bound Eq. 3 must meet means the mast is not
-  // such a rig (e.g. a tilt axis off the pan axis): holding Eq. 3 would bend the network.
-  if (choice.gimbal && source.rig_fit_rms_m > 10.0 * kRigMisfitBound_m) {
+  // The rule of firmware_core/adjust/RigShape.hpp (the ground pass, areomap-ties and the rover switch to the
+  // FIDO model by it; here the user's flags choose the model, so it only warns).
+  const RigShape shape = checkRigShape(net);
+  if (choice.gimbal && !shape.one_point) {
     std::ostringstream w;
-    w << "The fitted gimbal centre and camera offsets miss the a-priori camera centres by "
-      << source.rig_fit_rms_m * 1000.0 << " mm RMS (Eq. 3 must hold to " << kRigMisfitBound_m * 1000.0
+    w << "Eq. 3 fitted to the a-priori cameras misses them by " << shape.fit_rms_m * 1000.0
+      << " mm RMS (a rig that turns about one point: at most " << shape.threshold_m * 1000.0
       << " mm): the mast does not turn the cameras about one point. For a mast whose tilt axis is off its "
-         "pan "
-         "axis use --fido --no-gimbal (a virtual spin centre per tier).";
+         "pan axis use --fido --no-gimbal (a virtual spin centre per tier).";
     source.warnings.push_back(w.str());
   }
   net.rig.use_gimbal = choice.gimbal;

@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 
+#include "firmware_core/adjust/RigShape.hpp"
 #include "ground/dataset/RigSigmas.hpp"
 
 namespace areomap {
@@ -135,54 +136,22 @@ void estimateGimbalAndOffsets(const Rig& given, const std::vector<int>& sol_of_i
   }
 }
 
-// The FIDO-style values from the a-priori models.
+// The FIDO-style values from the a-priori models (firmware_core/adjust/RigShape.hpp, the rover's fit).
 void estimateFidoVariants(Network& net, RigEstimate& out) {
   RigConstraints& rig = net.rig;
-  const int n_img = net.imageCount();
-  // FIDO variants: a virtual spin centre per tier (sphere fit |C - S|^2 = d^2 over the tier's centres, both
-  // sides, linear in S and d^2 - |S|^2), camera-to-centre distances per side, left-right distance.
-  double sum_d[2] = {0.0, 0.0};
-  int n_d[2] = {0, 0};
-  for (int t = 0; t < kMaxTiers; ++t) {
-    std::vector<int> members;
-    for (int i = 0; i < n_img; ++i) {
-      if (net.image(i).tier == t) members.push_back(i);
-    }
-    if (members.empty()) continue;
-    Eigen::MatrixXd a(members.size(), 4);
-    Eigen::VectorXd b(members.size());
-    for (size_t k = 0; k < members.size(); ++k) {
-      const Vec3 c = net.image(members[k]).centre_apriori_m;
-      a.row(k) << 2.0 * c.x(), 2.0 * c.y(), 2.0 * c.z(), 1.0;
-      b(k) = c.squaredNorm();
-    }
-    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(a);
-    const Eigen::Vector4d x = cod.solve(b);
-    rig.spin_centre_m[t] = x.head<3>();
-    rig.spin_centre_set[t] = true;
-    for (int i : members) {
-      const int side = net.image(i).side == Side::kLeft ? 0 : 1;
-      sum_d[side] += (net.image(i).centre_apriori_m - rig.spin_centre_m[t]).norm();
-      ++n_d[side];
-    }
-    out.estimated.push_back("FIDO: virtual spin centre of tier " + std::to_string(t) + " fitted as " +
-                               vecText(rig.spin_centre_m[t]) + ".");
-  }
-  rig.left_distance_m = n_d[0] > 0 ? sum_d[0] / n_d[0] : 0.0;
-  rig.right_distance_m = n_d[1] > 0 ? sum_d[1] / n_d[1] : rig.left_distance_m;
-  double lr = 0.0;
-  int n_lr = 0;
-  for (int p = 0; p < net.pairCount(); ++p) {
-    if (net.pair(p).right < 0) continue;
-    lr +=
-        (net.image(net.pair(p).right).centre_apriori_m - net.image(net.pair(p).left).centre_apriori_m).norm();
-    ++n_lr;
-  }
-  rig.lr_distance_m = n_lr > 0 ? lr / n_lr : 0.0;
+  const FidoFit fit = fitFidoRig(net);
   rig.sigma_distance_m = rig.sigma_base_m;
-  out.estimated.push_back("FIDO: camera-to-centre distances " + std::to_string(rig.left_distance_m) +
-                             " / " + std::to_string(rig.right_distance_m) + " m and left-right distance " +
-                             std::to_string(rig.lr_distance_m) + " m from the a-priori models.");
+  for (int t = 0; t < kMaxTiers; ++t) {
+    if (!rig.spin_centre_set[t]) continue;
+    out.estimated.push_back("FIDO: virtual spin centre of tier " + std::to_string(t) + " fitted as " +
+                            vecText(rig.spin_centre_m[t]) + ".");
+  }
+  std::ostringstream s;
+  s << "FIDO: camera-to-centre distances " << rig.left_distance_m << " / " << rig.right_distance_m
+    << " m (" << fit.tiers << " tiers, " << fit.distance_rms_m * 1000.0
+    << " mm RMS at the a-priori centres) and left-right distance " << rig.lr_distance_m << " m ("
+    << fit.lr_pairs << " pairs) from the a-priori models.";
+  out.estimated.push_back(s.str());
 }
 
 // A sol seen by one pair alone: its gimbal centre cannot be estimated (its two camera centres fix the

@@ -8,7 +8,8 @@
 //    minimum-norm choice must not depend on where the frame's origin lies).
 //  - Stereo base (Eq. 4): the mean of M_L (C_R - C_L) over the pairs.
 //  - FIDO (on request): a virtual spin centre per tier (sphere fit of the tier's camera centres), the
-//    camera-to-centre distance per side and the left-right distance.
+//    camera-to-centre distance per side and the left-right distance: the rover's fit,
+//    firmware_core/adjust/RigShape.hpp fitFidoRig, which also holds the rule that asks for it.
 //  - The sigmas: RigSigmas.hpp.
 #pragma once
 

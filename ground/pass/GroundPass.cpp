@@ -172,7 +172,8 @@ TieRun tiePointsStage(const Dataset& dataset, const std::function<const io::Pano
   report.seconds.emplace_back("tie_points", run.seconds);
   Network& net = *network.net;
   std::vector<std::string> notes;
-  setRigConstraints(dataset, network.sol_of_index, net, notes);
+  const RigModelChoice rig = setRigConstraints(dataset, network.sol_of_index, net, notes);
+  if (rig.fido) cli::info(rig.sentence);
   report.estimated = notes;
   result.pairs = static_cast<int32_t>(dataset.pairs.size());
   result.images = net.imageCount();
@@ -261,7 +262,7 @@ AdjustOutcome adjustStage(const Dataset& dataset, const GroundPassOptions& optio
   report.method2_after = precisionMethod2(net);
   report.method3_after = precisionMethod3(net);
   report.tie_points = countTiePoints(net);
-  report.constraints = {{"gimbal", true}, {"base", true}, {"fido", false}, {"datum_prior", true}};
+  report.constraints = constraintsInUse(net.rig);
   setRigFigures(report, net);  // of the integrated solution, whose models are written
   result.method1_before_px = report.method1_before.dist;
   result.method1_after_px = report.method1_after.dist;

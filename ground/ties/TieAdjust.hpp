@@ -3,6 +3,7 @@
 // estimated from the a-priori models (ground/dataset/RigEstimate.hpp).
 #pragma once
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -10,15 +11,28 @@
 #include "firmware_core/adjust/FastAdjuster.hpp"
 #include "firmware_core/adjust/Network.hpp"
 #include "firmware_core/adjust/Precision.hpp"
+#include "firmware_core/adjust/RigShape.hpp"
 #include "ground/dataset/Dataset.hpp"
 
 namespace areomap {
 
+// The rig model setRigConstraints chose by firmware_core/adjust/RigShape.hpp's rule.
+struct RigModelChoice {
+  bool fido = false;  // the cameras do not turn about one point: the FIDO model instead of Eq. 3
+  RigShape shape;
+  std::string sentence;  // the choice and the fit's RMS against the one-point limit (also in `notes`)
+};
+
 // Fills net.rig by estimateRig (sols of the network images must index dataset.rig.gimbal_m keys in order,
-// as runTiePoints assigns them) and holds the stereo base where the network has a right image. `notes`
-// receives what was estimated and the fit's warnings.
-void setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
-                       std::vector<std::string>& notes);
+// as runTiePoints assigns them) and holds the stereo base where the network has a right image; when the
+// a-priori cameras do not turn about one point (checkRigShape), switches to the FIDO model (useFidoModel:
+// Eq. 3 off, a virtual spin centre per tier, the distances and the base on). `notes` receives what was
+// estimated, the fit's warnings and the choice.
+RigModelChoice setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
+                                 std::vector<std::string>& notes);
+
+// report.json's "constraints" of a network: which rig constraints its rig uses.
+std::map<std::string, bool> constraintsInUse(const RigConstraints& rig);
 
 // The paper's method 1 (back-projection residuals, firmware_core/adjust/Precision.hpp) before and after.
 struct AdjustOutcome {

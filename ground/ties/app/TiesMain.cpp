@@ -52,7 +52,9 @@ json method1(const areomap::ImageDifferences& d) {
 void writeAdjustment(const std::string& out, const areomap::Dataset& dataset, const areomap::TieRun& run,
                      areomap::TieNetwork& network) {
   std::vector<std::string> notes;
-  areomap::setRigConstraints(dataset, network.sol_of_index, *network.net, notes);
+  const areomap::RigModelChoice rig =
+      areomap::setRigConstraints(dataset, network.sol_of_index, *network.net, notes);
+  if (rig.fido) areomap::cli::info(rig.sentence);
   areomap::cli::info("adjusting " + std::to_string(network.net->imageCount()) + " images, " +
                      std::to_string(network.net->pointCount()) + " points");
   const double start = areomap::cli::nowSeconds();
@@ -79,6 +81,7 @@ void writeAdjustment(const std::string& out, const areomap::Dataset& dataset, co
                           {"inter", run.inter_observations},
                           {"rejected", o.result.rejected_observations}};
   report["seconds"] = {{"ties", run.seconds}, {"adjust", seconds}};
+  report["constraints"] = areomap::constraintsInUse(network.net->rig);
   areomap::heldSigmaOutcome(network.net->rig, o.result.max_misfit, notes, notes);
   report["warnings"] = notes;
   std::ofstream(out + "/report.json") << report.dump(2) << "\n";
