@@ -154,7 +154,6 @@ PairCloud pairCloud(const CameraModel& left, const CameraModel& right, const cv:
   // The noise estimates from the kept matches only (a NaN disparity is unequal to itself).
   const cv::Mat unkept = d.disparity != d.disparity;
   d.lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), unkept);
-  d.block_lr_diff_px.setTo(std::numeric_limits<float>::quiet_NaN(), unkept);
   if (!d.block_check_px.empty()) d.block_check_px.setTo(std::numeric_limits<float>::quiet_NaN(), unkept);
   out.seconds_dense = now() - t0;
   if (out.matched_fraction < options.min_matched_fraction) {

@@ -46,6 +46,13 @@ bool requireSharedData(const std::string& folder) {
   return false;
 }
 
+bool longTestsWanted(const char* what) {
+  const char* enabled = std::getenv("AREOMAP_LONG_TESTS");
+  if (enabled != nullptr && std::string(enabled) == "1") return true;
+  std::printf("SKIP: %s run with AREOMAP_LONG_TESTS=1 (ctest -L long)\n", what);
+  return false;
+}
+
 std::string toolPath(const std::string& tool) {
   const char* env = std::getenv("AREOMAP_BINARY_DIR");
   return (env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR)) + "/bin/" + tool;

@@ -13,6 +13,9 @@ std::string sourceDir();                          // the repository root
 std::string sharedDataDir();                      // ../shared/data (or $AREOMAP_SHARED_DATA)
 std::string scratchDir(const std::string& name);  // an empty folder under the build tree for this test
 bool requireSharedData(const std::string& folder);
+// Whether AREOMAP_LONG_TESTS=1 asks for the long groups; otherwise prints "SKIP: <what> run with ..." and the
+// group passes without running.
+bool longTestsWanted(const char* what);
 bool fileExists(const std::string& path);
 
 // build/bin/<tool> ($AREOMAP_BINARY_DIR, else the build tree this test was configured in).

@@ -159,10 +159,6 @@ TEST_GROUP(FidoTiesLong){};
 
 // Seeds 5, 6 and 7: label `long`, runs only with AREOMAP_LONG_TESTS=1 (otherwise it prints SKIP and passes).
 TEST(FidoTiesLong, AnOffsetTiltAxisIsDetectedAndAdjustedWithTheRightModelOverSeeds) {
-  const char* enabled = std::getenv("AREOMAP_LONG_TESTS");
-  if (enabled == nullptr || std::string(enabled) != "1") {
-    std::printf("SKIP: three more seeds run with AREOMAP_LONG_TESTS=1 (ctest -L long)\n");
-    return;
-  }
+  if (!test::longTestsWanted("three more seeds")) return;
   compareFidoWithGimbal(kFidoScene, {5, 6, 7});
 }

@@ -144,11 +144,7 @@ TEST(TiesNavcamAdjustment, InterStereoDisparityIsUnbiasedOnRockyGround) {
 TEST_GROUP(TiesImpLong){};
 
 TEST(TiesImpLong, AutomaticTiesLinkEveryAdjacentPairInAndAcrossTiersAndTheAdjustmentMeetsTheBound) {
-  const char* enabled = std::getenv("AREOMAP_LONG_TESTS");
-  if (enabled == nullptr || std::string(enabled) != "1") {
-    std::printf("SKIP: the imp scene (129 images) runs with AREOMAP_LONG_TESTS=1 (ctest -L long)\n");
-    return;
-  }
+  if (!test::longTestsWanted("the imp scene (129 images)")) return;
   // Seeds 1, 2 and 3 (each a different terrain, pointing errors and ring offsets, so different diagonal
   // corner overlaps between the tiers).
   for (int seed = 1; seed <= 3; ++seed) {

@@ -76,20 +76,12 @@ bool checkDefaultRun(const DefaultRun& run, const char* name) {
   return all_tied;
 }
 
-// Whether AREOMAP_LONG_TESTS=1 asks for the long groups (otherwise they print SKIP and pass).
-bool longTestsWanted(const char* what) {
-  const char* enabled = std::getenv("AREOMAP_LONG_TESTS");
-  if (enabled != nullptr && std::string(enabled) == "1") return true;
-  std::printf("SKIP: %s run with AREOMAP_LONG_TESTS=1 (ctest -L long)\n", what);
-  return false;
-}
-
 }  // namespace
 
 TEST_GROUP(TraverseDefaultPath){};
 
 TEST(TraverseDefaultPath, TwoNavcamLikeSitesAreTiedAndPlacedWithinATenthOfTheOdometrysError) {
-  if (!longTestsWanted("two navcam-like sites")) return;
+  if (!areomap::test::longTestsWanted("two navcam-like sites")) return;
   const DefaultRun run = defaultRun("default-path-2", "--sites 2 --seed 5");
   CHECK_TRUE(checkDefaultRun(run, "seed 5, 2 sites, level"));
   const json& t = run.report["traverse"];
@@ -102,7 +94,7 @@ TEST(TraverseDefaultPath, TwoNavcamLikeSitesAreTiedAndPlacedWithinATenthOfTheOdo
 TEST_GROUP(TraverseDefaultPathLong){};
 
 TEST(TraverseDefaultPathLong, ThreeSitesOnThreeSeedsLevelAndSloped) {
-  if (!longTestsWanted("six navcam-like traverses")) return;
+  if (!areomap::test::longTestsWanted("six navcam-like traverses")) return;
   for (int seed = 21; seed <= 23; ++seed) {
     for (const bool sloped : {false, true}) {
       const std::string name = "seed " + std::to_string(seed) + (sloped ? ", sloped" : ", level");
