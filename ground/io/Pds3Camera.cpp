@@ -41,6 +41,14 @@ std::optional<double> optionalNumber(const Pds3Label& label, const char* key, co
   return parseNumber(text, label.file(), key);
 }
 
+// A counter (sol, site, drive) read as a number: whole and within int's range, else the label is refused.
+int labelCounter(double x, const std::string& path, const std::string& field) {
+  if (!std::isfinite(x) || x != std::floor(x) || std::fabs(x) > 1e9) {
+    throw cli::InputError(path, field, "expected a whole number below 1e9, found " + std::to_string(x));
+  }
+  return static_cast<int>(x);
+}
+
 void readAcquisition(const Pds3Label& label, const std::string& camera_group, Acquisition& a) {
   const std::string& path = label.file();
   if (const std::string* v = label.find("INSTRUMENT_ID", "*")) a.instrument = Pds3Label::unquote(*v);
@@ -50,7 +58,9 @@ void readAcquisition(const Pds3Label& label, const std::string& camera_group, Ac
     if (const std::string* v = label.find(key, "*")) a.mission = missionFromHost(Pds3Label::unquote(*v));
   }
   if (a.mission == Mission::kUnknown) a.mission = missionFromProductId(a.product_id);
-  if (const auto sol = optionalNumber(label, "PLANET_DAY_NUMBER", "*")) a.sol = static_cast<int>(*sol);
+  if (const auto sol = optionalNumber(label, "PLANET_DAY_NUMBER", "*")) {
+    a.sol = labelCounter(*sol, path, "PLANET_DAY_NUMBER");
+  }
   a.sclk_s = optionalNumber(label, "SPACECRAFT_CLOCK_START_COUNT", "*");
   // Site and drive: the rover motion counter, else the camera model frame's index.
   const std::string* counter = label.find("ROVER_MOTION_COUNTER", "*");
@@ -68,7 +78,7 @@ void readAcquisition(const Pds3Label& label, const std::string& camera_group, Ac
       const std::string name = Pds3Label::unquote(names[i]);
       if (name != "SITE" && name != "DRIVE") continue;
       const double x = parseNumber(values[i], path, "ROVER_MOTION_COUNTER (" + name + ")");
-      (name == "SITE" ? a.site : a.drive) = static_cast<int>(x);
+      (name == "SITE" ? a.site : a.drive) = labelCounter(x, path, "ROVER_MOTION_COUNTER (" + name + ")");
     }
   }
   for (const char* group : kRoverGroups) {

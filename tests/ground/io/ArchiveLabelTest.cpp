@@ -123,6 +123,34 @@ TEST(ArchiveLabels, Pds3ParmsAsMslAndMars2020WriteIt) {
   }
 }
 
+// A counter the label cannot hold as a whole number (beyond int's range, fractional, not finite) is refused
+// with the file and field named, never narrowed.
+TEST(ArchiveLabels, CountersOutOfRangeAreRefused) {
+  const std::string good = parmsLabel(navcam(), true);
+  const struct {
+    const char* from;
+    const char* to;
+    const char* field;
+  } cases[] = {{"(17,1064,", "(1e300,1064,", "ROVER_MOTION_COUNTER (SITE)"},
+               {"(17,1064,", "(17,-3e12,", "ROVER_MOTION_COUNTER (DRIVE)"},
+               {"(17,1064,", "(17.5,1064,", "ROVER_MOTION_COUNTER (SITE)"},
+               {"PLANET_DAY_NUMBER = 395", "PLANET_DAY_NUMBER = 9e99", "PLANET_DAY_NUMBER"}};
+  for (const auto& c : cases) {
+    std::string text = good;
+    const std::size_t at = text.find(c.from);
+    CHECK(at != std::string::npos);
+    text.replace(at, std::string(c.from).size(), c.to);
+    try {
+      io::parseCameraText(text, "NLF.LBL");
+      FAIL("a counter out of range was accepted");
+    } catch (const cli::InputError& e) {
+      const std::string what = e.what();
+      CHECK(what.find("NLF.LBL") != std::string::npos);
+      CHECK(what.find(c.field) != std::string::npos);
+    }
+  }
+}
+
 // The real MER frames: the embedded VICAR label (through GDAL's VICAR driver) gives the same model, frame,
 // rover pose and counters as the attached PDS3 label; a MER label's site and drive come from
 // ROVER_MOTION_COUNTER.
