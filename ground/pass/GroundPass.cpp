@@ -173,7 +173,10 @@ TieRun tiePointsStage(const Dataset& dataset, const std::function<const io::Pano
   Network& net = *network.net;
   std::vector<std::string> notes;
   const RigModelChoice rig = setRigConstraints(dataset, network.sol_of_index, net, notes);
-  if (rig.fido) cli::info(rig.sentence);
+  if (rig.fido) {
+    cli::info(rig.sentence);
+    dropGimbalModelNotes(report.warnings);
+  }
   report.estimated = notes;
   result.pairs = static_cast<int32_t>(dataset.pairs.size());
   result.images = net.imageCount();

@@ -1,5 +1,6 @@
 #include "ground/ties/TieAdjust.hpp"
 
+#include <algorithm>
 #include <sstream>
 
 #include "ground/dataset/RigEstimate.hpp"
@@ -33,6 +34,16 @@ RigModelChoice setRigConstraints(const Dataset& dataset, const std::vector<int>&
   choice.sentence = s.str();
   notes.push_back(choice.sentence);
   return choice;
+}
+
+void dropGimbalModelNotes(std::vector<std::string>& notes) {
+  const auto about_gimbal = [](const std::string& n) {
+    for (const char* prefix :
+         {"rig.gimbal_m.", "rig.left_offset_m:", "rig.right_offset_m:", "rig.sigma_gimbal_m:"})
+      if (n.rfind(prefix, 0) == 0) return true;
+    return false;
+  };
+  notes.erase(std::remove_if(notes.begin(), notes.end(), about_gimbal), notes.end());
 }
 
 std::map<std::string, bool> constraintsInUse(const RigConstraints& rig) {

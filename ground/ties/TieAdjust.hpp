@@ -31,6 +31,11 @@ struct RigModelChoice {
 RigModelChoice setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
                                  std::vector<std::string>& notes);
 
+// Drops from `notes` the dataset's notes on the gimbal model's values (rig.gimbal_m.<sol>, the camera
+// offsets, rig.sigma_gimbal_m held): after a switch to the FIDO model they describe a constraint that is not
+// used.
+void dropGimbalModelNotes(std::vector<std::string>& notes);
+
 // report.json's "constraints" of a network: which rig constraints its rig uses.
 std::map<std::string, bool> constraintsInUse(const RigConstraints& rig);
 
