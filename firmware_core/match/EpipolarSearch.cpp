@@ -6,24 +6,8 @@
 namespace areomap {
 namespace {
 
-constexpr int32_t kAmbiguityDistancePx = 3;
-
 bool inside(const Vec2& p, int32_t w, int32_t h) {
   return p.x() >= 0.0 && p.y() >= 0.0 && p.x() <= w - 1.0 && p.y() <= h - 1.0;
-}
-
-void consider(SearchHit& hit, double s, int32_t x, int32_t y) {
-  if (s <= kNccInvalid) return;
-  if (s > hit.score) {
-    const bool far = std::abs(x - hit.x) >= kAmbiguityDistancePx || std::abs(y - hit.y) >= kAmbiguityDistancePx;
-    if (far && hit.score > hit.second) hit.second = hit.score;
-    hit.score = s;
-    hit.x = x;
-    hit.y = y;
-  } else if (s > hit.second &&
-             (std::abs(x - hit.x) >= kAmbiguityDistancePx || std::abs(y - hit.y) >= kAmbiguityDistancePx)) {
-    hit.second = s;
-  }
 }
 
 }  // namespace
@@ -159,7 +143,7 @@ SearchHit searchAlongCurveDirect(const NccTemplate& t, const ImageView& target, 
   SearchHit hit;
   if (band_px < 0) band_px = 0;
   if (band_px > kMaxEpipolarBandPx) band_px = kMaxEpipolarBandPx;
-  forEachCurvePosition(curve, band_px, [&](int32_t x, int32_t y) { consider(hit, nccAt(t, target, x, y), x, y); });
+  forEachCurvePosition(curve, band_px, [&](int32_t x, int32_t y) { considerScore(hit, nccAt(t, target, x, y), x, y); });
   return hit;
 }
 
@@ -206,31 +190,9 @@ SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const 
   // 3. The best and second peak in the search order.
   forEachCurvePosition(curve, band_px, [&](int32_t x, int32_t y) {
     if (!inside_window(x, y)) return;
-    consider(hit, scratch.score[scratch.line_offset[y] + x - scratch.line_lo[y]], x, y);
+    considerScore(hit, scratch.score[scratch.line_offset[y] + x - scratch.line_lo[y]], x, y);
   });
   return hit;
-}
-
-SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius,
-                             const Mat2& a) {
-  SearchHit hit;
-  if (radius > kInterOffsetSearchRadiusPx) radius = kInterOffsetSearchRadiusPx;
-  for (int32_t dy = -radius; dy <= radius; ++dy) {
-    for (int32_t dx = -radius; dx <= radius; ++dx) {
-      consider(hit, nccWarpedAt(t, target, cx + dx, cy + dy, a), cx + dx, cy + dy);
-    }
-  }
-  return hit;
-}
-
-void refinePeakWarped(const NccTemplate& t, const ImageView& image, int32_t bx, int32_t by, double best,
-                      const Mat2& a, double& x_px, double& y_px) {
-  const double l = nccWarpedAt(t, image, bx - 1, by, a);
-  const double r = nccWarpedAt(t, image, bx + 1, by, a);
-  const double u = nccWarpedAt(t, image, bx, by - 1, a);
-  const double d = nccWarpedAt(t, image, bx, by + 1, a);
-  x_px = bx + parabolaOffset(l, best, r);
-  y_px = by + parabolaOffset(u, best, d);
 }
 
 }  // namespace areomap
