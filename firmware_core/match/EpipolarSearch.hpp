@@ -52,16 +52,19 @@ inline void considerScore(SearchHit& hit, double s, int32_t x, int32_t y) {
   }
 }
 
-// Scratch of searchAlongCurve (caller-owned, ~190 KiB): the searched positions' x interval per image line,
-// their scores, and the float copy of the 11 lines under one interval. Scores are computed a line at a time
-// (the template's 121 products for 16 neighbouring positions at once, window sums by column sums), then read
-// in the search order, so the result equals nccAt at every position (the sums are integers below 2^24,
-// exact in float).
+// Scratch of searchAlongCurve (caller-owned, ~210 KiB): the curve's centres, the searched positions' x
+// interval per image line, their scores, and the float copy of the 11 lines under one interval. Scores are
+// computed a line at a time (the template's 121 products for 16 neighbouring positions at once, window sums
+// by column sums; VectorKernels.hpp), then read in the search order, so the result equals nccAt at every
+// position (the sums are integers below 2^24, exact in float).
 struct CurveSearchScratch {
   // Enough for the default band (+-4 px: 9 x kMaxEpipolarSteps positions); beyond it nccAt per position.
   static constexpr int32_t kMaxScores = 16384;
   static constexpr int32_t kChunk = 16;         // positions per inner block
   static constexpr int32_t kRowFloats = kMaxImageWidth + kNccSide + kChunk;
+  int32_t centre_x[kMaxEpipolarSteps];  // the curve's searched centres in the search order
+  int32_t centre_y[kMaxEpipolarSteps];
+  bool horizontal[kMaxEpipolarSteps];  // the band across the curve runs along y there
   int32_t line_lo[kMaxImageHeight];
   int32_t line_hi[kMaxImageHeight];
   int32_t line_offset[kMaxImageHeight];

@@ -33,7 +33,8 @@ inline double nccTemplateVariance(const NccTemplate& t) {
 // The NCC of n sample pairs from their sums: the template's sum t_sum and var_t = n * sum_sq - sum^2, the
 // window's sum and sum of squares, and the sum of products; kNccInvalid when the window's
 // n * sum_sq - sum^2 is below min_var_s (flat). The one formula of every NCC (nccAt, nccWarpedAt, the
-// line-wise curve search, nccOfSamples), so that they agree bit for bit.
+// line-wise curve search, nccOfSamples), so that they agree bit for bit; the curve search repeats its
+// operations in the same order on vectors of positions (EpipolarSearch.cpp, tested against nccAt).
 inline double nccFromSums(double n, double t_sum, double var_t, double sum, double sum_sq, double cross,
                           double min_var_s) {
   const double var_s = n * sum_sq - sum * sum;
@@ -41,11 +42,14 @@ inline double nccFromSums(double n, double t_sum, double var_t, double sum, doub
   return (n * cross - sum * t_sum) / std::sqrt(var_s * var_t);
 }
 
+// The flat-window floor of the 11 x 11 template's NCC in nccFromSums' terms (n * sum_sq - sum^2).
+constexpr double kMinNccWindowVar = kMinNccVariance * kNccPixels * kNccPixels;
+
 // The NCC of a window of the 11 x 11 template from its sums (pixels, squares, products with the template)
 // and the template's nccTemplateVariance; kNccInvalid when the window's variance is below kMinNccVariance.
 inline double nccFromSums(const NccTemplate& t, double var_t, double sum, double sum_sq, double cross) {
   const double n = kNccPixels;
-  return nccFromSums(n, static_cast<double>(t.sum), var_t, sum, sum_sq, cross, kMinNccVariance * n * n);
+  return nccFromSums(n, static_cast<double>(t.sum), var_t, sum, sum_sq, cross, kMinNccWindowVar);
 }
 
 // The template centred on pixel (cx, cy); false when the window leaves the image.

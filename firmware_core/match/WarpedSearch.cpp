@@ -3,55 +3,93 @@
 #include <algorithm>
 #include <cstring>
 
+#include "firmware_core/match/VectorKernels.hpp"
+
 namespace areomap {
 namespace {
 
-// Two doubles in one vector register (SSE2, NEON; plain code elsewhere): GCC/Clang vector extension. Lanes
-// are independent, so each lane's result is the scalar code's; loaded by memcpy (unaligned), scalars
-// broadcast by initialisation, never passed or returned by value (no vector ABI on a 750 PowerPC).
+// Doubles in vector registers (GCC/Clang vector extension): two at the baseline (SSE2, NEON; plain code
+// elsewhere), four in the AVX2 build of the kernel (VectorKernels.hpp). Loaded by memcpy (unaligned),
+// scalars broadcast by adding them to a zero vector, never passed or returned by value (no vector ABI on a
+// 750 PowerPC).
 typedef double WarpDouble2 __attribute__((vector_size(16)));
+#if AREOMAP_MATCH_AVX2_KERNELS
+typedef double WarpDouble4 __attribute__((vector_size(32)));
+#endif
 
-constexpr int32_t kWarpLanes = 4;  // centres per block: two vectors
+constexpr int32_t kWarpLanes = 4;  // centres per block
 
 // Scores of the four centres whose first window sample k lies at region[base + offset[k]] (the region holds
 // the image as doubles, `stride` per line; every window inside it) into out[0..3]: nccWarpedAt's value.
-void scoreFourWarped(const NccTemplate& t, double var_t, const WarpedSamples& s, const int32_t* offset,
-                     const double* region, int32_t base, int32_t stride, double* out) {
-  WarpDouble2 sum_a = {}, sum_sq_a = {}, cross_a = {};
-  WarpDouble2 sum_b = {}, sum_sq_b = {}, cross_b = {};
+template <typename V>
+__attribute__((always_inline)) inline void scoreFourWarped(const NccTemplate& t, double var_t, const WarpedSamples& s,
+                                                           const int32_t* offset, const double* region, int32_t base,
+                                                           int32_t stride, double* out) {
+  constexpr int32_t kLanes = static_cast<int32_t>(sizeof(V) / sizeof(double));
+  constexpr int32_t kVectors = kWarpLanes / kLanes;
+  V sum[kVectors] = {}, sum_sq[kVectors] = {}, cross[kVectors] = {};
   for (int32_t k = 0; k < kNccPixels; ++k) {
     const double* r0 = region + base + offset[k];
     const double* r1 = r0 + stride;
-    WarpDouble2 v00a, v01a, v10a, v11a, v00b, v01b, v10b, v11b;
-    std::memcpy(&v00a, r0, sizeof v00a);
-    std::memcpy(&v01a, r0 + 1, sizeof v01a);
-    std::memcpy(&v10a, r1, sizeof v10a);
-    std::memcpy(&v11a, r1 + 1, sizeof v11a);
-    std::memcpy(&v00b, r0 + 2, sizeof v00b);
-    std::memcpy(&v01b, r0 + 3, sizeof v01b);
-    std::memcpy(&v10b, r1 + 2, sizeof v10b);
-    std::memcpy(&v11b, r1 + 3, sizeof v11b);
-    const WarpDouble2 gx = {s.gx[k], s.gx[k]}, fx = {s.fx[k], s.fx[k]};
-    const WarpDouble2 gy = {s.gy[k], s.gy[k]}, fy = {s.fy[k], s.fy[k]};
-    const double tv = t.pixels[k];
-    const WarpDouble2 tk = {tv, tv};
-    const WarpDouble2 value_a = gy * (gx * v00a + fx * v01a) + fy * (gx * v10a + fx * v11a);
-    const WarpDouble2 value_b = gy * (gx * v00b + fx * v01b) + fy * (gx * v10b + fx * v11b);
-    sum_a += value_a;
-    sum_sq_a += value_a * value_a;
-    cross_a += value_a * tk;
-    sum_b += value_b;
-    sum_sq_b += value_b * value_b;
-    cross_b += value_b * tk;
+    const V gx = V{} + s.gx[k], fx = V{} + s.fx[k], gy = V{} + s.gy[k], fy = V{} + s.fy[k];
+    const V tk = V{} + static_cast<double>(t.pixels[k]);
+    for (int32_t j = 0; j < kVectors; ++j) {
+      V v00, v01, v10, v11;
+      std::memcpy(&v00, r0 + j * kLanes, sizeof v00);
+      std::memcpy(&v01, r0 + j * kLanes + 1, sizeof v01);
+      std::memcpy(&v10, r1 + j * kLanes, sizeof v10);
+      std::memcpy(&v11, r1 + j * kLanes + 1, sizeof v11);
+      const V value = gy * (gx * v00 + fx * v01) + fy * (gx * v10 + fx * v11);
+      sum[j] += value;
+      sum_sq[j] += value * value;
+      cross[j] += value * tk;
+    }
   }
   double a[kWarpLanes], b[kWarpLanes], c[kWarpLanes];
-  std::memcpy(a, &sum_a, sizeof sum_a);
-  std::memcpy(a + 2, &sum_b, sizeof sum_b);
-  std::memcpy(b, &sum_sq_a, sizeof sum_sq_a);
-  std::memcpy(b + 2, &sum_sq_b, sizeof sum_sq_b);
-  std::memcpy(c, &cross_a, sizeof cross_a);
-  std::memcpy(c + 2, &cross_b, sizeof cross_b);
+  for (int32_t j = 0; j < kVectors; ++j) {
+    std::memcpy(a + j * kLanes, &sum[j], sizeof sum[j]);
+    std::memcpy(b + j * kLanes, &sum_sq[j], sizeof sum_sq[j]);
+    std::memcpy(c + j * kLanes, &cross[j], sizeof cross[j]);
+  }
   for (int32_t i = 0; i < kWarpLanes; ++i) out[i] = nccFromSums(t, var_t, a[i], b[i], c[i]);
+}
+
+// The scores of the centres cx0 + [lo, hi) of line y (hi - lo >= kWarpLanes, windows inside the region)
+// into score[lo, hi): blocks of four, the last one ending at hi (overlapping the one before it: lanes are
+// independent).
+template <typename V>
+__attribute__((always_inline)) inline void scoreWarpedRow(const NccTemplate& t, double var_t, const WarpedSamples& s,
+                                                          const int32_t* offset, const double* region, int32_t row_base,
+                                                          int32_t stride, int32_t lo, int32_t hi, double* score) {
+  for (int32_t i = lo; i < hi; i += kWarpLanes) {
+    const int32_t start = i + kWarpLanes <= hi ? i : hi - kWarpLanes;
+    scoreFourWarped<V>(t, var_t, s, offset, region, row_base + start, stride, score + start);
+  }
+}
+
+void scoreWarpedRowBaseline(const NccTemplate& t, double var_t, const WarpedSamples& s, const int32_t* offset,
+                            const double* region, int32_t row_base, int32_t stride, int32_t lo, int32_t hi,
+                            double* score) {
+  scoreWarpedRow<WarpDouble2>(t, var_t, s, offset, region, row_base, stride, lo, hi, score);
+}
+
+#if AREOMAP_MATCH_AVX2_KERNELS
+__attribute__((target("avx2"))) void scoreWarpedRowAvx2(const NccTemplate& t, double var_t, const WarpedSamples& s,
+                                                         const int32_t* offset, const double* region,
+                                                         int32_t row_base, int32_t stride, int32_t lo, int32_t hi,
+                                                         double* score) {
+  scoreWarpedRow<WarpDouble4>(t, var_t, s, offset, region, row_base, stride, lo, hi, score);
+}
+#endif
+
+using WarpedRowKernel = void (*)(const NccTemplate&, double, const WarpedSamples&, const int32_t*, const double*,
+                                 int32_t, int32_t, int32_t, int32_t, double*);
+
+WarpedRowKernel warpedRowKernel() {
+#if AREOMAP_MATCH_AVX2_KERNELS
+  if (matchUsesAvx2()) return scoreWarpedRowAvx2;
+#endif
+  return scoreWarpedRowBaseline;
 }
 
 }  // namespace
@@ -95,6 +133,7 @@ SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int3
   const double var_t = nccTemplateVariance(t);
   const int32_t side = 2 * radius + 1;
   double* score = scratch.score;
+  const WarpedRowKernel score_row = warpedRowKernel();
   for (int32_t dy = -radius; dy <= radius; ++dy) {
     const int32_t y = cy + dy;
     // The centres of this row whose window is inside form one interval (the test is monotone in x).
@@ -105,12 +144,8 @@ SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int3
     if (hi - lo < kWarpLanes) {
       for (int32_t i = lo; i < hi; ++i) score[i] = nccWarpedAt(t, target, cx - radius + i, y, s);
     } else {
-      // Blocks of four; the last block ends at hi (overlapping the one before it: lanes are independent).
-      for (int32_t i = lo; i < hi; i += kWarpLanes) {
-        const int32_t start = i + kWarpLanes <= hi ? i : hi - kWarpLanes;
-        const int32_t base = (y - y0) * stride + (cx - radius + start - x0);
-        scoreFourWarped(t, var_t, s, scratch.offset, scratch.region, base, stride, score + start);
-      }
+      score_row(t, var_t, s, scratch.offset, scratch.region, (y - y0) * stride + (cx - radius - x0), stride, lo, hi,
+                score);
     }
     for (int32_t i = lo; i < hi; ++i) considerScore(hit, score[i], cx - radius + i, y);
   }
