@@ -14,6 +14,8 @@ bool matchUsesAvx2() {
 #endif
 }
 
-void allowMatchAvx2(bool allowed) { g_match_avx2_allowed = allowed; }
+void allowMatchAvx2(bool allowed) {
+  g_match_avx2_allowed = allowed;
+}
 
 }  // namespace areomap

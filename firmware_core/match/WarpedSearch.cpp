@@ -22,9 +22,10 @@ constexpr int32_t kWarpLanes = 4;  // centres per block
 // Scores of the four centres whose first window sample k lies at region[base + offset[k]] (the region holds
 // the image as doubles, `stride` per line; every window inside it) into out[0..3]: nccWarpedAt's value.
 template <typename V>
-__attribute__((always_inline)) inline void scoreFourWarped(const NccTemplate& t, double var_t, const WarpedSamples& s,
-                                                           const int32_t* offset, const double* region, int32_t base,
-                                                           int32_t stride, double* out) {
+__attribute__((always_inline)) inline void scoreFourWarped(const NccTemplate& t, double var_t,
+                                                           const WarpedSamples& s, const int32_t* offset,
+                                                           const double* region, int32_t base, int32_t stride,
+                                                           double* out) {
   constexpr int32_t kLanes = static_cast<int32_t>(sizeof(V) / sizeof(double));
   constexpr int32_t kVectors = kWarpLanes / kLanes;
   V sum[kVectors] = {}, sum_sq[kVectors] = {}, cross[kVectors] = {};
@@ -58,9 +59,11 @@ __attribute__((always_inline)) inline void scoreFourWarped(const NccTemplate& t,
 // into score[lo, hi): blocks of four, the last one ending at hi (overlapping the one before it: lanes are
 // independent).
 template <typename V>
-__attribute__((always_inline)) inline void scoreWarpedRow(const NccTemplate& t, double var_t, const WarpedSamples& s,
-                                                          const int32_t* offset, const double* region, int32_t row_base,
-                                                          int32_t stride, int32_t lo, int32_t hi, double* score) {
+__attribute__((always_inline)) inline void scoreWarpedRow(const NccTemplate& t, double var_t,
+                                                          const WarpedSamples& s, const int32_t* offset,
+                                                          const double* region, int32_t row_base,
+                                                          int32_t stride, int32_t lo, int32_t hi,
+                                                          double* score) {
   for (int32_t i = lo; i < hi; i += kWarpLanes) {
     const int32_t start = i + kWarpLanes <= hi ? i : hi - kWarpLanes;
     scoreFourWarped<V>(t, var_t, s, offset, region, row_base + start, stride, score + start);
@@ -74,16 +77,17 @@ void scoreWarpedRowBaseline(const NccTemplate& t, double var_t, const WarpedSamp
 }
 
 #if AREOMAP_MATCH_AVX2_KERNELS
-__attribute__((target("avx2"))) void scoreWarpedRowAvx2(const NccTemplate& t, double var_t, const WarpedSamples& s,
-                                                         const int32_t* offset, const double* region,
-                                                         int32_t row_base, int32_t stride, int32_t lo, int32_t hi,
-                                                         double* score) {
+__attribute__((target("avx2"))) void scoreWarpedRowAvx2(const NccTemplate& t, double var_t,
+                                                        const WarpedSamples& s, const int32_t* offset,
+                                                        const double* region, int32_t row_base,
+                                                        int32_t stride, int32_t lo, int32_t hi,
+                                                        double* score) {
   scoreWarpedRow<WarpDouble4>(t, var_t, s, offset, region, row_base, stride, lo, hi, score);
 }
 #endif
 
-using WarpedRowKernel = void (*)(const NccTemplate&, double, const WarpedSamples&, const int32_t*, const double*,
-                                 int32_t, int32_t, int32_t, int32_t, double*);
+using WarpedRowKernel = void (*)(const NccTemplate&, double, const WarpedSamples&, const int32_t*,
+                                 const double*, int32_t, int32_t, int32_t, int32_t, double*);
 
 WarpedRowKernel warpedRowKernel() {
 #if AREOMAP_MATCH_AVX2_KERNELS
@@ -108,8 +112,8 @@ SearchHit searchWindowWarpedDirect(const NccTemplate& t, const ImageView& target
   return hit;
 }
 
-SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius,
-                             const Mat2& a, WarpedSearchScratch& scratch) {
+SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy,
+                             int32_t radius, const Mat2& a, WarpedSearchScratch& scratch) {
   SearchHit hit;
   if (radius > kInterOffsetSearchRadiusPx) radius = kInterOffsetSearchRadiusPx;
   if (radius < 0 || !t.textured) return hit;
@@ -117,8 +121,10 @@ SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int3
   warpSamples(a, s);
   // The image under every window of the search as doubles (clipped to the image: only windows inside it
   // are scored); a warp too wide for the scratch is searched by nccWarpedAt at every centre.
-  const int32_t x0 = std::max(0, cx - radius + s.min_dx), x1 = std::min(target.width - 1, cx + radius + s.max_dx + 1);
-  const int32_t y0 = std::max(0, cy - radius + s.min_dy), y1 = std::min(target.height - 1, cy + radius + s.max_dy + 1);
+  const int32_t x0 = std::max(0, cx - radius + s.min_dx),
+                x1 = std::min(target.width - 1, cx + radius + s.max_dx + 1);
+  const int32_t y0 = std::max(0, cy - radius + s.min_dy),
+                y1 = std::min(target.height - 1, cy + radius + s.max_dy + 1);
   if (x1 < x0 || y1 < y0) return hit;
   const int32_t stride = x1 - x0 + 1;
   if (stride > WarpedSearchScratch::kSide || y1 - y0 + 1 > WarpedSearchScratch::kSide) {
@@ -144,8 +150,8 @@ SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int3
     if (hi - lo < kWarpLanes) {
       for (int32_t i = lo; i < hi; ++i) score[i] = nccWarpedAt(t, target, cx - radius + i, y, s);
     } else {
-      score_row(t, var_t, s, scratch.offset, scratch.region, (y - y0) * stride + (cx - radius - x0), stride, lo, hi,
-                score);
+      score_row(t, var_t, s, scratch.offset, scratch.region, (y - y0) * stride + (cx - radius - x0), stride,
+                lo, hi, score);
     }
     for (int32_t i = lo; i < hi; ++i) considerScore(hit, score[i], cx - radius + i, y);
   }

@@ -29,8 +29,8 @@ struct WarpedSearchScratch {
 // Best NCC of `t`, warped by `a` (nccWarpedAt; identity = plain NCC), in the square window +-radius around
 // (cx, cy) (radius <= kInterOffsetSearchRadiusPx), the second peak as searchAlongCurve has it; centres in
 // rows (y outer, x inner).
-SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius,
-                             const Mat2& a, WarpedSearchScratch& scratch);
+SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy,
+                             int32_t radius, const Mat2& a, WarpedSearchScratch& scratch);
 // The same search with nccWarpedAt at every centre.
 SearchHit searchWindowWarpedDirect(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy,
                                    int32_t radius, const Mat2& a);

@@ -23,14 +23,16 @@ std::vector<uint8_t> smoothNoise(int32_t w, int32_t h, int32_t stride, std::mt19
   for (auto& p : pixels) p = static_cast<uint8_t>(grey(rng));
   for (int32_t y = 0; y < h; ++y) {
     for (int32_t x = 1; x < w; ++x) {
-      pixels[y * stride + x] = static_cast<uint8_t>((pixels[y * stride + x] + pixels[y * stride + x - 1]) / 2);
+      pixels[y * stride + x] =
+          static_cast<uint8_t>((pixels[y * stride + x] + pixels[y * stride + x - 1]) / 2);
     }
   }
   return pixels;
 }
 
 // The bilinear NCC at centre + a * (u, v), each sample position computed on its own.
-double independentWarpedNcc(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy, const Mat2& a) {
+double independentWarpedNcc(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy,
+                            const Mat2& a) {
   std::vector<double> ts, ws;
   for (int32_t v = -kNccRadius; v <= kNccRadius; ++v) {
     for (int32_t u = -kNccRadius; u <= kNccRadius; ++u) {
@@ -61,16 +63,20 @@ TEST(WarpedSearch, FourCentreBlocksEqualNccWarpedAtBitForBit) {
   int32_t found = 0, clipped = 0;
   for (int32_t trial = 0; trial < 80; ++trial) {
     NccTemplate t;
-    CHECK(extractTemplate(image, 20 + static_cast<int32_t>(unit(rng) * 220), 20 + static_cast<int32_t>(unit(rng) * 160), t));
+    CHECK(extractTemplate(image, 20 + static_cast<int32_t>(unit(rng) * 220),
+                          20 + static_cast<int32_t>(unit(rng) * 160), t));
     // Identity, then rotations, scales and shears of the patch.
     Mat2 a = Mat2::Identity();
     if (trial > 0) {
-      const double angle = (unit(rng) - 0.5) * 1.2, scale = 0.7 + 0.8 * unit(rng), shear = (unit(rng) - 0.5) * 0.6;
-      a << scale * std::cos(angle), -scale * std::sin(angle) + shear, scale * std::sin(angle), scale * std::cos(angle);
+      const double angle = (unit(rng) - 0.5) * 1.2, scale = 0.7 + 0.8 * unit(rng),
+                   shear = (unit(rng) - 0.5) * 0.6;
+      a << scale * std::cos(angle), -scale * std::sin(angle) + shear, scale * std::sin(angle),
+          scale * std::cos(angle);
     }
     // Centres anywhere, also where the window leaves the image (rows and columns cut off at every border).
     const int32_t cx = static_cast<int32_t>(unit(rng) * w), cy = static_cast<int32_t>(unit(rng) * h);
-    const int32_t radius = coin(rng) == 0 ? kInterOffsetSearchRadiusPx : 1 + static_cast<int32_t>(unit(rng) * 20);
+    const int32_t radius =
+        coin(rng) == 0 ? kInterOffsetSearchRadiusPx : 1 + static_cast<int32_t>(unit(rng) * 20);
     const SearchHit direct = searchWindowWarpedDirect(t, image, cx, cy, radius, a);
     // The baseline kernels, then the AVX2 ones where the processor has them (VectorKernels.hpp).
     for (const bool avx2 : {false, true}) {
@@ -84,8 +90,8 @@ TEST(WarpedSearch, FourCentreBlocksEqualNccWarpedAtBitForBit) {
     found += direct.score > kNccInvalid ? 1 : 0;
     clipped += cx < radius + 10 || cy < radius + 10 || cx > w - radius - 10 || cy > h - radius - 10 ? 1 : 0;
   }
-  std::printf("warped search: %d of 80 searches found a score, equal to nccWarpedAt's (AVX2 kernels %s)\n", found,
-              matchUsesAvx2() ? "compared too" : "not on this processor");
+  std::printf("warped search: %d of 80 searches found a score, equal to nccWarpedAt's (AVX2 kernels %s)\n",
+              found, matchUsesAvx2() ? "compared too" : "not on this processor");
   CHECK(found >= 60);
   CHECK(clipped >= 20);
 }
@@ -102,7 +108,8 @@ TEST(WarpedSearch, NccWarpedAtIsTheBilinearNccOfTheWarpedWindow) {
     CHECK(extractTemplate(image, 30 + trial % 50, 25 + trial % 40, t));
     Mat2 a;
     a << 0.6 + unit(rng), unit(rng) - 0.5, unit(rng) - 0.5, 0.6 + unit(rng);
-    const int32_t cx = 25 + static_cast<int32_t>(unit(rng) * 70), cy = 25 + static_cast<int32_t>(unit(rng) * 50);
+    const int32_t cx = 25 + static_cast<int32_t>(unit(rng) * 70),
+                  cy = 25 + static_cast<int32_t>(unit(rng) * 50);
     const double got = nccWarpedAt(t, image, cx, cy, a);
     const double expected = independentWarpedNcc(t, image, cx, cy, a);
     if (got == kNccInvalid) continue;
