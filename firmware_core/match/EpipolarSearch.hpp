@@ -33,16 +33,38 @@ struct SearchHit {
   double second = kNccInvalid;  // best score at least 3 px away from the peak (ambiguity)
 };
 
-// Scratch of searchAlongCurve (caller-owned, ~190 KiB): the searched positions' x interval per image line,
-// their scores, and the float copy of the 11 lines under one interval. Scores are computed a line at a time
-// (the template's 121 products for 16 neighbouring positions at once, window sums by column sums), then read
-// in the search order, so the result equals nccAt at every position (the sums are integers below 2^24,
-// exact in float).
+// A second peak counts only this far from the best one (in x or in y).
+constexpr int32_t kAmbiguityDistancePx = 3;
+
+// Takes score s at (x, y) into the hit, in the search order: the best score and its position, and the best
+// score at least kAmbiguityDistancePx from the best position as it stood when that score was seen.
+inline void considerScore(SearchHit& hit, double s, int32_t x, int32_t y) {
+  if (s <= kNccInvalid) return;
+  const bool far = x - hit.x >= kAmbiguityDistancePx || hit.x - x >= kAmbiguityDistancePx ||
+                   y - hit.y >= kAmbiguityDistancePx || hit.y - y >= kAmbiguityDistancePx;
+  if (s > hit.score) {
+    if (far && hit.score > hit.second) hit.second = hit.score;
+    hit.score = s;
+    hit.x = x;
+    hit.y = y;
+  } else if (s > hit.second && far) {
+    hit.second = s;
+  }
+}
+
+// Scratch of searchAlongCurve (caller-owned, ~210 KiB): the curve's centres, the searched positions' x
+// interval per image line, their scores, and the float copy of the 11 lines under one interval. Scores are
+// computed a line at a time (the template's 121 products for 16 neighbouring positions at once, window sums
+// by column sums; VectorKernels.hpp), then read in the search order, so the result equals nccAt at every
+// position (the sums are integers below 2^24, exact in float).
 struct CurveSearchScratch {
   // Enough for the default band (+-4 px: 9 x kMaxEpipolarSteps positions); beyond it nccAt per position.
   static constexpr int32_t kMaxScores = 16384;
   static constexpr int32_t kChunk = 16;         // positions per inner block
   static constexpr int32_t kRowFloats = kMaxImageWidth + kNccSide + kChunk;
+  int32_t centre_x[kMaxEpipolarSteps];  // the curve's searched centres in the search order
+  int32_t centre_y[kMaxEpipolarSteps];
+  bool horizontal[kMaxEpipolarSteps];  // the band across the curve runs along y there
   int32_t line_lo[kMaxImageHeight];
   int32_t line_hi[kMaxImageHeight];
   int32_t line_offset[kMaxImageHeight];
@@ -59,12 +81,5 @@ SearchHit searchAlongCurve(const NccTemplate& t, const ImageView& target, const 
 // CurveSearchScratch::kMaxScores positions).
 SearchHit searchAlongCurveDirect(const NccTemplate& t, const ImageView& target, const EpipolarCurve& curve,
                                  int32_t band_px);
-
-// Best NCC of `t`, warped by the local affine map `a` (nccWarpedAt; identity = plain NCC), in the square
-// window +-radius around (cx, cy) (radius <= kInterOffsetSearchRadiusPx), and its sub-pixel peak.
-SearchHit searchWindowWarped(const NccTemplate& t, const ImageView& target, int32_t cx, int32_t cy, int32_t radius,
-                             const Mat2& a);
-void refinePeakWarped(const NccTemplate& t, const ImageView& image, int32_t bx, int32_t by, double best,
-                      const Mat2& a, double& x_px, double& y_px);
 
 }  // namespace areomap

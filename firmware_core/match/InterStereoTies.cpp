@@ -6,6 +6,7 @@
 #include "firmware_core/match/EpipolarSearch.hpp"
 #include "firmware_core/match/Ncc.hpp"
 #include "firmware_core/match/InterStereoTies.hpp"
+#include "firmware_core/match/WarpedSearch.hpp"
 #include "firmware_core/match/PanoramaMatcher.hpp"
 
 namespace areomap {
@@ -158,7 +159,7 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
         templateFromPixels(source.ties[pr.tie].patch, t);
         const SearchHit hit =
             searchWindowWarped(t, *image, static_cast<int32_t>(std::lround(pr.px.x())),
-                               static_cast<int32_t>(std::lround(pr.px.y())), inter.probe_radius_px, pr.shape);
+                               static_cast<int32_t>(std::lround(pr.px.y())), inter.probe_radius_px, pr.shape, warp_scratch_);
         // No ambiguity test here: the probes only feed the robust offset field, which drops strays.
         if (hit.score < inter.min_ncc) continue;
         candidates_[found++] =
@@ -195,7 +196,7 @@ void PanoramaMatcher::interTies(int32_t new_pair, const ImageView* images[2], Pa
         const int32_t py = static_cast<int32_t>(std::lround(pr.px.y() + field_y.dot(basis)));
         if (px < margin || py < margin || px > image->width - 1 - margin || py > image->height - 1 - margin)
           continue;
-        const SearchHit hit = searchWindowWarped(t, *image, px, py, inter.search_radius_px, pr.shape);
+        const SearchHit hit = searchWindowWarped(t, *image, px, py, inter.search_radius_px, pr.shape, warp_scratch_);
         if (hit.score < inter.min_ncc || hit.second > stereo.max_second_ratio * hit.score) continue;
         double x = 0.0, y = 0.0;
         refinePeakWarped(t, *image, hit.x, hit.y, hit.score, pr.shape, x, y);

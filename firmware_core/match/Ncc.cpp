@@ -87,33 +87,62 @@ double nccAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t c
                      static_cast<double>(st));
 }
 
-double nccWarpedAt(const NccTemplate& t, const ImageView& image, double cx, double cy, const Mat2& a) {
-  if (!t.textured) return kNccInvalid;
-  // The corners of the warped window must lie inside the image (bilinear needs x + 1).
-  const double reach_x = kNccRadius * (std::fabs(a(0, 0)) + std::fabs(a(0, 1)));
-  const double reach_y = kNccRadius * (std::fabs(a(1, 0)) + std::fabs(a(1, 1)));
-  if (cx - reach_x < 0.0 || cy - reach_y < 0.0 || cx + reach_x >= image.width - 1.0 ||
-      cy + reach_y >= image.height - 1.0) {
-    return kNccInvalid;
-  }
-  double s = 0.0, s2 = 0.0, st = 0.0;
+void warpSamples(const Mat2& a, WarpedSamples& s) {
+  s.reach_x = kNccRadius * (std::fabs(a(0, 0)) + std::fabs(a(0, 1)));
+  s.reach_y = kNccRadius * (std::fabs(a(1, 0)) + std::fabs(a(1, 1)));
+  s.min_dx = s.min_dy = 0;
+  s.max_dx = s.max_dy = 0;
   for (int32_t v = -kNccRadius; v <= kNccRadius; ++v) {
     for (int32_t u = -kNccRadius; u <= kNccRadius; ++u) {
-      const double x = cx + a(0, 0) * u + a(0, 1) * v;
-      const double y = cy + a(1, 0) * u + a(1, 1) * v;
-      const int32_t x0 = static_cast<int32_t>(x);
-      const int32_t y0 = static_cast<int32_t>(y);
-      const double fx = x - x0, fy = y - y0;
-      const uint8_t* r0 = image.row(y0) + x0;
-      const uint8_t* r1 = image.row(y0 + 1) + x0;
-      const double value = bilinear(r0, r1, fx, fy);
-      const double tv = t.pixels[(v + kNccRadius) * kNccSide + (u + kNccRadius)];
-      s += value;
-      s2 += value * value;
-      st += value * tv;
+      const int32_t k = (v + kNccRadius) * kNccSide + (u + kNccRadius);
+      const double ox = a(0, 0) * u + a(0, 1) * v;
+      const double oy = a(1, 0) * u + a(1, 1) * v;
+      const double floor_x = std::floor(ox);
+      const double floor_y = std::floor(oy);
+      s.dx[k] = static_cast<int32_t>(floor_x);
+      s.dy[k] = static_cast<int32_t>(floor_y);
+      s.fx[k] = ox - floor_x;
+      s.fy[k] = oy - floor_y;
+      s.gx[k] = 1.0 - s.fx[k];
+      s.gy[k] = 1.0 - s.fy[k];
+      s.min_dx = s.dx[k] < s.min_dx ? s.dx[k] : s.min_dx;
+      s.max_dx = s.dx[k] > s.max_dx ? s.dx[k] : s.max_dx;
+      s.min_dy = s.dy[k] < s.min_dy ? s.dy[k] : s.min_dy;
+      s.max_dy = s.dy[k] > s.max_dy ? s.dy[k] : s.max_dy;
     }
   }
-  return nccFromSums(t, nccTemplateVariance(t), s, s2, st);
+}
+
+bool warpedWindowInside(const WarpedSamples& s, const ImageView& image, int32_t cx, int32_t cy) {
+  // The reach test keeps every sample strictly inside [0, size - 1); the integer test holds the bilinear
+  // reads inside the image where rounding puts a sample a hair beyond the reach.
+  if (cx - s.reach_x < 0.0 || cy - s.reach_y < 0.0 || cx + s.reach_x >= image.width - 1.0 ||
+      cy + s.reach_y >= image.height - 1.0) {
+    return false;
+  }
+  return cx + s.min_dx >= 0 && cy + s.min_dy >= 0 && cx + s.max_dx + 1 <= image.width - 1 &&
+         cy + s.max_dy + 1 <= image.height - 1;
+}
+
+double nccWarpedAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy, const WarpedSamples& s) {
+  if (!t.textured || !warpedWindowInside(s, image, cx, cy)) return kNccInvalid;
+  double sum = 0.0, sum_sq = 0.0, cross = 0.0;
+  for (int32_t k = 0; k < kNccPixels; ++k) {
+    const uint8_t* r0 = image.row(cy + s.dy[k]) + (cx + s.dx[k]);
+    const uint8_t* r1 = r0 + image.stride;
+    // The bilinear value in the operation order of WarpedSearch.cpp's four-position blocks (bit for bit).
+    const double value = s.gy[k] * (s.gx[k] * r0[0] + s.fx[k] * r0[1]) + s.fy[k] * (s.gx[k] * r1[0] + s.fx[k] * r1[1]);
+    sum += value;
+    sum_sq += value * value;
+    cross += value * static_cast<double>(t.pixels[k]);
+  }
+  return nccFromSums(t, nccTemplateVariance(t), sum, sum_sq, cross);
+}
+
+double nccWarpedAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy, const Mat2& a) {
+  WarpedSamples s;
+  warpSamples(a, s);
+  return nccWarpedAt(t, image, cx, cy, s);
 }
 
 double nccOfSamples(const double* t, const double* s, int32_t n, double min_variance) {

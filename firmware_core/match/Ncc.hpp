@@ -33,7 +33,8 @@ inline double nccTemplateVariance(const NccTemplate& t) {
 // The NCC of n sample pairs from their sums: the template's sum t_sum and var_t = n * sum_sq - sum^2, the
 // window's sum and sum of squares, and the sum of products; kNccInvalid when the window's
 // n * sum_sq - sum^2 is below min_var_s (flat). The one formula of every NCC (nccAt, nccWarpedAt, the
-// line-wise curve search, nccOfSamples), so that they agree bit for bit.
+// line-wise curve search, nccOfSamples), so that they agree bit for bit; the curve search repeats its
+// operations in the same order on vectors of positions (EpipolarSearch.cpp, tested against nccAt).
 inline double nccFromSums(double n, double t_sum, double var_t, double sum, double sum_sq, double cross,
                           double min_var_s) {
   const double var_s = n * sum_sq - sum * sum;
@@ -41,11 +42,14 @@ inline double nccFromSums(double n, double t_sum, double var_t, double sum, doub
   return (n * cross - sum * t_sum) / std::sqrt(var_s * var_t);
 }
 
+// The flat-window floor of the 11 x 11 template's NCC in nccFromSums' terms (n * sum_sq - sum^2).
+constexpr double kMinNccWindowVar = kMinNccVariance * kNccPixels * kNccPixels;
+
 // The NCC of a window of the 11 x 11 template from its sums (pixels, squares, products with the template)
 // and the template's nccTemplateVariance; kNccInvalid when the window's variance is below kMinNccVariance.
 inline double nccFromSums(const NccTemplate& t, double var_t, double sum, double sum_sq, double cross) {
   const double n = kNccPixels;
-  return nccFromSums(n, static_cast<double>(t.sum), var_t, sum, sum_sq, cross, kMinNccVariance * n * n);
+  return nccFromSums(n, static_cast<double>(t.sum), var_t, sum, sum_sq, cross, kMinNccWindowVar);
 }
 
 // The template centred on pixel (cx, cy); false when the window leaves the image.
@@ -59,10 +63,35 @@ bool extractTemplateAt(const ImageView& image, double cx, double cy, NccTemplate
 // the image or is flat.
 double nccAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy);
 
+// The sample grid of the template warped by a local affine map `a` of template offsets about an integer
+// centre: template pixel (u, v) (k = (v + r) * kNccSide + (u + r)) is compared with the image at
+// centre + a * (u, v), that is at the integer offset (dx[k], dy[k]) from the centre plus the fraction
+// (fx[k], fy[k]) in [0, 1], interpolated bilinearly with the weights below. The offsets and weights do not
+// depend on the centre, so that a search over many centres shares them and every centre sees the same
+// samples (WarpedSearch.hpp).
+struct WarpedSamples {
+  int32_t dx[kNccPixels];
+  int32_t dy[kNccPixels];
+  double fx[kNccPixels];
+  double fy[kNccPixels];
+  double gx[kNccPixels];  // 1 - fx
+  double gy[kNccPixels];  // 1 - fy
+  // The window's reach from its centre (r * (|a00| + |a01|), likewise in y) and the extreme integer offsets.
+  double reach_x = 0.0;
+  double reach_y = 0.0;
+  int32_t min_dx = 0, max_dx = 0, min_dy = 0, max_dy = 0;
+};
+void warpSamples(const Mat2& a, WarpedSamples& s);
+// Whether the warped window about (cx, cy) lies inside the image with the bilinear neighbour (x + 1, y + 1)
+// of every sample.
+bool warpedWindowInside(const WarpedSamples& s, const ImageView& image, int32_t cx, int32_t cy);
+
 // NCC of the template with `image` resampled (bilinear) through the local affine map `a` of template
-// offsets: template pixel (u, v) is compared with image(cx + a * (u, v)). This is how a patch from another
-// view is compared when perspective changes its shape (rotation, scale, foreshortening).
-double nccWarpedAt(const NccTemplate& t, const ImageView& image, double cx, double cy, const Mat2& a);
+// offsets: template pixel (u, v) is compared with image((cx, cy) + a * (u, v)) (the samples of
+// WarpedSamples). This is how a patch from another view is compared when perspective changes its shape
+// (rotation, scale, foreshortening). kNccInvalid when the window leaves the image or is flat.
+double nccWarpedAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy, const WarpedSamples& s);
+double nccWarpedAt(const NccTemplate& t, const ImageView& image, int32_t cx, int32_t cy, const Mat2& a);
 
 // NCC of n sample pairs given as values, template `t` against window `s`, whatever their source (the
 // ground samples float pyramids through a DEM-warped grid of any size); kNccInvalid when either's

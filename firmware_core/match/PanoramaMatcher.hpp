@@ -37,6 +37,7 @@
 #include "firmware_core/match/InterStereoTies.hpp"
 #include "firmware_core/match/StereoMatcher.hpp"
 #include "firmware_core/match/TieList.hpp"
+#include "firmware_core/match/WarpedSearch.hpp"
 
 namespace areomap {
 
@@ -137,6 +138,7 @@ class PanoramaMatcher {
 
   StereoWorkspace stereo_workspace_;
   StereoResult stereo_result_;
+  WarpedSearchScratch warp_scratch_;
   StoredPair pairs_[kMaxPairs];
   int32_t pair_count_ = 0;
   int32_t planned_pairs_ = kMaxPairs;

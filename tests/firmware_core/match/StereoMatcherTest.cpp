@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "firmware_core/match/StereoMatcher.hpp"
+#include "firmware_core/match/VectorKernels.hpp"
 #include "platform/heap/HeapCounter.hpp"
 #include "tests/firmware_core/match/SyntheticStereo.hpp"
 
@@ -150,12 +151,16 @@ TEST(CurveSearch, LineWiseSearchEqualsNccAtEveryPosition) {
       ++curve.count;
     }
     const int32_t band = trial % 5 == 4 ? kMaxEpipolarBandPx : trial % 5;
-    const SearchHit a = searchAlongCurve(t, image, curve, band, scratch);
     const SearchHit b = searchAlongCurveDirect(t, image, curve, band);
-    CHECK_EQUAL(b.score, a.score);  // bit for bit
-    CHECK_EQUAL(b.second, a.second);
-    CHECK_EQUAL(b.x, a.x);
-    CHECK_EQUAL(b.y, a.y);
+    // The baseline kernels, then the AVX2 ones where the processor has them (VectorKernels.hpp).
+    for (const bool avx2 : {false, true}) {
+      allowMatchAvx2(avx2);
+      const SearchHit a = searchAlongCurve(t, image, curve, band, scratch);
+      CHECK_EQUAL(b.score, a.score);  // bit for bit
+      CHECK_EQUAL(b.second, a.second);
+      CHECK_EQUAL(b.x, a.x);
+      CHECK_EQUAL(b.y, a.y);
+    }
     compared += b.score > kNccInvalid ? 1 : 0;
   }
   // A long vertical curve with the widest band: more positions than the scratch holds (the fallback path).
@@ -175,8 +180,8 @@ TEST(CurveSearch, LineWiseSearchEqualsNccAtEveryPosition) {
   CHECK_EQUAL(b.x, a.x);
   CHECK_EQUAL(b.y, a.y);
   fallback += (1024 - 10) * (2 * kMaxEpipolarBandPx + 1) > CurveSearchScratch::kMaxScores ? 1 : 0;
-  std::printf("curve search: %d of 60 searches found a score, all equal to nccAt's; fallback exercised: %d\n", compared,
-              fallback);
+  std::printf("curve search: %d of 60 searches found a score, all equal to nccAt's (AVX2 kernels %s); fallback exercised: %d\n",
+              compared, matchUsesAvx2() ? "compared too" : "not on this processor", fallback);
   CHECK(compared >= 40);
   CHECK_EQUAL(1, fallback);
   DOUBLES_EQUAL(1.0, a.score, 1e-12);  // the template's own window is on the curve

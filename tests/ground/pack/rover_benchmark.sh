@@ -2,7 +2,11 @@
 # Rover node benchmark: areomap-pack, then areomap-rover on a file:// replay (per-stage time per
 # pair, whole-panorama time, peak RSS) and over udpm with stock lcm-logplayer at full speed (-s 0) in a
 # private network namespace (messages per second, sequence gaps), and the binary's static memory (size).
-# usage: tests/ground/pack/rover_benchmark.sh [BUILD_DIR] [DATASET]   (DATASET default: areomap-sim navcam)
+# With REFERENCE (another areomap-rover binary, e.g. main's, built elsewhere) it first runs both on the same
+# file:// replay, alternately, RUNS times each (default 3), and prints each run's per-pair stage times: the
+# reference comes from the same load as the figure.
+# usage: tests/ground/pack/rover_benchmark.sh [BUILD_DIR] [DATASET] [REFERENCE [RUNS]]
+#        (DATASET default or "": areomap-sim navcam seed 1)
 set -eu
 BUILD=${1:-build}
 BIN=$BUILD/bin
@@ -16,6 +20,19 @@ fi
 LOG=$WORK/stream.lcm
 "$BIN/areomap-pack" "$DATASET" --out "$LOG" 2>/dev/null
 echo "log: $(ls -l "$LOG" | awk '{print $5}') bytes, $(basename "$DATASET")"
+REFERENCE=${3:-}
+if [ -n "$REFERENCE" ]; then
+  echo "--- per pair, this build against $REFERENCE, alternately (file:// replay)"
+  RUN=1
+  while [ "$RUN" -le "${4:-3}" ]; do
+    for B in "$REFERENCE" "$BIN/areomap-rover"; do
+      LABEL=this; [ "$B" = "$REFERENCE" ] && LABEL=reference
+      printf '%s run %d: ' "$LABEL" "$RUN"
+      "$B" --lcm "file://$(realpath "$LOG")" --quiet 2>&1 | grep 'seconds per accepted pair' | sed 's/^areomap-rover: //'
+    done
+    RUN=$((RUN + 1))
+  done
+fi
 echo "static memory of the rover binary (size):"
 size "$BIN/areomap-rover"
 echo "--- file:// replay (pipeline as fast as it goes)"
