@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
+#include <type_traits>
 #include <unordered_map>
 #include <utility>
 
@@ -81,15 +83,12 @@ void normaliseShares(PointPairs& s) {
 // slot, so that d has one sign per pair of pairs): d = their mean heights' difference, moved along the
 // bin's plane to one position (the two pairs' points sample different parts of a sloping bin); per pair
 // the points' mean noise variance (s2 / n) and the patch factor of its n points.
-struct OverlapBin {
-  long long cell, slot_p, slot_q;
-  double d, mean_var_p, mean_var_q, factor_p, factor_q;
-};
+using OverlapBin = BinSums::Overlap;
 
-template <class Acc>
-std::vector<OverlapBin> overlapBins(const std::vector<std::pair<long long, Acc>>& by_cell,
-                                    long long pair_slots, double l_px) {
-  std::vector<OverlapBin> out;
+// Appends to `out` the overlap bins of `by_cell` (bins sorted by cell, then pair slot; whole cells).
+template <class Bins>
+void overlapBins(const Bins& by_cell, long long pair_slots, double l_px, std::vector<OverlapBin>& out) {
+  using Acc = std::remove_cv_t<std::remove_reference_t<decltype(by_cell[0].second)>>;
   for (std::size_t i = 0; i < by_cell.size();) {
     const long long cell = by_cell[i].first / pair_slots;
     const Acc* best[2] = {nullptr, nullptr};
@@ -122,7 +121,6 @@ std::vector<OverlapBin> overlapBins(const std::vector<std::pair<long long, Acc>>
     out.push_back({cell, slot[0], slot[1], d, p.s2 / p.n, q.s2 / q.n,
                    patchVarianceFactor(std::sqrt(p.n), l_px), patchVarianceFactor(std::sqrt(q.n), l_px)});
   }
-  return out;
 }
 
 // The value x in [lo, hi] at which the median of ratio(k, x) over k = 0..n-1 is chi-square's median (one
@@ -235,62 +233,72 @@ struct BinAcc {
 
 constexpr long long kBinPairSlots = 4096;  // pairs per cell key (pair ids beyond share a slot: one pair)
 
-// The bins of the points that keep(p) accepts, sorted by key (row, column, pair slot), each the sum over its
-// points in the cloud's order: the kept points are grouped by grid row (a counting sort, stable), and each
-// row's bins are summed on their own (rows in parallel) and appended in row order. No map over the whole
-// cloud (a navcam cloud has ~1.7e7 points in ~2e6 bins).
-std::vector<std::pair<long long, BinAcc>> binSums(const std::vector<DemPoint>& pts, const DemGrid& grid,
-                                                  const std::function<bool(const DemPoint&)>& keep) {
-  std::vector<int32_t> row_of(pts.size());
-  long long r_lo = 0, r_hi = -1;
-  constexpr int32_t kNotKept = std::numeric_limits<int32_t>::min();
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    const DemPoint& p = pts[i];
-    const double r = std::floor((grid.north0_m - p.north_m) / grid.cell_m);
-    if (!keep(p) || !(std::fabs(r) < 1e9)) {
-      row_of[i] = kNotKept;
-      continue;
-    }
-    row_of[i] = static_cast<int32_t>(r);
-    if (r_hi < r_lo) r_lo = r_hi = row_of[i];
-    r_lo = std::min<long long>(r_lo, row_of[i]);
-    r_hi = std::max<long long>(r_hi, row_of[i]);
+// A bin's key (row, column, pair slot: (row * kCellKeyStride + column) * kBinPairSlots + slot) and sums;
+// `row` apart, for the bins' order.
+struct KeyedBin {
+  long long first;
+  BinAcc second;
+  long long row;
+};
+
+// The cloud's runs by pair slot (slots in increasing order, a slot's runs in the cloud's order): a bin
+// holds the points of one slot.
+using SlotRuns = std::vector<std::pair<long long, std::vector<PackedCloud::Run>>>;
+
+SlotRuns runsBySlot(const PackedCloud& cloud) {
+  std::map<long long, std::vector<PackedCloud::Run>> runs_of_slot;
+  for (const PackedCloud::Run& run : cloud.runs()) {
+    // Every line of a run has the run's pair (line_base is a multiple of kLineRowsPerPair): one slot.
+    const long long slot = run.line_base >= 0 ? (dense::linePair(run.line_base) + 1) % kBinPairSlots : 0;
+    runs_of_slot[slot].push_back(run);
   }
-  const std::size_t n_rows = static_cast<std::size_t>(r_hi - r_lo + 1);
-  std::vector<std::size_t> row_start(n_rows + 1, 0);
-  for (int32_t r : row_of) {
-    if (r != kNotKept) ++row_start[static_cast<std::size_t>(r - r_lo) + 1];
-  }
-  for (std::size_t k = 0; k < n_rows; ++k) row_start[k + 1] += row_start[k];
-  std::vector<uint32_t> order(row_start[n_rows]);
-  {
-    std::vector<std::size_t> fill(row_start.begin(), row_start.end() - 1);
-    for (std::size_t i = 0; i < pts.size(); ++i) {
-      if (row_of[i] != kNotKept)
-        order[fill[static_cast<std::size_t>(row_of[i] - r_lo)]++] = static_cast<uint32_t>(i);
-    }
-  }
-  std::vector<int32_t>().swap(row_of);
-  std::vector<std::vector<std::pair<long long, BinAcc>>> rows(n_rows);
-  cli::parallelFor(n_rows, 0, [&](std::size_t k) {
-    const long long r = r_lo + static_cast<long long>(k);
-    // (column, pair slot) of each point of the row with its place in the cloud: sorted, equal bins keep
-    // the cloud's order.
-    std::vector<std::pair<long long, uint32_t>> keyed;
-    keyed.reserve(row_start[k + 1] - row_start[k]);
-    for (std::size_t j = row_start[k]; j < row_start[k + 1]; ++j) {
-      const DemPoint& p = pts[order[j]];
-      const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
-      const long long pair = p.line >= 0 ? (dense::linePair(p.line) + 1) % kBinPairSlots : 0;
-      keyed.emplace_back(c * kBinPairSlots + pair, order[j]);
+  return SlotRuns(runs_of_slot.begin(), runs_of_slot.end());
+}
+
+// The grid row of a point that keep accepts, false for the others (and rows beyond 1e9).
+bool binRow(const DemPoint& p, const DemGrid& grid, const std::function<bool(const DemPoint&)>& keep,
+            long long& row) {
+  const double r = std::floor((grid.north0_m - p.north_m) / grid.cell_m);
+  if (!keep(p) || !(std::fabs(r) < 1e9)) return false;
+  row = static_cast<long long>(r);
+  return true;
+}
+
+// The bins of the points that keep(p) accepts in rows [row_lo, row_hi], in the order of rows, then of
+// keys, each the sum over its points in the cloud's order: slot by slot (in parallel), a slot's points
+// sorted by (row, column, place in the cloud) and summed bin by bin; then the bins of every slot sorted.
+std::vector<KeyedBin> bandSums(const PackedCloud& cloud, const SlotRuns& slots, const DemGrid& grid,
+                               const std::function<bool(const DemPoint&)>& keep, long long row_lo,
+                               long long row_hi) {
+  std::vector<std::vector<KeyedBin>> bins_of_slot(slots.size());
+  cli::parallelFor(slots.size(), 0, [&](std::size_t k) {
+    const std::vector<PackedCloud::Run>& runs = slots[k].second;
+    struct Keyed {
+      long long key;  // column * kBinPairSlots + slot
+      std::size_t index;
+      int32_t row;
+      uint32_t run;
+      bool operator<(const Keyed& o) const {
+        return row != o.row ? row < o.row : key != o.key ? key < o.key : index < o.index;
+      }
+    };
+    std::vector<Keyed> keyed;
+    for (uint32_t ri = 0; ri < runs.size(); ++ri) {
+      for (std::size_t i = runs[ri].first; i < runs[ri].end; ++i) {
+        const DemPoint p = cloud.at(runs[ri], i);
+        long long r = 0;
+        if (!binRow(p, grid, keep, r) || r < row_lo || r > row_hi) continue;
+        const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
+        keyed.push_back(Keyed{c * kBinPairSlots + slots[k].first, i, static_cast<int32_t>(r), ri});
+      }
     }
     std::sort(keyed.begin(), keyed.end());
-    std::vector<std::pair<long long, BinAcc>>& out = rows[k];
-    const long long row_key = r * kCellKeyStride * kBinPairSlots;
+    std::vector<KeyedBin>& out = bins_of_slot[k];
     for (std::size_t j = 0; j < keyed.size(); ++j) {
-      if (j == 0 || keyed[j].first != keyed[j - 1].first)
-        out.emplace_back(row_key + keyed[j].first, BinAcc{});
-      const DemPoint& p = pts[keyed[j].second];
+      const Keyed& q = keyed[j];
+      if (j == 0 || q.row != keyed[j - 1].row || q.key != keyed[j - 1].key)
+        out.push_back(KeyedBin{q.row * kCellKeyStride * kBinPairSlots + q.key, BinAcc{}, q.row});
+      const DemPoint p = cloud.at(runs[q.run], q.index);
       BinAcc& a = out.back().second;
       a.n += 1;
       a.x += p.north_m;
@@ -298,8 +306,7 @@ std::vector<std::pair<long long, BinAcc>> binSums(const std::vector<DemPoint>& p
       a.z += p.elevation_m;
       a.s2 += p.sigma_m * p.sigma_m;
       const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
-      const double u = p.north_m - grid.northOfRow(static_cast<int>(r)),
-                   v = p.east_m - grid.eastOfCol(static_cast<int>(c));
+      const double u = p.north_m - grid.northOfRow(q.row), v = p.east_m - grid.eastOfCol(static_cast<int>(c));
       a.u += u;
       a.v += v;
       a.uu += u * u;
@@ -310,81 +317,143 @@ std::vector<std::pair<long long, BinAcc>> binSums(const std::vector<DemPoint>& p
       a.zz += p.elevation_m * p.elevation_m;
     }
   });
-  std::vector<uint32_t>().swap(order);
-  std::vector<std::pair<long long, BinAcc>> by_cell;
-  {
-    std::size_t total = 0;
-    for (const auto& row : rows) total += row.size();
-    by_cell.reserve(total);
-    for (auto& row : rows) {
-      by_cell.insert(by_cell.end(), row.begin(), row.end());
-      std::vector<std::pair<long long, BinAcc>>().swap(row);
-    }
+  std::vector<KeyedBin> all;
+  std::size_t total = 0;
+  for (const auto& b : bins_of_slot) total += b.size();
+  all.reserve(total);
+  for (auto& b : bins_of_slot) {
+    all.insert(all.end(), b.begin(), b.end());
+    std::vector<KeyedBin>().swap(b);
   }
-  return by_cell;
+  // By row, then by key (within a row the key's order is the column's, then the slot's; a column outside
+  // the grid moves no bin into another row).
+  std::sort(all.begin(), all.end(), [](const KeyedBin& a, const KeyedBin& b) {
+    return a.row != b.row ? a.row < b.row : a.first < b.first;
+  });
+  return all;
 }
+
+// The bin's relief beyond its plane (BinnedCloud): the residual variance of the heights about their
+// least-squares plane, less what the points' noise puts there.
+double representationVariance(const BinAcc& a, double noise_spread) {
+  if (a.n < kMinRepresentationPoints) return 0.0;
+  double b = 0.0, c = 0.0, rss = 0.0;
+  binPlane(a, b, c, rss);
+  return std::max(0.0, (rss - noise_spread) / (a.n - 3.0));
+}
+
+// The cells of `by_cell` (whole cells, sorted) as a band of sums: each cell's mean and relief, its pair
+// slots' sums.
+BinSums::Band bandCells(const std::vector<KeyedBin>& by_cell, double l_px) {
+  BinSums::Band band;
+  for (std::size_t i = 0; i < by_cell.size();) {
+    const long long cell = by_cell[i].first / kBinPairSlots;
+    BinAcc all;
+    double noise_spread = 0.0;  // sum_p s_p^2 n_p (1 - patch factor): the noise about the mean
+    uint32_t pairs = 0;
+    for (; i < by_cell.size() && by_cell[i].first / kBinPairSlots == cell; ++i) {
+      const BinAcc& a = by_cell[i].second;
+      all.addCell(a);
+      noise_spread += a.s2 * (1.0 - patchVarianceFactor(std::sqrt(a.n), l_px));
+      band.pair_sums.push_back(BinSums::PairSum{a.n, a.s2, by_cell[i].first % kBinPairSlots});
+      ++pairs;
+    }
+    band.cells.push_back(BinSums::Cell{all.x / all.n, all.y / all.n, all.z / all.n, all.n,
+                                       static_cast<float>(representationVariance(all, noise_spread)), pairs});
+  }
+  return band;
+}
+
+// Bands of grid rows summed one at a time, about a sixteenth of the points each.
+constexpr int kBinBands = 16;
 
 }  // namespace
 
-BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
-                      const std::function<bool(const DemPoint&)>& keep, double correlation_px) {
-  const std::vector<std::pair<long long, BinAcc>> by_cell = binSums(pts, grid, keep);
+BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
+                const std::function<bool(const DemPoint&)>& keep, double correlation_px) {
+  BinSums sums;
+  const SlotRuns slots = runsBySlot(cloud);
+  // Points per row, rows beyond the grid by more than its height counted with the outermost ones (the
+  // bands' sizes only).
+  const long long lo = -static_cast<long long>(grid.rows), hi = 2LL * grid.rows;
+  std::vector<std::size_t> per_row(static_cast<std::size_t>(hi - lo + 1), 0);
+  cloud.forEach([&](std::size_t, const DemPoint& p) {
+    long long r = 0;
+    if (!binRow(p, grid, keep, r)) return;
+    ++per_row[static_cast<std::size_t>(std::clamp(r, lo, hi) - lo)];
+    ++sums.binned_points;
+  });
+  const std::size_t band_points =
+      std::max<std::size_t>(1, static_cast<std::size_t>(sums.binned_points) / kBinBands);
+  for (std::size_t first = 0; first < per_row.size();) {
+    std::size_t last = first, n = per_row[first];
+    while (last + 1 < per_row.size() && n + per_row[last + 1] <= band_points) n += per_row[++last];
+    const long long row_lo =
+        first == 0 ? std::numeric_limits<long long>::min() : lo + static_cast<long long>(first);
+    const long long row_hi = last + 1 == per_row.size() ? std::numeric_limits<long long>::max()
+                                                        : lo + static_cast<long long>(last);
+    if (n > 0) {
+      const std::vector<KeyedBin> by_cell = bandSums(cloud, slots, grid, keep, row_lo, row_hi);
+      overlapBins(by_cell, kBinPairSlots, correlation_px, sums.overlaps);
+      sums.bands.push_back(bandCells(by_cell, correlation_px));
+    }
+    first = last + 1;
+  }
+  return sums;
+}
+
+BinnedCloud finishBins(BinSums sums, double cell_m, double correlation_px) {
   const double l_px = correlation_px;
-  // The bin's relief beyond its plane (BinnedCloud): the residual variance of the heights about their
-  // least-squares plane, less what the points' noise puts there.
-  const auto representationVariance = [](const BinAcc& a, double noise_spread) {
-    if (a.n < kMinRepresentationPoints) return 0.0;
-    double b = 0.0, c = 0.0, rss = 0.0;
-    binPlane(a, b, c, rss);
-    return std::max(0.0, (rss - noise_spread) / (a.n - 3.0));
-  };
   long long overlap_bins = 0;
-  const std::vector<OverlapBin> overlaps = overlapBins(by_cell, kBinPairSlots, l_px);
-  const double shared = sharedNoiseFraction(overlaps, kBinPairSlots, overlap_bins);
-  const double common = commonErrorCorrelation(overlaps, shared);
+  const double shared = sharedNoiseFraction(sums.overlaps, kBinPairSlots, overlap_bins);
+  const double common = commonErrorCorrelation(sums.overlaps, shared);
+  std::vector<BinSums::Overlap>().swap(sums.overlaps);
   struct Binned {
     DemPoint point;
     float gsd_m, rep_var_m2, pair_sd_m;
     PointPairs pairs;
   };
   std::vector<Binned> out;
-  for (std::size_t i = 0; i < by_cell.size();) {
-    const long long cell = by_cell[i].first / kBinPairSlots;
-    BinAcc all;
-    double var_n2 = 0.0, n_max = 0.0;  // sum_p n_p^2 Var(pair's mean); the most points of one pair
-    double shared_n2 = 0.0;            // the pair-wide part of var_n2
-    double sum_sd_n = 0.0;             // sum_p n_p sd(pair's mean), for the pairs' common error
-    double noise_spread = 0.0;         // sum_p s_p^2 n_p (1 - patch factor): the noise about the mean
-    long long pair_max = 0;
-    PointPairs shares;  // the largest kMaxPointPairs pairs by points, fractions of those kept
-    for (; i < by_cell.size() && by_cell[i].first / kBinPairSlots == cell; ++i) {
-      const BinAcc& a = by_cell[i].second;
-      all.addCell(a);
-      const long long slot = by_cell[i].first % kBinPairSlots;
-      if (slot > 0) addShare(shares, static_cast<int32_t>(slot - 1), a.n);
-      const double factor = patchVarianceFactor(std::sqrt(a.n), l_px);
-      var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
-      shared_n2 += a.n * a.n * (a.s2 / a.n) * shared;
-      sum_sd_n += a.n * std::sqrt((a.s2 / a.n) * (factor + shared));
-      noise_spread += a.s2 * (1.0 - factor);
-      if (a.n > n_max) {
-        n_max = a.n;
-        pair_max = by_cell[i].first % kBinPairSlots;
+  {
+    std::size_t cells = 0;
+    for (const BinSums::Band& band : sums.bands) cells += band.cells.size();
+    out.reserve(cells);
+  }
+  for (BinSums::Band& band : sums.bands) {
+    std::size_t k = 0;  // the cell's first pair slot in band.pair_sums
+    for (const BinSums::Cell& cell : band.cells) {
+      double var_n2 = 0.0, n_max = 0.0;  // sum_p n_p^2 Var(pair's mean); the most points of one pair
+      double shared_n2 = 0.0;            // the pair-wide part of var_n2
+      double sum_sd_n = 0.0;             // sum_p n_p sd(pair's mean), for the pairs' common error
+      long long pair_max = 0;
+      PointPairs shares;  // the largest kMaxPointPairs pairs by points, fractions of those kept
+      for (const std::size_t end = k + cell.pair_count; k < end; ++k) {
+        const BinSums::PairSum& a = band.pair_sums[k];
+        if (a.slot > 0) addShare(shares, static_cast<int32_t>(a.slot - 1), a.n);
+        const double factor = patchVarianceFactor(std::sqrt(a.n), l_px);
+        var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
+        shared_n2 += a.n * a.n * (a.s2 / a.n) * shared;
+        sum_sd_n += a.n * std::sqrt((a.s2 / a.n) * (factor + shared));
+        if (a.n > n_max) {
+          n_max = a.n;
+          pair_max = a.slot;
+        }
       }
+      // Two pairs' errors in one bin are correlated by `common`: Var(mean) gains
+      // sum_{p != q} n_p n_q rho sd_p sd_q / n^2 = rho ((sum_p n_p sd_p)^2 - sum_p n_p^2 sd_p^2) / n^2.
+      var_n2 += common * std::max(0.0, sum_sd_n * sum_sd_n - var_n2);
+      DemPoint p;
+      p.north_m = cell.north_m;
+      p.east_m = cell.east_m;
+      p.elevation_m = cell.elevation_m;
+      p.sigma_m = std::sqrt(var_n2) / cell.n;
+      p.line = pair_max > 0 ? dense::lineId(pair_max - 1, 0) : -1;  // the pair of most of its points (row 0)
+      normaliseShares(shares);
+      out.push_back({p, static_cast<float>(cell_m / std::sqrt(n_max)), cell.rep_var_m2,
+                     static_cast<float>(std::sqrt(shared_n2) / cell.n), shares});
     }
-    // Two pairs' errors in one bin are correlated by `common`: Var(mean) gains
-    // sum_{p != q} n_p n_q rho sd_p sd_q / n^2 = rho ((sum_p n_p sd_p)^2 - sum_p n_p^2 sd_p^2) / n^2.
-    var_n2 += common * std::max(0.0, sum_sd_n * sum_sd_n - var_n2);
-    DemPoint p;
-    p.north_m = all.x / all.n;
-    p.east_m = all.y / all.n;
-    p.elevation_m = all.z / all.n;
-    p.sigma_m = std::sqrt(var_n2) / all.n;
-    p.line = pair_max > 0 ? dense::lineId(pair_max - 1, 0) : -1;  // the pair of most of its points (row 0)
-    normaliseShares(shares);
-    out.push_back({p, static_cast<float>(grid.cell_m / std::sqrt(n_max)),
-                   static_cast<float>(representationVariance(all, noise_spread)),
-                   static_cast<float>(std::sqrt(shared_n2) / all.n), shares});
+    std::vector<BinSums::PairSum>().swap(band.pair_sums);
+    std::vector<BinSums::Cell>().swap(band.cells);
   }
   std::sort(out.begin(), out.end(), [](const Binned& a, const Binned& b) {
     return a.point.north_m != b.point.north_m ? a.point.north_m < b.point.north_m
@@ -399,6 +468,7 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
   binned.shared_noise_fraction = shared;
   binned.common_error_correlation = common;
   binned.overlap_bins = overlap_bins;
+  binned.binned_points = sums.binned_points;
   for (const Binned& b : out) {
     binned.points.push_back(b.point);
     binned.gsd_m.push_back(b.gsd_m);
@@ -407,6 +477,11 @@ BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
     binned.pairs.push_back(b.pairs);
   }
   return binned;
+}
+
+BinnedCloud binPoints(const PackedCloud& cloud, const DemGrid& grid,
+                      const std::function<bool(const DemPoint&)>& keep, double correlation_px) {
+  return finishBins(sumBins(cloud, grid, keep, correlation_px), grid.cell_m, correlation_px);
 }
 
 // Kriging of a binned cloud with the matcher's error correlation (the DEM sigma of Kriging.hpp).

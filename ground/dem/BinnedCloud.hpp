@@ -10,6 +10,7 @@
 
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/dem/Kriging.hpp"
+#include "ground/dem/PackedCloud.hpp"
 #include "ground/dem/SharedHeightError.hpp"
 
 namespace areomap::dem {
@@ -39,11 +40,48 @@ struct BinnedCloud {
   double shared_noise_fraction = 0.0;  // phi of sharedNoiseFraction
   long long overlap_bins = 0;          // the bins it was measured on
   double common_error_correlation = 0.0;  // rho of commonErrorCorrelation: two pairs' errors in one bin
+  long long binned_points = 0;            // the cloud's points in the bins (every one that keep accepts)
 };
 
-// Bins the points of `pts` for which keep(p) holds (no copy of the cloud for a subset) on `grid`;
+// The cloud summed into bins (sumBins), before what only every bin together gives (phi and rho of
+// BinnedCloud) is known: per cell its points' mean and its relief, per pair slot in the cell that pair's
+// points and their summed noise variance, and the cells two pairs share (sharedNoiseFraction,
+// commonErrorCorrelation); by bands of grid rows. Holds nothing of the cloud, so that the cloud is freed
+// before finishBins.
+struct BinSums {
+  struct Cell {
+    double north_m, east_m, elevation_m;  // the mean of its points
+    double n;                             // its points
+    float rep_var_m2;
+    uint32_t pair_count;  // its pair slots, the next ones of its band's pair_sums
+  };
+  struct PairSum {
+    double n, s2;  // the pair slot's points in the cell, the sum of their sigma^2
+    int64_t slot;
+  };
+  struct Band {
+    std::vector<Cell> cells;  // in the order of their rows, columns
+    std::vector<PairSum> pair_sums;
+  };
+  // A cell that two pairs see with at least kMinOverlapPoints points each (BinnedCloud.cpp overlapBins).
+  struct Overlap {
+    long long cell, slot_p, slot_q;
+    double d, mean_var_p, mean_var_q, factor_p, factor_q;
+  };
+  std::vector<Band> bands;  // in the order of their rows
+  std::vector<Overlap> overlaps;
+  long long binned_points = 0;  // every point that keep accepts
+};
+
+// Sums the points of `cloud` for which keep(p) holds (no copy of the cloud for a subset) into the cells
+// of `grid`, a band of the grid's rows at a time (only one band's bins held with their full sums);
 // correlation_px: the matcher's error correlation length in pixels (exp(-lag / L)).
-BinnedCloud binPoints(const std::vector<DemPoint>& pts, const DemGrid& grid,
+BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
+                const std::function<bool(const DemPoint&)>& keep, double correlation_px);
+// The binned cloud of `sums` (taken over: freed as the result is made) on a grid of cell_m.
+BinnedCloud finishBins(BinSums sums, double cell_m, double correlation_px);
+// finishBins(sumBins(...)).
+BinnedCloud binPoints(const PackedCloud& cloud, const DemGrid& grid,
                       const std::function<bool(const DemPoint&)>& keep, double correlation_px);
 
 // Kriging of a binned cloud with the matcher's error correlation (the DEM sigma of Kriging.hpp), and the

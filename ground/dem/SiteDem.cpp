@@ -17,20 +17,20 @@ namespace {
 // The two corners (south-west, north-east) of the points that `keep` accepts, as points: gridAround of
 // them is the grid around those points. Empty when it accepts none; `count` (optional) gets how many it does.
 template <class Keep>
-std::vector<DemPoint> boundingCorners(const std::vector<DemPoint>& points, const Keep& keep,
+std::vector<DemPoint> boundingCorners(const PackedCloud& points, const Keep& keep,
                                       std::size_t* count = nullptr) {
   std::vector<DemPoint> corners(2);
   corners[0].north_m = corners[0].east_m = 1e300;
   corners[1].north_m = corners[1].east_m = -1e300;
   std::size_t kept = 0;
-  for (const DemPoint& p : points) {
-    if (!keep(p)) continue;
+  points.forEach([&](std::size_t, const DemPoint& p) {
+    if (!keep(p)) return;
     ++kept;
     corners[0].north_m = std::min(corners[0].north_m, p.north_m);
     corners[0].east_m = std::min(corners[0].east_m, p.east_m);
     corners[1].north_m = std::max(corners[1].north_m, p.north_m);
     corners[1].east_m = std::max(corners[1].east_m, p.east_m);
-  }
+  });
   if (kept == 0) corners.clear();
   if (count != nullptr) *count = kept;
   return corners;
@@ -72,7 +72,7 @@ double autoDemCell(double extent_m) {
   return 1.0;
 }
 
-SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
+SiteDem makeSiteDem(PackedCloud pts, const SiteDemOptions& o) {
   SiteDem out;
   const auto warn = [&](const std::string& text) {
     cli::warn(text);
@@ -94,7 +94,10 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
   const double cell = o.cell_m > 0 ? o.cell_m : autoDemCell(2 * extent);
   DemGrid grid = gridAround(box, cell);
   const auto all = [](const DemPoint&) { return true; };
-  const BinnedCloud binned = binPoints(pts, grid, all, o.correlation_px);
+  // dem.tif's bins finished before the near-rover DEM's are summed: less held beside the cloud.
+  const BinnedCloud binned =
+      finishBins(sumBins(pts, grid, all, o.correlation_px), grid.cell_m, o.correlation_px);
+  out.points_binned = binned.binned_points;
   {
     char b[200];
     std::snprintf(
@@ -110,17 +113,16 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
   eo.centre_up_m = -g.z();
   eo.seam_m = o.seam_m;
   std::vector<DemPoint> far;
-  for (const DemPoint& p : pts) {
-    if (std::hypot(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m) >
-        eo.seam_m - eo.blend_m - 1.0) {
+  pts.forEach([&](std::size_t, const DemPoint& p) {
+    if (std::hypot(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m) > eo.seam_m - eo.blend_m - 1.0)
       far.push_back(p);
-    }
-  }
+  });
   // The finer DEM near the rover (DESIGN.md fixes dem.tif as one grid): when dem.tif is coarser than
   // near_cell_m, the points within near_range_m are kriged again at near_cell_m into dem_near.tif. Its
-  // points are binned here, so that the cloud is freed before any kriging.
+  // points are summed into its cells here, so that the cloud is freed before the bins are finished and
+  // before any kriging.
   std::optional<DemGrid> near_grid;
-  BinnedCloud near_binned;
+  std::optional<BinSums> near_sums;
   if (o.near_cell_m > 0 && o.near_range_m > 0 && cell > o.near_cell_m * 1.001) {
     const double reach = o.near_range_m + 0.5;  // points just beyond the edge support it
     const auto is_near = [&](const DemPoint& p) {
@@ -131,13 +133,18 @@ SiteDem makeSiteDem(std::vector<DemPoint> pts, const SiteDemOptions& o) {
     if (count >= 16) {
       try {
         near_grid = gridAround(corners, o.near_cell_m);
-        near_binned = binPoints(pts, *near_grid, is_near, o.correlation_px);
+        near_sums = sumBins(pts, *near_grid, is_near, o.correlation_px);
       } catch (const std::exception& e) {
         warn(std::string("near-rover DEM not made: ") + e.what());
       }
     }
   }
-  std::vector<DemPoint>().swap(pts);
+  pts.release();
+  BinnedCloud near_binned;
+  if (near_sums) {
+    near_binned = finishBins(std::move(*near_sums), near_grid->cell_m, o.correlation_px);
+    near_sums.reset();
+  }
   try {
     KrigingResult kr = krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid, o.correlation_px, o.shared_error));
     supportInfo("dem.tif", kr);

@@ -15,6 +15,7 @@
 #include "firmware_core/camera/CameraModel.hpp"
 #include "ground/dem/DemSeen.hpp"
 #include "ground/dem/Kriging.hpp"
+#include "ground/dem/PackedCloud.hpp"
 
 namespace areomap::dem {
 
@@ -38,6 +39,7 @@ struct SiteDem {
   std::optional<KrigingResult> dem;   // absent when it could not be made (see warnings)
   std::optional<KrigingResult> near;  // the near-rover DEM, when made
   DemSeen dem_seen, near_seen;        // their cells' classes (dem_seen.tif, dem_near_seen.tif)
+  long long points_binned = 0;        // the cloud's points in dem.tif's bins (every one: kriged or support)
   std::vector<std::string> warnings;  // also printed (cli::warn) when they arise
 };
 
@@ -46,6 +48,6 @@ struct SiteDem {
 double autoDemCell(double extent_m);
 
 // Makes both DEMs from `points` (taken over: freed before any kriging). Progress lines on stderr.
-SiteDem makeSiteDem(std::vector<DemPoint> points, const SiteDemOptions& options);
+SiteDem makeSiteDem(PackedCloud points, const SiteDemOptions& options);
 
 }  // namespace areomap::dem

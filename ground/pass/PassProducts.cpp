@@ -137,7 +137,7 @@ products::ProductsResult makePassProducts(const ProductContext& c) {
   products::ProductInputs in = passProductInputs(c);
   in.eo_uncertainty = eoUncertainty(*c.net, c.report->warnings, in.pairs);
   if (!c.truth_root.empty() && std::filesystem::exists(c.truth_root + "/truth/dem.tif")) {
-    in.truth_dem = readDemGeoTiff(c.truth_root + "/truth/dem.tif");
+    in.truth_dem_path = c.truth_root + "/truth/dem.tif";
     in.truth_models = passTrueModels(c.truth_root, in.images);
   }
   products::ProductsResult made = products::makeProducts(in, passProductOptions(), c.out_dir, c.report);

@@ -13,49 +13,74 @@ namespace areomap::products {
 
 namespace {
 
+// The polar bin of a point (1 m in range x 2 degrees in azimuth about `centre`): range * 1000 + azimuth.
+long long polarBin(const dem::DemPoint& p, const Vec3& centre) {
+  const double dn = p.north_m - centre.x(), de = p.east_m - centre.y();
+  const long long r = static_cast<long long>(std::floor(std::hypot(dn, de)));
+  const long long a = static_cast<long long>(std::floor((std::atan2(de, dn) + M_PI) / (2.0 * M_PI / 180.0)));
+  return r * 1000 + a;
+}
+
 // Drops gross outliers before gridding: points whose height sigma exceeds `max_sigma_m`, and points far
-// from the median height of their polar bin (1 m in range x 2 degrees in azimuth about the gimbal centre):
-// more than max(0.3 m, 6 MAD-sigmas) away. Mismatches at depth edges and near the horizon are such points.
-// In place (the cloud of a full panorama is gigabytes).
+// from the median height of their polar bin (polarBin) more than max(0.3 m, 6 MAD-sigmas) away. Mismatches
+// at depth edges and near the horizon are such points. In place. The bins' heights are gathered a band of
+// whole metres of range at a time, about an eighth of the points each, so that beside the cloud only one
+// band's heights are held (all of them would be 4 bytes a point).
 void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long long& dropped) {
-  std::vector<dem::DemPoint>& in = cloud.dem;
-  std::unordered_map<long long, std::vector<float>> bins;
-  auto key = [&](const dem::DemPoint& p) {
+  constexpr std::size_t kMaxBand = 100000;  // metres; farther points share the last band
+  const auto range2 = [&centre](const dem::DemPoint& p) {
     const double dn = p.north_m - centre.x(), de = p.east_m - centre.y();
-    const long long r = static_cast<long long>(std::floor(std::hypot(dn, de)));
-    const long long a =
-        static_cast<long long>(std::floor((std::atan2(de, dn) + M_PI) / (2.0 * M_PI / 180.0)));
-    return r * 1000 + a;
+    return dn * dn + de * de;
   };
-  for (const dem::DemPoint& p : in) {
-    if (p.sigma_m <= max_sigma_m) bins[key(p)].push_back(static_cast<float>(p.elevation_m));
-  }
+  std::vector<std::size_t> per_metre;  // points per whole metre of range (sizes the bands only)
+  std::size_t counted = 0;
+  cloud.dem.forEach([&](std::size_t, const dem::DemPoint& p) {
+    if (!(p.sigma_m <= max_sigma_m)) return;
+    const std::size_t m = static_cast<std::size_t>(std::min<double>(kMaxBand, std::sqrt(range2(p))));
+    if (m >= per_metre.size()) per_metre.resize(m + 1, 0);
+    ++per_metre[m];
+    ++counted;
+  });
   std::unordered_map<long long, std::pair<float, float>> stat;  // median, tolerance
-  for (auto& kv : bins) {
-    std::vector<float>& v = kv.second;
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    const float med = v[v.size() / 2];
-    for (float& x : v) x = std::fabs(x - med);
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    const float mad = v[v.size() / 2];
-    stat[kv.first] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
-  }
-  std::unordered_map<long long, std::vector<float>>().swap(bins);
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < in.size(); ++i) {
-    const dem::DemPoint& p = in[i];
-    if (p.sigma_m > max_sigma_m) continue;
-    const auto& st = stat[key(p)];
-    if (std::fabs(p.elevation_m - st.first) > st.second) continue;
-    if (kept != i) {
-      in[kept] = p;
-      cloud.extra[kept] = cloud.extra[i];
+  const std::size_t band_points = std::max<std::size_t>(1, counted / 8);
+  for (std::size_t lo = 0; lo < per_metre.size();) {
+    std::size_t hi = lo, n = per_metre[lo];
+    while (hi + 1 < per_metre.size() && n + per_metre[hi + 1] <= band_points) n += per_metre[++hi];
+    const bool last = hi + 1 == per_metre.size();
+    // Candidates by their squared range, a metre wide on either side; the bin's own range decides.
+    const double near2 = lo >= 1 ? static_cast<double>(lo - 1) * static_cast<double>(lo - 1) : 0.0;
+    const double far2 = static_cast<double>(hi + 2) * static_cast<double>(hi + 2);
+    std::unordered_map<long long, std::vector<float>> bins;
+    cloud.dem.forEach([&](std::size_t, const dem::DemPoint& p) {
+      if (!(p.sigma_m <= max_sigma_m)) return;
+      const double r2 = range2(p);
+      if (r2 < near2 || (!last && r2 >= far2)) return;
+      const long long k = polarBin(p, centre);
+      const long long m = k / 1000;
+      if (m >= static_cast<long long>(lo) && (last || m <= static_cast<long long>(hi)))
+        bins[k].push_back(static_cast<float>(p.elevation_m));
+    });
+    for (auto& kv : bins) {
+      std::vector<float>& v = kv.second;
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      const float med = v[v.size() / 2];
+      for (float& x : v) x = std::fabs(x - med);
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      const float mad = v[v.size() / 2];
+      stat[kv.first] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
     }
-    ++kept;
+    lo = hi + 1;
   }
-  dropped = static_cast<long long>(in.size() - kept);
-  in.resize(kept);
-  cloud.extra.resize(kept);
+  const std::size_t before = cloud.size();
+  cloud.dem.keepIf(
+      [&](std::size_t, const dem::DemPoint& p) {
+        if (p.sigma_m > max_sigma_m) return false;
+        const auto& st = stat[polarBin(p, centre)];
+        return !(std::fabs(p.elevation_m - st.first) > st.second);
+      },
+      [&cloud](std::size_t from, std::size_t to) { cloud.extra[to] = cloud.extra[from]; });
+  dropped = static_cast<long long>(before - cloud.size());
+  cloud.extra.resize(cloud.size());
 }
 
 }  // namespace
@@ -89,12 +114,13 @@ namespace {
 // layout) and what the log and the report say of it.
 struct MatchedPair {
   dense::PairCloud pc;  // without its points (in `kept`)
-  Cloud kept;
+  Cloud kept;           // origin: the gimbal centre
 };
 
 MatchedPair matchPair(const Context& ctx, const ProductPair& pair, const ProductImage& L,
                       const ProductImage& R) {
   MatchedPair m;
+  m.kept = Cloud(ctx.in.gimbal_site_m);
   const PairDenseInputs p = pairDenseInputs(ctx.in, ctx.options, pair);
   // The points go straight into the cloud's layout as they are triangulated (never a pair's cloud of full
   // points); reserved for one point per left pixel (address space: pages are touched as points arrive).
@@ -105,14 +131,14 @@ MatchedPair matchPair(const Context& ctx, const ProductPair& pair, const Product
   };
   m.pc = dense::pairCloud(p.left, p.right, L.grey, R.grey, p.left_ties_px, p.right_ties_px, pair.id, p.options,
                           keep);
-  if (!m.pc.error.empty()) Cloud().swap(m.kept);
+  if (!m.pc.error.empty()) m.kept.release();
   return m;
 }
 
 }  // namespace
 
 Cloud denseCloud(Context& ctx) {
-  Cloud cloud;
+  Cloud cloud(ctx.in.gimbal_site_m);
   {
     // Reserved for the largest possible cloud (address space only: pages are touched as points arrive), so
     // that growing never copies gigabytes or doubles the footprint.
@@ -166,7 +192,7 @@ Cloud denseCloud(Context& ctx) {
       const double t0 = cli::nowSeconds();
       cloud.append(m.kept);
       const long long kept = static_cast<long long>(m.kept.size());
-      Cloud().swap(m.kept);
+      m.kept.release();
       t_tri += pc.seconds_triangulate + cli::nowSeconds() - t0;
       {
         char b[400];

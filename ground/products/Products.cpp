@@ -22,6 +22,12 @@ void Context::warn(const std::string& text) {
   result.warnings.push_back(text);
 }
 
+const DemGrid* Context::truthDem() {
+  if (in.truth_dem) return &*in.truth_dem;
+  if (!truth_dem_read && !in.truth_dem_path.empty()) truth_dem_read = readDemGeoTiff(in.truth_dem_path);
+  return truth_dem_read ? &*truth_dem_read : nullptr;
+}
+
 void Context::writeFailed(const std::exception& e) {
   warn(e.what());
   result.write_errors.push_back(e.what());
@@ -153,6 +159,7 @@ void demStage(Context& ctx, Cloud& cloud) {
     if (cameras) so.shared_error = &*cameras;
     dem::SiteDem dems = dem::makeSiteDem(std::move(cloud.dem), so);
     for (const std::string& w : dems.warnings) ctx.result.warnings.push_back(w);
+    ctx.result.dem_points = dems.points_binned;
     if (dems.dem) {
       const dem::KrigingResult& kr = *dems.dem;
       ctx.result.dem = kr.elevation;
@@ -165,7 +172,7 @@ void demStage(Context& ctx, Cloud& cloud) {
       } catch (const cli::InputError& e) {
         ctx.writeFailed(e);  // the DEM is still used for the ortho and the previews
       }
-      if (ctx.in.truth_dem) ctx.result.dem_rmse_m = rmseAgainst(kr.elevation, *ctx.in.truth_dem);
+      if (const DemGrid* truth = ctx.truthDem()) ctx.result.dem_rmse_m = rmseAgainst(kr.elevation, *truth);
     }
     if (dems.near) {
       ctx.result.dem_near = dems.near->elevation;
@@ -228,7 +235,8 @@ std::optional<ortho::OrthoResult> orthoStage(Context& ctx) {
 // What the true cameras see against the DEM and the ortho (TruthSeen.hpp), with the true models and DEM.
 void truthSeenStage(Context& ctx, const ortho::OrthoResult* orth) {
   const ProductInputs& in = ctx.in;
-  if (!ctx.result.dem || !in.truth_dem || in.truth_models.size() != in.images.size()) return;
+  const DemGrid* truth_dem = ctx.result.dem ? ctx.truthDem() : nullptr;
+  if (truth_dem == nullptr || in.truth_models.size() != in.images.size()) return;
   std::vector<cv::Mat> images;
   std::vector<CameraModel> models, adjusted;
   for (std::size_t k = 0; k < in.images.size(); ++k) {
@@ -239,7 +247,7 @@ void truthSeenStage(Context& ctx, const ortho::OrthoResult* orth) {
     models.back().height = in.images[k].grey.rows;
   }
   const cv::Mat* ortho_image = orth != nullptr && orth->grid.cols == ctx.result.dem->cols ? &orth->image : nullptr;
-  const SeenTruth t = seenAgainstTruth(*ctx.result.dem, ortho_image, *in.truth_dem, images, models,
+  const SeenTruth t = seenAgainstTruth(*ctx.result.dem, ortho_image, *truth_dem, images, models,
                                        truthFrame(adjusted, models, in.gimbal_site_m), ctx.options.max_range_m,
                                        &ctx.result.dem_seen);
   ctx.result.seen_truth = t;
@@ -261,11 +269,12 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
   std::filesystem::create_directories(out_dir, ec);
   if (ec || !std::filesystem::is_directory(out_dir))
     throw cli::InputError(out_dir, "out", "cannot create the folder");
-  Context ctx{in, options, out_dir, ProductsResult{}, {}, {}};
+  Context ctx{in, options, out_dir, ProductsResult{}, {}, {}, {}};
   Cloud cloud = denseCloud(ctx);
   demStage(ctx, cloud);
   const std::optional<ortho::OrthoResult> orth = orthoStage(ctx);
   truthSeenStage(ctx, orth ? &*orth : nullptr);
+  ctx.truth_dem_read.reset();
   previewsAndReport(ctx, orth ? &*orth : nullptr, adjustment);
   return ctx.result;
 }

@@ -81,8 +81,11 @@ struct ProductInputs {
   std::vector<ProductPair> pairs;
   std::vector<ProductTie> ties;     // verified tie observations (parallax ranges, overlays, residual plots)
   Vec3 gimbal_site_m = Vec3::Zero();  // centre of the panorama (ranges, finer grid near the rover)
-  // Optional truth (synthetic datasets): the true DEM (truth/dem.tif) -> truth.dem_rmse_m.
+  // Optional truth (synthetic datasets): the true DEM (truth/dem.tif) -> truth.dem_rmse_m. Or its file,
+  // read when the DEM is compared with it (a navcam truth/dem.tif is 0.1 GB: not held through the dense
+  // and DEM stages), when truth_dem is absent.
   std::optional<DemGrid> truth_dem;
+  std::string truth_dem_path;
   // Optional truth: the true models, per `images` (empty: none) -> truth.dem_unseen_empty, dem_seen_filled,
   // ortho_agreement (TruthSeen.hpp), with truth_dem.
   std::vector<CameraModel> truth_models;
@@ -112,6 +115,7 @@ struct ProductsResult {
   // renamed into place when complete: a failed one is absent or still the previous version, never partial.
   std::vector<std::string> write_errors;
   long long points = 0;               // cloud size
+  long long dem_points = 0;           // of them, binned into dem.tif's cells (all: the DEM loses none)
   int pairs_matched = 0;
   std::vector<ground::DensePairNoise> dense_pairs;  // each matched pair's matching noise (report.json dense)
   std::optional<DemGrid> dem;                       // the DEM written (absent when no points)

@@ -76,7 +76,7 @@ int main(int argc, char** argv) {
     }
     for (products::ProductTie& t : in.ties) t.inter = pairs_of[t.point].size() > 1;
   }
-  if (std::filesystem::exists(root + "/truth/dem.tif")) in.truth_dem = readDemGeoTiff(root + "/truth/dem.tif");
+  if (std::filesystem::exists(root + "/truth/dem.tif")) in.truth_dem_path = root + "/truth/dem.tif";
   const double t_load = cli::nowSeconds() - t0;
   double ref_wall = 0.0, ref_cpu = 0.0;
   if (reference) {

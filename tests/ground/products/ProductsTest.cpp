@@ -62,6 +62,7 @@ TEST(Products, TinyPanoramaMakesEveryProduct) {
   CHECK(exists(out + "/overlays/" + scene.inputs.images[0].stem + ".png"));
   CHECK_EQUAL(static_cast<int>(scene.inputs.pairs.size()), r.pairs_matched);
   CHECK(r.points > 10000);
+  CHECK_EQUAL(r.points, r.dem_points);  // every point of the cloud reaches the DEM's bins
   CHECK(r.dem_rmse_m.has_value());
   CHECK(report.truth->dem_rmse_m.has_value());
   std::printf("\n  tiny x4 pairs: %lld points, DEM %dx%d cells of %.3f m, RMSE vs truth %.3f m, ortho seams %.2f px\n",
