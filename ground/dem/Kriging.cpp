@@ -20,6 +20,12 @@ double nowS() {
 }
 
 constexpr int kGapSample = 2000;              // points sampled for the automatic gap limit
+// The automatic gap limit: this many point spacings (the distance to the kSpacingNeighbour-th nearest point,
+// the point itself counted), so that a cell between the rows of points that one image row leaves on the
+// ground is within reach of them.
+constexpr double kGapSpacings = 3.0;
+constexpr int kSpacingNeighbour = 8;
+constexpr std::size_t kReachBlock = 4096;  // points per task of pointReaches
 constexpr double kLagPerNeighbourhood = 3.0;  // automatic variogram extent, in neighbourhood radii
 
 constexpr int kCalibrationSample = 400;  // points of the leave-one-out sigma calibration
@@ -175,7 +181,7 @@ PointSpacing pointSpacing(const KdTree2& tree, const PointCoordinates& xyz, int 
   for (std::size_t i = 0; i < n; i += step) {
     const int f = tree.nearest(xyz.x[i], xyz.y[i], k, idx, d2);
     if (f > 0) {
-      s8.push_back(std::sqrt(d2[std::min(f, 8) - 1]));
+      s8.push_back(std::sqrt(d2[std::min(f, kSpacingNeighbour) - 1]));
       sk.push_back(std::sqrt(d2[f - 1]));
     }
   }
@@ -192,8 +198,27 @@ double automaticMaxLag(const std::vector<DemPoint>& points, double cell_m, doubl
                   kLagPerNeighbourhood * std::max(spacing_k_m, cell_m));
 }
 
+// Per point: its reach, the distance from it within which it supports a cell (Kriging.hpp,
+// KrigingOptions::local_reach): kGapSpacings times its own spacing (the distance to its kSpacingNeighbour-th
+// neighbour, itself counted, as the whole cloud's spacing is taken), at least the cloud's gap limit `gap_m`.
+std::vector<float> pointReaches(const KdTree2& tree, const PointCoordinates& xyz, double gap_m) {
+  std::vector<float> reach(xyz.x.size(), static_cast<float>(gap_m));
+  cli::parallelFor((xyz.x.size() + kReachBlock - 1) / kReachBlock, 0, [&](std::size_t block) {
+    int32_t idx[kSpacingNeighbour];
+    double d2[kSpacingNeighbour];
+    for (std::size_t i = block * kReachBlock; i < std::min(xyz.x.size(), (block + 1) * kReachBlock); ++i) {
+      const int f = tree.nearest(xyz.x[i], xyz.y[i], kSpacingNeighbour, idx, d2);
+      if (f > 0) reach[i] = static_cast<float>(std::max(gap_m, kGapSpacings * std::sqrt(d2[f - 1])));
+    }
+  });
+  return reach;
+}
+
 // Per point: whether it belongs to a cluster of at least `min_cluster_points` (points `gap_m` apart at most);
-// `isolated` counts those that do not.
+// `isolated` counts those that do not. The cloud's gap, not the points' own reaches: a lone point or a
+// small clump has a wide reach of its own (its neighbours are far), and would link to others like it. Where
+// the cloud thins out with range its points still form chains along the image rows that made them, at
+// the cloud's gap.
 std::vector<uint8_t> supportedPoints(const PointCoordinates& xyz, double gap_m, int min_cluster_points,
                                      long long& isolated) {
   std::vector<uint8_t> supported(xyz.x.size(), 1);
@@ -234,6 +259,7 @@ struct CellInputs {
   const KdTree2& tree;
   const PointBuckets& buckets;
   const std::vector<uint8_t>& supported;
+  const std::vector<float>* reach;  // per point (pointReaches), or none: gap_m for every point
   int k;
   double gap_m;
   const VariogramModel& model;
@@ -309,18 +335,22 @@ RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, in
   RowCounts counts;
   int32_t idx[kMaxNeighbours + 1];
   double d2[kMaxNeighbours + 1];
-  const double gap2 = in.gap_m * in.gap_m;
   for (int row = first_row; row < grid.rows; row += row_step) {
     const double qn = grid.northOfRow(row);
     int f = 0;
     for (int col = 0; col < grid.cols; ++col) {
       const double qe = grid.eastOfCol(col);
       f = cellNeighbours(in, qn, qe, f, idx, d2);
-      if (f == 0 || d2[0] > gap2) continue;
-      bool support = false;  // a neighbour within the gap in a large cluster (neighbours nearest first)
-      for (int i = 0; i < f && !support && d2[i] <= gap2; ++i) {
-        support = in.supported[static_cast<std::size_t>(idx[i])] != 0;
+      if (f == 0) continue;
+      bool near = false, support = false;  // a neighbour within its reach; one in a large cluster
+      for (int i = 0; i < f && !support; ++i) {
+        const std::size_t j = static_cast<std::size_t>(idx[i]);
+        const double reach = in.reach != nullptr ? (*in.reach)[j] : in.gap_m;
+        if (d2[i] > reach * reach) continue;
+        near = true;
+        support = in.supported[j] != 0;
       }
+      if (!near) continue;
       if (!support) {
         ++counts.unsupported;
         continue;
@@ -415,7 +445,8 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   const PointBuckets buckets(xyz.x, xyz.y);
   const PointSpacing spacing = pointSpacing(tree, xyz, k);
   double gap = o.max_gap_m;
-  if (!(gap > 0.0)) gap = std::max(3.0 * spacing.to_8th_m, 2.0 * grid.cell_m);
+  const bool automatic_gap = !(gap > 0.0);
+  if (automatic_gap) gap = std::max(kGapSpacings * spacing.to_8th_m, 2.0 * grid.cell_m);
   double max_lag = o.max_lag_m;
   if (!(max_lag > 0.0)) max_lag = automaticMaxLag(points, grid.cell_m, spacing.to_kth_m);
   if (o.model != nullptr) {
@@ -428,8 +459,15 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   res.min_cluster_points = static_cast<int>(std::min<std::size_t>(
       points.size(), static_cast<std::size_t>(std::clamp(o.min_cluster_points > 0 ? o.min_cluster_points : k,
                                                          1, kMaxNeighbours))));
-  const std::vector<uint8_t> supported =
-      supportedPoints(xyz, gap, res.min_cluster_points, res.isolated_points);
+  std::vector<float> reach;
+  if (automatic_gap && o.local_reach) {
+    reach = pointReaches(tree, xyz, gap);
+  }
+  const std::vector<uint8_t> supported = supportedPoints(xyz, gap, res.min_cluster_points, res.isolated_points);
+  // A point the support rule refuses supports no cell: its reach is the cloud's (the cells it leaves empty).
+  for (std::size_t i = 0; i < reach.size(); ++i)
+    if (!supported[i]) reach[i] = static_cast<float>(gap);
+  if (!reach.empty()) res.max_local_gap_m = *std::max_element(reach.begin(), reach.end());
   CorrelatedNoise correlated = correlatedNoiseOf(points, o);
   // Each point's noise sd less its pair-wide part, once (the pair terms need it for every pair of
   // neighbours).
@@ -452,7 +490,8 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   res.elevation.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
   res.sigma = res.elevation;
   const bool shared = o.shared_error != nullptr && o.point_pairs != nullptr && o.point_pairs->size() == points.size();
-  const CellInputs cells{points,     tree, buckets, supported, k, gap, res.model, o.use_point_sigma, correlated,
+  const CellInputs cells{points,     tree,        buckets,           supported,  reach.empty() ? nullptr : &reach,
+                         k,          gap,         res.model,         o.use_point_sigma, correlated,
                          o.point_pairs, shared ? o.shared_error : nullptr};
   // Not with correlated point errors: that sigma is a model of its own (the calibrated point sigmas, their
   // correlation and the signal variogram), and a point's leave-one-out error would need its covariance

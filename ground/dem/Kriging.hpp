@@ -34,7 +34,15 @@ struct DemPoint {
 
 struct KrigingOptions {
   int neighbours = 16;           // k (at most kMaxNeighbours)
-  double max_gap_m = -1.0;       // cells farther than this from every point stay nodata (-1: automatic)
+  // Cells farther than this from every point stay nodata (-1: automatic, three times the cloud's median
+  // point spacing, the distance to a point's 8th nearest, itself counted).
+  double max_gap_m = -1.0;
+  // With the automatic gap: each point reaches three times its own spacing, at least the cloud's gap. A
+  // stereo cloud thins out with range (one image row spans range^2 / (camera height x focal length) of
+  // ground), so one reach for the whole grid, set by the dense near points, leaves the far ground between
+  // rows of points empty. A cell is kriged when it lies within the reach of a point that the support rule
+  // below accepts.
+  bool local_reach = true;
   // Support: points at most max_gap apart are linked, and linked points form one cluster (single linkage,
   // PointClusters.hpp); a cell is kriged only when one of its k neighbours within max_gap belongs to a
   // cluster of at least min_cluster_points.
@@ -89,6 +97,7 @@ struct KrigingResult {
   VariogramModel signal_model;
   ExperimentalVariogram signal_experimental;
   double max_gap_m = 0.0;  // the gap limit used
+  double max_local_gap_m = 0.0;  // the largest point reach (KrigingOptions::local_reach; 0: none)
   int min_cluster_points = 1;       // the support rule used (KrigingOptions::min_cluster_points)
   long long isolated_points = 0;    // points in clusters smaller than that
   long long cells_unsupported = 0;  // cells within max_gap of a point, left nodata by the support rule

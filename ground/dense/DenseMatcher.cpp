@@ -15,8 +15,8 @@ namespace areomap::dense {
 
 namespace {
 
-constexpr int kCensusHalfWidth = 4;                                                        // 9 columns
-constexpr int kCensusHalfHeight = 3;                                                       // 7 rows
+constexpr int kCensusHalfWidth = kCensusWindowCols / 2;
+constexpr int kCensusHalfHeight = kCensusWindowRows / 2;
 constexpr int kCensusBits = (2 * kCensusHalfWidth + 1) * (2 * kCensusHalfHeight + 1) - 1;  // 62
 constexpr uint16_t kNoMatchCost = kCensusBits;
 // Holes are filled from the nearest valid pixels at most this far away (pixels).

@@ -37,6 +37,10 @@ inline constexpr double kMatchSigmaPx = 0.15;
 // errors with it.
 inline constexpr double kMatchErrorCorrelationPx = 2.0;
 
+// The census window (columns x rows, odd): a pixel's match rests on the grey values within it.
+inline constexpr int kCensusWindowCols = 9;
+inline constexpr int kCensusWindowRows = 7;
+
 struct DenseOptions {
   int min_disparity_px = 0;
   int max_disparity_px = 64;       // inclusive

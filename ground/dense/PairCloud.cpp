@@ -67,7 +67,7 @@ cv::Mat insideOriginal(const cv::Mat& map) {
     const cv::Vec2f* row = map.ptr<cv::Vec2f>(y);
     for (int x = 0; x < map.cols; ++x) m.at<uint8_t>(y, x) = row[x][0] >= 0 ? 255 : 0;
   }
-  cv::erode(m, m, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(11, 11)));
+  cv::erode(m, m, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(kCensusWindowCols, kCensusWindowRows)));
   return m;
 }
 

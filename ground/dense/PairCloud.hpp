@@ -77,7 +77,9 @@ PairMatchSetup pairMatchSetup(const CameraModel& left, const CameraModel& right,
                               const std::vector<Vec2>& right_ties_px, const PairCloudOptions& options);
 
 // The pixels of a rectified image (map: rectifyPair's left_map or right_map) that show the original, eroded
-// by the matching window (255; else 0).
+// by the census window (kCensusWindowCols x kCensusWindowRows): those whose window lies wholly on the
+// original (255; else 0). No wider: near the top of a tilted image one row spans metres of the far ground,
+// and each row the mask drops is ground the cameras see that the DEM gets no point in.
 cv::Mat insideOriginal(const cv::Mat& map);
 
 // Sets to NaN the matches that are not inside both original images (eroded by the matching window) and

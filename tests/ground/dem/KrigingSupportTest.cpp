@@ -96,9 +96,13 @@ TEST(KrigingSupport, LonePointsAndSmallClumpsStayEmptyTheRestIsUnchanged) {
     const Scene s = makeScene(v, 4.5);
     CHECK(!s.points.empty());
     const areomap::DemGrid grid = gridFor(v.cell_m);
-    KrigingOptions without;
+    // One reach for every point (the cloud's gap): the rule is checked against it cell by cell (the points'
+    // own reaches, KrigingOptions::local_reach, are KrigingReach's).
+    KrigingOptions with;
+    with.local_reach = false;
+    KrigingOptions without = with;
     without.min_cluster_points = 1;
-    const KrigingResult rule = krigeDem(s.points, grid, KrigingOptions{});
+    const KrigingResult rule = krigeDem(s.points, grid, with);
     const KrigingResult old = krigeDem(s.points, grid, without);
     const double gap = rule.max_gap_m;
     CHECK_EQUAL(16, rule.min_cluster_points);

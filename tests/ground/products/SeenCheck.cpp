@@ -8,7 +8,8 @@
 // (marginal cells left out). Environment: SEEN_CHECK_PNG=FILE draws the classes against truth
 // (SEEN_CHECK_CROP=x,y,w,h a window, 4x); SEEN_CHECK_MARGIN the measured cells' margins over the DEM's own
 // horizon; SEEN_CHECK_ORTHO the ortho's agreement per band, same source or not; SEEN_CHECK_NO_OCCLUSION
-// the figures for an ortho made without its occlusion rule instead of ortho.tif.
+// the figures for an ortho made without its occlusion rule instead of ortho.tif; SEEN_CHECK_BORDER the seen
+// cells left empty by their distance from the border of the images that hold them.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -226,6 +227,45 @@ int main(int argc, char** argv) {
                   "within its own image's 3x3 px at the true point %.1f %%\n", edgesO[b], edgesO[b + 1], cmp[b],
                   100.0 * agr[b] / std::max(1LL, cmp[b]), 100.0 * same[b] / std::max(1LL, cmp[b]),
                   100.0 * agr_same[b] / std::max(1LL, same[b]), 100.0 * agr_own[b] / std::max(1LL, cmp[b]));
+  }
+  if (std::getenv("SEEN_CHECK_BORDER") != nullptr) {
+    // The seen cells left empty by how far inside an image their ground lies: per cell the largest
+    // distance (pixels) from the border of the true images that hold its true ground point (the horizon not
+    // tested: an upper bound), per band. The matcher measures no pixel within its window of the border.
+    const DemGrid ts = [&] {
+      DemGrid t = dem;
+      for (int r = 0; r < dem.rows; ++r)
+        for (int c = 0; c < dem.cols; ++c) {
+          double z = 0;
+          t.at(c, r) = ortho::demElevation(truth, dem.northOfRow(r), dem.eastOfCol(c), z) ? static_cast<float>(z) : t.nodata;
+        }
+      return t;
+    }();
+    long long border[6][4] = {};
+    std::vector<dem::ImageCone> cones;
+    for (const CameraModel& m : datum.truth_models) cones.push_back(dem::imageCone(m));
+    const double bedges[] = {0, 2, 5, 10, 20, 40, 1e9};
+    for (int r = 0; r < dem.rows; ++r) {
+      for (int c = 0; c < dem.cols; ++c) {
+        const std::size_t i = static_cast<std::size_t>(r) * dem.cols + c;
+        if (seen[i] != products::kTruthSeen || classes.at<uint8_t>(r, c) != dem::kCellUnseen || ts.at(c, r) == ts.nodata) continue;
+        const Vec3 x = frame.toTruth(Vec3(dem.northOfRow(r), dem.eastOfCol(c), -ts.at(c, r)));
+        double inside = -1;
+        for (std::size_t k = 0; k < images.size(); ++k) {
+          const CameraModel& m = datum.truth_models[k];
+          Vec2 px;
+          if (!dem::imageSees(m, cones[k], x) || project(m, x, px) != Status::kOk) continue;
+          inside = std::max(inside, std::min({px.x() + 0.5, px.y() + 0.5, m.width - 0.5 - px.x(), m.height - 0.5 - px.y()}));
+        }
+        const double range = std::hypot(dem.northOfRow(r) - g.x(), dem.eastOfCol(c) - g.y());
+        int b = 0;
+        while (range >= bedges[b + 1]) ++b;
+        ++border[b][inside < 4 ? 0 : inside < 8 ? 1 : inside < 16 ? 2 : 3];
+      }
+    }
+    for (int b = 0; b < 6; ++b)
+      std::printf("seen cells empty %g-%g m: within 4 / 8 / 16 / more px of the border of every image holding them: "
+                  "%lld / %lld / %lld / %lld\n", bedges[b], bedges[b + 1], border[b][0], border[b][1], border[b][2], border[b][3]);
   }
   const cv::Mat to_measured = distanceTo(measured), to_seen = distanceTo(seen_mask);
   const double edges[] = {0, 2, 5, 10, 20, 40, 1e9};

@@ -5,8 +5,8 @@
 //    the true terrain, sim::Terrain::castRay) on TruthSeen.hpp's definition (seen: the ground at the cell's
 //    centre; unseen: every true node in the cell hidden by more than a pixel's angle; marginal cells left
 //    out): per 5 m band, of the cells the true cameras do not see the fraction empty in dem.tif (report.json:
-//    >= 95 %), of those they see the fraction filled (>= 95 % within 5 m); report.json's figures (their own horizon sweep in the true DEM) agree with the ray cast's within
-//    2 points.
+//    >= 95 %), of those they see the fraction filled (>= 95 % within 5 m, >= 68 % in all); report.json's
+//    figures (their own horizon sweep in the true DEM) agree with the ray cast's within 2 points.
 //  - dem_seen.tif: on dem.tif's grid, 0 exactly where dem.tif is empty, 2 where a point lies.
 //  - The ortho never paints a cell from an image that the DEM itself hides it from (a ray marched through
 //    dem.tif, products::terrainHides, with the same two-sigma tolerance).
@@ -166,9 +166,13 @@ TEST(SeenCells, UnseenEmptySeenFilledAgainstTruth) {
   DOUBLES_EQUAL(seen_filled, *t.dem_seen_filled, 0.02);
   // The unseen side's goal: 95 % of the cells the true cameras do not see left empty.
   CHECK_TEXT(*t.dem_unseen_empty >= 0.95, "unseen cells empty");
-  // Not asserted: the seen side's 95 %. The 256-px images sample the ground at 5-10 m every 10-25 cm along
-  // the line of sight, and beyond 10 m the kriging's reach leaves seen ground empty (docs/products.md has
-  // the figures).
+  // The seen side: 71 % here, not 95 %. The ground beyond 10 m that these cameras see lies in the top rows of
+  // their images, within the census window of the border, where the matcher makes no point (seen_check
+  // SEEN_CHECK_BORDER: nearly all of the seen cells left empty lie within 8 px of the border of every image
+  // that holds them); the rest of the seen ground is filled by each point's own reach (Kriging.hpp
+  // local_reach) and the mask eroded by the census window only. With one reach for the cloud and an
+  // 11-px mask this scene gave 62 %.
+  CHECK_TEXT(*t.dem_seen_filled >= 0.68, "seen cells filled");
 }
 
 TEST(SeenCells, SeenRasterMatchesTheDem) {
