@@ -1,9 +1,8 @@
 # Unity builds (CMAKE_UNITY_BUILD=ON in the presets whose binaries are only tested, never shipped:
 # asan-ci and fuzz, CMakePresets.json): each target's sources are compiled a few at a time as one translation
 # unit, so the heavy headers (Eigen, OpenCV, CppUTest) are parsed once per batch instead of once per file.
-# CI's native build is one too (./setup.sh --unity); the native preset and ./setup.sh without it stay one
-# file per translation unit: the developers' build, where a file that compiles alone is what is checked (the
-# cross presets check it for the rover side in CI).
+# The native preset stays one file per translation unit: it is the developers' build, where a file that
+# compiles alone is what is checked.
 #
 # Files that cannot share a translation unit with the others of their target, and why. The path is
 # relative to the source tree; the property is set on every target that compiles the file.
