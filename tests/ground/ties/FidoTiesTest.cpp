@@ -18,7 +18,6 @@
 #include "ground/adjust/DatasetNetwork.hpp"
 #include "ground/dataset/Dataset.hpp"
 #include "ground/dataset/RigSigmas.hpp"
-#include "ground/dataset/RigSigmas.hpp"
 #include "ground/dataset/DemRaster.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/ties/TieAdjust.hpp"
@@ -155,22 +154,6 @@ TEST_GROUP(FidoTies){};
 // The light version: one seed.
 TEST(FidoTies, AnOffsetTiltAxisIsDetectedAndAdjustedWithTheRightModel) {
   compareFidoWithGimbal(kFidoScene, {4});
-}
-
-// After the switch to the FIDO model the report keeps no note on the gimbal model's values (they describe a
-// constraint that is not used) and every other note.
-TEST(FidoTies, TheGimbalModelsNotesGoWithTheSwitch) {
-  std::vector<std::string> notes = {"rig.gimbal_m.3: absent, to be estimated from the a-priori models",
-                                    "rig.left_offset_m: absent, to be estimated from the a-priori models",
-                                    "rig.right_offset_m: absent, to be estimated from the a-priori models",
-                                    "rig.base_m: absent, to be estimated from the a-priori models",
-                                    heldSigmaNote("rig.sigma_gimbal_m"), heldSigmaNote("rig.sigma_base_m"),
-                                    "pairs[2]: a warning of its own"};
-  dropGimbalModelNotes(notes);
-  CHECK_EQUAL(3u, notes.size());
-  CHECK(notes[0].rfind("rig.base_m:", 0) == 0);
-  CHECK(notes[1].rfind("rig.sigma_base_m:", 0) == 0);
-  STRCMP_EQUAL("pairs[2]: a warning of its own", notes[2].c_str());
 }
 
 // After the switch to the FIDO model the report keeps no note on the gimbal model's values (they describe a
