@@ -51,7 +51,7 @@ struct CrossTieParams {
   int max_check_rounds = 8;
   double prior_sigma_m = 0.5;  // weak prior of the geometric check on the registered pose
   double prior_sigma_deg = 0.5;
-  int min_ties = 8;               // fewer: kTooFewTies (the ties found are still returned)
+  int min_ties = 8;               // fewer: kTooFewTies (the ties found are returned, not used)
   double height_floor_m = 0.05;   // the triangulated point within this of both DEMs ...
   double height_sigmas = 3.0;     // ... or this many dem_sigma
   double first_radius_px = 16.0;  // the first pass's search radius (patch.radius_px without a second pass)

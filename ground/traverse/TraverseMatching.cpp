@@ -126,8 +126,10 @@ TraverseMatching matchTraverse(const Traverse& traverse, const std::vector<std::
           m.truth.reset();
         }
       }
+      // Only a pair that gave enough ties ties its sites: fewer (kTooFewTies) cannot show a wrong tie, and
+      // the poses across that leg rest on the odometry, as its warning says.
       for (const CrossTie& t : m.result.ties) {
-        out.ties.push_back(t);
+        if (m.result.status == CrossTieStatus::kOk) out.ties.push_back(t);
         next_point = std::max(next_point, t.point + 1);
       }
     }
