@@ -19,13 +19,13 @@ double nowS() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-constexpr int kGapSample = 2000;              // points sampled for the automatic gap limit
+constexpr int kGapSample = 2000;  // points sampled for the automatic gap limit
 // The automatic gap limit: this many point spacings (the distance to the kSpacingNeighbour-th nearest point,
 // the point itself counted), so that a cell between the rows of points that one image row leaves on the
 // ground is within reach of them.
 constexpr double kGapSpacings = 3.0;
 constexpr int kSpacingNeighbour = 8;
-constexpr std::size_t kReachBlock = 4096;  // points per task of pointReaches
+constexpr std::size_t kReachBlock = 4096;     // points per task of pointReaches
 constexpr double kLagPerNeighbourhood = 3.0;  // automatic variogram extent, in neighbourhood radii
 
 constexpr int kCalibrationSample = 400;  // points of the leave-one-out sigma calibration
@@ -262,6 +262,7 @@ struct CellInputs {
   const std::vector<float>* reach;  // per point (pointReaches), or none: gap_m for every point
   int k;
   double gap_m;
+  double max_reach_m;  // the largest reach of any point (gap_m without per-point reaches)
   const VariogramModel& model;
   bool use_point_sigma;
   const CorrelatedNoise& correlated;
@@ -335,6 +336,7 @@ RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, in
   RowCounts counts;
   int32_t idx[kMaxNeighbours + 1];
   double d2[kMaxNeighbours + 1];
+  const double max_reach2 = in.max_reach_m * in.max_reach_m;
   for (int row = first_row; row < grid.rows; row += row_step) {
     const double qn = grid.northOfRow(row);
     int f = 0;
@@ -343,7 +345,8 @@ RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, in
       f = cellNeighbours(in, qn, qe, f, idx, d2);
       if (f == 0) continue;
       bool near = false, support = false;  // a neighbour within its reach; one in a large cluster
-      for (int i = 0; i < f && !support; ++i) {
+      // Neighbours come nearest first: beyond the largest reach none is near.
+      for (int i = 0; i < f && !support && d2[i] <= max_reach2; ++i) {
         const std::size_t j = static_cast<std::size_t>(idx[i]);
         const double reach = in.reach != nullptr ? (*in.reach)[j] : in.gap_m;
         if (d2[i] > reach * reach) continue;
@@ -463,7 +466,8 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   if (automatic_gap && o.local_reach) {
     reach = pointReaches(tree, xyz, gap);
   }
-  const std::vector<uint8_t> supported = supportedPoints(xyz, gap, res.min_cluster_points, res.isolated_points);
+  const std::vector<uint8_t> supported =
+      supportedPoints(xyz, gap, res.min_cluster_points, res.isolated_points);
   // A point the support rule refuses supports no cell: its reach is the cloud's (the cells it leaves empty).
   for (std::size_t i = 0; i < reach.size(); ++i)
     if (!supported[i]) reach[i] = static_cast<float>(gap);
@@ -489,10 +493,21 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   res.elevation = grid;
   res.elevation.values.assign(static_cast<std::size_t>(grid.cols) * grid.rows, grid.nodata);
   res.sigma = res.elevation;
-  const bool shared = o.shared_error != nullptr && o.point_pairs != nullptr && o.point_pairs->size() == points.size();
-  const CellInputs cells{points,     tree,        buckets,           supported,  reach.empty() ? nullptr : &reach,
-                         k,          gap,         res.model,         o.use_point_sigma, correlated,
-                         o.point_pairs, shared ? o.shared_error : nullptr};
+  const bool shared =
+      o.shared_error != nullptr && o.point_pairs != nullptr && o.point_pairs->size() == points.size();
+  const CellInputs cells{points,
+                         tree,
+                         buckets,
+                         supported,
+                         reach.empty() ? nullptr : &reach,
+                         k,
+                         gap,
+                         reach.empty() ? gap : res.max_local_gap_m,
+                         res.model,
+                         o.use_point_sigma,
+                         correlated,
+                         o.point_pairs,
+                         shared ? o.shared_error : nullptr};
   // Not with correlated point errors: that sigma is a model of its own (the calibrated point sigmas, their
   // correlation and the signal variogram), and a point's leave-one-out error would need its covariance
   // with its neighbours' errors, which the independent-noise ratio leaves out.

@@ -15,6 +15,10 @@ double parseNumber(const std::string& text, const std::string& file, const std::
   return x;
 }
 
+bool isCounter(double x) {
+  return std::isfinite(x) && x == std::floor(x) && std::fabs(x) <= 1e9;
+}
+
 Vec3 parseVector(const std::vector<std::string>& items, const std::string& file, const std::string& field) {
   if (items.size() != 3) {
     throw cli::InputError(file, field, "expected 3 numbers, found " + std::to_string(items.size()));

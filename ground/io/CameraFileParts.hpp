@@ -15,6 +15,9 @@
 namespace areomap::io::detail {
 
 double parseNumber(const std::string& text, const std::string& file, const std::string& field);
+// Whether x can be a counter of the records (sol, site, drive): a whole number within +-1e9, so that it
+// narrows to int.
+bool isCounter(double x);
 Vec3 parseVector(const std::vector<std::string>& items, const std::string& file, const std::string& field);
 CameraType typeFromName(const std::string& name, const std::string& file, const std::string& field);
 int componentCount(CameraType type);

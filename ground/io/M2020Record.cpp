@@ -106,7 +106,7 @@ std::optional<int> integerField(const nlohmann::json& j, const char* key, const 
                                 const std::string& field) {
   if (!j.contains(key) || j[key].is_null()) return std::nullopt;
   double x = 0.0;
-  if (!numberOf(j[key], x) || x != std::floor(x) || std::fabs(x) > 1e9) {
+  if (!numberOf(j[key], x) || !isCounter(x)) {
     throw cli::InputError(path, field, "expected an integer, found " + j[key].dump());
   }
   return static_cast<int>(x);

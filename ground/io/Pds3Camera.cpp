@@ -43,7 +43,7 @@ std::optional<double> optionalNumber(const Pds3Label& label, const char* key, co
 
 // A counter (sol, site, drive) read as a number: whole and within int's range, else the label is refused.
 int labelCounter(double x, const std::string& path, const std::string& field) {
-  if (!std::isfinite(x) || x != std::floor(x) || std::fabs(x) > 1e9) {
+  if (!isCounter(x)) {
     throw cli::InputError(path, field, "expected a whole number below 1e9, found " + std::to_string(x));
   }
   return static_cast<int>(x);
