@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <nlohmann/json.hpp>
 
 #include "areomap/site_pose_t.hpp"
@@ -39,7 +41,9 @@ std::string traverseDataset(int sites) {
   static std::string dirs[4];
   std::string& dir = dirs[sites];
   if (dir.empty()) {
-    dir = areomap::test::scratchDir("stream-traverse-" + std::to_string(sites)) + "/ds";
+    // Named by process: ctest runs each group as its own process, and several groups render this size.
+    dir = areomap::test::scratchDir("stream-traverse-" + std::to_string(sites) + "-" + std::to_string(::getpid())) +
+          "/ds";
     const std::string args = "--preset traverse --camera tiny --pairs 4 --sites " + std::to_string(sites) +
                              " --seed 3 --leg-min-m 10 --leg-max-m 12 --out " + dir;
     if (areomap::test::runTool("areomap-sim", args) != 0) dir = "";
