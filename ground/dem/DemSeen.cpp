@@ -5,6 +5,7 @@
 #include <limits>
 #include <utility>
 
+#include "ground/cli/Parallel.hpp"
 #include "ground/dem/Viewshed.hpp"
 
 namespace areomap::dem {
@@ -179,18 +180,25 @@ DemSeen classifyDemCells(KrigingResult& dem, const std::vector<uint8_t>& measure
     out.classes[i] = measured[i] ? kCellMeasured : cameras.empty() ? kCellInterpolated : kCellUnseen;
   }
   if (!cameras.empty()) {
-    for (const CameraModel& camera : cameras) {
-      const MeasuredDepth depth = measuredDepth(camera, z, measured);
-      for (int row = 0; row < z.rows; ++row) {
-        for (int col = 0; col < z.cols; ++col) {
-          const std::size_t i = static_cast<std::size_t>(row) * z.cols + col;
-          if (out.classes[i] != kCellUnseen || !filled(z, i)) continue;
-          const Vec3 x(z.northOfRow(row), z.eastOfCol(col), -z.values[i]);
-          const double s = filled(dem.sigma, i) ? dem.sigma.values[i] : 0.0;
-          if (depthSees(depth, x, s, z.cell_m) && imageSees(camera, depth.cone, x)) out.classes[i] = kCellInterpolated;
+    // Every camera's depth buffer, then the rows: a cell is interpolated when any camera sees it, so the
+    // cameras' order and the rows' split between threads do not change the classes.
+    std::vector<MeasuredDepth> depths(cameras.size());
+    cli::parallelFor(cameras.size(), 0,
+                     [&](std::size_t k) { depths[k] = measuredDepth(cameras[k], z, measured); });
+    cli::parallelFor(static_cast<std::size_t>(z.rows), 0, [&](std::size_t row_index) {
+      const int row = static_cast<int>(row_index);
+      for (int col = 0; col < z.cols; ++col) {
+        const std::size_t i = static_cast<std::size_t>(row) * z.cols + col;
+        if (out.classes[i] != kCellUnseen || !filled(z, i)) continue;
+        const Vec3 x(z.northOfRow(row), z.eastOfCol(col), -z.values[i]);
+        const double s = filled(dem.sigma, i) ? dem.sigma.values[i] : 0.0;
+        for (const MeasuredDepth& depth : depths) {
+          if (!depthSees(depth, x, s, z.cell_m) || !imageSees(*depth.camera, depth.cone, x)) continue;
+          out.classes[i] = kCellInterpolated;
+          break;
         }
       }
-    }
+    });
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (out.classes[i] == kCellMeasured) ++out.measured;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <map>
 #include <stdexcept>
 
@@ -48,6 +50,63 @@ bool sampleLine(const Line& l, double az, double max_gap, Sample& out) {
   out = Sample{l.r[j - 1] + t * (l.r[j] - l.r[j - 1]), l.z[j - 1] + t * (l.z[j] - l.z[j - 1]),
                l.s[j - 1] + t * (l.s[j] - l.s[j - 1])};
   return true;
+}
+
+// The lines (sorted by median range) by absolute azimuth: per bucket of kAzimuthBuckets around the circle,
+// in increasing order, every line that sampleLine can interpolate at an azimuth in that bucket, with the
+// bounds of the ranges it can give there (its segments that reach into the bucket or a bucket beside it,
+// no wider than the azimuth gap, so that the rounding of either azimuth cannot move a segment out). A line
+// outside a cell's bucket would be refused, and a line whose bounds cannot beat the cell's best line
+// below or above cannot change them: a cell reads a few lines and makes the same choice.
+constexpr int kAzimuthBuckets = 720;
+
+int azimuthBucket(double az) {
+  const int b = static_cast<int>(std::floor((az + kPi) / (2.0 * kPi) * kAzimuthBuckets));
+  return std::clamp(b, 0, kAzimuthBuckets - 1);
+}
+
+struct AzimuthBucket {
+  std::vector<uint32_t> line;        // line indices, increasing
+  std::vector<double> r_low, r_high;  // per entry: the ranges the line can give in the bucket
+};
+
+std::vector<AzimuthBucket> linesByAzimuth(const std::vector<Line>& lines, double max_gap_rad) {
+  std::vector<AzimuthBucket> buckets(kAzimuthBuckets);
+  std::vector<double> low, high;  // per bucket of the line's span
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    const Line& l = lines[i];
+    if (l.az.empty()) continue;
+    const int first = azimuthBucket(wrapAngle(l.ref_az + l.az.front())) - 1;
+    const int span = std::min(
+        kAzimuthBuckets,
+        static_cast<int>(std::ceil((l.az.back() - l.az.front()) / (2.0 * kPi) * kAzimuthBuckets)) + 4);
+    low.assign(static_cast<std::size_t>(span), std::numeric_limits<double>::infinity());
+    high.assign(static_cast<std::size_t>(span), -std::numeric_limits<double>::infinity());
+    // Point j with the one before it (j = 0: the first point alone), over the buckets of their azimuths.
+    for (std::size_t j = 0; j < l.az.size(); ++j) {
+      const std::size_t a = j == 0 ? 0 : j - 1;
+      if (l.az[j] - l.az[a] > max_gap_rad) continue;  // sampleLine refuses the gap
+      const int b0 = azimuthBucket(wrapAngle(l.ref_az + l.az[a])) - 1;
+      const int b1 = azimuthBucket(wrapAngle(l.ref_az + l.az[j])) + 1;
+      const double r0 = std::min(l.r[a], l.r[j]), r1 = std::max(l.r[a], l.r[j]);
+      for (int b = b0;; ++b) {
+        const int k = ((b - first) % kAzimuthBuckets + kAzimuthBuckets) % kAzimuthBuckets;
+        if (k < span) {
+          low[static_cast<std::size_t>(k)] = std::min(low[static_cast<std::size_t>(k)], r0);
+          high[static_cast<std::size_t>(k)] = std::max(high[static_cast<std::size_t>(k)], r1);
+        }
+        if ((b - b1) % kAzimuthBuckets == 0) break;
+      }
+    }
+    for (int k = 0; k < span; ++k) {
+      if (!(low[static_cast<std::size_t>(k)] <= high[static_cast<std::size_t>(k)])) continue;
+      AzimuthBucket& bucket = buckets[static_cast<std::size_t>((first + k + kAzimuthBuckets) % kAzimuthBuckets)];
+      bucket.line.push_back(static_cast<uint32_t>(i));
+      bucket.r_low.push_back(low[static_cast<std::size_t>(k)]);
+      bucket.r_high.push_back(high[static_cast<std::size_t>(k)]);
+    }
+  }
+  return buckets;
 }
 
 // A point of a pair before it is placed on its line: azimuth (relative to the pair's reference),
@@ -110,8 +169,11 @@ void epNormalEquations(const std::vector<WindowPoint>& win, Eigen::Matrix4d& ata
 bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iterations, std::vector<double>& res,
                      std::vector<double>& sorted, double& c0) {
   if (win.size() < 5) return false;
-  const auto basis = [row_terms](const WindowPoint& p) {
-    return Eigen::Vector4d(1.0, p.col, row_terms >= 1 ? p.row : 0.0, row_terms >= 2 ? p.row * p.row : 0.0);
+  // c . (1, col, row, row^2), the unused terms 0, summed in the order of Eigen's 4-vector dot product (the
+  // lanes 0 + 2 and 1 + 3, then their sum): the same bits, without building the basis vector per point.
+  const auto model = [row_terms](const Eigen::Vector4d& c, const WindowPoint& p) {
+    const double x2 = row_terms >= 1 ? p.row : 0.0, x3 = row_terms >= 2 ? p.row * p.row : 0.0;
+    return (c(0) * 1.0 + c(2) * x2) + (c(1) * p.col + c(3) * x3);
   };
   Eigen::Vector4d c = Eigen::Vector4d::Zero();
   for (int iter = 0; iter <= iterations; ++iter) {
@@ -135,7 +197,7 @@ bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iteration
       // the weighted residuals); elsewhere it would only add variance: refit without it, same weights.
       double ss = 0.0, sw = 0.0;
       for (const WindowPoint& p : win) {
-        const double r = p.q - c.dot(basis(p));
+        const double r = p.q - model(c, p);
         ss += p.w * r * r;
         sw += p.w;
       }
@@ -145,8 +207,8 @@ bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iteration
     }
     if (iter == iterations) break;
     res.resize(win.size());
-    for (std::size_t k = 0; k < win.size(); ++k) res[k] = std::fabs(win[k].q - c.dot(basis(win[k])));
-    sorted = res;
+    sorted.resize(win.size());
+    for (std::size_t k = 0; k < win.size(); ++k) sorted[k] = res[k] = std::fabs(win[k].q - model(c, win[k]));
     std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
     const double scale = 4.685 * 1.4826 * sorted[sorted.size() / 2];
     if (scale <= 0.0) break;
@@ -323,6 +385,7 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
   std::vector<double> medians(lines.size());
   for (std::size_t i = 0; i < lines.size(); ++i) medians[i] = lines[i].median_r;
 
+  const std::vector<AzimuthBucket> by_azimuth = linesByAzimuth(lines, o.max_azimuth_gap_rad);
   // Rows in parallel: a cell reads the lines and writes only itself.
   cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row_index) {
     const int row = static_cast<int>(row_index);
@@ -338,16 +401,28 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
           std::upper_bound(medians.begin(), medians.end(), r + o.max_range_gap_m) - medians.begin());
       bool have_below = false, have_above = false;
       Sample below{0, 0, 0}, above{0, 0, 0};
-      for (std::size_t i = lo; i < hi; ++i) {
+      // The lines with index in [lo, hi) that hold the cell's azimuth: the best below (the largest range
+      // at most r, the first line of the largest) and above (the smallest beyond r, the first line of the
+      // smallest), each line skipped whose bounds cannot make it so (eps: the interpolation's rounding).
+      const AzimuthBucket& near = by_azimuth[static_cast<std::size_t>(azimuthBucket(az))];
+      const std::size_t first = static_cast<std::size_t>(
+          std::lower_bound(near.line.begin(), near.line.end(), lo) - near.line.begin());
+      const std::size_t last = static_cast<std::size_t>(
+          std::lower_bound(near.line.begin(), near.line.end(), hi) - near.line.begin());
+      const double eps = 1e-9 * (1.0 + r);
+      for (std::size_t k = last; k-- > first;) {  // the last line of a tie seen first: ">=" keeps the first
+        if (near.r_low[k] > r + eps || (have_below && near.r_high[k] + eps < below.r)) continue;
         Sample s;
-        if (!sampleLine(lines[i], az, o.max_azimuth_gap_rad, s)) continue;
-        if (s.r <= r) {
-          if (!have_below || s.r > below.r) below = s;
-          have_below = true;
-        } else {
-          if (!have_above || s.r < above.r) above = s;
-          have_above = true;
-        }
+        if (!sampleLine(lines[near.line[k]], az, o.max_azimuth_gap_rad, s) || !(s.r <= r)) continue;
+        if (!have_below || s.r >= below.r) below = s;
+        have_below = true;
+      }
+      for (std::size_t k = first; k < last; ++k) {
+        if (near.r_high[k] + eps < r || (have_above && near.r_low[k] - eps > above.r)) continue;
+        Sample s;
+        if (!sampleLine(lines[near.line[k]], az, o.max_azimuth_gap_rad, s) || s.r <= r) continue;
+        if (!have_above || s.r < above.r) above = s;
+        have_above = true;
       }
       if (!have_below || !have_above || above.r - below.r > o.max_range_gap_m) continue;
       const double t = above.r > below.r ? (r - below.r) / (above.r - below.r) : 0.0;

@@ -452,26 +452,10 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   if (automatic_gap) gap = std::max(kGapSpacings * spacing.to_8th_m, 2.0 * grid.cell_m);
   double max_lag = o.max_lag_m;
   if (!(max_lag > 0.0)) max_lag = automaticMaxLag(points, grid.cell_m, spacing.to_kth_m);
-  if (o.model != nullptr) {
-    res.model = *o.model;
-  } else {
-    res.experimental = experimentalVariogram(xyz.x, xyz.y, xyz.z, max_lag);
-    res.model = fitVariogram(res.experimental);
-  }
   res.max_gap_m = gap;
   res.min_cluster_points = static_cast<int>(std::min<std::size_t>(
       points.size(), static_cast<std::size_t>(std::clamp(o.min_cluster_points > 0 ? o.min_cluster_points : k,
                                                          1, kMaxNeighbours))));
-  std::vector<float> reach;
-  if (automatic_gap && o.local_reach) {
-    reach = pointReaches(tree, xyz, gap);
-  }
-  const std::vector<uint8_t> supported =
-      supportedPoints(xyz, gap, res.min_cluster_points, res.isolated_points);
-  // A point the support rule refuses supports no cell: its reach is the cloud's (the cells it leaves empty).
-  for (std::size_t i = 0; i < reach.size(); ++i)
-    if (!supported[i]) reach[i] = static_cast<float>(gap);
-  if (!reach.empty()) res.max_local_gap_m = *std::max_element(reach.begin(), reach.end());
   CorrelatedNoise correlated = correlatedNoiseOf(points, o);
   // Each point's noise sd less its pair-wide part, once (the pair terms need it for every pair of
   // neighbours).
@@ -480,13 +464,32 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
     local_sd = localNoiseSd(points, *correlated.pair_sd);
     correlated.local_sd = &local_sd;
   }
-  if (correlated.on()) {
-    res.signal_experimental = experimentalVariogram(
-        xyz.x, xyz.y, xyz.z, max_lag, 20, 2000000, 1,
-        [&](std::size_t i, std::size_t j) { return correlated.pairNoise(points, i, j); }, true);
-    res.signal_model = fitVariogram(res.signal_experimental);
-    correlated.signal = res.signal_model;
-  }
+  // The variogram, the signal variogram and the points' support do not depend on one another: made side
+  // by side (each as it would be alone; the reaches are themselves split between threads).
+  std::vector<float> reach;
+  std::vector<uint8_t> supported;
+  cli::parallelFor(3, 0, [&](std::size_t task) {
+    if (task == 0 && o.model != nullptr) res.model = *o.model;
+    if (task == 0 && o.model == nullptr) {
+      res.experimental = experimentalVariogram(xyz.x, xyz.y, xyz.z, max_lag);
+      res.model = fitVariogram(res.experimental);
+    }
+    if (task == 1 && correlated.on()) {
+      res.signal_experimental = experimentalVariogram(
+          xyz.x, xyz.y, xyz.z, max_lag, 20, 2000000, 1,
+          [&](std::size_t i, std::size_t j) { return correlated.pairNoise(points, i, j); }, true);
+      res.signal_model = fitVariogram(res.signal_experimental);
+    }
+    if (task == 2) {
+      if (automatic_gap && o.local_reach) reach = pointReaches(tree, xyz, gap);
+      supported = supportedPoints(xyz, gap, res.min_cluster_points, res.isolated_points);
+    }
+  });
+  correlated.signal = res.signal_model;
+  // A point the support rule refuses supports no cell: its reach is the cloud's (the cells it leaves empty).
+  for (std::size_t i = 0; i < reach.size(); ++i)
+    if (!supported[i]) reach[i] = static_cast<float>(gap);
+  if (!reach.empty()) res.max_local_gap_m = *std::max_element(reach.begin(), reach.end());
   const double t1 = nowS();
   res.variogram_seconds = t1 - t0;
 

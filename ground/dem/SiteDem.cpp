@@ -7,6 +7,7 @@
 #include <exception>
 
 #include "ground/cli/Cli.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/dem/BinnedCloud.hpp"
 #include "ground/dem/EquiParallax.hpp"
 
@@ -36,20 +37,20 @@ std::vector<DemPoint> boundingCorners(const PackedCloud& points, const Keep& kee
   return corners;
 }
 
-// The kriging's support rule (KrigingOptions::min_cluster_points) as a progress line.
-void supportInfo(const std::string& product, const KrigingResult& kr) {
+// The kriging's support rule (KrigingOptions::min_cluster_points) as a progress line, into `log`.
+void supportInfo(const std::string& product, const KrigingResult& kr, std::vector<std::string>& log) {
   char b[240];
   std::snprintf(
       b, sizeof b,
       "%s: %lld binned points in clusters of fewer than %d (farther than %.3f m from the rest): their %lld "
       "cells left empty",
       product.c_str(), kr.isolated_points, kr.min_cluster_points, kr.max_gap_m, kr.cells_unsupported);
-  cli::info(b);
+  log.emplace_back(b);
 }
 
-// The cells of `kr` classified and the unseen ones emptied (DemSeen.hpp), said on the console.
+// The cells of `kr` classified and the unseen ones emptied (DemSeen.hpp), said in `log`.
 DemSeen seenCells(const std::string& product, KrigingResult& kr, const BinnedCloud& binned,
-                  const std::vector<CameraModel>& cameras) {
+                  const std::vector<CameraModel>& cameras, std::vector<std::string>& log) {
   const auto start = std::chrono::steady_clock::now();
   DemSeen seen = classifyDemCells(kr, measuredCells(binned.points, kr.elevation), cameras);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -57,9 +58,18 @@ DemSeen seenCells(const std::string& product, KrigingResult& kr, const BinnedClo
   std::snprintf(b, sizeof b,
                 "%s: %lld cells measured, %lld interpolated, %lld kriged cells no camera sees left empty (%.1f s)",
                 product.c_str(), seen.measured, seen.interpolated, seen.emptied, seconds);
-  cli::info(b);
+  log.emplace_back(b);
   return seen;
 }
+
+// One DEM as made on its own thread: the kriging with its classes, or why it failed, and its progress
+// lines (printed once both DEMs are made, the DEM's first).
+struct MadeDem {
+  std::optional<KrigingResult> kriged;
+  DemSeen seen;
+  std::vector<std::string> log;
+  std::string failure;
+};
 
 }  // namespace
 
@@ -145,37 +155,52 @@ SiteDem makeSiteDem(PackedCloud pts, const SiteDemOptions& o) {
     near_binned = finishBins(std::move(*near_sums), near_grid->cell_m, o.correlation_px);
     near_sums.reset();
   }
-  try {
-    KrigingResult kr = krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid, o.correlation_px, o.shared_error));
-    supportInfo("dem.tif", kr);
-    if (!far.empty()) {
-      DemGrid far_sigma;
-      const DemGrid far_dem = equiParallaxDem(far, grid, eo, &far_sigma);
-      blendFarRange(kr, far_dem, &far_sigma, eo);
-    }
-    std::vector<DemPoint>().swap(far);
-    for (int r = 0; r < grid.rows; ++r) {
-      for (int c = 0; c < grid.cols; ++c) {
-        if (in_range(grid.northOfRow(r), grid.eastOfCol(c))) continue;
-        kr.elevation.at(c, r) = kr.elevation.nodata;
-        kr.sigma.at(c, r) = kr.sigma.nodata;
-      }
-    }
-    out.dem_seen = seenCells("dem.tif", kr, binned, o.cameras);
-    out.dem = std::move(kr);
-  } catch (const std::exception& e) {
-    warn(std::string("DEM not made: ") + e.what());
-  }
-  if (out.dem && near_grid) {
+  // dem.tif (kriging, the far range, the range limit, its classes) and dem_near.tif do not depend on each
+  // other: made side by side, so that the serial parts of one overlap the other's work. The near-rover DEM
+  // is kept only when dem.tif is made.
+  MadeDem made[2];
+  cli::parallelFor(near_grid ? 2 : 1, 0, [&](std::size_t task) {
+    MadeDem& m = made[task];
     try {
-      KrigingResult nk = krigeDem(near_binned.points, *near_grid,
-                                  binnedKrigingOptions(near_binned, *near_grid, o.correlation_px, o.shared_error));
-      supportInfo("dem_near.tif", nk);
-      out.near_seen = seenCells("dem_near.tif", nk, near_binned, o.cameras);
-      out.near = std::move(nk);
+      if (task == 1) {
+        KrigingResult nk = krigeDem(near_binned.points, *near_grid,
+                                    binnedKrigingOptions(near_binned, *near_grid, o.correlation_px, o.shared_error));
+        supportInfo("dem_near.tif", nk, m.log);
+        m.seen = seenCells("dem_near.tif", nk, near_binned, o.cameras, m.log);
+        m.kriged = std::move(nk);
+        return;
+      }
+      KrigingResult kr =
+          krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid, o.correlation_px, o.shared_error));
+      supportInfo("dem.tif", kr, m.log);
+      if (!far.empty()) {
+        DemGrid far_sigma;
+        const DemGrid far_dem = equiParallaxDem(far, grid, eo, &far_sigma);
+        blendFarRange(kr, far_dem, &far_sigma, eo);
+      }
+      std::vector<DemPoint>().swap(far);
+      for (int r = 0; r < grid.rows; ++r) {
+        for (int c = 0; c < grid.cols; ++c) {
+          if (in_range(grid.northOfRow(r), grid.eastOfCol(c))) continue;
+          kr.elevation.at(c, r) = kr.elevation.nodata;
+          kr.sigma.at(c, r) = kr.sigma.nodata;
+        }
+      }
+      m.seen = seenCells("dem.tif", kr, binned, o.cameras, m.log);
+      m.kriged = std::move(kr);
     } catch (const std::exception& e) {
-      warn(std::string("near-rover DEM not made: ") + e.what());
+      m.failure = e.what();
     }
+  });
+  for (const std::string& line : made[0].log) cli::info(line);
+  if (!made[0].failure.empty()) warn("DEM not made: " + made[0].failure);
+  out.dem = std::move(made[0].kriged);
+  out.dem_seen = std::move(made[0].seen);
+  if (out.dem && near_grid) {
+    for (const std::string& line : made[1].log) cli::info(line);
+    if (!made[1].failure.empty()) warn("near-rover DEM not made: " + made[1].failure);
+    out.near = std::move(made[1].kriged);
+    out.near_seen = std::move(made[1].seen);
   }
   return out;
 }
