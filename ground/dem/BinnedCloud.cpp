@@ -285,9 +285,13 @@ std::vector<KeyedBin> bandSums(const PackedCloud& cloud, const SlotRuns& slots, 
     std::vector<Keyed> keyed;
     for (uint32_t ri = 0; ri < runs.size(); ++ri) {
       for (std::size_t i = runs[ri].first; i < runs[ri].end; ++i) {
+        // The row from the north coordinate alone first: most points lie in other bands.
+        const double row = std::floor((grid.north0_m - cloud.northOf(i)) / grid.cell_m);
+        if (!(std::fabs(row) < 1e9) || row < static_cast<double>(row_lo) || row > static_cast<double>(row_hi))
+          continue;
         const DemPoint p = cloud.at(runs[ri], i);
         long long r = 0;
-        if (!binRow(p, grid, keep, r) || r < row_lo || r > row_hi) continue;
+        if (!binRow(p, grid, keep, r)) continue;
         const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
         keyed.push_back(Keyed{c * kBinPairSlots + slots[k].first, i, static_cast<int32_t>(r), ri});
       }
@@ -376,13 +380,25 @@ BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
   // Points per row, rows beyond the grid by more than its height counted with the outermost ones (the
   // bands' sizes only).
   const long long lo = -static_cast<long long>(grid.rows), hi = 2LL * grid.rows;
+  // Counted slot by slot in parallel, then summed.
   std::vector<std::size_t> per_row(static_cast<std::size_t>(hi - lo + 1), 0);
-  cloud.forEach([&](std::size_t, const DemPoint& p) {
-    long long r = 0;
-    if (!binRow(p, grid, keep, r)) return;
-    ++per_row[static_cast<std::size_t>(std::clamp(r, lo, hi) - lo)];
-    ++sums.binned_points;
+  std::vector<std::vector<std::size_t>> per_slot(slots.size());
+  cli::parallelFor(slots.size(), 0, [&](std::size_t k) {
+    per_slot[k].assign(per_row.size(), 0);
+    for (const PackedCloud::Run& run : slots[k].second) {
+      for (std::size_t i = run.first; i < run.end; ++i) {
+        long long r = 0;
+        if (binRow(cloud.at(run, i), grid, keep, r))
+          ++per_slot[k][static_cast<std::size_t>(std::clamp(r, lo, hi) - lo)];
+      }
+    }
   });
+  for (const std::vector<std::size_t>& rows : per_slot) {
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      per_row[r] += rows[r];
+      sums.binned_points += static_cast<long long>(rows[r]);
+    }
+  }
   const std::size_t band_points =
       std::max<std::size_t>(1, static_cast<std::size_t>(sums.binned_points) / kBinBands);
   for (std::size_t first = 0; first < per_row.size();) {

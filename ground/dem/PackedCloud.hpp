@@ -41,6 +41,8 @@ class PackedCloud {
   DemPoint at(const Run& run, std::size_t i) const;
   // Point i, its run found by bisection.
   DemPoint at(std::size_t i) const;
+  // Point i's north coordinate alone (at(i).north_m, the same double): a cheap first test of a point.
+  double northOf(std::size_t i) const { return north0_m_ + static_cast<double>(points_[i].north); }
   // fn(i, point) for every point in order.
   template <class Fn>
   void forEach(const Fn& fn) const {

@@ -21,26 +21,53 @@ long long polarBin(const dem::DemPoint& p, const Vec3& centre) {
   return r * 1000 + a;
 }
 
+// The cloud in chunks of kOutlierChunk points (a multiple of 64: a chunk's keep bits fill whole words),
+// handed to threads: fn(chunk, i, point) for the points of each chunk, in order.
+constexpr std::size_t kOutlierChunk = std::size_t{1} << 20;
+
+template <class Fn>
+void forEachChunk(const dem::PackedCloud& cloud, const Fn& fn) {
+  cli::parallelFor((cloud.size() + kOutlierChunk - 1) / kOutlierChunk, 0, [&](std::size_t chunk) {
+    const std::size_t begin = chunk * kOutlierChunk, end = std::min(cloud.size(), begin + kOutlierChunk);
+    for (const dem::PackedCloud::Run& r : cloud.runs()) {
+      for (std::size_t i = std::max(begin, r.first); i < std::min(end, r.end); ++i) fn(chunk, i, cloud.at(r, i));
+    }
+  });
+}
+
 // Drops gross outliers before gridding: points whose height sigma exceeds `max_sigma_m`, and points far
 // from the median height of their polar bin (polarBin) more than max(0.3 m, 6 MAD-sigmas) away. Mismatches
 // at depth edges and near the horizon are such points. In place. The bins' heights are gathered a band of
 // whole metres of range at a time, about an eighth of the points each, so that beside the cloud only one
-// band's heights are held (all of them would be 4 bytes a point).
+// band's heights are held (all of them would be 4 bytes a point). The passes over the cloud are split
+// between threads in chunks; a bin's median and MAD do not depend on the order of its heights, and a
+// point's verdict is its own (a bit per point), so the kept points are the same for any thread count.
 void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long long& dropped) {
   constexpr std::size_t kMaxBand = 100000;  // metres; farther points share the last band
   const auto range2 = [&centre](const dem::DemPoint& p) {
     const double dn = p.north_m - centre.x(), de = p.east_m - centre.y();
     return dn * dn + de * de;
   };
+  const std::size_t chunks = (cloud.size() + kOutlierChunk - 1) / kOutlierChunk;
   std::vector<std::size_t> per_metre;  // points per whole metre of range (sizes the bands only)
   std::size_t counted = 0;
-  cloud.dem.forEach([&](std::size_t, const dem::DemPoint& p) {
-    if (!(p.sigma_m <= max_sigma_m)) return;
-    const std::size_t m = static_cast<std::size_t>(std::min<double>(kMaxBand, std::sqrt(range2(p))));
-    if (m >= per_metre.size()) per_metre.resize(m + 1, 0);
-    ++per_metre[m];
-    ++counted;
-  });
+  {
+    std::vector<std::vector<std::size_t>> per_chunk(chunks);
+    forEachChunk(cloud.dem, [&](std::size_t chunk, std::size_t, const dem::DemPoint& p) {
+      if (!(p.sigma_m <= max_sigma_m)) return;
+      const std::size_t m = static_cast<std::size_t>(std::min<double>(kMaxBand, std::sqrt(range2(p))));
+      std::vector<std::size_t>& counts = per_chunk[chunk];
+      if (m >= counts.size()) counts.resize(m + 1, 0);
+      ++counts[m];
+    });
+    for (const std::vector<std::size_t>& counts : per_chunk) {
+      if (counts.size() > per_metre.size()) per_metre.resize(counts.size(), 0);
+      for (std::size_t m = 0; m < counts.size(); ++m) {
+        per_metre[m] += counts[m];
+        counted += counts[m];
+      }
+    }
+  }
   std::unordered_map<long long, std::pair<float, float>> stat;  // median, tolerance
   const std::size_t band_points = std::max<std::size_t>(1, counted / 8);
   for (std::size_t lo = 0; lo < per_metre.size();) {
@@ -50,16 +77,25 @@ void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long lon
     // Candidates by their squared range, a metre wide on either side; the bin's own range decides.
     const double near2 = lo >= 1 ? static_cast<double>(lo - 1) * static_cast<double>(lo - 1) : 0.0;
     const double far2 = static_cast<double>(hi + 2) * static_cast<double>(hi + 2);
-    std::unordered_map<long long, std::vector<float>> bins;
-    cloud.dem.forEach([&](std::size_t, const dem::DemPoint& p) {
+    using Bins = std::unordered_map<long long, std::vector<float>>;
+    std::vector<Bins> chunk_bins(chunks);
+    forEachChunk(cloud.dem, [&](std::size_t chunk, std::size_t, const dem::DemPoint& p) {
       if (!(p.sigma_m <= max_sigma_m)) return;
       const double r2 = range2(p);
       if (r2 < near2 || (!last && r2 >= far2)) return;
       const long long k = polarBin(p, centre);
       const long long m = k / 1000;
       if (m >= static_cast<long long>(lo) && (last || m <= static_cast<long long>(hi)))
-        bins[k].push_back(static_cast<float>(p.elevation_m));
+        chunk_bins[chunk][k].push_back(static_cast<float>(p.elevation_m));
     });
+    Bins bins;
+    for (Bins& b : chunk_bins) {
+      for (auto& kv : b) {
+        std::vector<float>& v = bins[kv.first];
+        v.insert(v.end(), kv.second.begin(), kv.second.end());
+      }
+      Bins().swap(b);
+    }
     for (auto& kv : bins) {
       std::vector<float>& v = kv.second;
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -71,14 +107,16 @@ void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long lon
     }
     lo = hi + 1;
   }
+  std::vector<uint64_t> keep((cloud.size() + 63) / 64, 0);
+  forEachChunk(cloud.dem, [&](std::size_t, std::size_t i, const dem::DemPoint& p) {
+    if (p.sigma_m > max_sigma_m) return;
+    const auto it = stat.find(polarBin(p, centre));
+    const std::pair<float, float> st = it != stat.end() ? it->second : std::pair<float, float>{0.f, 0.f};
+    if (!(std::fabs(p.elevation_m - st.first) > st.second)) keep[i / 64] |= uint64_t{1} << (i % 64);
+  });
   const std::size_t before = cloud.size();
-  cloud.dem.keepIf(
-      [&](std::size_t, const dem::DemPoint& p) {
-        if (p.sigma_m > max_sigma_m) return false;
-        const auto& st = stat[polarBin(p, centre)];
-        return !(std::fabs(p.elevation_m - st.first) > st.second);
-      },
-      [&cloud](std::size_t from, std::size_t to) { cloud.extra[to] = cloud.extra[from]; });
+  cloud.dem.keepIf([&keep](std::size_t i, const dem::DemPoint&) { return ((keep[i / 64] >> (i % 64)) & 1u) != 0; },
+                   [&cloud](std::size_t from, std::size_t to) { cloud.extra[to] = cloud.extra[from]; });
   dropped = static_cast<long long>(before - cloud.size());
   cloud.extra.resize(cloud.size());
 }
