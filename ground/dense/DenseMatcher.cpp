@@ -266,6 +266,33 @@ BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOption
   return v;
 }
 
+// The fine costs of a one-pixel block (fineCosts): each pixel's own census distance at each disparity of its
+// band, straight into the volume.
+void pixelCosts(const cv::Mat& cl, const cv::Mat& cr, const std::vector<uint8_t>& no_band, BandVolume& v) {
+  const int cols = v.cols;
+  for (int y = 0; y < v.rows; ++y) {
+    const uint64_t* a = censusRow(cl, y);
+    const uint64_t* b = censusRow(cr, y);
+    for (int x = 0; x < cols; ++x) {
+      const std::size_t p = static_cast<std::size_t>(y) * cols + x;
+      uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
+      const int n = v.count[p];
+      if (no_band[p]) {
+        std::fill(c, c + n, kNoMatchCost);
+        continue;
+      }
+      // xr = x - lo - j lies in [0, cols) for j in [x - lo - cols + 1, x - lo].
+      const int xr0 = x - v.lo[p];
+      const int j_begin = std::clamp(xr0 - cols + 1, 0, n);
+      const int j_end = std::clamp(xr0 + 1, j_begin, n);
+      const uint64_t ca = a[x];
+      std::fill(c, c + j_begin, kNoMatchCost);
+      for (int j = j_begin; j < j_end; ++j) c[j] = hamming(ca, b[xr0 - j]);
+      std::fill(c + j_end, c + n, kNoMatchCost);
+    }
+  }
+}
+
 // The census cost of every pixel and disparity of the fine band: the Hamming distances of the census
 // vectors summed over the (2 h + 1)^2 block about the pixel at that disparity (h = block_half_px; borders
 // replicated, right pixels outside the image cost kNoMatchCost), divided by the block's area and rounded, so
@@ -277,6 +304,10 @@ BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOption
 // whose block holds that column, then each pixel's sum of V over its block's columns.
 void fineCosts(const cv::Mat& cl, const cv::Mat& cr, const std::vector<uint8_t>& no_band, int block_half_px,
                BandVolume& v) {
+  if (block_half_px == 0) {
+    pixelCosts(cl, cr, no_band, v);
+    return;
+  }
   const int rows = v.rows, cols = v.cols, h = block_half_px;
   const int area = (2 * h + 1) * (2 * h + 1);
   std::vector<int> ext_lo(static_cast<std::size_t>(cols)), ext_hi(static_cast<std::size_t>(cols));
