@@ -126,11 +126,11 @@ struct Step {
 // stepped together lane group by lane group, and their sum is added to `sum` once.
 // Long because: the per-pixel set-up of every direction (predecessor, its slot or a copy, the penalty) and
 // the lane loop belong together; split, the loop's state would be passed around per pixel.
+template <std::size_t nd>
 void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& prm, bool forward,
-             const std::vector<Direction>& dirs, std::vector<uint16_t>& sum_volume) {
+             const Direction (&dirs)[nd], std::vector<uint16_t>& sum_volume) {
   const int rows = v.rows;
   const int cols = v.cols;
-  const std::size_t nd = dirs.size();
   int max_count = 0;
   for (int32_t n : v.count) max_count = std::max(max_count, static_cast<int>(n));
   const int max_lanes = roundUpToLanes(max_count);
@@ -155,7 +155,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
   int16_t* sum_all = reinterpret_cast<int16_t*>(sum_volume.data());
   const int64_t cells = v.cells();
   const Lanes unreachable = splat(kUnreachable), p1 = splat(prm.p1);
-  Step steps[4];  // nd <= 4
+  Step steps[nd];
 
   for (int iy = 0; iy < rows; ++iy) {
     const int y = forward ? iy : rows - 1 - iy;
@@ -256,16 +256,17 @@ void aggregateSemiGlobal(const BandVolume& volume, const cv::Mat& guide, const S
     throw std::invalid_argument("aggregateSemiGlobal: a matching cost above kMaxSemiGlobalCost");
   }
   sum.assign(volume.cost.size(), 0);
-  std::vector<Direction> fwd{{0, -1}, {-1, 0}};
-  std::vector<Direction> bwd{{0, 1}, {1, 0}};
   if (params.paths >= 8) {
-    fwd.push_back({-1, -1});
-    fwd.push_back({-1, 1});
-    bwd.push_back({1, 1});
-    bwd.push_back({1, -1});
+    const Direction fwd[4] = {{0, -1}, {-1, 0}, {-1, -1}, {-1, 1}};
+    const Direction bwd[4] = {{0, 1}, {1, 0}, {1, 1}, {1, -1}};
+    runPass(volume, guide, params, true, fwd, sum);
+    runPass(volume, guide, params, false, bwd, sum);
+  } else {
+    const Direction fwd[2] = {{0, -1}, {-1, 0}};
+    const Direction bwd[2] = {{0, 1}, {1, 0}};
+    runPass(volume, guide, params, true, fwd, sum);
+    runPass(volume, guide, params, false, bwd, sum);
   }
-  runPass(volume, guide, params, true, fwd, sum);
-  runPass(volume, guide, params, false, bwd, sum);
 }
 
 }  // namespace areomap::dense
