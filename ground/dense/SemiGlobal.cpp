@@ -121,14 +121,21 @@ struct Step {
   Lanes running_min;
 };
 
-// One pass over the image in scan order (forward) or reverse scan order (backward), carrying the path
-// costs of up to four directions whose predecessors were already visited. Per pixel, the directions are
-// stepped together lane group by lane group, and their sum is added to `sum` once.
+// The directions of a pass whose predecessors were already visited: the forward pass runs in scan order,
+// the backward pass in reverse scan order; the first two are the 4-path directions.
+constexpr Direction kForwardDirections[4] = {{0, -1}, {-1, 0}, {-1, -1}, {-1, 1}};
+constexpr Direction kBackwardDirections[4] = {{0, 1}, {1, 0}, {1, 1}, {1, -1}};
+
+// One pass over the image, carrying the path costs of its nd directions (2 or 4; fixed at compile time with
+// the pass, so that the loops over the directions unroll with their offsets known). Per pixel, the
+// directions are stepped together lane group by lane group, and their sum is added to `sum` once.
 // Long because: the per-pixel set-up of every direction (predecessor, its slot or a copy, the penalty) and
 // the lane loop belong together; split, the loop's state would be passed around per pixel.
-template <std::size_t nd>
-void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& prm, bool forward,
-             const Direction (&dirs)[nd], std::vector<uint16_t>& sum_volume) {
+template <bool forward, std::size_t nd>
+void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& prm,
+             std::vector<uint16_t>& sum_volume) {
+  static_assert(nd == 2 || nd == 4, "4 or 8 paths");
+  constexpr const Direction* dirs = forward ? kForwardDirections : kBackwardDirections;
   const int rows = v.rows;
   const int cols = v.cols;
   int max_count = 0;
@@ -140,13 +147,20 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
     layoutRow(v, y, this_slots);
     max_row = std::max(max_row, this_slots.size);
   }
-  std::vector<std::vector<int16_t>> prev(nd, std::vector<int16_t>(static_cast<std::size_t>(max_row))),
-      cur(prev);
-  std::vector<std::vector<int16_t>> prev_min(nd, std::vector<int16_t>(static_cast<std::size_t>(cols))),
-      cur_min(prev_min);
-  // A predecessor whose band lies too far from this pixel's: its path costs copied (kUnreachable where it
-  // has none). The last pixels of the volume: their costs and sums through a buffer of whole lane groups.
-  std::vector<std::vector<int16_t>> copy(nd, std::vector<int16_t>(static_cast<std::size_t>(max_lanes + kLanes)));
+  // Per direction: this row's and the previous row's path costs (slots) and minima (per pixel), and a copy
+  // of a predecessor's path costs whose band lies too far from this pixel's (kUnreachable where it has none).
+  const std::size_t row_lanes = static_cast<std::size_t>(max_row), copy_lanes = static_cast<std::size_t>(max_lanes + kLanes);
+  std::vector<int16_t> buffers(nd * (2 * row_lanes + 2 * static_cast<std::size_t>(cols) + copy_lanes));
+  int16_t *cur[nd], *prev[nd], *cur_min[nd], *prev_min[nd], *copy[nd];
+  for (std::size_t k = 0; k < nd; ++k) {
+    int16_t* b = buffers.data() + k * (2 * row_lanes + 2 * static_cast<std::size_t>(cols) + copy_lanes);
+    cur[k] = b;
+    prev[k] = b + row_lanes;
+    cur_min[k] = b + 2 * row_lanes;
+    prev_min[k] = cur_min[k] + cols;
+    copy[k] = prev_min[k] + cols;
+  }
+  // The volume's last pixels: their costs and sums through a buffer of whole lane groups.
   std::vector<int16_t> cost_tail(static_cast<std::size_t>(max_lanes)), sum_tail(cost_tail.size());
   // P2 per grey difference of the neighbours (no division per pixel and path).
   int p2_of_diff[256];
@@ -163,31 +177,32 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
     const bool has_prev_row = py >= 0 && py < rows;
     layoutRow(v, y, this_slots);
     const std::size_t row_base = static_cast<std::size_t>(y) * cols;
+    const std::size_t prev_base = static_cast<std::size_t>(py) * cols;
     const uint8_t* g = guide.ptr<uint8_t>(y);
     const uint8_t* pg = has_prev_row ? guide.ptr<uint8_t>(py) : nullptr;
+    const int* slot_of = this_slots.slot.data();
+    const int* prev_slot_of = prev_slots.slot.data();
     for (std::size_t k = 0; k < nd; ++k)  // the guard after the last slot
-      storeLanes(cur[k].data() + this_slots.size - kLanes, unreachable);
+      storeLanes(cur[k] + this_slots.size - kLanes, unreachable);
     for (int ix = 0; ix < cols; ++ix) {
       const int x = forward ? ix : cols - 1 - ix;
       const std::size_t p = row_base + static_cast<std::size_t>(x);
       const int lo = v.lo[p];
       const int n = v.count[p];
       const int lanes = roundUpToLanes(n);
-      const int slot = this_slots.slot[static_cast<std::size_t>(x)];
+      const int slot = slot_of[x];
       for (std::size_t k = 0; k < nd; ++k) {
         Step& st = steps[k];
-        st.out = cur[k].data() + slot;
+        st.out = cur[k] + slot;
         storeLanes(st.out - kLanes, unreachable);  // the guard before the slot
         st.running_min = unreachable;
         st.at = nullptr;
-        const int qy = y + dirs[k].dy;
         const int qx = x + dirs[k].dx;
-        if (qy < 0 || qy >= rows || qx < 0 || qx >= cols) continue;
-        const std::size_t q = static_cast<std::size_t>(qy) * cols + static_cast<std::size_t>(qx);
         const bool same_row = dirs[k].dy == 0;
-        const int16_t* pslot = (same_row ? cur[k].data() + this_slots.slot[static_cast<std::size_t>(qx)]
-                                         : prev[k].data() + prev_slots.slot[static_cast<std::size_t>(qx)]);
-        st.pmin = same_row ? cur_min[k][static_cast<std::size_t>(qx)] : prev_min[k][static_cast<std::size_t>(qx)];
+        if ((!same_row && !has_prev_row) || qx < 0 || qx >= cols) continue;
+        const std::size_t q = (same_row ? row_base : prev_base) + static_cast<std::size_t>(qx);
+        const int16_t* pslot = same_row ? cur[k] + slot_of[qx] : prev[k] + prev_slot_of[qx];
+        st.pmin = same_row ? cur_min[k][qx] : prev_min[k][qx];
         st.jump = st.pmin + p2_of_diff[std::abs(static_cast<int>(g[x]) - (same_row ? g[qx] : pg[qx]))];
         const int plo = v.lo[q], plane = roundUpToLanes(v.count[q]);
         // The lane groups read the predecessor's slot at lo - 1 - plo .. lo - plo + lanes.
@@ -196,7 +211,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
           st.at = pslot + first;
           continue;
         }
-        int16_t* buf = copy[k].data();
+        int16_t* buf = copy[k];
         for (int i = 0; i < lanes + 2; ++i) {
           const int j = first + i;
           buf[i] = (j >= 0 && j < plane) ? pslot[j] : kUnreachable;
@@ -233,11 +248,12 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
         storeLanes(s + j, total);
       }
       if (tail) std::copy(sum_tail.data(), sum_tail.data() + n, sum_all + off);
-      for (std::size_t k = 0; k < nd; ++k)
-        cur_min[k][static_cast<std::size_t>(x)] = static_cast<int16_t>(minOfLanes(steps[k].running_min));
+      for (std::size_t k = 0; k < nd; ++k) cur_min[k][x] = static_cast<int16_t>(minOfLanes(steps[k].running_min));
     }
-    std::swap(prev, cur);
-    std::swap(prev_min, cur_min);
+    for (std::size_t k = 0; k < nd; ++k) {
+      std::swap(prev[k], cur[k]);
+      std::swap(prev_min[k], cur_min[k]);
+    }
     std::swap(prev_slots, this_slots);
   }
 }
@@ -257,15 +273,11 @@ void aggregateSemiGlobal(const BandVolume& volume, const cv::Mat& guide, const S
   }
   sum.assign(volume.cost.size(), 0);
   if (params.paths >= 8) {
-    const Direction fwd[4] = {{0, -1}, {-1, 0}, {-1, -1}, {-1, 1}};
-    const Direction bwd[4] = {{0, 1}, {1, 0}, {1, 1}, {1, -1}};
-    runPass(volume, guide, params, true, fwd, sum);
-    runPass(volume, guide, params, false, bwd, sum);
+    runPass<true, 4>(volume, guide, params, sum);
+    runPass<false, 4>(volume, guide, params, sum);
   } else {
-    const Direction fwd[2] = {{0, -1}, {-1, 0}};
-    const Direction bwd[2] = {{0, 1}, {1, 0}};
-    runPass(volume, guide, params, true, fwd, sum);
-    runPass(volume, guide, params, false, bwd, sum);
+    runPass<true, 2>(volume, guide, params, sum);
+    runPass<false, 2>(volume, guide, params, sum);
   }
 }
 
