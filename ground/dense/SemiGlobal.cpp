@@ -127,7 +127,8 @@ constexpr Direction kForwardDirections[4] = {{0, -1}, {-1, 0}, {-1, -1}, {-1, 1}
 constexpr Direction kBackwardDirections[4] = {{0, 1}, {1, 0}, {1, 1}, {1, -1}};
 
 // One pass over the image, carrying the path costs of its nd directions (2 or 4; fixed at compile time with
-// the pass, so that the loops over the directions unroll with their offsets known). Per pixel, the
+// the pass, so that the loops over the directions unroll with their offsets known and their state in
+// registers). Per pixel, the
 // directions are stepped together lane group by lane group, and their sum is added to `sum` once.
 // Long because: the per-pixel set-up of every direction (predecessor, its slot or a copy, the penalty) and
 // the lane loop belong together; split, the loop's state would be passed around per pixel.
@@ -152,6 +153,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
   const std::size_t row_lanes = static_cast<std::size_t>(max_row), copy_lanes = static_cast<std::size_t>(max_lanes + kLanes);
   std::vector<int16_t> buffers(nd * (2 * row_lanes + 2 * static_cast<std::size_t>(cols) + copy_lanes));
   int16_t *cur[nd], *prev[nd], *cur_min[nd], *prev_min[nd], *copy[nd];
+  #pragma GCC unroll 4
   for (std::size_t k = 0; k < nd; ++k) {
     int16_t* b = buffers.data() + k * (2 * row_lanes + 2 * static_cast<std::size_t>(cols) + copy_lanes);
     cur[k] = b;
@@ -182,6 +184,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
     const uint8_t* pg = has_prev_row ? guide.ptr<uint8_t>(py) : nullptr;
     const int* slot_of = this_slots.slot.data();
     const int* prev_slot_of = prev_slots.slot.data();
+    #pragma GCC unroll 4
     for (std::size_t k = 0; k < nd; ++k)  // the guard after the last slot
       storeLanes(cur[k] + this_slots.size - kLanes, unreachable);
     for (int ix = 0; ix < cols; ++ix) {
@@ -191,6 +194,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
       const int n = v.count[p];
       const int lanes = roundUpToLanes(n);
       const int slot = slot_of[x];
+      #pragma GCC unroll 4
       for (std::size_t k = 0; k < nd; ++k) {
         Step& st = steps[k];
         st.out = cur[k] + slot;
@@ -232,6 +236,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
         const Lanes inside = laneMask(j, n);
         const Lanes cj = loadLanes(c + j);
         Lanes total = loadLanes(s + j);
+        #pragma GCC unroll 4
         for (std::size_t k = 0; k < nd; ++k) {
           Step& st = steps[k];
           Lanes val = cj;
@@ -248,8 +253,10 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
         storeLanes(s + j, total);
       }
       if (tail) std::copy(sum_tail.data(), sum_tail.data() + n, sum_all + off);
+      #pragma GCC unroll 4
       for (std::size_t k = 0; k < nd; ++k) cur_min[k][x] = static_cast<int16_t>(minOfLanes(steps[k].running_min));
     }
+    #pragma GCC unroll 4
     for (std::size_t k = 0; k < nd; ++k) {
       std::swap(prev[k], cur[k]);
       std::swap(prev_min[k], cur_min[k]);
