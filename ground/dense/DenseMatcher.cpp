@@ -34,35 +34,34 @@ inline uint16_t hamming(uint64_t a, uint64_t b) {
   return static_cast<uint16_t>(__builtin_popcountll(a ^ b));
 }
 
-struct Wta {
-  float disparity = std::numeric_limits<float>::quiet_NaN();
-  int integer = 0;
-  bool unique = false;
-};
-
-// Winner-takes-all with a uniqueness test and parabola sub-pixel refinement over one pixel's band.
-Wta winner(const uint16_t* s, int lo, int n, int uniqueness_percent) {
+// Winner-takes-all over one pixel's band: the index of its first minimum.
+int argminCost(const uint16_t* s, int n) {
   int best = 0;
   for (int j = 1; j < n; ++j) {
     if (s[j] < s[best]) best = j;
   }
-  Wta w;
-  w.integer = lo + best;
-  w.unique = true;
+  return best;
+}
+
+// The uniqueness test: the minimum at `best` beats every candidate more than one disparity away by
+// uniqueness_percent.
+bool uniqueMinimum(const uint16_t* s, int n, int best, int uniqueness_percent) {
   const int min_s = s[best];
   for (int j = 0; j < n; ++j) {
-    if (std::abs(j - best) > 1 && s[j] * (100 - uniqueness_percent) <= min_s * 100) {
-      w.unique = false;
-      break;
-    }
+    if (std::abs(j - best) > 1 && s[j] * (100 - uniqueness_percent) <= min_s * 100) return false;
   }
+  return true;
+}
+
+// The winner's sub-pixel disparity: the parabola through its costs and its neighbours' (none at the band's
+// ends or where they are flat).
+float parabolaDisparity(const uint16_t* s, int lo, int n, int best) {
   double sub = 0.0;
   if (best > 0 && best + 1 < n) {
     const double denom = static_cast<double>(s[best - 1]) + s[best + 1] - 2.0 * s[best];
     if (denom > 0.0) sub = (static_cast<double>(s[best - 1]) - s[best + 1]) / (2.0 * denom);
   }
-  w.disparity = static_cast<float>(lo + best + sub);
-  return w;
+  return static_cast<float>(lo + best + sub);
 }
 
 void checkInput(const cv::Mat& left, const cv::Mat& right, const DenseOptions& o) {
@@ -156,8 +155,8 @@ cv::Mat coarsePass(const cv::Mat& left, const cv::Mat& cl, const cv::Mat& cr, co
   for (int gy = 0; gy < gh; ++gy) {
     for (int gx = 0; gx < gw; ++gx) {
       const std::size_t p = static_cast<std::size_t>(gy) * gw + gx;
-      const Wta w = winner(&sum[static_cast<std::size_t>(v.offset[p])], v.lo[p], v.count[p], 0);
-      coarse.at<float>(gy, gx) = static_cast<float>(w.integer);
+      const int best = argminCost(&sum[static_cast<std::size_t>(v.offset[p])], v.count[p]);
+      coarse.at<float>(gy, gx) = static_cast<float>(v.lo[p] + best);
     }
   }
   return coarse;
@@ -422,28 +421,32 @@ void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const 
     std::fill(right_disp.begin(), right_disp.end(), INT32_MIN / 2);
     float* drow = res.disparity.ptr<float>(y);
     uint8_t* vrow = res.valid.ptr<uint8_t>(y);
+    const uint8_t* texture_row = texture.ptr<uint8_t>(y);
+    uint8_t* interior_row = interior.ptr<uint8_t>(y);
     for (int x = 0; x < cols; ++x) {
       const std::size_t p = static_cast<std::size_t>(y) * cols + x;
       const uint16_t* s = &sum[static_cast<std::size_t>(v.offset[p])];
-      const Wta w = winner(s, v.lo[p], v.count[p], o.uniqueness_percent);
-      left_int[static_cast<std::size_t>(x)] = w.integer;
-      for (int j = 0; j < v.count[p]; ++j) {
-        const int xr = x - (v.lo[p] + j);
-        if (xr >= 0 && xr < cols && s[j] < right_cost[static_cast<std::size_t>(xr)]) {
-          right_cost[static_cast<std::size_t>(xr)] = s[j];
-          right_disp[static_cast<std::size_t>(xr)] = v.lo[p] + j;
+      const int lo = v.lo[p], n = v.count[p];
+      const int best = argminCost(s, n);
+      left_int[static_cast<std::size_t>(x)] = lo + best;
+      // xr = x - lo - j lies in [0, cols) for j in [x - lo - cols + 1, x - lo].
+      const int j_end = std::min(n, x - lo + 1);
+      for (int j = std::max(0, x - lo - cols + 1); j < j_end; ++j) {
+        const std::size_t xr = static_cast<std::size_t>(x - lo - j);
+        if (s[j] < right_cost[xr]) {
+          right_cost[xr] = s[j];
+          right_disp[xr] = lo + j;
         }
       }
+      if (no_band[p]) continue;
+      if (best > 0 && best < n - 1) interior_row[x] = 255;
       // The winner's own census cost: above chance level the pixel's window gives no evidence for it, only
       // the aggregation does (sky, parts of the left image the right one does not see).
-      const uint16_t own_cost = v.cost[static_cast<std::size_t>(v.offset[p]) + (w.integer - v.lo[p])];
-      const bool evident = !no_band[p] && texture.at<uint8_t>(y, x) && own_cost <= o.max_census_cost_bits;
-      if (!no_band[p] && w.integer > v.lo[p] && w.integer < v.lo[p] + v.count[p] - 1)
-        interior.at<uint8_t>(y, x) = 255;
-      if (w.unique && evident) {
-        drow[x] = w.disparity;
-        vrow[x] = 255;
-      }
+      const uint16_t own_cost = v.cost[static_cast<std::size_t>(v.offset[p]) + best];
+      if (!texture_row[x] || own_cost > o.max_census_cost_bits) continue;
+      if (!uniqueMinimum(s, n, best, o.uniqueness_percent)) continue;
+      drow[x] = parabolaDisparity(s, lo, n, best);
+      vrow[x] = 255;
     }
     for (int x = 0; x < cols; ++x) {
       if (!vrow[x]) continue;
@@ -470,18 +473,24 @@ void removeSpeckles(const DenseOptions& o, DenseResult& res) {
   cv::Mat d16(rows, cols, CV_16SC1);
   const int16_t invalid = static_cast<int16_t>((o.min_disparity_px - 1) * 16);
   for (int y = 0; y < rows; ++y) {
+    const uint8_t* valid = res.valid.ptr<uint8_t>(y);
+    const float* d = res.disparity.ptr<float>(y);
+    int16_t* out = d16.ptr<int16_t>(y);
     for (int x = 0; x < cols; ++x) {
-      d16.at<int16_t>(y, x) = res.valid.at<uint8_t>(y, x)
-                                  ? static_cast<int16_t>(std::lround(res.disparity.at<float>(y, x) * 16.0f))
-                                  : invalid;
+      // 16 d rounded half away from zero (std::lround, without its library call): exact in double.
+      const double d_16 = static_cast<double>(d[x] * 16.0f);
+      out[x] = valid[x] ? static_cast<int16_t>(static_cast<long>(d_16 >= 0.0 ? d_16 + 0.5 : d_16 - 0.5)) : invalid;
     }
   }
   cv::filterSpeckles(d16, invalid, speckle, static_cast<int>(o.speckle_max_step_px * 16.0));
   for (int y = 0; y < rows; ++y) {
+    uint8_t* valid = res.valid.ptr<uint8_t>(y);
+    float* d = res.disparity.ptr<float>(y);
+    const int16_t* kept = d16.ptr<int16_t>(y);
     for (int x = 0; x < cols; ++x) {
-      if (res.valid.at<uint8_t>(y, x) && d16.at<int16_t>(y, x) == invalid) {
-        res.valid.at<uint8_t>(y, x) = 0;
-        res.disparity.at<float>(y, x) = std::numeric_limits<float>::quiet_NaN();
+      if (valid[x] && kept[x] == invalid) {
+        valid[x] = 0;
+        d[x] = std::numeric_limits<float>::quiet_NaN();
       }
     }
   }
