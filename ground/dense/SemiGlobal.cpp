@@ -28,13 +28,27 @@ namespace {
 constexpr int kLanes = 8;
 #if defined(__SSE2__)
 using Lanes = __m128i;
-inline Lanes loadLanes(const int16_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
-inline void storeLanes(int16_t* p, Lanes a) { _mm_storeu_si128(reinterpret_cast<__m128i*>(p), a); }
-inline Lanes splat(int v) { return _mm_set1_epi16(static_cast<int16_t>(v)); }
-inline Lanes minLanes(Lanes a, Lanes b) { return _mm_min_epi16(a, b); }
-inline Lanes addLanes(Lanes a, Lanes b) { return _mm_add_epi16(a, b); }
-inline Lanes subLanes(Lanes a, Lanes b) { return _mm_sub_epi16(a, b); }
-inline Lanes andLanes(Lanes a, Lanes mask) { return _mm_and_si128(a, mask); }
+inline Lanes loadLanes(const int16_t* p) {
+  return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+}
+inline void storeLanes(int16_t* p, Lanes a) {
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(p), a);
+}
+inline Lanes splat(int v) {
+  return _mm_set1_epi16(static_cast<int16_t>(v));
+}
+inline Lanes minLanes(Lanes a, Lanes b) {
+  return _mm_min_epi16(a, b);
+}
+inline Lanes addLanes(Lanes a, Lanes b) {
+  return _mm_add_epi16(a, b);
+}
+inline Lanes subLanes(Lanes a, Lanes b) {
+  return _mm_sub_epi16(a, b);
+}
+inline Lanes andLanes(Lanes a, Lanes mask) {
+  return _mm_and_si128(a, mask);
+}
 inline Lanes selectLanes(Lanes mask, Lanes a, Lanes b) {
   return _mm_or_si128(_mm_and_si128(mask, a), _mm_andnot_si128(mask, b));
 }
@@ -57,35 +71,54 @@ inline Lanes loadLanes(const int16_t* p) {
   std::memcpy(a.v, p, sizeof a.v);
   return a;
 }
-inline void storeLanes(int16_t* p, Lanes a) { std::memcpy(p, a.v, sizeof a.v); }
+inline void storeLanes(int16_t* p, Lanes a) {
+  std::memcpy(p, a.v, sizeof a.v);
+}
 template <typename F>
 inline Lanes eachLane(F f) {
   Lanes r;
   for (int i = 0; i < kLanes; ++i) r.v[i] = static_cast<int16_t>(f(i));
   return r;
 }
-inline Lanes splat(int v) { return eachLane([v](int) { return v; }); }
-inline Lanes minLanes(Lanes a, Lanes b) { return eachLane([&](int i) { return std::min(a.v[i], b.v[i]); }); }
-inline Lanes addLanes(Lanes a, Lanes b) { return eachLane([&](int i) { return a.v[i] + b.v[i]; }); }
-inline Lanes subLanes(Lanes a, Lanes b) { return eachLane([&](int i) { return a.v[i] - b.v[i]; }); }
-inline Lanes andLanes(Lanes a, Lanes mask) { return eachLane([&](int i) { return a.v[i] & mask.v[i]; }); }
+inline Lanes splat(int v) {
+  return eachLane([v](int) { return v; });
+}
+inline Lanes minLanes(Lanes a, Lanes b) {
+  return eachLane([&](int i) { return std::min(a.v[i], b.v[i]); });
+}
+inline Lanes addLanes(Lanes a, Lanes b) {
+  return eachLane([&](int i) { return a.v[i] + b.v[i]; });
+}
+inline Lanes subLanes(Lanes a, Lanes b) {
+  return eachLane([&](int i) { return a.v[i] - b.v[i]; });
+}
+inline Lanes andLanes(Lanes a, Lanes mask) {
+  return eachLane([&](int i) { return a.v[i] & mask.v[i]; });
+}
 inline Lanes selectLanes(Lanes mask, Lanes a, Lanes b) {
   return eachLane([&](int i) { return mask.v[i] ? a.v[i] : b.v[i]; });
 }
-inline Lanes laneMask(int first, int n) { return eachLane([=](int i) { return first + i < n ? -1 : 0; }); }
-inline int minOfLanes(Lanes a) { return *std::min_element(a.v, a.v + kLanes); }
+inline Lanes laneMask(int first, int n) {
+  return eachLane([=](int i) { return first + i < n ? -1 : 0; });
+}
+inline int minOfLanes(Lanes a) {
+  return *std::min_element(a.v, a.v + kLanes);
+}
 #endif
 
 // The path cost of a disparity that the predecessor's band lacks: above any jump, so it never wins, and
 // adding P1 to it stays within a signed 16-bit lane. Path costs are normalised by the predecessor's
 // minimum, so a path cost is at most a matching cost + P2' and a jump at most that + P2' (P2' <= P2 + 1).
 constexpr int16_t kUnreachable = 0x3FFF;
-static_assert(kMaxSemiGlobalCost + 2 * (kMaxSemiGlobalPenalty + 1) < kUnreachable, "a jump reaches kUnreachable");
+static_assert(kMaxSemiGlobalCost + 2 * (kMaxSemiGlobalPenalty + 1) < kUnreachable,
+              "a jump reaches kUnreachable");
 static_assert(kUnreachable + kMaxSemiGlobalPenalty <= INT16_MAX, "kUnreachable + P1 overflows a lane");
 // The sum of 8 paths fits a signed lane.
 static_assert(8 * (kMaxSemiGlobalCost + kMaxSemiGlobalPenalty + 1) <= INT16_MAX, "the paths' sum overflows");
 
-int roundUpToLanes(int n) { return (n + kLanes - 1) / kLanes * kLanes; }
+int roundUpToLanes(int n) {
+  return (n + kLanes - 1) / kLanes * kLanes;
+}
 
 struct Direction {
   int dy;
@@ -117,7 +150,7 @@ void layoutRow(const BandVolume& v, int y, RowSlots& r) {
 struct Step {
   const int16_t* at = nullptr;  // nullptr: no predecessor (the path starts here)
   int pmin = 0, jump = 0;
-  int16_t* out = nullptr;       // this pixel's slot in the direction's row buffer
+  int16_t* out = nullptr;  // this pixel's slot in the direction's row buffer
   Lanes running_min;
 };
 
@@ -150,10 +183,11 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
   }
   // Per direction: this row's and the previous row's path costs (slots) and minima (per pixel), and a copy
   // of a predecessor's path costs whose band lies too far from this pixel's (kUnreachable where it has none).
-  const std::size_t row_lanes = static_cast<std::size_t>(max_row), copy_lanes = static_cast<std::size_t>(max_lanes + kLanes);
+  const std::size_t row_lanes = static_cast<std::size_t>(max_row),
+                    copy_lanes = static_cast<std::size_t>(max_lanes + kLanes);
   std::vector<int16_t> buffers(nd * (2 * row_lanes + 2 * static_cast<std::size_t>(cols) + copy_lanes));
   int16_t *cur[nd], *prev[nd], *cur_min[nd], *prev_min[nd], *copy[nd];
-  #pragma GCC unroll 4
+#pragma GCC unroll 4
   for (std::size_t k = 0; k < nd; ++k) {
     int16_t* b = buffers.data() + k * (2 * row_lanes + 2 * static_cast<std::size_t>(cols) + copy_lanes);
     cur[k] = b;
@@ -184,7 +218,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
     const uint8_t* pg = has_prev_row ? guide.ptr<uint8_t>(py) : nullptr;
     const int* slot_of = this_slots.slot.data();
     const int* prev_slot_of = prev_slots.slot.data();
-    #pragma GCC unroll 4
+#pragma GCC unroll 4
     for (std::size_t k = 0; k < nd; ++k)  // the guard after the last slot
       storeLanes(cur[k] + this_slots.size - kLanes, unreachable);
     for (int ix = 0; ix < cols; ++ix) {
@@ -194,7 +228,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
       const int n = v.count[p];
       const int lanes = roundUpToLanes(n);
       const int slot = slot_of[x];
-      #pragma GCC unroll 4
+#pragma GCC unroll 4
       for (std::size_t k = 0; k < nd; ++k) {
         Step& st = steps[k];
         st.out = cur[k] + slot;
@@ -236,13 +270,14 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
         const Lanes inside = laneMask(j, n);
         const Lanes cj = loadLanes(c + j);
         Lanes total = loadLanes(s + j);
-        #pragma GCC unroll 4
+#pragma GCC unroll 4
         for (std::size_t k = 0; k < nd; ++k) {
           Step& st = steps[k];
           Lanes val = cj;
           if (st.at != nullptr) {
-            const Lanes best = minLanes(minLanes(splat(st.jump), loadLanes(st.at + j + 1)),
-                                        addLanes(minLanes(loadLanes(st.at + j), loadLanes(st.at + j + 2)), p1));
+            const Lanes best =
+                minLanes(minLanes(splat(st.jump), loadLanes(st.at + j + 1)),
+                         addLanes(minLanes(loadLanes(st.at + j), loadLanes(st.at + j + 2)), p1));
             val = subLanes(addLanes(cj, best), splat(st.pmin));
           }
           val = selectLanes(inside, val, unreachable);
@@ -253,10 +288,11 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
         storeLanes(s + j, total);
       }
       if (tail) std::copy(sum_tail.data(), sum_tail.data() + n, sum_all + off);
-      #pragma GCC unroll 4
-      for (std::size_t k = 0; k < nd; ++k) cur_min[k][x] = static_cast<int16_t>(minOfLanes(steps[k].running_min));
+#pragma GCC unroll 4
+      for (std::size_t k = 0; k < nd; ++k)
+        cur_min[k][x] = static_cast<int16_t>(minOfLanes(steps[k].running_min));
     }
-    #pragma GCC unroll 4
+#pragma GCC unroll 4
     for (std::size_t k = 0; k < nd; ++k) {
       std::swap(prev[k], cur[k]);
       std::swap(prev_min[k], cur_min[k]);
@@ -272,10 +308,12 @@ void aggregateSemiGlobal(const BandVolume& volume, const cv::Mat& guide, const S
   if (guide.type() != CV_8UC1 || guide.rows != volume.rows || guide.cols != volume.cols) {
     throw std::invalid_argument("aggregateSemiGlobal: guide must be CV_8U of the volume's size");
   }
-  if (params.p1 < 0 || params.p2 < 0 || params.p1 > kMaxSemiGlobalPenalty || params.p2 > kMaxSemiGlobalPenalty) {
+  if (params.p1 < 0 || params.p2 < 0 || params.p1 > kMaxSemiGlobalPenalty ||
+      params.p2 > kMaxSemiGlobalPenalty) {
     throw std::invalid_argument("aggregateSemiGlobal: penalties must lie in 0..kMaxSemiGlobalPenalty");
   }
-  if (!volume.cost.empty() && *std::max_element(volume.cost.begin(), volume.cost.end()) > kMaxSemiGlobalCost) {
+  if (!volume.cost.empty() &&
+      *std::max_element(volume.cost.begin(), volume.cost.end()) > kMaxSemiGlobalCost) {
     throw std::invalid_argument("aggregateSemiGlobal: a matching cost above kMaxSemiGlobalCost");
   }
   sum.assign(volume.cost.size(), 0);

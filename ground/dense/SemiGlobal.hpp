@@ -29,9 +29,9 @@ inline constexpr int kMaxSemiGlobalCost = 2047;
 inline constexpr int kMaxSemiGlobalPenalty = 2047;
 
 struct SemiGlobalParams {
-  int p1 = 8;         // penalty of a 1-px disparity step between neighbours
-  int p2 = 96;        // penalty of a larger step, reduced across intensity edges
-  int paths = 8;      // 4 (horizontal, vertical) or 8 (plus diagonals)
+  int p1 = 8;     // penalty of a 1-px disparity step between neighbours
+  int p2 = 96;    // penalty of a larger step, reduced across intensity edges
+  int paths = 8;  // 4 (horizontal, vertical) or 8 (plus diagonals)
 };
 
 // Sums the path costs of all paths into `sum` (same layout as volume.cost). `guide` (CV_8U, rows x cols)

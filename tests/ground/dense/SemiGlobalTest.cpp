@@ -46,9 +46,9 @@ std::vector<uint16_t> referenceSum(const BandVolume& v, const cv::Mat& guide, co
         }
         for (int j = 0; j < v.count[p]; ++j) {
           const int d = v.lo[p] + j, c = v.cost[static_cast<std::size_t>(v.offset[p] + j)];
-          const int l = start ? c
-                              : c + std::min({prev(d), prev(d - 1) + prm.p1, prev(d + 1) + prm.p1, qmin + p2}) -
-                                    qmin;
+          const int l =
+              start ? c
+                    : c + std::min({prev(d), prev(d - 1) + prm.p1, prev(d + 1) + prm.p1, qmin + p2}) - qmin;
           path[p].push_back(l);
           uint16_t& s = sum[static_cast<std::size_t>(v.offset[p] + j)];
           s = static_cast<uint16_t>(s + l);
@@ -93,8 +93,8 @@ TEST(SemiGlobal, EqualsTheRecursionWrittenOut) {
     int rows, cols, max_count, max_cost;
     SemiGlobalParams prm;
   };
-  const Case cases[] = {{17, 23, 6, 62, {8, 96, 8}},    // the fine pass's bands and costs
-                        {13, 19, 40, 62, {8, 64, 4}},   // wide bands over several lane groups, 4 paths
+  const Case cases[] = {{17, 23, 6, 62, {8, 96, 8}},   // the fine pass's bands and costs
+                        {13, 19, 40, 62, {8, 64, 4}},  // wide bands over several lane groups, 4 paths
                         {9, 11, 19, kMaxSemiGlobalCost, {kMaxSemiGlobalPenalty, kMaxSemiGlobalPenalty, 8}}};
   for (const Case& c : cases) {
     const BandVolume v = randomVolume(rng, c.rows, c.cols, c.max_count, c.max_cost);
