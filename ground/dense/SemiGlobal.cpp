@@ -25,7 +25,7 @@ namespace {
 
 // Eight disparities at a time in 16-bit lanes: SSE2 on x86-64 (every such CPU has it), else the same
 // operations lane by lane. Every value fits a signed 16-bit lane (kMaxSemiGlobalCost, kMaxSemiGlobalPenalty).
-constexpr int kLanes = 8;
+constexpr int kLaneCount = 8;
 #if defined(__SSE2__)
 using Lanes = __m128i;
 inline Lanes loadLanes(const int16_t* p) {
@@ -34,7 +34,7 @@ inline Lanes loadLanes(const int16_t* p) {
 inline void storeLanes(int16_t* p, Lanes a) {
   _mm_storeu_si128(reinterpret_cast<__m128i*>(p), a);
 }
-inline Lanes splat(int v) {
+inline Lanes broadcastLanes(int v) {
   return _mm_set1_epi16(static_cast<int16_t>(v));
 }
 inline Lanes minLanes(Lanes a, Lanes b) {
@@ -54,7 +54,8 @@ inline Lanes selectLanes(Lanes mask, Lanes a, Lanes b) {
 }
 // Lanes whose index (first + 0..7) lies below n: all ones, else zero.
 inline Lanes laneMask(int first, int n) {
-  return _mm_cmplt_epi16(_mm_add_epi16(_mm_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7), splat(first)), splat(n));
+  return _mm_cmplt_epi16(_mm_add_epi16(_mm_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7), broadcastLanes(first)),
+                         broadcastLanes(n));
 }
 inline int minOfLanes(Lanes a) {
   a = _mm_min_epi16(a, _mm_srli_si128(a, 8));
@@ -64,7 +65,7 @@ inline int minOfLanes(Lanes a) {
 }
 #else
 struct Lanes {
-  int16_t v[kLanes];
+  int16_t v[kLaneCount];
 };
 inline Lanes loadLanes(const int16_t* p) {
   Lanes a;
@@ -77,10 +78,10 @@ inline void storeLanes(int16_t* p, Lanes a) {
 template <typename F>
 inline Lanes eachLane(F f) {
   Lanes r;
-  for (int i = 0; i < kLanes; ++i) r.v[i] = static_cast<int16_t>(f(i));
+  for (int i = 0; i < kLaneCount; ++i) r.v[i] = static_cast<int16_t>(f(i));
   return r;
 }
-inline Lanes splat(int v) {
+inline Lanes broadcastLanes(int v) {
   return eachLane([v](int) { return v; });
 }
 inline Lanes minLanes(Lanes a, Lanes b) {
@@ -102,7 +103,7 @@ inline Lanes laneMask(int first, int n) {
   return eachLane([=](int i) { return first + i < n ? -1 : 0; });
 }
 inline int minOfLanes(Lanes a) {
-  return *std::min_element(a.v, a.v + kLanes);
+  return *std::min_element(a.v, a.v + kLaneCount);
 }
 #endif
 
@@ -117,7 +118,7 @@ static_assert(kUnreachable + kMaxSemiGlobalPenalty <= INT16_MAX, "kUnreachable +
 static_assert(8 * (kMaxSemiGlobalCost + kMaxSemiGlobalPenalty + 1) <= INT16_MAX, "the paths' sum overflows");
 
 int roundUpToLanes(int n) {
-  return (n + kLanes - 1) / kLanes * kLanes;
+  return (n + kLaneCount - 1) / kLaneCount * kLaneCount;
 }
 
 struct Direction {
@@ -126,7 +127,7 @@ struct Direction {
 };
 
 // A row's path costs of one direction: every pixel's band in a slot of whole lane groups (slot[x] ..
-// slot[x] + roundUpToLanes(count)), the lanes past its count and kLanes guard lanes before every slot and
+// slot[x] + roundUpToLanes(count)), the lanes past its count and kLaneCount guard lanes before every slot and
 // after the last one holding kUnreachable, so that a neighbour's band shifted by a few disparities reads
 // kUnreachable where it has none without a test per disparity.
 struct RowSlots {
@@ -136,11 +137,11 @@ struct RowSlots {
 
 void layoutRow(const BandVolume& v, int y, RowSlots& r) {
   r.slot.resize(static_cast<std::size_t>(v.cols));
-  int at = kLanes;
+  int at = kLaneCount;
   const std::size_t base = static_cast<std::size_t>(y) * v.cols;
   for (int x = 0; x < v.cols; ++x) {
     r.slot[static_cast<std::size_t>(x)] = at;
-    at += roundUpToLanes(v.count[base + static_cast<std::size_t>(x)]) + kLanes;
+    at += roundUpToLanes(v.count[base + static_cast<std::size_t>(x)]) + kLaneCount;
   }
   r.size = at;
 }
@@ -184,7 +185,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
   // Per direction: this row's and the previous row's path costs (slots) and minima (per pixel), and a copy
   // of a predecessor's path costs whose band lies too far from this pixel's (kUnreachable where it has none).
   const std::size_t row_lanes = static_cast<std::size_t>(max_row),
-                    copy_lanes = static_cast<std::size_t>(max_lanes + kLanes);
+                    copy_lanes = static_cast<std::size_t>(max_lanes + kLaneCount);
   std::vector<int16_t> buffers(nd * (2 * row_lanes + 2 * static_cast<std::size_t>(cols) + copy_lanes));
   int16_t *cur[nd], *prev[nd], *cur_min[nd], *prev_min[nd], *copy[nd];
 #pragma GCC unroll 4
@@ -204,7 +205,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
   const int16_t* cost_all = reinterpret_cast<const int16_t*>(v.cost.data());
   int16_t* sum_all = reinterpret_cast<int16_t*>(sum_volume.data());
   const int64_t cells = v.cells();
-  const Lanes unreachable = splat(kUnreachable), p1 = splat(prm.p1);
+  const Lanes unreachable = broadcastLanes(kUnreachable), p1 = broadcastLanes(prm.p1);
   Step steps[nd];
 
   for (int iy = 0; iy < rows; ++iy) {
@@ -220,7 +221,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
     const int* prev_slot_of = prev_slots.slot.data();
 #pragma GCC unroll 4
     for (std::size_t k = 0; k < nd; ++k)  // the guard after the last slot
-      storeLanes(cur[k] + this_slots.size - kLanes, unreachable);
+      storeLanes(cur[k] + this_slots.size - kLaneCount, unreachable);
     for (int ix = 0; ix < cols; ++ix) {
       const int x = forward ? ix : cols - 1 - ix;
       const std::size_t p = row_base + static_cast<std::size_t>(x);
@@ -232,7 +233,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
       for (std::size_t k = 0; k < nd; ++k) {
         Step& st = steps[k];
         st.out = cur[k] + slot;
-        storeLanes(st.out - kLanes, unreachable);  // the guard before the slot
+        storeLanes(st.out - kLaneCount, unreachable);  // the guard before the slot
         st.running_min = unreachable;
         st.at = nullptr;
         const int qx = x + dirs[k].dx;
@@ -245,7 +246,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
         const int plo = v.lo[q], plane = roundUpToLanes(v.count[q]);
         // The lane groups read the predecessor's slot at lo - 1 - plo .. lo - plo + lanes.
         const int first = lo - 1 - plo;
-        if (first >= -kLanes && lo - plo + lanes <= plane + kLanes - 1) {
+        if (first >= -kLaneCount && lo - plo + lanes <= plane + kLaneCount - 1) {
           st.at = pslot + first;
           continue;
         }
@@ -266,7 +267,7 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
         c = cost_tail.data();
         s = sum_tail.data();
       }
-      for (int j = 0; j < lanes; j += kLanes) {
+      for (int j = 0; j < lanes; j += kLaneCount) {
         const Lanes inside = laneMask(j, n);
         const Lanes cj = loadLanes(c + j);
         Lanes total = loadLanes(s + j);
@@ -276,9 +277,9 @@ void runPass(const BandVolume& v, const cv::Mat& guide, const SemiGlobalParams& 
           Lanes val = cj;
           if (st.at != nullptr) {
             const Lanes best =
-                minLanes(minLanes(splat(st.jump), loadLanes(st.at + j + 1)),
+                minLanes(minLanes(broadcastLanes(st.jump), loadLanes(st.at + j + 1)),
                          addLanes(minLanes(loadLanes(st.at + j), loadLanes(st.at + j + 2)), p1));
-            val = subLanes(addLanes(cj, best), splat(st.pmin));
+            val = subLanes(addLanes(cj, best), broadcastLanes(st.pmin));
           }
           val = selectLanes(inside, val, unreachable);
           storeLanes(st.out + j, val);
