@@ -15,9 +15,34 @@ constexpr int kOutside = std::numeric_limits<int>::max() / 2;
 // The census distances summed over the block about (x, y), every p.stride_px-th pixel (sample columns and
 // rows clamped to the image; a right pixel outside it costs no_match_cost), at disparities lo .. lo + n - 1
 // into c. Per block sample, the loop over the disparities has no branch.
+// Where every sample's right pixels lie inside the image at every disparity (the block away from the image's
+// left and right edges), the samples are gathered first and each disparity's cost is one branch-free sum
+// over them.
 void blockCosts(const cv::Mat& cl, const cv::Mat& cr, int x, int y, int lo, int n, const BlockFillParams& p,
                 int* c) {
   const int h = p.block_half_px, s = p.stride_px, cols = cl.cols;
+  if (x - h >= 0 && x + h < cols && x - h - lo - (n - 1) >= 0 && x + h - lo < cols) {
+    thread_local std::vector<uint64_t> left;
+    thread_local std::vector<const uint64_t*> right;  // the right pixel of each sample at j = 0
+    left.clear();
+    right.clear();
+    for (int dy = -h; dy <= h; dy += s) {
+      const int yy = std::clamp(y + dy, 0, cl.rows - 1);
+      const uint64_t* a = cl.ptr<uint64_t>(yy);
+      const uint64_t* b = cr.ptr<uint64_t>(yy);
+      for (int dx = -h; dx <= h; dx += s) {
+        left.push_back(a[x + dx]);
+        right.push_back(b + x + dx - lo);
+      }
+    }
+    const std::size_t samples = left.size();
+    for (int j = 0; j < n; ++j) {
+      int sum = 0;
+      for (std::size_t k = 0; k < samples; ++k) sum += __builtin_popcountll(left[k] ^ right[k][-j]);
+      c[j] = sum;
+    }
+    return;
+  }
   std::fill(c, c + n, 0);
   for (int dy = -h; dy <= h; dy += s) {
     const int yy = std::clamp(y + dy, 0, cl.rows - 1);

@@ -1,6 +1,7 @@
 #include "ground/dense/DenseMatcher.hpp"
 
 #include "ground/dense/BlockFill.hpp"
+#include "ground/dense/FineBand.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -18,7 +19,8 @@ namespace {
 constexpr int kCensusHalfWidth = kCensusWindowCols / 2;
 constexpr int kCensusHalfHeight = kCensusWindowRows / 2;
 constexpr int kCensusBits = (2 * kCensusHalfWidth + 1) * (2 * kCensusHalfHeight + 1) - 1;  // 62
-constexpr uint16_t kNoMatchCost = kCensusBits;
+constexpr uint16_t kNoMatchCost = kCensusNoMatchCost;
+static_assert(kNoMatchCost == kCensusBits, "a right pixel outside the image differs in every census bit");
 // Holes are filled from the nearest valid pixels at most this far away (pixels).
 constexpr int kMaxFillReachPx = 64;
 
@@ -34,35 +36,37 @@ inline uint16_t hamming(uint64_t a, uint64_t b) {
   return static_cast<uint16_t>(__builtin_popcountll(a ^ b));
 }
 
-struct Wta {
-  float disparity = std::numeric_limits<float>::quiet_NaN();
-  int integer = 0;
-  bool unique = false;
-};
-
-// Winner-takes-all with a uniqueness test and parabola sub-pixel refinement over one pixel's band.
-Wta winner(const uint16_t* s, int lo, int n, int uniqueness_percent) {
-  int best = 0;
+// Winner-takes-all over one pixel's band: the index of its first minimum (without a branch per candidate:
+// which one wins is the data's, and a mispredicted branch costs more than the comparison).
+int argminCost(const uint16_t* s, int n) {
+  int best = 0, min_s = s[0];
   for (int j = 1; j < n; ++j) {
-    if (s[j] < s[best]) best = j;
+    const bool lower = s[j] < min_s;
+    best = lower ? j : best;
+    min_s = lower ? s[j] : min_s;
   }
-  Wta w;
-  w.integer = lo + best;
-  w.unique = true;
+  return best;
+}
+
+// The uniqueness test: the minimum at `best` beats every candidate more than one disparity away by
+// uniqueness_percent.
+bool uniqueMinimum(const uint16_t* s, int n, int best, int uniqueness_percent) {
   const int min_s = s[best];
   for (int j = 0; j < n; ++j) {
-    if (std::abs(j - best) > 1 && s[j] * (100 - uniqueness_percent) <= min_s * 100) {
-      w.unique = false;
-      break;
-    }
+    if (std::abs(j - best) > 1 && s[j] * (100 - uniqueness_percent) <= min_s * 100) return false;
   }
+  return true;
+}
+
+// The winner's sub-pixel disparity: the parabola through its costs and its neighbours' (none at the band's
+// ends or where they are flat).
+float parabolaDisparity(const uint16_t* s, int lo, int n, int best) {
   double sub = 0.0;
   if (best > 0 && best + 1 < n) {
     const double denom = static_cast<double>(s[best - 1]) + s[best + 1] - 2.0 * s[best];
     if (denom > 0.0) sub = (static_cast<double>(s[best - 1]) - s[best + 1]) / (2.0 * denom);
   }
-  w.disparity = static_cast<float>(lo + best + sub);
-  return w;
+  return static_cast<float>(lo + best + sub);
 }
 
 void checkInput(const cv::Mat& left, const cv::Mat& right, const DenseOptions& o) {
@@ -156,8 +160,8 @@ cv::Mat coarsePass(const cv::Mat& left, const cv::Mat& cl, const cv::Mat& cr, co
   for (int gy = 0; gy < gh; ++gy) {
     for (int gx = 0; gx < gw; ++gx) {
       const std::size_t p = static_cast<std::size_t>(gy) * gw + gx;
-      const Wta w = winner(&sum[static_cast<std::size_t>(v.offset[p])], v.lo[p], v.count[p], 0);
-      coarse.at<float>(gy, gx) = static_cast<float>(w.integer);
+      const int best = argminCost(&sum[static_cast<std::size_t>(v.offset[p])], v.count[p]);
+      coarse.at<float>(gy, gx) = static_cast<float>(v.lo[p] + best);
     }
   }
   return coarse;
@@ -222,124 +226,6 @@ std::vector<RowRange> clampedRowRanges(int rows, const DenseOptions& o,
   return ranges;
 }
 
-// Fine band per pixel: min..max of the coarse disparities of the 4x4 nodes around it, +- the margin, within
-// the options' disparities and the image. `no_band` marks the pixels where that leaves nothing, and those
-// outside `mask` (when not empty): they keep a band of one disparity that never matches.
-BandVolume fineBand(const cv::Mat& coarse, int rows, int cols, const DenseOptions& o, const cv::Mat& mask,
-                    std::vector<uint8_t>& no_band) {
-  const int step = o.coarse_step_px;
-  const int off = step / 2;
-  cv::Mat cmin, cmax;
-  const cv::Mat kernel = cv::Mat::ones(4, 4, CV_8UC1);
-  cv::erode(coarse, cmin, kernel, cv::Point(1, 1), 1, cv::BORDER_REPLICATE);
-  cv::dilate(coarse, cmax, kernel, cv::Point(1, 1), 1, cv::BORDER_REPLICATE);
-  BandVolume v;
-  v.rows = rows;
-  v.cols = cols;
-  v.lo.resize(static_cast<std::size_t>(rows) * cols);
-  v.count.resize(v.lo.size());
-  no_band.assign(v.lo.size(), 0);
-  std::vector<int> gx_of_x(static_cast<std::size_t>(cols));  // the grid column of each image column
-  for (int x = 0; x < cols; ++x)
-    gx_of_x[x] = std::clamp((x - off) / step - (x < off ? 1 : 0), 0, coarse.cols - 1);
-  for (int y = 0; y < rows; ++y) {
-    const int gy = std::clamp((y - off) / step - (y < off ? 1 : 0), 0, coarse.rows - 1);
-    const float* min_row = cmin.ptr<float>(gy);
-    const float* max_row = cmax.ptr<float>(gy);
-    const uint8_t* mask_row = mask.empty() ? nullptr : mask.ptr<uint8_t>(y);
-    for (int x = 0; x < cols; ++x) {
-      const int gx = gx_of_x[x];
-      const std::size_t p = static_cast<std::size_t>(y) * cols + x;
-      int lo = static_cast<int>(min_row[gx]) - o.fine_margin_px;
-      int hi = static_cast<int>(max_row[gx]) + o.fine_margin_px;
-      lo = std::max(lo, o.min_disparity_px);
-      hi = std::min({hi, o.max_disparity_px, x});
-      if (hi < lo || (mask_row != nullptr && mask_row[x] == 0)) {
-        no_band[p] = 1;
-        hi = lo;
-      }
-      v.lo[p] = lo;
-      v.count[p] = hi - lo + 1;
-    }
-  }
-  v.finishLayout();
-  return v;
-}
-
-// The census cost of every pixel and disparity of the fine band: the Hamming distances of the census
-// vectors summed over the (2 h + 1)^2 block about the pixel at that disparity (h = block_half_px; borders
-// replicated, right pixels outside the image cost kNoMatchCost), divided by the block's area and rounded, so
-// the cost keeps the one-window scale (0..62 bits) that the penalties and the census-cost test are set in.
-// One window's distance counts the bits that differ between a pair of near-equal grey levels as often as
-// the bits of real structure, and flips with sensor noise and compression; summed over the block, a correct
-// match's cost varies less, as in the coarse pass, which sums over its cell.
-// Per row: the sums over the block's rows (V) for each column over the union of the bands of the pixels
-// whose block holds that column, then each pixel's sum of V over its block's columns.
-void fineCosts(const cv::Mat& cl, const cv::Mat& cr, const std::vector<uint8_t>& no_band, int block_half_px,
-               BandVolume& v) {
-  const int rows = v.rows, cols = v.cols, h = block_half_px;
-  const int area = (2 * h + 1) * (2 * h + 1);
-  std::vector<int> ext_lo(static_cast<std::size_t>(cols)), ext_hi(static_cast<std::size_t>(cols));
-  std::vector<std::size_t> ext_at(static_cast<std::size_t>(cols) + 1);
-  std::vector<int> col_sum, acc;
-  std::vector<const uint64_t*> a(static_cast<std::size_t>(2 * h + 1)), b(a.size());
-  for (int y = 0; y < rows; ++y) {
-    const std::size_t row = static_cast<std::size_t>(y) * cols;
-    for (int k = -h; k <= h; ++k) {
-      const int yy = std::clamp(y + k, 0, rows - 1);
-      a[static_cast<std::size_t>(k + h)] = censusRow(cl, yy);
-      b[static_cast<std::size_t>(k + h)] = censusRow(cr, yy);
-    }
-    // The disparities each column's V is needed at (empty: lo > hi).
-    ext_at[0] = 0;
-    for (int xc = 0; xc < cols; ++xc) {
-      int lo = INT32_MAX, hi = INT32_MIN;
-      for (int x = std::max(0, xc - h); x <= std::min(cols - 1, xc + h); ++x) {
-        if (no_band[row + x]) continue;
-        lo = std::min(lo, v.lo[row + x]);
-        hi = std::max(hi, v.lo[row + x] + v.count[row + x] - 1);
-      }
-      ext_lo[xc] = lo;
-      ext_hi[xc] = hi;
-      ext_at[xc + 1] = ext_at[xc] + static_cast<std::size_t>(hi >= lo ? hi - lo + 1 : 0);
-    }
-    col_sum.resize(ext_at[cols]);
-    for (int xc = 0; xc < cols; ++xc) {
-      if (ext_hi[xc] < ext_lo[xc]) continue;  // no pixel's block needs this column
-      int* vs = &col_sum[ext_at[xc]];
-      const int n = ext_hi[xc] - ext_lo[xc] + 1;
-      std::fill(vs, vs + n, 0);
-      // xr = xc - ext_lo - j lies in [0, cols) for j in [xc - ext_lo - cols + 1, xc - ext_lo].
-      const int xr0 = xc - ext_lo[xc];
-      const int j_begin = std::clamp(xr0 - cols + 1, 0, n);
-      const int j_end = std::clamp(xr0 + 1, j_begin, n);
-      for (int k = 0; k <= 2 * h; ++k) {
-        const uint64_t ca = a[static_cast<std::size_t>(k)][xc];
-        const uint64_t* bk = b[static_cast<std::size_t>(k)];
-        for (int j = j_begin; j < j_end; ++j) vs[j] += hamming(ca, bk[xr0 - j]);
-      }
-      for (int j = 0; j < j_begin; ++j) vs[j] = (2 * h + 1) * kNoMatchCost;
-      for (int j = j_end; j < n; ++j) vs[j] = (2 * h + 1) * kNoMatchCost;
-    }
-    for (int x = 0; x < cols; ++x) {
-      const std::size_t p = row + x;
-      uint16_t* c = &v.cost[static_cast<std::size_t>(v.offset[p])];
-      const int n = v.count[p], lo = v.lo[p];
-      if (no_band[p]) {
-        std::fill(c, c + n, kNoMatchCost);
-        continue;
-      }
-      acc.assign(static_cast<std::size_t>(n), 0);
-      for (int k = -h; k <= h; ++k) {
-        const int xc = std::clamp(x + k, 0, cols - 1);
-        const int* vs = &col_sum[ext_at[xc]] + (lo - ext_lo[xc]);
-        for (int j = 0; j < n; ++j) acc[static_cast<std::size_t>(j)] += vs[j];
-      }
-      for (int j = 0; j < n; ++j) c[j] = static_cast<uint16_t>((acc[static_cast<std::size_t>(j)] + area / 2) / area);
-    }
-  }
-}
-
 // Texture: the grey range inside the census window. Below the threshold the census bits are noise or zero
 // and a "match" would only be the aggregation's guess.
 // block_half_px > 0: the grey range inside the union of the census windows of a block (the fill pass).
@@ -391,28 +277,31 @@ void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const 
     std::fill(right_disp.begin(), right_disp.end(), INT32_MIN / 2);
     float* drow = res.disparity.ptr<float>(y);
     uint8_t* vrow = res.valid.ptr<uint8_t>(y);
+    const uint8_t* texture_row = texture.ptr<uint8_t>(y);
+    uint8_t* interior_row = interior.ptr<uint8_t>(y);
     for (int x = 0; x < cols; ++x) {
       const std::size_t p = static_cast<std::size_t>(y) * cols + x;
       const uint16_t* s = &sum[static_cast<std::size_t>(v.offset[p])];
-      const Wta w = winner(s, v.lo[p], v.count[p], o.uniqueness_percent);
-      left_int[static_cast<std::size_t>(x)] = w.integer;
-      for (int j = 0; j < v.count[p]; ++j) {
-        const int xr = x - (v.lo[p] + j);
-        if (xr >= 0 && xr < cols && s[j] < right_cost[static_cast<std::size_t>(xr)]) {
-          right_cost[static_cast<std::size_t>(xr)] = s[j];
-          right_disp[static_cast<std::size_t>(xr)] = v.lo[p] + j;
-        }
+      const int lo = v.lo[p], n = v.count[p];
+      const int best = argminCost(s, n);
+      left_int[static_cast<std::size_t>(x)] = lo + best;
+      // xr = x - lo - j lies in [0, cols) for j in [x - lo - cols + 1, x - lo].
+      const int j_end = std::min(n, x - lo + 1);
+      for (int j = std::max(0, x - lo - cols + 1); j < j_end; ++j) {
+        const std::size_t xr = static_cast<std::size_t>(x - lo - j);
+        const bool lower = s[j] < right_cost[xr];  // as argminCost, without a branch
+        right_disp[xr] = lower ? lo + j : right_disp[xr];
+        right_cost[xr] = lower ? s[j] : right_cost[xr];
       }
+      if (no_band[p]) continue;
+      if (best > 0 && best < n - 1) interior_row[x] = 255;
       // The winner's own census cost: above chance level the pixel's window gives no evidence for it, only
       // the aggregation does (sky, parts of the left image the right one does not see).
-      const uint16_t own_cost = v.cost[static_cast<std::size_t>(v.offset[p]) + (w.integer - v.lo[p])];
-      const bool evident = !no_band[p] && texture.at<uint8_t>(y, x) && own_cost <= o.max_census_cost_bits;
-      if (!no_band[p] && w.integer > v.lo[p] && w.integer < v.lo[p] + v.count[p] - 1)
-        interior.at<uint8_t>(y, x) = 255;
-      if (w.unique && evident) {
-        drow[x] = w.disparity;
-        vrow[x] = 255;
-      }
+      const uint16_t own_cost = v.cost[static_cast<std::size_t>(v.offset[p]) + best];
+      if (!texture_row[x] || own_cost > o.max_census_cost_bits) continue;
+      if (!uniqueMinimum(s, n, best, o.uniqueness_percent)) continue;
+      drow[x] = parabolaDisparity(s, lo, n, best);
+      vrow[x] = 255;
     }
     for (int x = 0; x < cols; ++x) {
       if (!vrow[x]) continue;
@@ -439,18 +328,24 @@ void removeSpeckles(const DenseOptions& o, DenseResult& res) {
   cv::Mat d16(rows, cols, CV_16SC1);
   const int16_t invalid = static_cast<int16_t>((o.min_disparity_px - 1) * 16);
   for (int y = 0; y < rows; ++y) {
+    const uint8_t* valid = res.valid.ptr<uint8_t>(y);
+    const float* d = res.disparity.ptr<float>(y);
+    int16_t* out = d16.ptr<int16_t>(y);
     for (int x = 0; x < cols; ++x) {
-      d16.at<int16_t>(y, x) = res.valid.at<uint8_t>(y, x)
-                                  ? static_cast<int16_t>(std::lround(res.disparity.at<float>(y, x) * 16.0f))
-                                  : invalid;
+      // 16 d rounded half away from zero (std::lround, without its library call): exact in double.
+      const double d_16 = static_cast<double>(d[x] * 16.0f);
+      out[x] = valid[x] ? static_cast<int16_t>(static_cast<long>(d_16 >= 0.0 ? d_16 + 0.5 : d_16 - 0.5)) : invalid;
     }
   }
   cv::filterSpeckles(d16, invalid, speckle, static_cast<int>(o.speckle_max_step_px * 16.0));
   for (int y = 0; y < rows; ++y) {
+    uint8_t* valid = res.valid.ptr<uint8_t>(y);
+    float* d = res.disparity.ptr<float>(y);
+    const int16_t* kept = d16.ptr<int16_t>(y);
     for (int x = 0; x < cols; ++x) {
-      if (res.valid.at<uint8_t>(y, x) && d16.at<int16_t>(y, x) == invalid) {
-        res.valid.at<uint8_t>(y, x) = 0;
-        res.disparity.at<float>(y, x) = std::numeric_limits<float>::quiet_NaN();
+      if (valid[x] && kept[x] == invalid) {
+        valid[x] = 0;
+        d[x] = std::numeric_limits<float>::quiet_NaN();
       }
     }
   }

@@ -8,7 +8,9 @@
 // from the ties, exactly what dense::pairCloud matches. StereoSGBM gets the same rectified images and the
 // disparity range that the parallax ranges span (minDisparity = their lowest, numDisparities = their span
 // rounded up to a multiple of 16). Printed per matcher:
-//  - seconds of one matching of the left view (the right view's, for the check below, is not timed);
+//  - seconds of one matching of the left view (the right view's, for the check below, is not timed), wall
+//    clock and the process's CPU time (every thread's; both matchers run here on one thread unless OpenCV's
+//    own functions spread, OPENCV_FOR_THREADS_NUM=1 keeps them on one);
 //  - density: dense::keepMatchesInside for both (PairCloud::matched_fraction: valid matches inside both
 //    originals over the rectified pixels that show the left original, eroded by the matching window);
 //  - left-right consistency: of those valid pixels, the fraction whose disparity agrees within 1 px with the
@@ -36,6 +38,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <ctime>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
@@ -57,6 +60,14 @@ namespace {
 
 double nowS() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// The CPU time of the process (all its threads): on a machine shared with other work, wall-clock times
+// grow with the load, CPU times much less.
+double cpuS() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
 constexpr int kBlock = 5;
@@ -135,7 +146,7 @@ Regions regions(const dense::RectifiedPair& rect, const Eigen::Matrix3d& rover_t
 }
 
 struct Figures {
-  double seconds = 0.0;
+  double seconds = 0.0, cpu_seconds = 0.0;
   double density = 0.0, lr = 0.0;                // over the pixels that show the left original
   double ground_density = 0.0, ground_lr = 0.0;  // over those that see the ground within the DEM range
   double near_density = 0.0, near_lr = 0.0;      // over the near terrain (nearTerrain)
@@ -173,10 +184,11 @@ void score(const cv::Mat& left, const cv::Mat& right, const cv::Mat& region, dou
 }
 
 // `kept`: the left disparities with only the matches inside both originals (dense::keepMatchesInside).
-Figures score(double seconds, const Regions& regions, const cv::Mat& near, const cv::Mat& kept,
-              const cv::Mat& right) {
+Figures score(double seconds, double cpu_seconds, const Regions& regions, const cv::Mat& near,
+              const cv::Mat& kept, const cv::Mat& right) {
   Figures f;
   f.seconds = seconds;
+  f.cpu_seconds = cpu_seconds;
   score(kept, right, regions.shown, f.density, f.lr);
   score(kept, right, regions.ground, f.ground_density, f.ground_lr);
   score(kept, right, near, f.near_density, f.near_lr);
@@ -187,45 +199,49 @@ Figures score(double seconds, const Regions& regions, const cv::Mat& near, const
 void compare(const char* title, const dense::PairMatchSetup& p, const Regions& regions, double range_m,
              const Search& s, int repeat, const Matcher& areomap, const dense::DenseResult& last,
              cv::Mat* areomap_disparity) {
-  double t_sgbm = 1e30, t_areomap = 1e30;
+  double t_sgbm = 1e30, t_areomap = 1e30, cpu_sgbm = 1e30, cpu_areomap = 1e30;
   cv::Mat d_sgbm, d_areomap;
   for (int k = 0; k < repeat; ++k) {
-    const double t0 = nowS();
+    const double t0 = nowS(), c0 = cpuS();
     d_sgbm = sgbm(p.left, p.right, s);
-    const double t1 = nowS();
+    const double t1 = nowS(), c1 = cpuS();
     d_areomap = areomap(p.left, p.right, s);
-    const double t2 = nowS();
+    const double t2 = nowS(), c2 = cpuS();
     t_sgbm = std::min(t_sgbm, t1 - t0);
     t_areomap = std::min(t_areomap, t2 - t1);
+    cpu_sgbm = std::min(cpu_sgbm, c1 - c0);
+    cpu_areomap = std::min(cpu_areomap, c2 - c1);
     std::printf(
-        "%s run %d: SGBM %.3f s, areomap %.3f s (coarse %.3f, fine %.3f of which fill %.3f, post %.3f; fine "
-        "cells %lld)\n",
-        title, k + 1, t1 - t0, t2 - t1, last.coarse_seconds, last.fine_seconds, last.fill_seconds,
-        last.post_seconds, last.fine_cells);
+        "%s run %d: SGBM %.3f s (CPU %.3f s), areomap %.3f s (CPU %.3f s; coarse %.3f, fine %.3f of which fill "
+        "%.3f, post %.3f; fine cells %lld)\n",
+        title, k + 1, t1 - t0, c1 - c0, t2 - t1, c2 - c1, last.coarse_seconds, last.fine_seconds,
+        last.fill_seconds, last.post_seconds, last.fine_cells);
   }
   if (areomap_disparity != nullptr) *areomap_disparity = d_areomap.clone();
   dense::keepMatchesInside(p.rect, d_areomap);
   dense::keepMatchesInside(p.rect, d_sgbm);
   const double d_min = dense::disparityAtRange(p.rect, range_m);
   const cv::Mat near = nearTerrain(regions.ground, d_areomap, d_sgbm, d_min);
-  const Figures a = score(t_areomap, regions, near, d_areomap, rightView(p.left, p.right, s, areomap));
-  const Figures g = score(t_sgbm, regions, near, d_sgbm, rightView(p.left, p.right, s, sgbm));
+  const Figures a =
+      score(t_areomap, cpu_areomap, regions, near, d_areomap, rightView(p.left, p.right, s, areomap));
+  const Figures g = score(t_sgbm, cpu_sgbm, regions, near, d_sgbm, rightView(p.left, p.right, s, sgbm));
   std::printf("\n%s: SGBM disparity %d..%d (numDisparities %d); areomap %d..%d, %s\n\n", title, s.min_px,
               s.min_px + s.sgbmCount() - 1, s.sgbmCount(), s.areomap_min_px, s.areomap_max_px,
               s.rows ? "per-row parallax ranges from the ties" : "the whole range on every row");
   std::printf(
-      "| matcher | seconds | density %% | LR consistent %% | level ground to %.0f m: density %% | LR %% | "
+      "| matcher | seconds | CPU seconds | density %% | LR consistent %% | level ground to %.0f m: density %% | LR %% | "
       "terrain to %.0f m (parallax >= %.1f px): density %% | LR %% |\n"
-      "|---|---|---|---|---|---|---|---|\n",
+      "|---|---|---|---|---|---|---|---|---|\n",
       range_m, range_m, d_min);
   const auto row = [](const char* name, const Figures& f) {
-    std::printf("| %s | %.3f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |\n", name, f.seconds, 100 * f.density,
+    std::printf("| %s | %.3f | %.3f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |\n", name, f.seconds, f.cpu_seconds,
+                100 * f.density,
                 100 * f.lr, 100 * f.ground_density, 100 * f.ground_lr, 100 * f.near_density, 100 * f.near_lr);
   };
   row("OpenCV StereoSGBM (MODE_SGBM, block 5)", g);
   row("areomap", a);
-  std::printf("| areomap / SGBM | %.2f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f |\n\n", a.seconds / g.seconds,
-              a.density / g.density, a.lr / g.lr, a.ground_density / g.ground_density,
+  std::printf("| areomap / SGBM | %.2f | %.2f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f |\n\n",
+              a.seconds / g.seconds, a.cpu_seconds / g.cpu_seconds, a.density / g.density, a.lr / g.lr, a.ground_density / g.ground_density,
               a.ground_lr / g.ground_lr, a.near_density / g.near_density, a.near_lr / g.near_lr);
 }
 
