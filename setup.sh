@@ -8,17 +8,21 @@
 #   ./setup.sh --no-build           packages only
 #   ./setup.sh --fuzz               also clang and libFuzzer for the fuzz targets (tests/fuzz/run.sh)
 #   ./setup.sh --no-benchmarks      the native build without the benchmark programs (CI: no test runs them)
+#   ./setup.sh --unity              the native build as a unity build: a target's files compiled a few at a
+#                                   time (CI, whose binaries are only run, never shipped;
+#                                   cmake/AreomapUnity.cmake); without it one file per translation unit
 set -euo pipefail
 cd "$(dirname "$0")"
 
 usage() {
-  sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'
 }
 
 targets=""
 build=1
 fuzz=0
 benchmarks=ON
+unity=OFF
 while [ $# -gt 0 ]; do
   case "$1" in
     --targets) targets="${2:-}"; shift 2 ;;
@@ -26,6 +30,7 @@ while [ $# -gt 0 ]; do
     --no-build) build=0; shift ;;
     --fuzz) fuzz=1; shift ;;
     --no-benchmarks) benchmarks=OFF; shift ;;
+    --unity) unity=ON; shift ;;
     -h|--help) usage; exit 0 ;;
     *) echo "setup.sh: unknown option '$1'" >&2; usage >&2; exit 2 ;;
   esac
@@ -77,8 +82,10 @@ fi
 
 if [ "$build" = 1 ]; then
   jobs=$(nproc 2>/dev/null || echo 2)
-  # AREOMAP_BUILD_BENCHMARKS is passed every time: a build folder configured once without them gets them back.
-  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DAREOMAP_BUILD_BENCHMARKS=$benchmarks
+  # AREOMAP_BUILD_BENCHMARKS and CMAKE_UNITY_BUILD are passed every time: a build folder configured once
+  # without the benchmarks gets them back, one configured once as a unity build is one file per unit again.
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DAREOMAP_BUILD_BENCHMARKS=$benchmarks \
+    -DCMAKE_UNITY_BUILD=$unity
   cmake --build build -j "$jobs"
   echo "setup: built into build/ (tools in build/bin/)"
   # The cross targets: the rover side and its tests (CMakePresets.json; run them with ctest --preset T).

@@ -1,8 +1,14 @@
-# Unity builds (CMAKE_UNITY_BUILD=ON in the presets whose binaries are only tested, never shipped:
-# asan-ci and fuzz, CMakePresets.json): each target's sources are compiled a few at a time as one translation
-# unit, so the heavy headers (Eigen, OpenCV, CppUTest) are parsed once per batch instead of once per file.
-# The native preset stays one file per translation unit: it is the developers' build, where a file that
-# compiles alone is what is checked.
+# Unity builds (CMAKE_UNITY_BUILD=ON) for the builds whose binaries are only tested, never shipped: the
+# asan-ci and fuzz presets (CMakePresets.json) and CI's native build (./setup.sh --unity, .ci/run). Each
+# target's sources are compiled a few at a time as one translation unit, so the heavy headers (Eigen, OpenCV,
+# CppUTest) are parsed once per batch instead of once per file. The native preset and ./setup.sh without
+# --unity stay one file per translation unit: the developers' build, where a file that compiles alone is what
+# is checked (in CI the cross presets check it for the rover side).
+#
+# A batch is a run of neighbouring files in the target's source list, and a file added or removed moves the
+# others between batches: names in anonymous namespaces (and file-scope statics) are kept unique within the
+# whole target, test files included, not only within today's batch; a file that keeps a clashing name is
+# listed below.
 #
 # Files that cannot share a translation unit with the others of their target, and why. The path is
 # relative to the source tree; the property is set on every target that compiles the file.

@@ -23,9 +23,9 @@ using areomap::test::PanoramaTruth;
 
 namespace {
 
-Network g_net;
-Network g_start;
-FastAdjuster g_adjuster;
+Network g_held_net;
+Network g_held_start;
+FastAdjuster g_held_adjuster;
 
 struct NamedRig {
   const char* name;
@@ -76,26 +76,26 @@ struct Outcome {
   test::TruthError error;
 };
 
-// Adjusts a copy of g_start with the given sigmas (hold = not given by the dataset).
+// Adjusts a copy of g_held_start with the given sigmas (hold = not given by the dataset).
 // `heap_allocations` (when given) receives the allocations counted over the adjustment itself.
 Outcome adjustWith(const PanoramaTruth& truth, double sigma_gimbal_m, double sigma_base_m, bool hold,
                    FastMethod method = FastMethod::kSchurCholesky, uint64_t* heap_allocations = nullptr) {
-  g_net = g_start;
-  g_net.rig.sigma_gimbal_m = sigma_gimbal_m;
-  g_net.rig.sigma_base_m = sigma_base_m;
-  g_net.rig.hold_gimbal = hold;
-  g_net.rig.hold_base = hold;
+  g_held_net = g_held_start;
+  g_held_net.rig.sigma_gimbal_m = sigma_gimbal_m;
+  g_held_net.rig.sigma_base_m = sigma_base_m;
+  g_held_net.rig.hold_gimbal = hold;
+  g_held_net.rig.hold_base = hold;
   FastAdjustOptions options;
   options.method = method;
   Outcome o;
   Status s = Status::kOk;
   {
     HeapAllocationScope scope;
-    s = g_adjuster.adjust(g_net, options, o.result);
+    s = g_held_adjuster.adjust(g_held_net, options, o.result);
     if (heap_allocations != nullptr) *heap_allocations = scope.allocations();
   }
   CHECK(ok(s));
-  o.error = test::truthError(g_net, truth, true);
+  o.error = test::truthError(g_held_net, truth, true);
   return o;
 }
 
@@ -121,17 +121,17 @@ TEST(HeldRig, DefaultHoldsBothConstraintsOnUnlikeRigs) {
     for (uint32_t seed = 1; seed <= 3; ++seed) {
       const NamedRig r = rig(k, seed);
       PanoramaTruth truth;
-      test::makePanorama(r.config, g_start, truth);
+      test::makePanorama(r.config, g_held_start, truth);
       std::printf("\n  %s, seed %u: %d pairs, %d images, %d points, %d observations\n", r.name, seed,
-                  g_start.pairCount(), g_start.imageCount(), g_start.pointCount(),
-                  g_start.observationCount());
-      CHECK(g_start.rig.hold_gimbal && g_start.rig.hold_base);  // RigConstraints' default is held
+                  g_held_start.pairCount(), g_held_start.imageCount(), g_held_start.pointCount(),
+                  g_held_start.observationCount());
+      CHECK(g_held_start.rig.hold_gimbal && g_held_start.rig.hold_base);  // RigConstraints' default is held
       const Outcome old = adjustWith(truth, 1e-3, 5e-4, false);
       print("former 1 mm / 0.5 mm:", old, 1e-3, 5e-4);
       const Outcome hard = adjustWith(truth, kMinHeldRigSigma_m, kMinHeldRigSigma_m, false);
       print("given 3e-6 m (nearly hard):", hard, kMinHeldRigSigma_m, kMinHeldRigSigma_m);
       const Outcome held = adjustWith(truth, kHeldRigSigma_m, kHeldRigSigma_m, true);
-      print("held (default):", held, g_net.rig.sigma_gimbal_m, g_net.rig.sigma_base_m);
+      print("held (default):", held, g_held_net.rig.sigma_gimbal_m, g_held_net.rig.sigma_base_m);
       CHECK(held.result.stop_rule == StopRule::kCostAndStep);
       CHECK(held.result.max_misfit.gimbal_m <= kRigMisfitBound_m);
       CHECK(held.result.max_misfit.base_m <= kRigMisfitBound_m);
@@ -143,7 +143,7 @@ TEST(HeldRig, DefaultHoldsBothConstraintsOnUnlikeRigs) {
       CHECK(held.result.sigma0 > 0.8 && held.result.sigma0 < 1.2);
       CHECK(old.result.max_misfit.gimbal_m >
             kRigMisfitBound_m);  // without held sigmas the rig breaks the bound
-      for (int32_t i = 0; i < g_net.imageCount(); ++i) CHECK(g_net.image(i).sigma.allFinite());
+      for (int32_t i = 0; i < g_held_net.imageCount(); ++i) CHECK(g_held_net.image(i).sigma.allFinite());
     }
   }
 }
@@ -156,19 +156,19 @@ TEST(HeldRig, LooseHeldSigmaIsTightenedAndGivenSigmaIsHonoured) {
   for (int32_t k = 0; k < kRigs; ++k) {
     const NamedRig r = rig(k, 4);
     PanoramaTruth truth;
-    test::makePanorama(r.config, g_start, truth);
+    test::makePanorama(r.config, g_held_start, truth);
     std::printf("\n  %s, seed 4\n", r.name);
     const Outcome given = adjustWith(truth, 1e-3, 1e-3, false);
-    print("given 1 mm:", given, g_net.rig.sigma_gimbal_m, g_net.rig.sigma_base_m);
-    DOUBLES_EQUAL(1e-3, g_net.rig.sigma_gimbal_m, 0.0);
-    DOUBLES_EQUAL(1e-3, g_net.rig.sigma_base_m, 0.0);
+    print("given 1 mm:", given, g_held_net.rig.sigma_gimbal_m, g_held_net.rig.sigma_base_m);
+    DOUBLES_EQUAL(1e-3, g_held_net.rig.sigma_gimbal_m, 0.0);
+    DOUBLES_EQUAL(1e-3, g_held_net.rig.sigma_base_m, 0.0);
     CHECK_EQUAL(0, given.result.rig_tightenings);
     CHECK(given.result.held_rig_met);  // nothing is held
     CHECK(std::fmax(given.result.max_misfit.gimbal_m, given.result.max_misfit.base_m) > kRigMisfitBound_m);
 
     uint64_t allocations = 1;
     const Outcome held = adjustWith(truth, 1e-3, 1e-3, true, FastMethod::kSchurCholesky, &allocations);
-    print("held, starting at 1 mm:", held, g_net.rig.sigma_gimbal_m, g_net.rig.sigma_base_m);
+    print("held, starting at 1 mm:", held, g_held_net.rig.sigma_gimbal_m, g_held_net.rig.sigma_base_m);
     CHECK_EQUAL(0u, allocations);  // the tightening re-solves make no heap allocation either
 #if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
     CHECK(heapCounterActive());
@@ -177,7 +177,7 @@ TEST(HeldRig, LooseHeldSigmaIsTightenedAndGivenSigmaIsHonoured) {
     CHECK(held.result.max_misfit.gimbal_m <= kRigMisfitBound_m);
     CHECK(held.result.max_misfit.base_m <= kRigMisfitBound_m);
     CHECK(held.result.held_rig_met);
-    CHECK(g_net.rig.sigma_gimbal_m <=
+    CHECK(g_held_net.rig.sigma_gimbal_m <=
           1e-3 * 0.25 * kRigMisfitBound_m / given.result.max_misfit.gimbal_m * 1.001);
     CHECK(held.error.eo_px < given.error.eo_px);
   }
@@ -196,7 +196,7 @@ TEST(HeldRig, MethodsAgreeAtTheTightestHeldSigma) {
   for (int32_t k = 0; k < kRigs; ++k) {
     const NamedRig r = rig(k, 2);
     PanoramaTruth truth;
-    test::makePanorama(r.config, g_start, truth);
+    test::makePanorama(r.config, g_held_start, truth);
     std::printf("\n  %s, seed 2\n", r.name);
     double distance[2][3] = {};
     for (int32_t s = 0; s < 2; ++s) {
@@ -206,10 +206,10 @@ TEST(HeldRig, MethodsAgreeAtTheTightestHeldSigma) {
         print(fastMethodName(methods[m]), o[m], sigmas[s], sigmas[s]);
         CHECK(o[m].result.stop_rule != StopRule::kMaxSweeps);
         if (m == 0) {
-          first = g_net;
+          first = g_held_net;
           continue;
         }
-        distance[s][m] = test::largestEoDifferencePx(g_net, first);
+        distance[s][m] = test::largestEoDifferencePx(g_held_net, first);
         std::printf("    vs %s: cost %.6f vs %.6f, largest EO difference %.5f px\n",
                     fastMethodName(methods[0]), o[m].result.cost, o[0].result.cost, distance[s][m]);
         DOUBLES_EQUAL(o[0].result.cost, o[m].result.cost, 1e-5 * o[0].result.cost);
@@ -228,10 +228,10 @@ TEST(HeldRig, MisfitFloorIsTheLeastConstraintResidual) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (int32_t trial = 0; trial < 6; ++trial) {
     PanoramaTruth truth;
-    test::makePanorama(::rig(2, 1).config, g_net, truth);
-    const InteriorOrientation io = g_net.image(0).io;
-    g_net.clear();
-    RigConstraints& rig = g_net.rig;
+    test::makePanorama(::rig(2, 1).config, g_held_net, truth);
+    const InteriorOrientation io = g_held_net.image(0).io;
+    g_held_net.clear();
+    RigConstraints& rig = g_held_net.rig;
     rig = RigConstraints{};
     rig.use_datum_prior = false;
     rig.gimbal_m[0] = Vec3(unit(rng), unit(rng), -1.5);
@@ -246,34 +246,34 @@ TEST(HeldRig, MisfitFloorIsTheLeastConstraintResidual) {
     rig.sigma_base_m = 1e-5 * (trial % 2 == 0 ? 1.0 : 0.5);
     DOUBLES_EQUAL(d_m, rigInconsistency(rig), 1e-12);
     int32_t index = 0;
-    CHECK(ok(g_net.addPair(0, 0, io, rig.gimbal_m[0] + rig.left_offset_m, Mat3::Identity(), &io,
-                           rig.gimbal_m[0] + c, Mat3::Identity(), index)));
+    CHECK(ok(g_held_net.addPair(0, 0, io, rig.gimbal_m[0] + rig.left_offset_m, Mat3::Identity(), &io,
+                                rig.gimbal_m[0] + c, Mat3::Identity(), index)));
     double damping = 1e-6;
     for (int32_t it = 0; it < 200; ++it) {
       ConstraintRows rows;
       ConstraintJacobian jac;
-      const int32_t n = currentPairConstraintRows(g_net, 0, rows, jac);
+      const int32_t n = currentPairConstraintRows(g_held_net, 0, rows, jac);
       Mat12 normal = jac.topRows(n).transpose() * jac.topRows(n);
       normal.diagonal() *= 1.0 + damping;
       const Vec12 step =
           -normal.completeOrthogonalDecomposition().solve(jac.topRows(n).transpose() * rows.head(n));
-      const Vec3 saved_c[2] = {g_net.image(0).centre_m, g_net.image(1).centre_m};
-      const Mat3 saved_m[2] = {g_net.image(0).m, g_net.image(1).m};
-      applyCameraUpdate(step.head<6>(), g_net.image(0).centre_m, g_net.image(0).m);
-      applyCameraUpdate(step.tail<6>(), g_net.image(1).centre_m, g_net.image(1).m);
+      const Vec3 saved_c[2] = {g_held_net.image(0).centre_m, g_held_net.image(1).centre_m};
+      const Mat3 saved_m[2] = {g_held_net.image(0).m, g_held_net.image(1).m};
+      applyCameraUpdate(step.head<6>(), g_held_net.image(0).centre_m, g_held_net.image(0).m);
+      applyCameraUpdate(step.tail<6>(), g_held_net.image(1).centre_m, g_held_net.image(1).m);
       ConstraintRows after;
-      (void)currentPairConstraintRows(g_net, 0, after, jac);
+      (void)currentPairConstraintRows(g_held_net, 0, after, jac);
       if (after.squaredNorm() < rows.squaredNorm()) {
         damping = std::fmax(damping * 0.1, 1e-12);
       } else {
         for (int32_t i = 0; i < 2; ++i) {
-          g_net.image(i).centre_m = saved_c[i];
-          g_net.image(i).m = saved_m[i];
+          g_held_net.image(i).centre_m = saved_c[i];
+          g_held_net.image(i).m = saved_m[i];
         }
         damping *= 10.0;
       }
     }
-    const ConstraintMisfit least = networkMisfit(g_net);
+    const ConstraintMisfit least = networkMisfit(g_held_net);
     const ConstraintMisfit floor = misfitFloor(rig);
     std::printf("  d %.2e m, sigmas %.1e / %.1e: least misfit gimbal %.4e base %.4e, floor %.4e %.4e m\n",
                 d_m, rig.sigma_gimbal_m, rig.sigma_base_m, least.gimbal_m, least.base_m, floor.gimbal_m,
@@ -288,17 +288,17 @@ TEST(HeldRig, MisfitFloorIsTheLeastConstraintResidual) {
 TEST(HeldRig, InconsistentRigIsNotTightenedAndIsReported) {
   const NamedRig r = rig(2, 1);
   PanoramaTruth truth;
-  test::makePanorama(r.config, g_start, truth);
-  g_start.rig.base_m.x() += 5e-4;
+  test::makePanorama(r.config, g_held_start, truth);
+  g_held_start.rig.base_m.x() += 5e-4;
   const Outcome o = adjustWith(truth, kHeldRigSigma_m, kHeldRigSigma_m, true);
-  const ConstraintMisfit floor = misfitFloor(g_net.rig);
-  print("base 0.5 mm off, held:", o, g_net.rig.sigma_gimbal_m, g_net.rig.sigma_base_m);
-  std::printf("    rig inconsistency %.4f mm, floor %.4f / %.4f mm\n", rigInconsistency(g_net.rig) * 1e3,
+  const ConstraintMisfit floor = misfitFloor(g_held_net.rig);
+  print("base 0.5 mm off, held:", o, g_held_net.rig.sigma_gimbal_m, g_held_net.rig.sigma_base_m);
+  std::printf("    rig inconsistency %.4f mm, floor %.4f / %.4f mm\n", rigInconsistency(g_held_net.rig) * 1e3,
               floor.gimbal_m * 1e3, floor.base_m * 1e3);
   CHECK(floor.gimbal_m > kRigMisfitBound_m);
   CHECK(o.result.max_misfit.gimbal_m >= floor.gimbal_m * (1.0 - 1e-6));
   CHECK(o.result.max_misfit.gimbal_m - floor.gimbal_m < 0.5 * kRigMisfitBound_m);
   CHECK_EQUAL(0, o.result.rig_tightenings);
   CHECK(!o.result.held_rig_met);
-  DOUBLES_EQUAL(kHeldRigSigma_m, g_net.rig.sigma_gimbal_m, 0.0);
+  DOUBLES_EQUAL(kHeldRigSigma_m, g_held_net.rig.sigma_gimbal_m, 0.0);
 }

@@ -24,8 +24,8 @@ using test::TraversePlan;
 namespace {
 
 // Caller-owned, allocated once (~3 MiB each).
-SitePoseAdjuster g_adjuster;
-SitePoseAdjuster g_reference;
+SitePoseAdjuster g_site_adjuster;
+SitePoseAdjuster g_site_reference;
 
 // Distance driven from site 0 to site k along the true path.
 double drivenTo(const TraversePlan& plan, int32_t k) {
@@ -61,7 +61,7 @@ TraversePlan solveTraverse(const TraverseConfig& cfg, SitePoseAdjuster& adj, Tra
   return plan;
 }
 
-void printResult(const char* name, const SitePoseResult& r) {
+void printSiteResult(const char* name, const SitePoseResult& r) {
   std::printf(
       "\n  %s: status=%s converged=%d iterations=%d (total %d) rejected=%d in %d rounds free=%d "
       "no_overlap=%d "
@@ -85,17 +85,17 @@ TEST(SitePoseAdjuster, NoiseFreeTraverseIsRecoveredExactly) {
   cfg.seed = 3;
   TraverseLoad load;
   SitePoseResult r;
-  const TraversePlan plan = solveTraverse(cfg, g_adjuster, load, r);
+  const TraversePlan plan = solveTraverse(cfg, g_site_adjuster, load, r);
   double start_m = 0.0;
   for (int32_t k = 1; k < cfg.sites; ++k)
     start_m = std::max(start_m, test::poseError(plan.apriori[k], plan.truth[k]).head<3>().norm());
-  printResult("noise-free", r);
-  const TraverseFigures f = figuresOf(g_adjuster, plan);
+  printSiteResult("noise-free", r);
+  const TraverseFigures f = figuresOf(g_site_adjuster, plan);
   std::printf(
       "  %d sites %d points %d observations, %.1f m driven; a-priori position error up to %.2f m; "
       "after: %.2e m (%.2e of the distance), %.2e rad\n",
-      cfg.sites, g_adjuster.pointCount(), g_adjuster.observationCount(), drivenTo(plan, cfg.sites - 1),
-      start_m, f.max_position_m, f.max_relative_position, f.max_rotation_rad);
+      cfg.sites, g_site_adjuster.pointCount(), g_site_adjuster.observationCount(),
+      drivenTo(plan, cfg.sites - 1), start_m, f.max_position_m, f.max_relative_position, f.max_rotation_rad);
   CHECK(r.converged);
   CHECK_EQUAL(0, r.rejected_observations);
   CHECK_EQUAL(0, r.no_overlap_sites);
@@ -120,13 +120,13 @@ TEST(SitePoseAdjuster, NoisyPoseErrorsAgreeWithTheirCovariance) {
     cfg.seed = 100 + static_cast<uint32_t>(seed);
     TraverseLoad load;
     SitePoseResult r;
-    const TraversePlan plan = solveTraverse(cfg, g_adjuster, load, r);
+    const TraversePlan plan = solveTraverse(cfg, g_site_adjuster, load, r);
     CHECK(r.converged);
     CHECK(ok(r.covariance_status));
     max_iterations = std::max(max_iterations, r.iterations_total);
     sum_sigma0 += r.sigma0;
     for (int32_t k = 1; k < cfg.sites; ++k) {
-      const SiteState& s = g_adjuster.site(k);
+      const SiteState& s = g_site_adjuster.site(k);
       CHECK(s.link == SiteLink::kTied);
       const Vec6 e = test::poseError(s.pose, plan.truth[k]);
       for (int32_t i = 0; i < 6; ++i) {
@@ -162,15 +162,15 @@ TEST(SitePoseAdjuster, LastSiteWithoutTiesFollowsItsOdometry) {
   cfg.seed = 21;
   TraverseLoad load;
   SitePoseResult r;
-  const TraversePlan plan = solveTraverse(cfg, g_adjuster, load, r);
-  printResult("isolated last site", r);
+  const TraversePlan plan = solveTraverse(cfg, g_site_adjuster, load, r);
+  printSiteResult("isolated last site", r);
   const int32_t k = cfg.sites - 1;
-  const SiteState& s = g_adjuster.site(k);
+  const SiteState& s = g_site_adjuster.site(k);
   CHECK(s.link == SiteLink::kNoOverlap);
   CHECK_EQUAL(0, s.tie_observations);
   CHECK_EQUAL(1, r.no_overlap_sites);
   // Its pose is the previous (adjusted) site composed with the leg.
-  const TraverseFromSite& prev = g_adjuster.site(k - 1).pose;
+  const TraverseFromSite& prev = g_site_adjuster.site(k - 1).pose;
   TraverseFromSite chained;
   chained.position_m = prev.position_m + prev.rotation * s.leg.delta_position_m;
   chained.rotation = prev.rotation * s.leg.delta_rotation;
@@ -185,7 +185,7 @@ TEST(SitePoseAdjuster, LastSiteWithoutTiesFollowsItsOdometry) {
       "(leg %.4f); tied site %d sigma pos %.4f m\n",
       k, siteLinkName(s.link), k - 1, d.head<3>().norm(), d.tail<3>().norm(), std::sqrt(pos),
       std::sqrt(leg_pos), std::sqrt(rot), std::sqrt(leg_rot), k - 1,
-      std::sqrt(g_adjuster.site(k - 1).covariance.topLeftCorner<3, 3>().trace()));
+      std::sqrt(g_site_adjuster.site(k - 1).covariance.topLeftCorner<3, 3>().trace()));
   CHECK(d.head<3>().norm() < 1e-9);
   CHECK(d.tail<3>().norm() < 1e-11);
   CHECK(pos >= leg_pos);
@@ -200,10 +200,10 @@ TEST(SitePoseAdjuster, MiddleSiteWithoutTiesIsReportedAndKeepsOdometrySigma) {
   cfg.seed = 22;
   TraverseLoad load;
   SitePoseResult r;
-  const TraversePlan plan = solveTraverse(cfg, g_adjuster, load, r);
-  printResult("isolated middle site", r);
-  const SiteState& s = g_adjuster.site(3);
-  const SiteState& next = g_adjuster.site(4);
+  const TraversePlan plan = solveTraverse(cfg, g_site_adjuster, load, r);
+  printSiteResult("isolated middle site", r);
+  const SiteState& s = g_site_adjuster.site(3);
+  const SiteState& next = g_site_adjuster.site(4);
   CHECK(s.link == SiteLink::kNoOverlap);
   CHECK_EQUAL(1, r.no_overlap_sites);
   // Two legs at most halve the variance of one (the neighbours' own uncertainty only adds).
@@ -223,45 +223,46 @@ TEST(SitePoseAdjuster, SlidingWindowKeepsEarlierSitesAndAgreesWithTheFullSolve) 
   constexpr int32_t kWindow = 3;
   // Rover: the first 7 sites solved, then 3 more added and only the last 3 solved.
   TraverseLoad load;
-  CHECK(test::loadTraverse(plan, 0, kFirstPart, true, g_adjuster, load));
+  CHECK(test::loadTraverse(plan, 0, kFirstPart, true, g_site_adjuster, load));
   SitePoseResult r;
-  CHECK(ok(g_adjuster.adjust(SitePoseOptions{}, r)));
+  CHECK(ok(g_site_adjuster.adjust(SitePoseOptions{}, r)));
   TraverseFromSite before[kFirstPart];
-  for (int32_t k = 0; k < kFirstPart; ++k) before[k] = g_adjuster.site(k).pose;
-  CHECK(test::loadTraverse(plan, kFirstPart, cfg.sites, false, g_adjuster, load));
+  for (int32_t k = 0; k < kFirstPart; ++k) before[k] = g_site_adjuster.site(k).pose;
+  CHECK(test::loadTraverse(plan, kFirstPart, cfg.sites, false, g_site_adjuster, load));
   SitePoseOptions window;
   window.window_sites = kWindow;
-  CHECK(ok(g_adjuster.adjust(window, r)));
-  printResult("window of 3", r);
+  CHECK(ok(g_site_adjuster.adjust(window, r)));
+  printSiteResult("window of 3", r);
   std::printf("  %d points outside the window\n", r.points_outside_window);
   CHECK(r.converged);
   CHECK_EQUAL(cfg.sites - kWindow, r.first_free_site);
   CHECK(r.points_outside_window > 0);  // the ground between the first sites is left out
   for (int32_t k = 0; k < kFirstPart; ++k) {
-    CHECK(g_adjuster.site(k).link == SiteLink::kHeld);
-    CHECK((g_adjuster.site(k).pose.position_m - before[k].position_m).norm() == 0.0);
-    CHECK((g_adjuster.site(k).pose.rotation - before[k].rotation).norm() == 0.0);
+    CHECK(g_site_adjuster.site(k).link == SiteLink::kHeld);
+    CHECK((g_site_adjuster.site(k).pose.position_m - before[k].position_m).norm() == 0.0);
+    CHECK((g_site_adjuster.site(k).pose.rotation - before[k].rotation).norm() == 0.0);
   }
   // Ground: the whole traverse at once.
   TraverseLoad full_load;
-  CHECK(test::loadTraverse(plan, 0, cfg.sites, true, g_reference, full_load));
+  CHECK(test::loadTraverse(plan, 0, cfg.sites, true, g_site_reference, full_load));
   SitePoseResult full;
-  CHECK(ok(g_reference.adjust(SitePoseOptions{}, full)));
+  CHECK(ok(g_site_reference.adjust(SitePoseOptions{}, full)));
   double worst_sigma = 0.0, worst_m = 0.0;
   for (int32_t k = cfg.sites - kWindow; k < cfg.sites; ++k) {
-    const Vec6 d = test::poseError(g_adjuster.site(k).pose, g_reference.site(k).pose);
+    const Vec6 d = test::poseError(g_site_adjuster.site(k).pose, g_site_reference.site(k).pose);
     worst_m = std::max(worst_m, d.head<3>().norm());
     for (int32_t i = 0; i < 6; ++i)
-      worst_sigma = std::max(worst_sigma, std::fabs(d(i)) / g_reference.site(k).sigma(i));
+      worst_sigma = std::max(worst_sigma, std::fabs(d(i)) / g_site_reference.site(k).sigma(i));
   }
   const int32_t last = cfg.sites - 1;
   std::printf(
       "  window vs full solve over sites %d-%d: largest difference %.4f m, %.3f sigma; last site's "
       "position sigma %.4f m in the window (conditional on the held sites), %.4f m in the full solve\n",
       cfg.sites - kWindow, last, worst_m, worst_sigma,
-      std::sqrt(g_adjuster.site(last).covariance.topLeftCorner<3, 3>().trace()),
-      std::sqrt(g_reference.site(last).covariance.topLeftCorner<3, 3>().trace()));
-  CHECK(g_adjuster.site(last).sigma.head<3>().norm() < g_reference.site(last).sigma.head<3>().norm());
+      std::sqrt(g_site_adjuster.site(last).covariance.topLeftCorner<3, 3>().trace()),
+      std::sqrt(g_site_reference.site(last).covariance.topLeftCorner<3, 3>().trace()));
+  CHECK(g_site_adjuster.site(last).sigma.head<3>().norm() <
+        g_site_reference.site(last).sigma.head<3>().norm());
   // The window keeps the held sites where they were; the full solve moves them a little with the new ties,
   // and the window's sites differ by what that carries in: the largest of 18 components was 0.25 sigma on
   // x86-64 and 0.64 sigma under powerpc (another draw of the same seed: the distributions go through long
@@ -269,14 +270,14 @@ TEST(SitePoseAdjuster, SlidingWindowKeepsEarlierSitesAndAgreesWithTheFullSolve) 
   CHECK(worst_sigma < 1.0);
   // A window that covers every free site is the full solve.
   window.window_sites = cfg.sites - 1;
-  CHECK(ok(g_reference.adjust(window, full)));
+  CHECK(ok(g_site_reference.adjust(window, full)));
   double same = 0.0;
   SitePoseResult again;
   TraverseFromSite full_pose[10];
-  for (int32_t k = 0; k < cfg.sites; ++k) full_pose[k] = g_reference.site(k).pose;
-  CHECK(ok(g_reference.adjust(SitePoseOptions{}, again)));
+  for (int32_t k = 0; k < cfg.sites; ++k) full_pose[k] = g_site_reference.site(k).pose;
+  CHECK(ok(g_site_reference.adjust(SitePoseOptions{}, again)));
   for (int32_t k = 0; k < cfg.sites; ++k)
-    same = std::max(same, test::poseError(g_reference.site(k).pose, full_pose[k]).head<3>().norm());
+    same = std::max(same, test::poseError(g_site_reference.site(k).pose, full_pose[k]).head<3>().norm());
   CHECK(same < 1e-9);
 }
 
@@ -290,34 +291,34 @@ TEST(SitePoseAdjuster, RoverSlidingWindowSiteBySiteStaysCloseToTheGroundSolve) {
   const TraversePlan plan = test::makeTraversePlan(cfg);
   constexpr int32_t kWindow = 4;
   TraverseLoad load;
-  CHECK(test::loadTraverse(plan, 0, 2, true, g_adjuster, load));
+  CHECK(test::loadTraverse(plan, 0, 2, true, g_site_adjuster, load));
   SitePoseOptions window;
   window.window_sites = kWindow;
   SitePoseResult r;
-  CHECK(ok(g_adjuster.adjust(window, r)));
+  CHECK(ok(g_site_adjuster.adjust(window, r)));
   int32_t most_iterations = r.iterations_total;
   for (int32_t k = 2; k < cfg.sites; ++k) {
-    CHECK(test::loadTraverse(plan, k, k + 1, false, g_adjuster, load));
-    CHECK(ok(g_adjuster.adjust(window, r)));
+    CHECK(test::loadTraverse(plan, k, k + 1, false, g_site_adjuster, load));
+    CHECK(ok(g_site_adjuster.adjust(window, r)));
     CHECK(r.converged);
     CHECK_EQUAL(1, r.resected_sites);
     most_iterations = std::max(most_iterations, r.iterations_total);
   }
   TraverseLoad full_load;
   SitePoseResult full;
-  solveTraverse(cfg, g_reference, full_load, full);
+  solveTraverse(cfg, g_site_reference, full_load, full);
   double worst_sigma = 0.0, worst_m = 0.0, worst_truth_z = 0.0;
   for (int32_t k = 1; k < cfg.sites; ++k) {
-    const Vec6 d = test::poseError(g_adjuster.site(k).pose, g_reference.site(k).pose);
-    const Vec6 e = test::poseError(g_adjuster.site(k).pose, plan.truth[k]);
+    const Vec6 d = test::poseError(g_site_adjuster.site(k).pose, g_site_reference.site(k).pose);
+    const Vec6 e = test::poseError(g_site_adjuster.site(k).pose, plan.truth[k]);
     worst_m = std::max(worst_m, d.head<3>().norm());
     for (int32_t i = 0; i < 6; ++i) {
-      worst_sigma = std::max(worst_sigma, std::fabs(d(i)) / g_reference.site(k).sigma(i));
-      worst_truth_z = std::max(worst_truth_z, std::fabs(e(i)) / g_reference.site(k).sigma(i));
+      worst_sigma = std::max(worst_sigma, std::fabs(d(i)) / g_site_reference.site(k).sigma(i));
+      worst_truth_z = std::max(worst_truth_z, std::fabs(e(i)) / g_site_reference.site(k).sigma(i));
     }
   }
-  const TraverseFigures rover = figuresOf(g_adjuster, plan);
-  const TraverseFigures ground = figuresOf(g_reference, plan);
+  const TraverseFigures rover = figuresOf(g_site_adjuster, plan);
+  const TraverseFigures ground = figuresOf(g_site_reference, plan);
   std::printf(
       "\n  rover window of %d over %d sites: at most %d iterations a site; rover vs ground: %.4f m, %.3f "
       "ground sigma; rover vs truth: worst %.3f ground sigma, position error/driven %.2e (ground %.2e)\n",
@@ -333,22 +334,22 @@ TEST(SitePoseAdjuster, AddingASiteWarmStartsFromTheLastSolution) {
   cfg.seed = 41;
   const TraversePlan plan = test::makeTraversePlan(cfg);
   TraverseLoad load;
-  CHECK(test::loadTraverse(plan, 0, cfg.sites - 1, true, g_adjuster, load));
+  CHECK(test::loadTraverse(plan, 0, cfg.sites - 1, true, g_site_adjuster, load));
   SitePoseResult r;
-  CHECK(ok(g_adjuster.adjust(SitePoseOptions{}, r)));
-  CHECK(test::loadTraverse(plan, cfg.sites - 1, cfg.sites, false, g_adjuster, load));
+  CHECK(ok(g_site_adjuster.adjust(SitePoseOptions{}, r)));
+  CHECK(test::loadTraverse(plan, cfg.sites - 1, cfg.sites, false, g_site_adjuster, load));
   SitePoseResult warm;
-  CHECK(ok(g_adjuster.adjust(SitePoseOptions{}, warm)));
+  CHECK(ok(g_site_adjuster.adjust(SitePoseOptions{}, warm)));
   TraverseLoad cold_load;
-  CHECK(test::loadTraverse(plan, 0, cfg.sites, true, g_reference, cold_load));
+  CHECK(test::loadTraverse(plan, 0, cfg.sites, true, g_site_reference, cold_load));
   SitePoseResult cold;
-  CHECK(ok(g_reference.adjust(SitePoseOptions{}, cold)));
-  printResult("warm", warm);
-  printResult("cold", cold);
+  CHECK(ok(g_site_reference.adjust(SitePoseOptions{}, cold)));
+  printSiteResult("warm", warm);
+  printSiteResult("cold", cold);
   double worst = 0.0;
   for (int32_t k = 1; k < cfg.sites; ++k)
-    worst =
-        std::max(worst, test::poseError(g_adjuster.site(k).pose, g_reference.site(k).pose).head<3>().norm());
+    worst = std::max(
+        worst, test::poseError(g_site_adjuster.site(k).pose, g_site_reference.site(k).pose).head<3>().norm());
   std::printf(
       "  warm %d iterations (after %d resection steps of %d new site), cold %d; largest pose "
       "difference %.2e m\n",
@@ -367,20 +368,20 @@ TEST(SitePoseAdjuster, GrossOutliersAreRejected) {
   cfg.seed = 51;
   TraverseLoad load;
   SitePoseResult r;
-  const TraversePlan plan = solveTraverse(cfg, g_adjuster, load, r);
-  printResult("10 % outliers", r);
+  const TraversePlan plan = solveTraverse(cfg, g_site_adjuster, load, r);
+  printSiteResult("10 % outliers", r);
   int32_t outliers = 0, caught = 0, false_rejections = 0;
   for (size_t o = 0; o < plan.observations.size(); ++o) {
-    const bool rejected = g_adjuster.observation(load.observation[o]).rejected;
+    const bool rejected = g_site_adjuster.observation(load.observation[o]).rejected;
     outliers += plan.observations[o].outlier ? 1 : 0;
     caught += plan.observations[o].outlier && rejected ? 1 : 0;
     false_rejections += !plan.observations[o].outlier && rejected ? 1 : 0;
   }
   double worst_z = 0.0;
   for (int32_t k = 1; k < cfg.sites; ++k) {
-    const Vec6 e = test::poseError(g_adjuster.site(k).pose, plan.truth[k]);
+    const Vec6 e = test::poseError(g_site_adjuster.site(k).pose, plan.truth[k]);
     for (int32_t i = 0; i < 6; ++i)
-      worst_z = std::max(worst_z, std::fabs(e(i)) / g_adjuster.site(k).sigma(i));
+      worst_z = std::max(worst_z, std::fabs(e(i)) / g_site_adjuster.site(k).sigma(i));
   }
   std::printf(
       "  %d outliers of %zu observations: %d rejected, %d false rejections; worst |error|/sigma %.2f\n",
@@ -403,24 +404,24 @@ TEST(SitePoseAdjuster, TheRoverWindowJudgesItsObservationsAgainEachSolve) {
   cfg.seed = 1;
   const TraversePlan plan = test::makeTraversePlan(cfg);
   TraverseLoad load;
-  CHECK(test::loadTraverse(plan, 0, 2, true, g_adjuster, load));
+  CHECK(test::loadTraverse(plan, 0, 2, true, g_site_adjuster, load));
   SitePoseOptions window;
   window.window_sites = 4;
   SitePoseResult r;
-  CHECK(ok(g_adjuster.adjust(window, r)));
+  CHECK(ok(g_site_adjuster.adjust(window, r)));
   for (int32_t k = 2; k < cfg.sites; ++k) {
-    CHECK(test::loadTraverse(plan, k, k + 1, false, g_adjuster, load));
-    CHECK(ok(g_adjuster.adjust(window, r)));
+    CHECK(test::loadTraverse(plan, k, k + 1, false, g_site_adjuster, load));
+    CHECK(ok(g_site_adjuster.adjust(window, r)));
   }
   TraverseLoad full_load;
   SitePoseResult full;
-  solveTraverse(cfg, g_reference, full_load, full);
+  solveTraverse(cfg, g_site_reference, full_load, full);
   int32_t outliers = 0, caught[2] = {}, false_rejections[2] = {};
   for (size_t o = 0; o < plan.observations.size(); ++o) {
     const bool bad = plan.observations[o].outlier;
     outliers += bad ? 1 : 0;
-    const bool rejected[2] = {g_adjuster.observation(load.observation[o]).rejected,
-                              g_reference.observation(full_load.observation[o]).rejected};
+    const bool rejected[2] = {g_site_adjuster.observation(load.observation[o]).rejected,
+                              g_site_reference.observation(full_load.observation[o]).rejected};
     for (int i = 0; i < 2; ++i) {
       caught[i] += bad && rejected[i] ? 1 : 0;
       false_rejections[i] += !bad && rejected[i] ? 1 : 0;
@@ -443,12 +444,12 @@ TEST(SitePoseAdjuster, AdjustOfAFullTraverseMakesNoHeapAllocation) {
   cfg.seed = 61;
   const TraversePlan plan = test::makeTraversePlan(cfg);
   TraverseLoad load;
-  CHECK(test::loadTraverse(plan, 0, cfg.sites, true, g_adjuster, load));
+  CHECK(test::loadTraverse(plan, 0, cfg.sites, true, g_site_adjuster, load));
   SitePoseResult r;
   Status s = Status::kOk;
   {
     HeapAllocationScope scope;
-    s = g_adjuster.adjust(SitePoseOptions{}, r);
+    s = g_site_adjuster.adjust(SitePoseOptions{}, r);
     CHECK_EQUAL(0u, scope.allocations());
   }
 #if !AREOMAP_SANITIZER_BUILD
@@ -457,18 +458,18 @@ TEST(SitePoseAdjuster, AdjustOfAFullTraverseMakesNoHeapAllocation) {
   CHECK(ok(s));
   CHECK(r.converged);
   CHECK(r.rejected_observations > 0);  // the rejection rounds ran too
-  printResult("full traverse", r);
-  const TraverseFigures f = figuresOf(g_adjuster, plan);
+  printSiteResult("full traverse", r);
+  const TraverseFigures f = figuresOf(g_site_adjuster, plan);
   std::printf(
       "  %d sites, %d points, %.0f m driven: worst position error %.3f m (%.2e of the distance driven)\n",
-      cfg.sites, g_adjuster.pointCount(), drivenTo(plan, cfg.sites - 1), f.max_position_m,
+      cfg.sites, g_site_adjuster.pointCount(), drivenTo(plan, cfg.sites - 1), f.max_position_m,
       f.max_relative_position);
   std::printf("\n  sizeof(SitePoseAdjuster) = %zu bytes (%.2f MiB), of which PoseSystem %zu bytes\n",
               sizeof(SitePoseAdjuster), sizeof(SitePoseAdjuster) / 1048576.0, sizeof(PoseSystem<kMaxSites>));
 }
 
 TEST(SitePoseAdjuster, BadInputIsRefusedAndCounted) {
-  SitePoseAdjuster& a = g_adjuster;
+  SitePoseAdjuster& a = g_site_adjuster;
   a.clear();
   int32_t site = -1, cam = -1, pt = -1;
   SitePoseResult r;
@@ -555,7 +556,7 @@ TEST(SitePoseAdjuster, GroundAdjusterTakesAWholeTraverseBeyondTheRoversCapacity)
   CHECK(ok(s));
   CHECK(r.converged);
   CHECK_EQUAL(cfg.sites - 1, r.free_sites);
-  printResult("ground, 48 sites", r);
+  printSiteResult("ground, 48 sites", r);
   double sum_sq = 0.0, worst_relative = 0.0, driven = 0.0;
   for (int32_t k = 1; k < cfg.sites; ++k) {
     driven += (plan.truth[k].position_m - plan.truth[k - 1].position_m).norm();

@@ -20,7 +20,7 @@ using namespace areomap;
 
 namespace {
 
-SitePoseAdjuster g_adjuster;
+SitePoseAdjuster g_dense_adjuster;
 
 // The problem as the dense solver sees it: site k >= 1 free, pose (p_k, exp([w_k]x) Q_ref_k), and points.
 struct DenseProblem {
@@ -106,26 +106,26 @@ TEST(SitePoseDenseCheck, DenseGaussNewtonReachesTheSameMinimumAndCovariance) {
   cfg.seed = 71;
   const test::TraversePlan plan = test::makeTraversePlan(cfg);
   test::TraverseLoad load;
-  CHECK(test::loadTraverse(plan, 0, cfg.sites, true, g_adjuster, load));
+  CHECK(test::loadTraverse(plan, 0, cfg.sites, true, g_dense_adjuster, load));
   SitePoseResult r;
-  CHECK(ok(g_adjuster.adjust(SitePoseOptions{}, r)));
+  CHECK(ok(g_dense_adjuster.adjust(SitePoseOptions{}, r)));
   CHECK(r.converged);
 
   // Dense start: the a-priori poses and the true points (the minimum, not the path, is compared).
   DenseProblem pb;
-  pb.adj = &g_adjuster;
-  pb.sites = g_adjuster.siteCount();
+  pb.adj = &g_dense_adjuster;
+  pb.sites = g_dense_adjuster.siteCount();
   pb.q_ref.resize(pb.sites);
-  for (int32_t p = 0; p < g_adjuster.pointCount(); ++p) {
-    if (g_adjuster.point(p).solvable) pb.points.push_back(p);
+  for (int32_t p = 0; p < g_dense_adjuster.pointCount(); ++p) {
+    if (g_dense_adjuster.point(p).solvable) pb.points.push_back(p);
   }
   Eigen::VectorXd x(pb.unknowns());
   for (int32_t k = 1; k < pb.sites; ++k) {
-    x.segment<3>(6 * (k - 1)) = g_adjuster.site(k).apriori.position_m;
+    x.segment<3>(6 * (k - 1)) = g_dense_adjuster.site(k).apriori.position_m;
     x.segment<3>(6 * (k - 1) + 3).setZero();
-    pb.q_ref[k] = g_adjuster.site(k).apriori.rotation;
+    pb.q_ref[k] = g_dense_adjuster.site(k).apriori.rotation;
   }
-  std::vector<int32_t> plan_point(g_adjuster.pointCount(), -1);
+  std::vector<int32_t> plan_point(g_dense_adjuster.pointCount(), -1);
   for (size_t i = 0; i < plan.points.size(); ++i) {
     if (load.point[i] >= 0) plan_point[load.point[i]] = static_cast<int32_t>(i);
   }
@@ -162,7 +162,7 @@ TEST(SitePoseDenseCheck, DenseGaussNewtonReachesTheSameMinimumAndCovariance) {
 
   double pose_m = 0.0, pose_rad = 0.0, sigma_rel = 0.0, cov_rel = 0.0;
   for (int32_t k = 1; k < pb.sites; ++k) {
-    const SiteState& s = g_adjuster.site(k);
+    const SiteState& s = g_dense_adjuster.site(k);
     const TraverseFromSite dense = poseOf(pb, x, k);
     pose_m = std::max(pose_m, (dense.position_m - s.pose.position_m).norm());
     pose_rad = std::max(pose_rad, logOf(dense.rotation * s.pose.rotation.transpose()).norm());

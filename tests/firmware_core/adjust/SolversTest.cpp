@@ -29,7 +29,7 @@ using areomap::test::PanoramaTruth;
 namespace {
 
 // Caller-owned, allocated once (several MiB each).
-Network g_net;
+Network g_solver_net;
 AdjustWorkspace g_ws;
 BlockCholesky g_cholesky;
 PcgSolver g_pcg;
@@ -63,18 +63,18 @@ std::vector<PanoramaConfig> smallNetworks() {
 // shifted a little, as a pointing error does.
 void makeNetwork(const PanoramaConfig& config) {
   PanoramaTruth truth;
-  test::makePanorama(config, g_net, truth);
-  g_net.rig.sigma_gimbal_m = 1e-4;
-  g_net.rig.sigma_base_m = 1e-4;
+  test::makePanorama(config, g_solver_net, truth);
+  g_solver_net.rig.sigma_gimbal_m = 1e-4;
+  g_solver_net.rig.sigma_base_m = 1e-4;
   std::mt19937 rng(config.seed);
   std::normal_distribution<double> n(0.0, 1.0);
-  for (int32_t i = 0; i < g_net.imageCount(); ++i) {
+  for (int32_t i = 0; i < g_solver_net.imageCount(); ++i) {
     Vec6 d;
     for (int32_t k = 0; k < 6; ++k) d(k) = (k < 3 ? 2e-3 : 1e-3) * n(rng);  // m, rad
-    applyCameraUpdate(d, g_net.image(i).centre_m, g_net.image(i).m);
+    applyCameraUpdate(d, g_solver_net.image(i).centre_m, g_solver_net.image(i).m);
   }
-  g_ws.buildImageIndex(g_net);
-  linearize(g_net, g_ws);
+  g_ws.buildImageIndex(g_solver_net);
+  linearize(g_solver_net, g_ws);
 }
 
 // The damped normal system of all unknowns (6 per image, then 3 per solvable point with two or more valid
@@ -89,42 +89,44 @@ struct DenseSystem {
 
 DenseSystem denseSystem(double damping) {
   DenseSystem s;
-  s.cameras = 6 * g_net.imageCount();
-  s.point_column.assign(g_net.pointCount(), -1);
+  s.cameras = 6 * g_solver_net.imageCount();
+  s.point_column.assign(g_solver_net.pointCount(), -1);
   int32_t columns = s.cameras;
-  for (int32_t p = 0; p < g_net.pointCount(); ++p) {
+  for (int32_t p = 0; p < g_solver_net.pointCount(); ++p) {
     int32_t rays = 0;
-    for (int32_t k = 0; k < g_net.point(p).obs_count; ++k)
-      rays += g_ws.obs_valid[g_net.point(p).obs[k]] ? 1 : 0;
-    if (g_net.point(p).solvable && rays >= 2) {
+    for (int32_t k = 0; k < g_solver_net.point(p).obs_count; ++k)
+      rays += g_ws.obs_valid[g_solver_net.point(p).obs[k]] ? 1 : 0;
+    if (g_solver_net.point(p).solvable && rays >= 2) {
       s.point_column[p] = columns;
       columns += 3;
     }
   }
   s.h = MatX::Zero(columns, columns);
   s.rhs = VecX::Zero(columns);
-  for (int32_t k = 0; k < g_net.observationCount(); ++k) {
-    const NetObservation& o = g_net.observation(k);
+  for (int32_t k = 0; k < g_solver_net.observationCount(); ++k) {
+    const NetObservation& o = g_solver_net.observation(k);
     const int32_t pc = s.point_column[o.point];
     if (o.rejected || pc < 0) continue;
-    const NetImage& im = g_net.image(o.image);
+    const NetImage& im = g_solver_net.image(o.image);
     Vec2 r;
     Mat2x6 jc;
     Mat2x3 jp;
-    if (!ok(observationRow(o, im, im.centre_m, im.m, g_net.point(o.point).xyz_m, r, &jc, &jp))) continue;
+    if (!ok(observationRow(o, im, im.centre_m, im.m, g_solver_net.point(o.point).xyz_m, r, &jc, &jp)))
+      continue;
     Eigen::Matrix<double, 2, Eigen::Dynamic> j = Eigen::Matrix<double, 2, Eigen::Dynamic>::Zero(2, columns);
     j.block<2, 6>(0, 6 * o.image) = jc;
     j.block<2, 3>(0, pc) = jp;
     s.h += j.transpose() * j;
     s.rhs += j.transpose() * r;
   }
-  for (int32_t p = 0; p < g_net.pairCount(); ++p) {
+  for (int32_t p = 0; p < g_solver_net.pairCount(); ++p) {
     ConstraintRows rows;
     ConstraintJacobian jac;
-    const int32_t n = currentPairConstraintRows(g_net, p, rows, jac);
+    const int32_t n = currentPairConstraintRows(g_solver_net, p, rows, jac);
     MatX j = MatX::Zero(n, columns);
-    j.block(0, 6 * g_net.pair(p).left, n, 6) = jac.block(0, 0, n, 6);
-    if (g_net.pair(p).right >= 0) j.block(0, 6 * g_net.pair(p).right, n, 6) = jac.block(0, 6, n, 6);
+    j.block(0, 6 * g_solver_net.pair(p).left, n, 6) = jac.block(0, 0, n, 6);
+    if (g_solver_net.pair(p).right >= 0)
+      j.block(0, 6 * g_solver_net.pair(p).right, n, 6) = jac.block(0, 6, n, 6);
     s.h += j.transpose() * j;
     s.rhs -= j.transpose() * rows.head(n);
   }
@@ -176,36 +178,36 @@ TEST(ReducedCameraSystem, CholeskyAndPcgStepsEqualTheDenseDampedSolve) {
       const VecX solution = dense.h.ldlt().solve(dense.rhs);
       const double scale = solution.head(dense.cameras).cwiseAbs().maxCoeff();
 
-      CHECK(g_cholesky.order(g_net));
-      CHECK(g_cholesky.assembleAndFactor(g_net, g_ws, damping));
-      g_cholesky.solve(g_net, g_ws);
+      CHECK(g_cholesky.order(g_solver_net));
+      CHECK(g_cholesky.assembleAndFactor(g_solver_net, g_ws, damping));
+      g_cholesky.solve(g_solver_net, g_ws);
       const double cholesky_error = largestDifference(g_ws.step, solution, dense.cameras);
-      for (int32_t p = 0; p < g_net.pointCount(); ++p)
+      for (int32_t p = 0; p < g_solver_net.pointCount(); ++p)
         CHECK_EQUAL(dense.point_column[p] >= 0, g_ws.point_eliminated[p]);
       // The points' steps: back-substitution into a copy of the points (no step here crosses behind a
       // camera).
-      std::vector<Vec3> before(g_net.pointCount());
-      for (int32_t p = 0; p < g_net.pointCount(); ++p) before[p] = g_net.point(p).xyz_m;
-      backSubstitutePoints(g_net, g_ws, g_ws.step);
+      std::vector<Vec3> before(g_solver_net.pointCount());
+      for (int32_t p = 0; p < g_solver_net.pointCount(); ++p) before[p] = g_solver_net.point(p).xyz_m;
+      backSubstitutePoints(g_solver_net, g_ws, g_ws.step);
       double point_error = 0.0;
       double point_scale = 0.0;
-      for (int32_t p = 0; p < g_net.pointCount(); ++p) {
+      for (int32_t p = 0; p < g_solver_net.pointCount(); ++p) {
         if (dense.point_column[p] < 0) continue;
-        const Vec3 step = g_net.point(p).xyz_m - before[p];
+        const Vec3 step = g_solver_net.point(p).xyz_m - before[p];
         const Vec3 expected = solution.segment<3>(dense.point_column[p]);
         point_error = std::fmax(point_error, (step - expected).cwiseAbs().maxCoeff());
         point_scale = std::fmax(point_scale, expected.cwiseAbs().maxCoeff());
-        g_net.point(p).xyz_m = before[p];
+        g_solver_net.point(p).xyz_m = before[p];
       }
 
       int32_t iterations = 0;
-      g_pcg.solve(g_net, g_ws, 1e-12, damping, iterations);
+      g_pcg.solve(g_solver_net, g_ws, 1e-12, damping, iterations);
       const double pcg_error = largestDifference(g_ws.step, solution, dense.cameras);
       std::printf(
           "\n  %d pairs %d unknowns, damping %.0e: |step| %.2e; cholesky %.1e, points %.1e (|step| %.2e), "
           "pcg %.1e (%d iterations)",
-          g_net.pairCount(), static_cast<int>(dense.rhs.size()), damping, scale, cholesky_error / scale,
-          point_error / point_scale, point_scale, pcg_error / scale, iterations);
+          g_solver_net.pairCount(), static_cast<int>(dense.rhs.size()), damping, scale,
+          cholesky_error / scale, point_error / point_scale, point_scale, pcg_error / scale, iterations);
       CHECK(scale > 1e-5);  // a real step, not ~0
       // Two direct solves of the same system agree to rounding (measured: <= 6e-11 relative at damping 1e-4,
       // ~1e-15 at 1e-1; the stiff 0.1 mm rig rows set the condition).
@@ -230,15 +232,15 @@ TEST(ReducedCameraSystem, ReducedProductIsTheDenseSchurComplement) {
     const MatX hpp_inv_hpc = dense.h.bottomRightCorner(p, p).ldlt().solve(dense.h.bottomLeftCorner(p, c));
     const MatX s = dense.h.topLeftCorner(c, c) - dense.h.topRightCorner(c, p) * hpp_inv_hpc;
     int32_t iterations = 0;
-    g_pcg.solve(g_net, g_ws, 1e-3, damping, iterations);  // leaves the damped pair and point blocks
+    g_pcg.solve(g_solver_net, g_ws, 1e-3, damping, iterations);  // leaves the damped pair and point blocks
     double x[kMaxEoUnknowns];
     double y[kMaxEoUnknowns];
     VecX xv(c);
     for (int32_t k = 0; k < c; ++k) xv(k) = x[k] = n(rng);
-    reducedProduct(g_net, g_ws, x, y);
+    reducedProduct(g_solver_net, g_ws, x, y);
     const VecX expected = s * xv;
     const double error = largestDifference(y, expected, c);
-    std::printf("\n  %d pairs: |S x| %.2e, reduced product error %.1e", g_net.pairCount(),
+    std::printf("\n  %d pairs: |S x| %.2e, reduced product error %.1e", g_solver_net.pairCount(),
                 expected.cwiseAbs().maxCoeff(), error / expected.cwiseAbs().maxCoeff());
     CHECK(error <= 1e-9 * expected.cwiseAbs().maxCoeff());
   }
@@ -248,17 +250,17 @@ TEST(ReducedCameraSystem, ImageIndexListsEveryObservationOfItsImage) {
   for (const PanoramaConfig& config : smallNetworks()) {
     makeNetwork(config);
     int32_t listed = 0;
-    for (int32_t i = 0; i < g_net.imageCount(); ++i) {
+    for (int32_t i = 0; i < g_solver_net.imageCount(); ++i) {
       std::vector<int32_t> scan;
-      for (int32_t k = 0; k < g_net.observationCount(); ++k) {
-        if (g_net.observation(k).image == i) scan.push_back(k);
+      for (int32_t k = 0; k < g_solver_net.observationCount(); ++k) {
+        if (g_solver_net.observation(k).image == i) scan.push_back(k);
       }
       const int32_t begin = g_ws.image_obs_start[i];
       CHECK_EQUAL(static_cast<int32_t>(scan.size()), g_ws.image_obs_start[i + 1] - begin);
       for (size_t k = 0; k < scan.size(); ++k) CHECK_EQUAL(scan[k], g_ws.image_obs[begin + k]);
       listed += static_cast<int32_t>(scan.size());
     }
-    CHECK_EQUAL(g_net.observationCount(), listed);
+    CHECK_EQUAL(g_solver_net.observationCount(), listed);
   }
 }
 
@@ -272,16 +274,16 @@ TEST(AndersonAccelerator, FindsTheFixedPointOfALinearMap) {
   // system, it takes up to two more (measured); by 2 dim + 1 evaluations the error must be rounding. One
   // single image: dim 6 (its scales f / range and f weight the inner product).
   for (uint32_t seed = 1; seed <= 3; ++seed) {
-    g_net.clear();
+    g_solver_net.clear();
     InteriorOrientation io;
     io.f_px = 800.0 + 200.0 * seed;
     int32_t pair = -1;
-    CHECK(ok(g_net.addPair(0, 0, io, Vec3::Zero(), Mat3::Identity(), nullptr, Vec3::Zero(), Mat3::Identity(),
-                           pair)));
+    CHECK(ok(g_solver_net.addPair(0, 0, io, Vec3::Zero(), Mat3::Identity(), nullptr, Vec3::Zero(),
+                                  Mat3::Identity(), pair)));
     const int32_t dim = 6;
     const LinearMap map = linearMap(dim, seed);
     const VecX fixed = (MatX::Identity(dim, dim) - map.a).ldlt().solve(map.c);
-    g_anderson.reset(g_net, 5.0, 10);
+    g_anderson.reset(g_solver_net, 5.0, 10);
     VecX x = VecX::Zero(dim);
     VecX plain = VecX::Zero(dim);
     double error_at_dim = 0.0;
@@ -312,14 +314,14 @@ TEST(RigEquations, GimbalAndBaseRowsVanishOnTheTrueRigAndMoveWithTheCameras) {
     config.seed = seed;
     config.baseline_m = 0.1 * seed;
     PanoramaTruth truth;
-    test::makePanorama(config, g_net, truth);
-    const RigConstraints& rig = g_net.rig;
+    test::makePanorama(config, g_solver_net, truth);
+    const RigConstraints& rig = g_solver_net.rig;
     double worst_gimbal = 0.0;
     double worst_base = 0.0;
     double worst_linear = 0.0;
-    for (int32_t p = 0; p < g_net.pairCount(); ++p) {
-      const NetPair& pr = g_net.pair(p);
-      const int32_t sol = g_net.image(pr.left).sol;
+    for (int32_t p = 0; p < g_solver_net.pairCount(); ++p) {
+      const NetPair& pr = g_solver_net.pair(p);
+      const int32_t sol = g_solver_net.image(pr.left).sol;
       Vec3 g;
       Mat3x6 jg;
       gimbalRows(truth.centres[pr.left], truth.rotations[pr.left], rig.gimbal_m[sol], rig.left_offset_m, g,

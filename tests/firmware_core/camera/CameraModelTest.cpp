@@ -10,10 +10,9 @@
 #include <CppUTest/TestHarness.h>
 
 using namespace areomap;
+using areomap::test::relErr;
 
 namespace {
-
-double relErr(double a, double b) { return std::fabs(a - b) / std::fmax(1.0, std::fmax(std::fabs(a), std::fabs(b))); }
 
 // A point at `range_m` along the ray through `pixel` (by the model's own inverse).
 bool pointThrough(const CameraModel& m, const Vec2& pixel, double range_m, Vec3& point) {

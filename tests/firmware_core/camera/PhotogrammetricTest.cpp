@@ -2,11 +2,13 @@
 
 #include "firmware_core/camera/Photogrammetric.hpp"
 #include "platform/heap/HeapCounter.hpp"
+#include "tests/firmware_core/camera/TestModels.hpp"
 
 #include <CppUTest/TestHarness.h>
 
 using namespace areomap;
 using areomap::HeapAllocationScope;
+using areomap::test::relErr;
 
 namespace {
 
@@ -19,9 +21,6 @@ InteriorOrientation navcamIo() {
   io.height = 1024;
   return io;
 }
-
-// Relative difference with a floor, for comparing analytic and numeric derivatives.
-double relErr(double a, double b) { return std::fabs(a - b) / std::fmax(1.0, std::fmax(std::fabs(a), std::fabs(b))); }
 
 }  // namespace
 

@@ -87,4 +87,9 @@ inline std::array<NamedModel, 6> syntheticModels() {
           NamedModel{"CAHVORE large E", largePupilShift()}};
 }
 
+// Relative difference with a floor of 1, for comparing analytic and numeric derivatives.
+inline double relErr(double a, double b) {
+  return std::fabs(a - b) / std::fmax(1.0, std::fmax(std::fabs(a), std::fabs(b)));
+}
+
 }  // namespace areomap::test

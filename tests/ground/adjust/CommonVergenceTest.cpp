@@ -24,11 +24,11 @@ using namespace areomap;
 
 namespace {
 
-Network g_net;
+Network g_vergence_net;
 Network g_truth_net;
-FastAdjuster g_fast;
+FastAdjuster g_vergence_fast;
 
-test::PanoramaConfig scene(uint32_t seed) {
+test::PanoramaConfig vergenceScene(uint32_t seed) {
   test::PanoramaConfig cfg = test::navcamConfig();
   cfg.azimuths = 8;
   cfg.azimuth_step_deg = 45.0;
@@ -42,7 +42,7 @@ test::PanoramaConfig scene(uint32_t seed) {
 
 // The true cameras in a network of the scene's shape (for commonVergenceDifference).
 void setTruth(const test::PanoramaTruth& truth) {
-  g_truth_net = g_net;
+  g_truth_net = g_vergence_net;
   for (int32_t i = 0; i < g_truth_net.imageCount(); ++i) {
     g_truth_net.image(i).centre_m = truth.centres[i];
     g_truth_net.image(i).m = truth.rotations[i];
@@ -52,17 +52,18 @@ void setTruth(const test::PanoramaTruth& truth) {
 // Moves the right-image x of every point beyond the median point range from the gimbal by `shift_px`
 // (a parallax bias of the far matches).
 void biasFarParallax(double shift_px) {
-  const Vec3 g = g_net.rig.gimbal_m[0];
+  const Vec3 g = g_vergence_net.rig.gimbal_m[0];
   std::vector<double> range;
-  for (int32_t p = 0; p < g_net.pointCount(); ++p)
-    range.push_back((g_net.point(p).xyz_m - g).head<2>().norm());
+  for (int32_t p = 0; p < g_vergence_net.pointCount(); ++p)
+    range.push_back((g_vergence_net.point(p).xyz_m - g).head<2>().norm());
   std::vector<double> sorted = range;
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
                    sorted.end());
   const double median = sorted[sorted.size() / 2];
-  for (int32_t k = 0; k < g_net.observationCount(); ++k) {
-    NetObservation& o = g_net.observation(k);
-    if (g_net.image(o.image).side == Side::kRight && range[static_cast<std::size_t>(o.point)] > median)
+  for (int32_t k = 0; k < g_vergence_net.observationCount(); ++k) {
+    NetObservation& o = g_vergence_net.observation(k);
+    if (g_vergence_net.image(o.image).side == Side::kRight &&
+        range[static_cast<std::size_t>(o.point)] > median)
       o.ideal_px.x() += shift_px;
   }
 }
@@ -77,17 +78,17 @@ TEST(CommonVergence, DifferenceOfTheNearHalfHasTheNestedVariance) {
   int checked = 0;
   for (uint32_t seed = 1; seed <= kSeeds; ++seed) {
     test::PanoramaTruth truth;
-    test::makePanorama(scene(seed), g_net, truth);
+    test::makePanorama(vergenceScene(seed), g_vergence_net, truth);
     FastAdjustResult r;
-    CHECK_TRUE(ok(g_fast.adjust(g_net, test::plainFastOptions(), r)));
+    CHECK_TRUE(ok(g_vergence_fast.adjust(g_vergence_net, test::plainFastOptions(), r)));
     setTruth(truth);
-    ground::FullEoCovariance full = ground::fullEoCovariance(g_net);
+    ground::FullEoCovariance full = ground::fullEoCovariance(g_vergence_net);
     CHECK_TRUE(ok(full.status));
-    const ground::CommonVergenceCheck c = ground::addCommonVergenceSystematic(g_net, full);
+    const ground::CommonVergenceCheck c = ground::addCommonVergenceSystematic(g_vergence_net, full);
     CHECK_TRUE(c.done);
     sum_t2 += c.difference_rad * c.difference_rad;
     sum_v += c.expected_sd_rad * c.expected_sd_rad;
-    const double e = ground::commonVergenceDifference(g_truth_net, g_net);
+    const double e = ground::commonVergenceDifference(g_truth_net, g_vergence_net);
     sum_e2 += e * e / (c.sigma_rad * c.sigma_rad);
     sum_s2 += c.systematic_rad * c.systematic_rad / (c.sigma_rad * c.sigma_rad);
     ++checked;
@@ -106,23 +107,23 @@ TEST(CommonVergence, FindsAFarParallaxBias) {
   constexpr int kSeeds = 6;
   for (uint32_t seed = 1; seed <= kSeeds; ++seed) {
     test::PanoramaTruth truth;
-    test::PanoramaConfig cfg = scene(100 + seed);
+    test::PanoramaConfig cfg = vergenceScene(100 + seed);
     cfg.azimuths = 10;
     cfg.azimuth_step_deg = 36.0;
     cfg.first_elevation_deg = 10.0;
     cfg.grid = 8;
     cfg.max_range_m = 30.0;
-    test::makePanorama(cfg, g_net, truth);
+    test::makePanorama(cfg, g_vergence_net, truth);
     biasFarParallax(-0.5);
     int32_t failed = 0;
-    (void)g_net.triangulateAll(failed);
+    (void)g_vergence_net.triangulateAll(failed);
     FastAdjustResult r;
-    CHECK_TRUE(ok(g_fast.adjust(g_net, test::plainFastOptions(), r)));
+    CHECK_TRUE(ok(g_vergence_fast.adjust(g_vergence_net, test::plainFastOptions(), r)));
     setTruth(truth);
-    ground::FullEoCovariance full = ground::fullEoCovariance(g_net);
-    const ground::CommonVergenceCheck c = ground::addCommonVergenceSystematic(g_net, full);
+    ground::FullEoCovariance full = ground::fullEoCovariance(g_vergence_net);
+    const ground::CommonVergenceCheck c = ground::addCommonVergenceSystematic(g_vergence_net, full);
     CHECK_TRUE(c.done);
-    const double e = ground::commonVergenceDifference(g_truth_net, g_net);
+    const double e = ground::commonVergenceDifference(g_truth_net, g_vergence_net);
     const double widened = std::sqrt(c.sigma_rad * c.sigma_rad + c.systematic_rad * c.systematic_rad);
     std::printf(
         "  seed %u: true error %+.1f urad, sigma %.1f, t %+.1f (noise %.1f), systematic %.1f, widened %.1f\n",
@@ -132,7 +133,7 @@ TEST(CommonVergence, FindsAFarParallaxBias) {
     covered += std::fabs(e) < 2.0 * widened ? 1 : 0;
     sum_e2_widened += e * e / (widened * widened);
     // The widened covariance holds the systematic part along the mode.
-    const Eigen::VectorXd a = ground::commonVergenceFunctional(g_net);
+    const Eigen::VectorXd a = ground::commonVergenceFunctional(g_vergence_net);
     DOUBLES_EQUAL(widened * widened, a.dot(full.covariance * a), 1e-6 * widened * widened);
   }
   const double rms = std::sqrt(sum_e2_widened / kSeeds);

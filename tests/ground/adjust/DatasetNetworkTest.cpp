@@ -20,7 +20,7 @@ using namespace areomap;
 
 namespace {
 
-Network g_net;
+Network g_dataset_net;
 
 void writePgm(const std::string& path, int w, int h) {
   std::ofstream f(path, std::ios::binary);
@@ -62,7 +62,7 @@ TEST(DatasetNetwork, M2020ModelsTakeThePixelFrameOfTheDatasetImage) {
   p.left = makeImageRef(root, "images/L.pgm", std::string("models/L-metadata.json"));
   dataset.pairs.push_back(p);
   ground::NetworkSource source;
-  ground::buildNetwork(dataset, {}, ground::RigChoice{}, g_net, source);
+  ground::buildNetwork(dataset, {}, ground::RigChoice{}, g_dataset_net, source);
   CHECK_EQUAL(1u, source.apriori_models.size());
   const CameraModel& m = source.apriori_models[0];
   CHECK_EQUAL(1288, m.width);

@@ -17,12 +17,12 @@ using namespace areomap;
 
 namespace {
 
-Network g_exact;     // the scene with noise-free observations
-Network g_net;       // one noise seed's network
+Network g_sigma_exact;  // the scene with noise-free observations
+Network g_sigma_net;    // one noise seed's network
 Network g_solution;  // a copy for the second and third paths
-FastAdjuster g_fast;
+FastAdjuster g_sigma_fast;
 
-constexpr int kSeeds = 30;
+constexpr int kSigmaSeeds = 30;
 const char* const kComponents[6] = {"x", "y", "z", "rot_x", "rot_y", "rot_z"};
 
 // A small scene: the dense SVD is O(n^3) in the unknowns.
@@ -42,12 +42,15 @@ test::PanoramaConfig smallScene(int azimuths, int tiers, uint32_t seed) {
 void makeExactScene(test::PanoramaConfig cfg, test::PanoramaTruth& truth) {
   const double noise_px = cfg.noise_px;
   cfg.noise_px = 0.0;
-  test::makePanorama(cfg, g_exact, truth);
-  for (int32_t k = 0; k < g_exact.observationCount(); ++k) g_exact.observation(k).sigma_px = noise_px;
+  test::makePanorama(cfg, g_sigma_exact, truth);
+  for (int32_t k = 0; k < g_sigma_exact.observationCount(); ++k)
+    g_sigma_exact.observation(k).sigma_px = noise_px;
 }
 
-// g_net = the exact scene with Gaussian noise of each observation's sigma, from the a-priori EO.
-void drawNoise(uint32_t seed) { test::drawImageNoise(g_exact, seed, g_net); }
+// g_sigma_net = the exact scene with Gaussian noise of each observation's sigma, from the a-priori EO.
+void drawNoise(uint32_t seed) {
+  test::drawImageNoise(g_sigma_exact, seed, g_sigma_net);
+}
 
 // Per path: every seed's EO (centre, rotation vector about the truth in the camera frame) and its sigmas.
 struct Samples {
@@ -99,24 +102,25 @@ void monteCarlo(const test::PanoramaConfig& cfg, bool with_svd) {
   test::PanoramaTruth truth;
   makeExactScene(cfg, truth);
   Samples fast{"fast", {}, {}}, svd{"svd", {}, {}}, ceres{"ceres", {}, {}};
-  for (int seed = 1; seed <= kSeeds; ++seed) {
+  for (int seed = 1; seed <= kSigmaSeeds; ++seed) {
     drawNoise(static_cast<uint32_t>(seed));
-    g_solution = g_net;
+    g_solution = g_sigma_net;
     FastAdjustResult fr;
-    CHECK_TRUE(ok(g_fast.adjust(g_net, test::plainFastOptions(), fr)));
+    CHECK_TRUE(ok(g_sigma_fast.adjust(g_sigma_net, test::plainFastOptions(), fr)));
     CHECK_TRUE(fr.covariance_solver == CovarianceSolver::kCholesky);
-    record(g_net, truth, fast);
+    record(g_sigma_net, truth, fast);
     if (with_svd) {
-      g_net = g_solution;
-      (void)ground::adjustSvd(g_net);
-      record(g_net, truth, svd);
+      g_sigma_net = g_solution;
+      (void)ground::adjustSvd(g_sigma_net);
+      record(g_sigma_net, truth, svd);
     }
-    g_net = g_solution;
-    const ground::IntegratedResult cr = ground::adjustCeres(g_net);
+    g_sigma_net = g_solution;
+    const ground::IntegratedResult cr = ground::adjustCeres(g_sigma_net);
     CHECK_TRUE(cr.sigma0 > 0.5 && cr.sigma0 < 1.5);
-    record(g_net, truth, ceres);
+    record(g_sigma_net, truth, ceres);
   }
-  std::printf("\n  %d images, %d points, %d seeds\n", g_exact.imageCount(), g_exact.pointCount(), kSeeds);
+  std::printf("\n  %d images, %d points, %d seeds\n", g_sigma_exact.imageCount(), g_sigma_exact.pointCount(),
+              kSigmaSeeds);
   checkRatios(fast);
   if (with_svd) checkRatios(svd);
   checkRatios(ceres);
@@ -142,14 +146,14 @@ TEST(EoSigmas, FullNormalMatrixAgreesWithTheReducedCameraSystem) {
   test::PanoramaTruth truth;
   makeExactScene(smallScene(6, 2, 5), truth);
   drawNoise(1);
-  (void)ground::adjustSvd(g_net);  // its own covariance, from the full normal matrix
-  g_solution = g_net;
+  (void)ground::adjustSvd(g_sigma_net);  // its own covariance, from the full normal matrix
+  g_solution = g_sigma_net;
   FastAdjustResult fr;
-  CHECK_TRUE(ok(g_fast.precisionOf(g_solution, fr)));  // the reduced camera system at the same solution
-  const double worst = test::largestCovarianceDifference(g_net, g_solution);
+  CHECK_TRUE(ok(g_sigma_fast.precisionOf(g_solution, fr)));  // the reduced camera system at the same solution
+  const double worst = test::largestCovarianceDifference(g_sigma_net, g_solution);
   std::printf(
       "\n  largest covariance difference svd - reduced camera system: %.2e (relative to sigma_r sigma_c)\n",
       worst);
   CHECK_TRUE(worst < 1e-6);
-  CHECK_TRUE(g_net.image(0).sigma.minCoeff() > 0.0);
+  CHECK_TRUE(g_sigma_net.image(0).sigma.minCoeff() > 0.0);
 }

@@ -20,14 +20,14 @@ using namespace areomap;
 
 namespace {
 
-Network g_exact;
-Network g_net;
-FastAdjuster g_fast;
+Network g_full_exact;
+Network g_full_net;
+FastAdjuster g_full_fast;
 
-constexpr int kSeeds = 40;
+constexpr int kFullSeeds = 40;
 constexpr int kRandomCombinations = 8;
 
-test::PanoramaConfig scene() {
+test::PanoramaConfig fullCovarianceScene() {
   test::PanoramaConfig cfg = test::navcamConfig();
   cfg.azimuths = 8;
   cfg.azimuth_step_deg = 45.0;
@@ -39,7 +39,7 @@ test::PanoramaConfig scene() {
 }
 
 // The EO error of every pair as one vector in the covariance's order (12 per pair).
-Eigen::VectorXd eoError(const Network& net, const test::PanoramaTruth& truth) {
+Eigen::VectorXd eoErrorVector(const Network& net, const test::PanoramaTruth& truth) {
   Eigen::VectorXd e = Eigen::VectorXd::Zero(12 * net.pairCount());
   for (int32_t p = 0; p < net.pairCount(); ++p) {
     const int32_t images[2] = {net.pair(p).left, net.pair(p).right};
@@ -68,16 +68,16 @@ TEST_GROUP(FullEoCovariance){};
 
 TEST(FullEoCovariance, DiagonalBlocksAreThePairCovariances) {
   test::PanoramaTruth truth;
-  test::makePanorama(scene(), g_net, truth);
+  test::makePanorama(fullCovarianceScene(), g_full_net, truth);
   FastAdjustResult r;
-  CHECK_TRUE(ok(g_fast.adjust(g_net, test::plainFastOptions(), r)));
-  const ground::FullEoCovariance full = ground::fullEoCovariance(g_net);
+  CHECK_TRUE(ok(g_full_fast.adjust(g_full_net, test::plainFastOptions(), r)));
+  const ground::FullEoCovariance full = ground::fullEoCovariance(g_full_net);
   CHECK_TRUE(ok(full.status));
   DOUBLES_EQUAL(r.sigma0, full.sigma0, 1e-9 * r.sigma0);
   double worst = 0.0;
-  for (int32_t p = 0; p < g_net.pairCount(); ++p) {
+  for (int32_t p = 0; p < g_full_net.pairCount(); ++p) {
     const Mat12 block = full.covariance.block<12, 12>(12 * p, 12 * p);
-    const Mat12& own = g_net.pair(p).covariance;
+    const Mat12& own = g_full_net.pair(p).covariance;
     for (int a = 0; a < 12; ++a) {
       for (int c = 0; c < 12; ++c) {
         const double scale = std::sqrt(own(a, a) * own(c, c));
@@ -94,17 +94,18 @@ TEST(FullEoCovariance, DiagonalBlocksAreThePairCovariances) {
 
 TEST(FullEoCovariance, CombinationsOverAllPairsMatchTheScatterOverNoiseSeeds) {
   test::PanoramaTruth truth;
-  const test::PanoramaConfig cfg = scene();
+  const test::PanoramaConfig cfg = fullCovarianceScene();
   {
     test::PanoramaConfig exact = cfg;
     exact.noise_px = 0.0;
-    test::makePanorama(exact, g_exact, truth);
-    for (int32_t k = 0; k < g_exact.observationCount(); ++k) g_exact.observation(k).sigma_px = cfg.noise_px;
+    test::makePanorama(exact, g_full_exact, truth);
+    for (int32_t k = 0; k < g_full_exact.observationCount(); ++k)
+      g_full_exact.observation(k).sigma_px = cfg.noise_px;
   }
-  const int32_t n = g_exact.pairCount();
+  const int32_t n = g_full_exact.pairCount();
   std::mt19937 pick(99);
   std::normal_distribution<double> gauss(0.0, 1.0);
-  std::vector<Eigen::VectorXd> combos{ground::commonVergenceFunctional(g_exact)};
+  std::vector<Eigen::VectorXd> combos{ground::commonVergenceFunctional(g_full_exact)};
   for (int k = 0; k < kRandomCombinations; ++k) {
     Eigen::VectorXd a(12 * n);
     for (int j = 0; j < a.size(); ++j) a(j) = gauss(pick);
@@ -112,21 +113,21 @@ TEST(FullEoCovariance, CombinationsOverAllPairsMatchTheScatterOverNoiseSeeds) {
   }
   std::vector<std::vector<double>> values(combos.size());
   Eigen::MatrixXd predicted = Eigen::MatrixXd::Zero(12 * n, 12 * n);
-  for (int seed = 1; seed <= kSeeds; ++seed) {
-    test::drawImageNoise(g_exact, static_cast<uint32_t>(seed), g_net);
+  for (int seed = 1; seed <= kFullSeeds; ++seed) {
+    test::drawImageNoise(g_full_exact, static_cast<uint32_t>(seed), g_full_net);
     FastAdjustResult r;
-    CHECK_TRUE(ok(g_fast.adjust(g_net, test::plainFastOptions(), r)));
-    const ground::FullEoCovariance full = ground::fullEoCovariance(g_net);
+    CHECK_TRUE(ok(g_full_fast.adjust(g_full_net, test::plainFastOptions(), r)));
+    const ground::FullEoCovariance full = ground::fullEoCovariance(g_full_net);
     CHECK_TRUE(ok(full.status));
-    predicted += full.covariance / kSeeds;
-    const Eigen::VectorXd e = eoError(g_net, truth);
+    predicted += full.covariance / kFullSeeds;
+    const Eigen::VectorXd e = eoErrorVector(g_full_net, truth);
     for (std::size_t c = 0; c < combos.size(); ++c) values[c].push_back(combos[c].dot(e));
   }
   // The per-pair blocks alone: what the mean vergence's variance would be with independent pairs.
   Eigen::MatrixXd blocks = Eigen::MatrixXd::Zero(12 * n, 12 * n);
   for (int32_t p = 0; p < n; ++p)
     blocks.block<12, 12>(12 * p, 12 * p) = predicted.block<12, 12>(12 * p, 12 * p);
-  std::printf("\n  %d pairs, %d seeds\n", n, kSeeds);
+  std::printf("\n  %d pairs, %d seeds\n", n, kFullSeeds);
   double pooled_scatter = 0.0, pooled_predicted = 0.0;
   for (std::size_t c = 0; c < combos.size(); ++c) {
     const double scatter = sampleVariance(values[c]);

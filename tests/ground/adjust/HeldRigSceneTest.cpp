@@ -26,11 +26,11 @@ using namespace areomap;
 
 namespace {
 
-Network g_net;
+Network g_held_net;
 Network g_integrated;
-FastAdjuster g_fast;
+FastAdjuster g_held_fast;
 
-struct Scene {
+struct HeldRigScene {
   Dataset dataset;  // its root is the scene's folder
   ground::NetworkSource source;
   ground::NetworkTruth truth;
@@ -38,8 +38,8 @@ struct Scene {
 
 // areomap-sim ARGS into a scratch folder, then panorama.json rewritten without the two sigmas (or with the
 // given ones when > 0) and read back.
-Scene makeScene(const std::string& name, const std::string& sim_args, double sigma_m = 0.0) {
-  Scene s;
+HeldRigScene makeHeldRigScene(const std::string& name, const std::string& sim_args, double sigma_m = 0.0) {
+  HeldRigScene s;
   const std::string dir = test::scratchDir(name) + "/sim";
   const int rc =
       test::runTool("areomap-sim", sim_args + " --cell-m 0.1 --no-images --threads 2 --out " + dir);
@@ -53,14 +53,14 @@ Scene makeScene(const std::string& name, const std::string& sim_args, double sig
   return s;
 }
 
-void buildNet(Scene& s) {
+void buildNet(HeldRigScene& s) {
   const std::vector<ImageObservation> obs = ground::noisyTruthObservations(s.dataset, 0.3, 1);
   s.source = ground::NetworkSource{};
-  ground::buildNetwork(s.dataset, obs, ground::RigChoice{}, g_net, s.source);
+  ground::buildNetwork(s.dataset, obs, ground::RigChoice{}, g_held_net, s.source);
   s.truth = ground::loadNetworkTruth(s.dataset, s.source, true);
 }
 
-double eoError(const Scene& s, const Network& net) {
+double heldEoError(const HeldRigScene& s, const Network& net) {
   return truthErrors(net, s.truth.centres.data(), s.truth.rotations.data(), nullptr, net.rig.gimbal_m[0],
                      true, 5.0)
       .eo_px;
@@ -75,7 +75,7 @@ bool contains(const std::vector<std::string>& lines, const std::string& text) {
 
 // The integrated adjustment from the a-priori EO with the fast adjuster's rejections and rig sigmas.
 ground::IntegratedResult integrated(bool svd) {
-  test::restartFromApriori(g_net, g_integrated);
+  test::restartFromApriori(g_held_net, g_integrated);
   return svd ? ground::adjustSvd(g_integrated) : ground::adjustCeres(g_integrated);
 }
 
@@ -108,36 +108,37 @@ TEST_GROUP(HeldRigScenes){};
 // explicitly here, they leave 0.45-1.2 mm), and Ceres from the a-priori EO reaches the same solution.
 TEST(HeldRigScenes, DefaultHoldsBothConstraintsAndTheEo) {
   for (const SceneSpec& spec : kScenes) {
-    Scene s = makeScene(spec.name, spec.args);
+    HeldRigScene s = makeHeldRigScene(spec.name, spec.args);
     CHECK(contains(s.dataset.notes, "rig.sigma_gimbal_m: absent, Eq. 3 is held"));
     buildNet(s);
     CHECK(s.truth.available);
-    CHECK(g_net.rig.hold_gimbal && g_net.rig.hold_base);
-    DOUBLES_EQUAL(kHeldRigSigma_m, g_net.rig.sigma_gimbal_m, 0.0);
+    CHECK(g_held_net.rig.hold_gimbal && g_held_net.rig.hold_base);
+    DOUBLES_EQUAL(kHeldRigSigma_m, g_held_net.rig.sigma_gimbal_m, 0.0);
     CHECK(contains(s.source.estimated, "rig.sigma_base_m: absent, Eq. 4 is held"));
-    std::printf("\n  %s (areomap-sim %s): %d images, %d points\n", spec.name, spec.args, g_net.imageCount(),
-                g_net.pointCount());
+    std::printf("\n  %s (areomap-sim %s): %d images, %d points\n", spec.name, spec.args,
+                g_held_net.imageCount(), g_held_net.pointCount());
     static Network start;
-    start = g_net;
-    g_net.rig.sigma_gimbal_m = 1e-3;
-    g_net.rig.sigma_base_m = 5e-4;
-    g_net.rig.hold_gimbal = g_net.rig.hold_base = false;
+    start = g_held_net;
+    g_held_net.rig.sigma_gimbal_m = 1e-3;
+    g_held_net.rig.sigma_base_m = 5e-4;
+    g_held_net.rig.hold_gimbal = g_held_net.rig.hold_base = false;
     FastAdjustResult old;
-    CHECK(ok(g_fast.adjust(g_net, FastAdjustOptions{}, old)));
-    const double eo_old = eoError(s, g_net);
-    printFast("former 1 mm / 0.5 mm:", old, eo_old, g_net);
-    g_net = start;
+    CHECK(ok(g_held_fast.adjust(g_held_net, FastAdjustOptions{}, old)));
+    const double eo_old = heldEoError(s, g_held_net);
+    printFast("former 1 mm / 0.5 mm:", old, eo_old, g_held_net);
+    g_held_net = start;
     FastAdjustResult r;
-    CHECK(ok(g_fast.adjust(g_net, FastAdjustOptions{}, r)));
-    const double eo = eoError(s, g_net);
-    printFast("held (default):", r, eo, g_net);
+    CHECK(ok(g_held_fast.adjust(g_held_net, FastAdjustOptions{}, r)));
+    const double eo = heldEoError(s, g_held_net);
+    printFast("held (default):", r, eo, g_held_net);
     const ground::IntegratedResult ir = integrated(false);
     const ConstraintMisfit im = networkMisfit(g_integrated);
-    const double d = test::largestEoDifferencePx(g_net, g_integrated);
+    const double d = test::largestEoDifferencePx(g_held_net, g_integrated);
     std::printf(
         "    ceres: %d iterations, %d tightenings, misfit gimbal %.4f mm base %.4f mm, EO %.4f px; "
         "fast - ceres EO %.2e px\n",
-        ir.iterations, ir.rig_tightenings, im.gimbal_m * 1e3, im.base_m * 1e3, eoError(s, g_integrated), d);
+        ir.iterations, ir.rig_tightenings, im.gimbal_m * 1e3, im.base_m * 1e3, heldEoError(s, g_integrated),
+        d);
     CHECK(old.max_misfit.gimbal_m > kRigMisfitBound_m);
     CHECK(r.stop_rule == StopRule::kCostAndStep);
     CHECK(r.max_misfit.gimbal_m <= kRigMisfitBound_m);
@@ -156,13 +157,13 @@ TEST(HeldRigScenes, DefaultHoldsBothConstraintsAndTheEo) {
 // A sigma the dataset gives is honoured, looser than the bound too: the constraints are not held, the
 // sigma stays as given through the fast and the integrated adjustment, and the misfits exceed 0.1 mm.
 TEST(HeldRigScenes, ExplicitLooseSigmaIsHonoured) {
-  Scene s = makeScene("held-loose", kScenes[0].args, 1e-3);
+  HeldRigScene s = makeHeldRigScene("held-loose", kScenes[0].args, 1e-3);
   CHECK(!contains(s.dataset.notes, "rig.sigma_gimbal_m:"));
   buildNet(s);
-  CHECK(!g_net.rig.hold_gimbal && !g_net.rig.hold_base);
+  CHECK(!g_held_net.rig.hold_gimbal && !g_held_net.rig.hold_base);
   FastAdjustResult r;
-  CHECK(ok(g_fast.adjust(g_net, FastAdjustOptions{}, r)));
-  printFast("given 1 mm:", r, eoError(s, g_net), g_net);
+  CHECK(ok(g_held_fast.adjust(g_held_net, FastAdjustOptions{}, r)));
+  printFast("given 1 mm:", r, heldEoError(s, g_held_net), g_held_net);
   const ground::IntegratedResult ir = integrated(false);
   CHECK_EQUAL(0, r.rig_tightenings);
   CHECK_EQUAL(0, ir.rig_tightenings);
@@ -176,15 +177,15 @@ TEST(HeldRigScenes, ExplicitLooseSigmaIsHonoured) {
 // the held sigmas and both the fast and the Ceres solution meet the bound; areomap-adjust reports it. With
 // a base error that leaves a floor above the bound, areomap-adjust warns that the rig disagrees with itself.
 TEST(HeldRigScenes, RigThatDisagreesIsTightenedUntilItHolds) {
-  Scene s = makeScene("held-disagree", kScenes[2].args);
+  HeldRigScene s = makeHeldRigScene("held-disagree", kScenes[2].args);
   s.dataset.rig.right_offset_m->y() += 1e-3;
   writeDataset(s.dataset, s.dataset.root);
   s.dataset = readDataset(s.dataset.root);
   buildNet(s);
-  const ConstraintMisfit floor = misfitFloor(g_net.rig);
+  const ConstraintMisfit floor = misfitFloor(g_held_net.rig);
   FastAdjustResult r;
-  CHECK(ok(g_fast.adjust(g_net, FastAdjustOptions{}, r)));
-  printFast("right offset 1 mm off:", r, eoError(s, g_net), g_net);
+  CHECK(ok(g_held_fast.adjust(g_held_net, FastAdjustOptions{}, r)));
+  printFast("right offset 1 mm off:", r, heldEoError(s, g_held_net), g_held_net);
   const ground::IntegratedResult ir = integrated(false);
   const ConstraintMisfit im = networkMisfit(g_integrated);
   std::printf("    floor %.4f / %.4f mm; ceres: %d tightenings, misfit gimbal %.4f mm base %.4f mm\n",
@@ -192,7 +193,7 @@ TEST(HeldRigScenes, RigThatDisagreesIsTightenedUntilItHolds) {
               im.base_m * 1e3);
   CHECK(floor.gimbal_m < 0.75 * kRigMisfitBound_m);
   CHECK(r.rig_tightenings >= 1);
-  CHECK(g_net.rig.sigma_gimbal_m < kHeldRigSigma_m);
+  CHECK(g_held_net.rig.sigma_gimbal_m < kHeldRigSigma_m);
   CHECK(r.max_misfit.gimbal_m <= kRigMisfitBound_m);
   CHECK(r.max_misfit.base_m <= kRigMisfitBound_m);
   CHECK(im.gimbal_m <= kRigMisfitBound_m);
@@ -230,16 +231,16 @@ TEST(HeldRigScenes, RigThatDisagreesIsTightenedUntilItHolds) {
 // The paper's integrated SVD on a small rig (0.42 m base, 50 deg 320x240 camera, two tiers): the held
 // default holds in the dense minimum-norm solution too, and it equals the fast one.
 TEST(HeldRigScenes, DenseSvdHoldsTooOnASmallRig) {
-  Scene s = makeScene("held-svd",
-                      "--preset tiny --seed 1 --size 320 240 --fov-deg 50 --base-m 0.42 "
-                      "--tilts -20,-45 --pairs 12 --check-points 150");
+  HeldRigScene s = makeHeldRigScene("held-svd",
+                                    "--preset tiny --seed 1 --size 320 240 --fov-deg 50 --base-m 0.42 "
+                                    "--tilts -20,-45 --pairs 12 --check-points 150");
   buildNet(s);
   FastAdjustResult r;
-  CHECK(ok(g_fast.adjust(g_net, FastAdjustOptions{}, r)));
-  printFast("tiny-like, fast:", r, eoError(s, g_net), g_net);
+  CHECK(ok(g_held_fast.adjust(g_held_net, FastAdjustOptions{}, r)));
+  printFast("tiny-like, fast:", r, heldEoError(s, g_held_net), g_held_net);
   const ground::IntegratedResult ir = integrated(true);
   const ConstraintMisfit im = networkMisfit(g_integrated);
-  const double d = test::largestEoDifferencePx(g_net, g_integrated);
+  const double d = test::largestEoDifferencePx(g_held_net, g_integrated);
   std::printf(
       "    svd: %d unknowns, %d iterations, misfit gimbal %.4f mm base %.4f mm; fast - svd EO %.2e px\n",
       ir.unknowns, ir.iterations, im.gimbal_m * 1e3, im.base_m * 1e3, d);

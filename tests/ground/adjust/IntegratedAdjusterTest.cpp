@@ -13,17 +13,17 @@ using namespace areomap;
 
 namespace {
 
-Network g_net;
-Network g_reference;
-FastAdjuster g_fast;
+Network g_integrated_net;
+Network g_integrated_reference;
+FastAdjuster g_integrated_fast;
 
-struct Difference {
+struct IntegratedDifference {
   double eo_px = 0.0;     // largest EO difference, pixel equivalent at 5 m
   double ground_m = 0.0;  // largest 3-D point difference
 };
 
-Difference largestDifference(const Network& a, const Network& b) {
-  Difference d;
+IntegratedDifference largestIntegratedDifference(const Network& a, const Network& b) {
+  IntegratedDifference d;
   for (int i = 0; i < a.imageCount(); ++i) {
     const double px = eoPixelEquivalent(a.image(i).io.f_px, a.image(i).centre_m - b.image(i).centre_m,
                                         rotationAngle(a.image(i).m, b.image(i).m), 5.0);
@@ -44,15 +44,15 @@ test::PanoramaConfig smallNavcam() {
   return cfg;
 }
 
-void makeScene(const test::PanoramaConfig& cfg, test::PanoramaTruth& truth) {
-  test::makePanorama(cfg, g_net, truth);
-  g_net.rig.sigma_gimbal_m = 1e-5;
-  g_net.rig.sigma_base_m = 1e-5;
+void makePanoramaScene(const test::PanoramaConfig& cfg, test::PanoramaTruth& truth) {
+  test::makePanorama(cfg, g_integrated_net, truth);
+  g_integrated_net.rig.sigma_gimbal_m = 1e-5;
+  g_integrated_net.rig.sigma_base_m = 1e-5;
 }
 
 // The integrated adjusters start again from the a-priori EO, with the fast adjuster's rejection flags.
-void restartFromApriori() {
-  test::restartFromApriori(g_net, g_reference);
+void restartIntegratedFromApriori() {
+  test::restartFromApriori(g_integrated_net, g_integrated_reference);
 }
 
 FastAdjustOptions tightFast() {
@@ -69,12 +69,12 @@ TEST_GROUP(IntegratedAdjuster){};
 
 TEST(IntegratedAdjuster, CeresAndFastAgree) {
   test::PanoramaTruth truth;
-  makeScene(test::navcamConfig(), truth);
+  makePanoramaScene(test::navcamConfig(), truth);
   FastAdjustResult fr;
-  CHECK(ok(g_fast.adjust(g_net, tightFast(), fr)));
-  restartFromApriori();
-  const ground::IntegratedResult cr = ground::adjustCeres(g_reference);
-  const Difference d = largestDifference(g_net, g_reference);
+  CHECK(ok(g_integrated_fast.adjust(g_integrated_net, tightFast(), fr)));
+  restartIntegratedFromApriori();
+  const ground::IntegratedResult cr = ground::adjustCeres(g_integrated_reference);
+  const IntegratedDifference d = largestIntegratedDifference(g_integrated_net, g_integrated_reference);
   std::printf("\n  navcam fast: %d sweeps cost %.6f | ceres: %d iterations cost %.6f %.3f s (%s)\n"
               "  largest difference fast-ceres: EO %.5f px equivalent, ground %.6f m\n",
               fr.sweeps, fr.cost, cr.iterations, cr.cost, cr.seconds, cr.message.c_str(), d.eo_px, d.ground_m);
@@ -86,12 +86,12 @@ TEST(IntegratedAdjuster, CeresAndFastAgree) {
 
 TEST(IntegratedAdjuster, SvdAndFastAgree) {
   test::PanoramaTruth truth;
-  makeScene(smallNavcam(), truth);
+  makePanoramaScene(smallNavcam(), truth);
   FastAdjustResult fr;
-  CHECK(ok(g_fast.adjust(g_net, tightFast(), fr)));
-  restartFromApriori();
-  const ground::IntegratedResult sr = ground::adjustSvd(g_reference);
-  const Difference d = largestDifference(g_net, g_reference);
+  CHECK(ok(g_integrated_fast.adjust(g_integrated_net, tightFast(), fr)));
+  restartIntegratedFromApriori();
+  const ground::IntegratedResult sr = ground::adjustSvd(g_integrated_reference);
+  const IntegratedDifference d = largestIntegratedDifference(g_integrated_net, g_integrated_reference);
   std::printf("\n  small navcam (%d unknowns) fast: %d sweeps cost %.6f | svd: %d iterations cost %.6f %.3f s\n"
               "  largest difference fast-svd: EO %.6f px equivalent, ground %.7f m\n",
               sr.unknowns, fr.sweeps, fr.cost, sr.iterations, sr.cost, sr.seconds, d.eo_px, d.ground_m);

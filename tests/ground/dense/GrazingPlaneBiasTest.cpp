@@ -22,7 +22,7 @@ using namespace areomap::dense;
 
 namespace {
 
-constexpr int kWidth = 480, kHeight = 240, kHorizon = 40;
+constexpr int kGrazingWidth = 480, kGrazingHeight = 240, kHorizon = 40;
 constexpr double kSlope = 0.2 / 1.5;  // px of disparity per row below the horizon
 constexpr int kSky = 140;             // grey of the textureless sky
 
@@ -39,18 +39,21 @@ struct Look {
 };
 Look g_look;
 
-double trueDisparity(int y) { return g_look.d0 + g_look.slope * std::max(0, y - kHorizon); }
+double grazingDisparity(int y) {
+  return g_look.d0 + g_look.slope * std::max(0, y - kHorizon);
+}
 
 void grazingPair(cv::Mat& left, cv::Mat& right, const Look& look) {
   const int pad = 48;
   cv::RNG rng(7);
-  cv::Mat tex(kHeight + 2 * pad, kWidth + 2 * pad, CV_32FC1);
+  cv::Mat tex(kGrazingHeight + 2 * pad, kGrazingWidth + 2 * pad, CV_32FC1);
   rng.fill(tex, cv::RNG::UNIFORM, 128.0 - 0.5 * look.contrast, 128.0 + 0.5 * look.contrast);
   cv::GaussianBlur(tex, tex, cv::Size(0, 0), look.blur_px, look.blur_px / look.squash);
   cv::Mat l, r;  // right(xr) = T(xr + d)
-  areomap::test::remapPair(tex, pad, kWidth, kHeight, [](int x, int y) { return x + trueDisparity(y); }, l, r);
+  areomap::test::remapPair(
+      tex, pad, kGrazingWidth, kGrazingHeight, [](int x, int y) { return x + grazingDisparity(y); }, l, r);
   if (look.fade_rows > 0.0) {
-    for (int y = 0; y < kHeight; ++y) {
+    for (int y = 0; y < kGrazingHeight; ++y) {
       const double g = std::clamp((y - kHorizon) / look.fade_rows, 0.05, 1.0);
       l.row(y) = (l.row(y) - 128.0) * g + 128.0;
       r.row(y) = (r.row(y) - 128.0) * g + 128.0;
@@ -79,14 +82,14 @@ struct Band {
 
 // Mean / sd of d - d_true per band of rows (valid pixels away from the borders; errors > 2 px counted
 // apart as gross).
-void score(const DenseResult& res, std::vector<Band>& bands) {
+void scoreBands(const DenseResult& res, std::vector<Band>& bands) {
   for (Band& b : bands) {
     double s = 0.0, s2 = 0.0;
     for (int y = b.y0; y < b.y1; ++y) {
-      for (int x = 40; x < kWidth - 8; ++x) {
+      for (int x = 40; x < kGrazingWidth - 8; ++x) {
         const float d = res.disparity.at<float>(y, x);
         if (std::isnan(d)) continue;
-        const double e = d - trueDisparity(y);
+        const double e = d - grazingDisparity(y);
         if (std::fabs(e) > 2.0) {
           ++b.gross;
           continue;
@@ -107,12 +110,13 @@ std::vector<Band> matchAndScore(const char* label, const DenseOptions& o, const 
   grazingPair(left, right, look);
   const DenseResult res = matchRectified(left, right, o);
   // Far: d 1-3 px, 3-6 px (the FarRange scene's 45-60 m and 30-45 m), near: 6-20 px.
-  std::vector<Band> bands{{kHorizon + 8, kHorizon + 23}, {kHorizon + 23, kHorizon + 45}, {kHorizon + 45, kHeight - 8}};
-  score(res, bands);
+  std::vector<Band> bands{
+      {kHorizon + 8, kHorizon + 23}, {kHorizon + 23, kHorizon + 45}, {kHorizon + 45, kGrazingHeight - 8}};
+  scoreBands(res, bands);
   std::printf("\n  %-34s", label);
   for (const Band& b : bands) {
-    std::printf(" | d %4.1f-%4.1f: bias %+.3f sd %.3f n %lld gross %lld", trueDisparity(b.y0), trueDisparity(b.y1),
-                b.mean, b.sd, b.n, b.gross);
+    std::printf(" | d %4.1f-%4.1f: bias %+.3f sd %.3f n %lld gross %lld", grazingDisparity(b.y0),
+                grazingDisparity(b.y1), b.mean, b.sd, b.n, b.gross);
   }
   return bands;
 }

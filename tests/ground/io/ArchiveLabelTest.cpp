@@ -47,7 +47,7 @@ CameraModel navcam() {
   return m;
 }
 
-std::string tuple(const Vec3& v) {
+std::string labelTuple(const Vec3& v) {
   char b[128];
   std::snprintf(b, sizeof b, "(%.9g,%.9g,%.9g)", v.x(), v.y(), v.z());
   return b;
@@ -85,7 +85,8 @@ std::string parmsLabel(const CameraModel& m, bool ids_name_type) {
   t += "  MODEL_COMPONENT_NAME = (\"CENTER\",\"AXIS\",\"HORIZONTAL\",\"VERTICAL\",\"OPTICAL\",\"RADIAL\",\n"
        "    \"ENTRANCE\")\n";
   const Vec3* v[] = {&m.c, &m.a, &m.h, &m.v, &m.o, &m.r, &m.e};
-  for (int k = 0; k < 7; ++k) t += "  MODEL_COMPONENT_" + std::to_string(k + 1) + " = " + tuple(*v[k]) + "\n";
+  for (int k = 0; k < 7; ++k)
+    t += "  MODEL_COMPONENT_" + std::to_string(k + 1) + " = " + labelTuple(*v[k]) + "\n";
   t += "  MODEL_COMPONENT_8 = 2.0\n  MODEL_COMPONENT_9 = 0.0\n"
        "  REFERENCE_COORD_SYSTEM_NAME = ROVER_NAV_FRAME\n"
        "  COORDINATE_SYSTEM_INDEX_NAME = (\"SITE\",\"DRIVE\",\"POSE\")\n"

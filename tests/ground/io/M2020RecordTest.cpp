@@ -64,16 +64,16 @@ std::vector<double> numbers(const std::string& tuple) {
   return out;
 }
 
-std::string tuple(const Vec3& v) {
+std::string recordTuple(const Vec3& v) {
   char buffer[96];
   std::snprintf(buffer, sizeof buffer, "(%.17g,%.17g,%.17g)", v.x(), v.y(), v.z());
   return buffer;
 }
 
 std::string componentList(const CameraModel& m) {
-  return tuple(m.c) + ";" + tuple(m.a) + ";" + tuple(m.h) + ";" + tuple(m.v) + ";" + tuple(m.o) + ";" +
-         tuple(m.r) + ";" + tuple(m.e) + ";" + std::to_string(static_cast<int>(m.cahvore_kind)) + ".0;" +
-         std::to_string(m.linearity);
+  return recordTuple(m.c) + ";" + recordTuple(m.a) + ";" + recordTuple(m.h) + ";" + recordTuple(m.v) + ";" +
+         recordTuple(m.o) + ";" + recordTuple(m.r) + ";" + recordTuple(m.e) + ";" +
+         std::to_string(static_cast<int>(m.cahvore_kind)) + ".0;" + std::to_string(m.linearity);
 }
 
 // A served record of `m` (written as given) for a w x h image cut at 1-based (x0, y0) at scale s.
@@ -96,13 +96,13 @@ json servedRecord(const CameraModel& m, const char* instrument, int w, int h, in
               {"imageid", "NLF_0395_0702014201_058ECM_N0171064NCAM03395_01_195J"}};
 }
 
-std::string write(const std::string& path, const std::string& text) {
+std::string writeRecordFile(const std::string& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
   return path;
 }
 
 // The largest pixel distance between `read` and `truth` over a 7 x 7 grid of the image at 2 and 50 m.
-double disagreementPx(const CameraModel& read, const CameraModel& truth) {
+double recordDisagreementPx(const CameraModel& read, const CameraModel& truth) {
   double worst = 0.0;
   for (int j = 0; j < 7; ++j) {
     for (int i = 0; i < 7; ++i) {
@@ -202,7 +202,7 @@ TEST(M2020Record, FlattenedFormsAsBefore) {
     flat.erase("camera");
     flat.erase("extended");
     const io::CameraFile served = io::readCameraFile(path);
-    const io::CameraFile f = io::readCameraFile(write(dir + "/flat.json", flat.dump()));
+    const io::CameraFile f = io::readCameraFile(writeRecordFile(dir + "/flat.json", flat.dump()));
     CHECK((f.model.h - served.model.h).norm() < 1e-9 && (f.model.c - served.model.c).norm() < 1e-12);
     STRCMP_EQUAL(served.frame.c_str(), f.frame.c_str());
     CHECK_EQUAL(*served.acquisition.drive, *f.acquisition.drive);
@@ -229,7 +229,7 @@ TEST(M2020Record, TileFromTheOtherHalf) {
   j["camera"]["camera_model_component_list"] = componentList(shifted);
   j["extended"]["subframeRect"] = "(2545,1,2576,1936)";
   const std::string dir = test::scratchDir("m2020-other-half");
-  const io::CameraFile f = io::readCameraFile(write(dir + "/NRF_tile.json", j.dump()));
+  const io::CameraFile f = io::readCameraFile(writeRecordFile(dir + "/NRF_tile.json", j.dump()));
   STRCMP_EQUAL("as given", f.frame.c_str());
   const CahvInternal in = cahvInternal(f.model);
   CHECK(in.hc_px > 0.0 && in.hc_px < 50.0);
@@ -284,8 +284,8 @@ TEST(M2020Record, SyntheticNavcamFramesOverSeeds) {
       const CameraModel& written = c.written_in_detector ? detector : truth;
       const json record =
           servedRecord(written, seed % 2 ? "NAVCAM_LEFT" : "NAVCAM_RIGHT", c.w, c.h, c.s, c.ox + 1, c.oy + 1);
-      const io::CameraFile read = io::readCameraFile(write(dir + "/record.json", record.dump()));
-      const double px = disagreementPx(read.model, truth);
+      const io::CameraFile read = io::readCameraFile(writeRecordFile(dir + "/record.json", record.dump()));
+      const double px = recordDisagreementPx(read.model, truth);
       char what[128];
       std::snprintf(what, sizeof what, "seed %d, 1/%d from (%d, %d)%s: %s, %.1e px", seed, c.s, c.ox, c.oy,
                     c.written_in_detector ? " in detector pixels" : "", read.frame.c_str(), px);

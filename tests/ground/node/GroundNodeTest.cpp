@@ -61,7 +61,7 @@ void feed(ground::StreamCollector& c, const std::vector<LogEvent>& events) {
   for (const LogEvent& e : events) c.receive(e.channel, e.data.data(), e.data.size());
 }
 
-json readJson(const std::string& path) {
+json readNodeReport(const std::string& path) {
   std::ifstream in(path);
   json j;
   in >> j;
@@ -207,7 +207,7 @@ TEST(GroundEndToEnd, TinyThroughMemq) {
     CHECK(cv::norm(kept, original, cv::NORM_L1) / kept.total() < 3.0);
   }
   for (const char* f : {"eo.csv", "tiepoints.csv", "report.json"}) CHECK(test::fileExists(out + "/" + f));
-  const json report = readJson(out + "/report.json");
+  const json report = readNodeReport(out + "/report.json");
   CHECK_EQUAL(static_cast<int>(d.pairs.size()), report["stream"]["pairs"].get<int>());
   CHECK_EQUAL(0, report["stream"]["gaps"].get<int>());
   CHECK(report.contains("method1_px") && report.contains("truth") && report.contains("warnings"));
@@ -373,7 +373,7 @@ TEST(GroundEndToEnd, TwoPanoramasInOneRunSecondWithRoverTies) {
   const std::string first = options.pass.out_dir + "/panorama-001", second = options.pass.out_dir + "/panorama-002";
   STRCMP_EQUAL(first.c_str(), results[0].out_dir.c_str());
   STRCMP_EQUAL(second.c_str(), results[1].out_dir.c_str());
-  const json r1 = readJson(first + "/report.json"), r2 = readJson(second + "/report.json");
+  const json r1 = readNodeReport(first + "/report.json"), r2 = readNodeReport(second + "/report.json");
   STRCMP_EQUAL("ground", r1["ground"]["tie_source"].get<std::string>().c_str());
   STRCMP_EQUAL("rover", r2["ground"]["tie_source"].get<std::string>().c_str());
   bool warned = false;

@@ -30,7 +30,7 @@ using namespace areomap;
 
 namespace {
 
-const std::string& tinyDataset() {
+const std::string& writeErrorsDataset() {
   static const std::string dir = test::makeTinyDataset("ground-write-errors");
   CHECK(!dir.empty());
   return dir;
@@ -84,10 +84,11 @@ TEST_GROUP(GroundWriteErrors){};
 // stderr names it; the models, eo.csv and report.json are made; no temporary is left. The same run without
 // the limit exits 0 (the limit is what fails).
 TEST(GroundWriteErrors, DatasetFullDiskExitsOneNamingTheFile) {
-  const Dataset d = readDataset(tinyDataset());
+  const Dataset d = readDataset(writeErrorsDataset());
   const std::string dir = test::scratchDir("ground-write-errors-full");
   const std::string out = dir + "/out", err = dir + "/stderr.txt";
-  const int code = runGround({"--dataset", tinyDataset(), "--out", out, "--no-products"}, 16 * 1024, err);
+  const int code =
+      runGround({"--dataset", writeErrorsDataset(), "--out", out, "--no-products"}, 16 * 1024, err);
   const std::string text = test::fileBytes(err);
   std::printf("\nareomap-ground under a 16 KiB file-size limit: exit %d; stderr tail:\n%s\n", code,
               text.substr(text.size() > 600 ? text.size() - 600 : 0).c_str());
@@ -100,20 +101,21 @@ TEST(GroundWriteErrors, DatasetFullDiskExitsOneNamingTheFile) {
   CHECK(test::fileExists(out + "/report.json"));
   CHECK(test::temporariesIn(out).empty());
   const std::string ok_out = dir + "/out-unlimited";
-  CHECK_EQUAL(0, runGround({"--dataset", tinyDataset(), "--out", ok_out, "--no-products"}, 0, dir + "/stderr-ok.txt"));
+  CHECK_EQUAL(0, runGround({"--dataset", writeErrorsDataset(), "--out", ok_out, "--no-products"}, 0,
+                           dir + "/stderr-ok.txt"));
   CHECK(test::fileExists(ok_out + "/tiepoints.csv"));
 }
 
 // The stream mode (a recorded camera stream re-made with --lcm file://) into a folder where eo.csv's place
 // is taken by a folder: exit 1 naming eo.csv; the other products are made.
 TEST(GroundWriteErrors, StreamUnwritableProductExitsOne) {
-  const Dataset d = readDataset(tinyDataset());
+  const Dataset d = readDataset(writeErrorsDataset());
   const std::string dir = test::scratchDir("ground-write-errors-stream");
   const std::string log = dir + "/stream.lcm", out = dir + "/out", err = dir + "/stderr.txt";
   {
     ground::EventRecorder recorder;
     recorder.open(log);
-    for (const LogEvent& e : test::packedStream(tinyDataset())) {
+    for (const LogEvent& e : test::packedStream(writeErrorsDataset())) {
       recorder.record(e.channel.c_str(), e.data.data(), e.data.size());
     }
   }

@@ -58,7 +58,7 @@ double elevation(const Rig& rig, double n, double e) {
 }
 
 // The camera of pair `k`, side -1 (left) or +1 (right).
-CameraModel camera(const Rig& rig, int k, int side) {
+CameraModel seamCamera(const Rig& rig, int k, int side) {
   const double yaw = (rig.yaw0_deg + 360.0 * k / rig.pairs) * M_PI / 180.0;
   const double pitch = rig.tilt_deg * M_PI / 180.0;
   const Vec3 a(std::cos(pitch) * std::cos(yaw), std::cos(pitch) * std::sin(yaw), std::sin(pitch));
@@ -78,7 +78,7 @@ CameraModel camera(const Rig& rig, int k, int side) {
 }
 
 // Each pixel's ray intersected with the plane (z = -elevation, z down), the texture there.
-cv::Mat render(const Rig& rig, const Texture& tex, const CameraModel& m) {
+cv::Mat renderSeamView(const Rig& rig, const Texture& tex, const CameraModel& m) {
   cv::Mat img(m.height, m.width, CV_8U, cv::Scalar(0));
   for (int y = 0; y < m.height; ++y) {
     for (int x = 0; x < m.width; ++x) {
@@ -148,8 +148,8 @@ SeamFigures measure(const Rig& rig) {
   std::vector<double> field;
   for (int k = 0; k < rig.pairs; ++k) {
     for (int side : {-1, 1}) {
-      src.push_back({cv::Mat(), camera(rig, k, side)});
-      src.back().grey = render(rig, tex, src.back().model);
+      src.push_back({cv::Mat(), seamCamera(rig, k, side)});
+      src.back().grey = renderSeamView(rig, tex, src.back().model);
       field.push_back(fieldAngle(src.back().model));
     }
   }

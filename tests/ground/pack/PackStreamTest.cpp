@@ -27,7 +27,7 @@ SimpleString StringFrom(areomap::Status status) {
 
 namespace {
 
-const std::string& tinyDataset() {
+const std::string& packStreamDataset() {
   CHECK(!test::tinyPackDataset().empty());
   return test::tinyPackDataset();
 }
@@ -39,7 +39,7 @@ TEST_GROUP(PackStream){};
 // One event per pair in order, sequence numbers 0..n-1, the marker last, timestamps interval_s apart,
 // decodable JPEGs of the image size, rig values equal to what setRigConstraints estimates.
 TEST(PackStream, TinyStreamIsOrderedAndComplete) {
-  const Dataset dataset = readDataset(tinyDataset());
+  const Dataset dataset = readDataset(packStreamDataset());
   const std::vector<LogEvent>& events = test::tinyPackStream();
   CHECK_EQUAL(dataset.pairs.size() + 1, events.size());
   platform::TurboJpegCodec codec;
@@ -82,6 +82,6 @@ TEST(RoverTool, ReplaysALogAndExits) {
   CHECK_EQUAL(0, test::runTool("areomap-rover", "--lcm file://" + dir + "/tiny.lcm --quiet"));
   CHECK_EQUAL(0, test::runTool("areomap-rover", "--help"));
   CHECK_EQUAL(2, test::runTool("areomap-rover", ""));
-  CHECK_EQUAL(2, test::runTool("areomap-pack", tinyDataset()));
+  CHECK_EQUAL(2, test::runTool("areomap-pack", packStreamDataset()));
   CHECK_EQUAL(1, test::runTool("areomap-pack", dir + "/missing --out " + dir + "/x.lcm"));
 }

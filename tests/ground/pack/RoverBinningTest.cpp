@@ -34,7 +34,7 @@ using namespace areomap;
 
 namespace {
 
-RoverNode& rover() {
+RoverNode& binningRover() {
   return test::harnessRover();
 }
 
@@ -50,7 +50,7 @@ struct Published {
   uint64_t pipeline_allocs = 0;
 };
 
-void onTies(void* ctx, const char*, const uint8_t* data, std::size_t size) {
+void onBinningTies(void* ctx, const char*, const uint8_t* data, std::size_t size) {
   tiepoints_t m;
   if (!ok(msgs::decodeMessage(data, size, m))) return;
   for (int32_t i = 0; i < m.num_observations; ++i) {
@@ -59,21 +59,21 @@ void onTies(void* ctx, const char*, const uint8_t* data, std::size_t size) {
     static_cast<Published*>(ctx)->ties[stem][m.point_id[k]] = Vec2(m.sample_px[k], m.line_px[k]);
   }
 }
-void onEo(void* ctx, const char*, const uint8_t* data, std::size_t size) {
+void onBinningEo(void* ctx, const char*, const uint8_t* data, std::size_t size) {
   (void)msgs::decodeMessage(data, size, static_cast<Published*>(ctx)->eo);
 }
-void onStatus(void* ctx, const char*, const uint8_t* data, std::size_t size) {
+void onBinningStatus(void* ctx, const char*, const uint8_t* data, std::size_t size) {
   auto* out = static_cast<Published*>(ctx);
   if (ok(msgs::decodeMessage(data, size, out->status))) out->errors.push_back(out->status.last_error);
 }
 
 // Every event into the node, what it published captured.
-Published runRover(const std::vector<LogEvent>& events) {
+Published runBinningRover(const std::vector<LogEvent>& events) {
   Published out;
   out.pipeline_allocs = test::feedRover(events, [&out](platform::MemoryTransport& outbox) {
-    CHECK(ok(outbox.subscribe(channels::kTiePoints, onTies, &out)));
-    CHECK(ok(outbox.subscribe(channels::kEoSolution, onEo, &out)));
-    CHECK(ok(outbox.subscribe(channels::kRoverStatus, onStatus, &out)));
+    CHECK(ok(outbox.subscribe(channels::kTiePoints, onBinningTies, &out)));
+    CHECK(ok(outbox.subscribe(channels::kEoSolution, onBinningEo, &out)));
+    CHECK(ok(outbox.subscribe(channels::kRoverStatus, onBinningStatus, &out)));
   });
   return out;
 }
@@ -117,8 +117,8 @@ TEST_GROUP(RoverBinning){};
 TEST(RoverBinning, TilePairIsBinnedMappedAndCounted) {
   const CameraModel left = test::tile(false, 0.0, 0.0), right = test::tile(true, 0.0, 0.0);
   const std::vector<LogEvent> events = packed(renderedPair("tile", left, right, 21));
-  const Published out = runRover(events);
-  const RoverCounters& k = rover().counters();
+  const Published out = runBinningRover(events);
+  const RoverCounters& k = binningRover().counters();
   LONGS_EQUAL(1, k.pairs_binned);
   LONGS_EQUAL(1, k.pairs_accepted);
   LONGS_EQUAL(0, k.pairs_rejected);
@@ -191,8 +191,8 @@ TEST(RoverBinning, TilePairIsBinnedMappedAndCounted) {
 TEST(RoverBinning, FrameBeyondTheLargestBinningIsRefused) {
   const CameraModel left = test::tile(false, 0.0, 0.0), right = test::tile(true, 0.0, 0.0);
   const std::vector<LogEvent> events = injectFaults(packed(renderedPair("tile", left, right, 21)), "oversize:0");
-  const Published out = runRover(events);
-  const RoverCounters& k = rover().counters();
+  const Published out = runBinningRover(events);
+  const RoverCounters& k = binningRover().counters();
   std::printf("\nrover on a %d-px-wide frame: %s\n", static_cast<int>(kMaxBinnedSourceWidth + 1),
               out.errors.empty() ? "" : out.errors.front().c_str());
   LONGS_EQUAL(0, k.pairs_binned);

@@ -24,21 +24,21 @@ using namespace areomap;
 
 namespace {
 
-RoverNode& rover() {
+RoverNode& heldRigRover() {
   return test::harnessRover();
 }
 
 // Every event of the stream straight into the node (its publications go to a memory outbox nobody reads).
-void runRover(const std::vector<LogEvent>& events) {
+void runHeldRigRover(const std::vector<LogEvent>& events) {
   (void)test::feedRover(events, [](platform::MemoryTransport&) {});
-  CHECK(rover().counters().finished);
+  CHECK(heldRigRover().counters().finished);
 }
 
 // The rover's final EO against the dataset's true models (datum removed), pixel equivalent at 5 m.
 double roverEoError(const Dataset& dataset) {
-  const Network& net = rover().network();
+  const Network& net = heldRigRover().network();
   ground::NetworkSource source;
-  for (int32_t i = 0; i < net.imageCount(); ++i) source.stems.push_back(rover().stemOfImage(i));
+  for (int32_t i = 0; i < net.imageCount(); ++i) source.stems.push_back(heldRigRover().stemOfImage(i));
   const ground::NetworkTruth truth = ground::loadNetworkTruth(dataset, source, false);
   CHECK(truth.available);
   return truthErrors(net, truth.centres.data(), truth.rotations.data(), nullptr, net.rig.gimbal_m[0], true,
@@ -65,8 +65,8 @@ TEST(RoverHeldRig, RoverHoldsTheConstraintsOfADatasetWithoutSigmas) {
       d.rig.sigma_base_m = 5e-4;
     }
     writeDataset(d, dir);
-    runRover(test::packedStream(dir));
-    const Network& net = rover().network();
+    runHeldRigRover(test::packedStream(dir));
+    const Network& net = heldRigRover().network();
     const ConstraintMisfit m = networkMisfit(net);
     misfit[k] = std::fmax(m.gimbal_m, m.base_m);
     eo[k] = roverEoError(readDataset(dir));
@@ -75,7 +75,7 @@ TEST(RoverHeldRig, RoverHoldsTheConstraintsOfADatasetWithoutSigmas) {
         "%.4f mm, EO vs truth %.4f px, rms %.4f px\n",
         k == 0 ? "no sigmas in panorama.json" : "sigmas 1 mm / 0.5 mm given", net.imageCount(),
         net.pointCount(), net.rig.hold_gimbal, net.rig.hold_base, net.rig.sigma_gimbal_m,
-        net.rig.sigma_base_m, m.gimbal_m * 1e3, m.base_m * 1e3, eo[k], rover().counters().last_rms_px);
+        net.rig.sigma_base_m, m.gimbal_m * 1e3, m.base_m * 1e3, eo[k], heldRigRover().counters().last_rms_px);
     CHECK(m.base_m > 0.0);
     if (k == 0) {
       CHECK(net.rig.hold_gimbal && net.rig.hold_base);

@@ -15,7 +15,7 @@ using namespace areomap;
 
 namespace {
 
-NetImage camera(const Vec3& centre, double pan_rad, double tilt_rad) {
+NetImage netCamera(const Vec3& centre, double pan_rad, double tilt_rad) {
   NetImage im;
   im.io.f_px = 1200.0;
   im.io.x0_px = 512.0;
@@ -62,8 +62,8 @@ TEST(CameraHeightError, GradientMatchesNumericDifferences) {
   double worst = 0.0;
   for (double range : {3.0, 8.0, 15.0}) {
     for (double pan : {0.0, 0.7}) {
-      const NetImage l = camera(gimbal + Vec3(0.0, -0.1, 0.0), pan, 0.3);
-      NetImage r = camera(gimbal + Vec3(0.0, 0.1, 0.0), pan, 0.3);
+      const NetImage l = netCamera(gimbal + Vec3(0.0, -0.1, 0.0), pan, 0.3);
+      NetImage r = netCamera(gimbal + Vec3(0.0, 0.1, 0.0), pan, 0.3);
       applyCameraUpdate((Vec6() << 0.0, 0.0, 0.0, 0.001, -0.002, 0.0005).finished(), r.centre_m, r.m);
       const Vec3 point(range * std::cos(pan), range * std::sin(pan), 0.05);  // on the ground (Z down)
       Vec2 pl, pr;
@@ -96,8 +96,8 @@ TEST(CameraHeightError, GradientMatchesNumericDifferences) {
 }
 
 TEST(CameraHeightError, NoGradientBehindACamera) {
-  const NetImage l = camera(Vec3(0.0, -0.1, -1.5), 0.0, 0.3);
-  const NetImage r = camera(Vec3(0.0, 0.1, -1.5), 0.0, 0.3);
+  const NetImage l = netCamera(Vec3(0.0, -0.1, -1.5), 0.0, 0.3);
+  const NetImage r = netCamera(Vec3(0.0, 0.1, -1.5), 0.0, 0.3);
   double g[12];
   CHECK_FALSE(products::heightGradient(l, r, Vec3(-5.0, 0.0, 0.0), g));
 }

@@ -46,7 +46,7 @@ const TinyScene& tinyScene() {
   return scene;
 }
 
-std::string readBytes(const std::string& path) {
+std::string readSimImageFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
@@ -57,7 +57,7 @@ int runSim(const std::string& args, std::string& err) {
   const std::string build = std::filesystem::path(dir).parent_path().parent_path().string();
   const std::string command = build + "/bin/areomap-sim " + args + " 2> " + dir + "/err.txt > /dev/null";
   const int status = std::system(command.c_str());
-  err = readBytes(dir + "/err.txt");
+  err = readSimImageFile(dir + "/err.txt");
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }
 
@@ -152,10 +152,10 @@ TEST(SimImages, SameSeedSameBytesWhateverTheThreadCount) {
   for (const auto& entry : std::filesystem::recursive_directory_iterator(a)) {
     if (!entry.is_regular_file()) continue;
     const std::string rel = std::filesystem::relative(entry.path(), a).string();
-    const std::string bytes = readBytes(entry.path().string());
+    const std::string bytes = readSimImageFile(entry.path().string());
     CHECK(!bytes.empty());
-    if (bytes != readBytes(b + "/" + rel)) FAIL(("differs between 1 and 3 threads: " + rel).c_str());
-    if (rel.rfind("images/", 0) == 0 && bytes != readBytes(d + "/" + rel)) ++differ_other_seed;
+    if (bytes != readSimImageFile(b + "/" + rel)) FAIL(("differs between 1 and 3 threads: " + rel).c_str());
+    if (rel.rfind("images/", 0) == 0 && bytes != readSimImageFile(d + "/" + rel)) ++differ_other_seed;
     ++files;
   }
   printf(

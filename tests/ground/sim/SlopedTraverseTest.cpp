@@ -93,7 +93,7 @@ double angleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 }
 
 // The rotation rows [H'; -V'; -A] of a CAHVOR model.
-Eigen::Matrix3d rotationOf(const CameraModel& m) {
+Eigen::Matrix3d slopedRotationOf(const CameraModel& m) {
   const Eigen::Vector3d a = m.a.normalized();
   const Eigen::Vector3d h = (m.h - m.h.dot(a) * a).normalized(), v = (m.v - m.v.dot(a) * a).normalized();
   Eigen::Matrix3d r;
@@ -103,12 +103,12 @@ Eigen::Matrix3d rotationOf(const CameraModel& m) {
   return r;
 }
 
-std::string readBytes(const std::string& path) {
+std::string readSlopedFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-RenderedImage loadRendered(const std::string& path) {
+RenderedImage loadSlopedRendered(const std::string& path) {
   const cv::Mat m = io::loadImage8(path);
   RenderedImage im;
   im.width = m.cols;
@@ -148,7 +148,7 @@ TEST(SlopedTraverse, EachRoverStandsOnTheTerrainTiltedByItsWheelsWithTheMastAbov
     // The true gimbal from a true model and the rig's offset (Eq. 3), in the traverse frame: mast_m above
     // a base point on the rover's up axis, that base within a few cm of the terrain under the centre.
     const Eigen::Vector3d gimbal =
-        pose.toTraverse(left.c - rotationOf(left).transpose() * *ds.rig.left_offset_m);
+        pose.toTraverse(left.c - slopedRotationOf(left).transpose() * *ds.rig.left_offset_m);
     const Eigen::Vector3d base = gimbal + mast_m * down;
     worst_gimbal = std::max(worst_gimbal, (base.head<2>() - pose.position_m.head<2>()).norm());
     for (const auto& wheel : kWheelContacts) {
@@ -228,14 +228,14 @@ TEST(SlopedTraverse, TraverseJsonCarriesTheImuAttitudeAndTheTruthTheTrueOne) {
     const Dataset ds = readDataset(t.sites[k].dir);
     const CameraModel apriori =
         io::readCameraModelFile(t.sites[k].dir + "/models/" + ds.pairs[0].left.stem + ".cahvor");
-    const Eigen::Vector3d gimbal = apriori.c - rotationOf(apriori).transpose() * *ds.rig.left_offset_m;
+    const Eigen::Vector3d gimbal = apriori.c - slopedRotationOf(apriori).transpose() * *ds.rig.left_offset_m;
     CHECK((gimbal - ds.rig.gimbal_m.begin()->second).norm() < 1e-6);
     const Eigen::Vector3d mast = t.sites[k].attitude->rotation() * Eigen::Vector3d(0, 0, -1);
     const Eigen::Vector3d true_mast = truth.attitudes[k]->rotation() * Eigen::Vector3d(0, 0, -1);
     const CameraModel true_left = io::readCameraModelFile(t.sites[k].dir + "/" + kTruthModelsFolder + "/" +
                                                           ds.pairs[0].left.stem + ".cahvor");
     const Eigen::Vector3d true_gimbal =
-        true_left.c - rotationOf(true_left).transpose() * *ds.rig.left_offset_m;
+        true_left.c - slopedRotationOf(true_left).transpose() * *ds.rig.left_offset_m;
     // Both gimbals on their mast from one base: base = gimbal - mast_m * up.
     const double mast_m = slopedTraverse().site.mast_m;
     CHECK(((gimbal - mast_m * mast) - (true_gimbal - mast_m * true_mast)).norm() < 1e-6);
@@ -266,7 +266,7 @@ TEST(SlopedTraverse, TheTrueModelsSeeWhatTheRendererDrew) {
         models[side->stem] = movedModel(m, pose.rotation(), pose.toTraverse(m.c));
         const Eigen::Matrix3d back = pose.rotation() * attitude.transpose();
         levelled[side->stem] = movedModel(m, back, pose.toTraverse(m.c));
-        images[side->stem] = loadRendered(side->image_path);
+        images[side->stem] = loadSlopedRendered(side->image_path);
       }
     }
     std::map<int64_t, std::vector<ImageObservation>> by_point;
@@ -346,15 +346,15 @@ TEST(SlopedTraverse, TheToolTakesTheSlopeOptionsOnlyForATraverse) {
   // A level traverse writes no attitude, and its files read as before.
   CHECK_EQUAL(0, test::runTool("areomap-sim", traverse + "--out " + dir + "/level"));
   CHECK(!readTraverse(dir + "/level").sites[1].attitude.has_value());
-  CHECK(readBytes(dir + "/level/" + kTraverseFileName).find("attitude") == std::string::npos);
-  CHECK(readBytes(dir + "/level/" + kTraverseTruthFile).find("attitude") == std::string::npos);
+  CHECK(readSlopedFile(dir + "/level/" + kTraverseFileName).find("attitude") == std::string::npos);
+  CHECK(readSlopedFile(dir + "/level/" + kTraverseTruthFile).find("attitude") == std::string::npos);
   CHECK_EQUAL(2, test::runTool("areomap-sim", traverse + "--tilt-sigma-deg 0.5 --out " + dir + "/bad"));
   CHECK_EQUAL(2, test::runTool("areomap-sim", traverse + "--max-slope-deg 50 --out " + dir + "/bad"));
   CHECK_EQUAL(2, test::runTool("areomap-sim", "--preset tiny --max-slope-deg 5 --out " + dir + "/bad"));
   CHECK(!test::fileExists(dir + "/bad/traverse.json"));
   const std::string help = dir + "/help.txt";
   CHECK_EQUAL(0, std::system((test::toolPath("areomap-sim") + " --help > " + help).c_str()));
-  const std::string text = readBytes(help);
+  const std::string text = readSlopedFile(help);
   CHECK(text.find("--max-slope-deg") != std::string::npos);
   CHECK(text.find("--tilt-sigma-deg") != std::string::npos);
 }

@@ -12,7 +12,7 @@ using namespace areomap::sim;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
+constexpr double kPlanRadPerDeg = M_PI / 180.0;
 constexpr int kSeeds = 500;
 
 // A pose's site point in the traverse frame, written out (not through SitePose): heading clockwise from
@@ -73,16 +73,16 @@ TEST(TraversePlan, SitesAre10To30MApartAlongAWindingPath) {
       DOUBLES_EQUAL(0.0, plan.truth[k].position_m.z(), 0.0);  // flat ground
       const double turn = std::fabs(wrapAngle(plan.truth[k].heading_rad - plan.truth[k - 1].heading_rad));
       largest_turn = std::max(largest_turn, turn);
-      if (turn > 20.0 * kDeg) ++turns_above_20;
+      if (turn > 20.0 * kPlanRadPerDeg) ++turns_above_20;
       ++legs;
       STRCMP_EQUAL(plan.ids[k - 1].c_str(), plan.legs[k - 1].from.c_str());
     }
   }
   printf("\n%d legs: %.2f to %.2f m, largest turn %.1f deg, %.0f %% of turns above 20 deg\n", legs, shortest,
-         longest, largest_turn / kDeg, 100.0 * turns_above_20 / legs);
+         longest, largest_turn / kPlanRadPerDeg, 100.0 * turns_above_20 / legs);
   CHECK(shortest >= 10.0 && shortest < 10.5);
   CHECK(longest <= 30.0 && longest > 29.5);
-  CHECK(largest_turn <= 40.0 * kDeg + 1e-12);
+  CHECK(largest_turn <= 40.0 * kPlanRadPerDeg + 1e-12);
   DOUBLES_EQUAL(0.5, static_cast<double>(turns_above_20) / legs, 0.06);  // uniform in +-40 degrees
 }
 
@@ -103,7 +103,7 @@ TEST(TraversePlan, OdometryErrorsAreUnitNormalInTheirSigmas) {
       DOUBLES_EQUAL(0.05 * d, leg.sigma_m.x(), 1e-12);
       DOUBLES_EQUAL(0.05 * d, leg.sigma_m.y(), 1e-12);
       DOUBLES_EQUAL(0.01 * d, leg.sigma_m.z(), 1e-12);
-      DOUBLES_EQUAL(2.0 * kDeg, leg.sigma_heading_rad, 1e-15);
+      DOUBLES_EQUAL(2.0 * kPlanRadPerDeg, leg.sigma_heading_rad, 1e-15);
       const Eigen::Vector3d truth = toSite(plan.truth[k - 1], plan.truth[k].position_m);
       const double e[4] = {
           (leg.delta_m.x() - truth.x()) / leg.sigma_m.x(), (leg.delta_m.y() - truth.y()) / leg.sigma_m.y(),
@@ -146,9 +146,9 @@ TEST(TraversePlan, AprioriPosesChainTheOdometryAsARandomWalk) {
     }
   }
   // The heading error after k legs has variance k sigma^2 (a random walk); the position error grows.
-  const double sigma = settings.heading_drift_deg * kDeg;
+  const double sigma = settings.heading_drift_deg * kPlanRadPerDeg;
   printf("\nheading error sd after 1..4 legs (deg):");
-  for (int k = 1; k < 5; ++k) printf(" %.2f", std::sqrt(heading_error[k].variance()) / kDeg);
+  for (int k = 1; k < 5; ++k) printf(" %.2f", std::sqrt(heading_error[k].variance()) / kPlanRadPerDeg);
   printf("; horizontal position error RMS (m):");
   for (int k = 1; k < 5; ++k) printf(" %.2f", std::sqrt(position_error2[k].mean()));
   printf("\n");
@@ -332,7 +332,7 @@ TEST(TraversePlan, ARoverOnAPlaneTakesThePlanesTilt) {
   for (double heading_deg : {0.0, 37.0, 135.0, -100.0}) {
     SitePose pose;
     pose.position_m = Eigen::Vector3d(4.0, -3.0, 0.5);
-    pose.heading_rad = heading_deg * kDeg;
+    pose.heading_rad = heading_deg * kPlanRadPerDeg;
     const RoverStance stance = standOnGround(pose, plane);
     const Eigen::Vector3d down = pose.rotation() * stance.truth.rotation() * Eigen::Vector3d::UnitZ();
     CHECK((down - down_normal).norm() < 1e-12);
@@ -360,8 +360,8 @@ TEST(TraversePlan, TheImuTiltErrorIsUnitNormalInItsSigma) {
   for (int seed = 0; seed < kSeeds; ++seed) {
     const TraversePlan plan = planTraverse(s, static_cast<uint64_t>(seed), ground);
     for (const RoverStance& stance : plan.stances) {
-      const double dr = (stance.apriori.roll_rad - stance.truth.roll_rad) / kDeg;
-      const double dp = (stance.apriori.pitch_rad - stance.truth.pitch_rad) / kDeg;
+      const double dr = (stance.apriori.roll_rad - stance.truth.roll_rad) / kPlanRadPerDeg;
+      const double dp = (stance.apriori.pitch_rad - stance.truth.pitch_rad) / kPlanRadPerDeg;
       roll.add(dr);
       pitch.add(dp);
       cross += dr * dp;

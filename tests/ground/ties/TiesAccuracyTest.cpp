@@ -40,7 +40,7 @@ std::string simulate(const std::string& name, const std::string& args, int seed 
   return dir;
 }
 
-struct Outcome {
+struct AccuracyOutcome {
   TieCheck check;
   AdjustOutcome adjust;
   double eo_before_px = 0.0;
@@ -48,11 +48,11 @@ struct Outcome {
 };
 
 // The steps of `areomap-ties DATASET --adjust`, then the comparison with the true models.
-Outcome tiesAndAdjustment(const std::string& dir, const char* name) {
+AccuracyOutcome tiesAndAdjustment(const std::string& dir, const char* name) {
   const Dataset dataset = readDataset(dir);
   TieNetwork network;
   const TieRun run = runTiePoints(io::loadPanorama(dataset), false, &network);
-  Outcome out;
+  AccuracyOutcome out;
   out.check = checkTiesAgainstTruth(dataset, run);
   const TieCheck& c = out.check;
   std::printf("\n%s: %zu points, %d intra + %d inter observations; %.2f %% of %d within 1 px (inter %.2f %% of %d); "
@@ -84,7 +84,7 @@ Outcome tiesAndAdjustment(const std::string& dir, const char* name) {
   return out;
 }
 
-void checkIssueBounds(const Outcome& out, int min_adjacent) {
+void checkIssueBounds(const AccuracyOutcome& out, int min_adjacent) {
   const TieCheck& c = out.check;
   CHECK(c.checked >= 500);
   CHECK(c.within_1px >= 0.98 * c.checked);
@@ -105,7 +105,7 @@ TEST_GROUP(TiesNavcamAdjustment){};
 TEST(TiesNavcamAdjustment, AutomaticTiesLinkEveryAdjacentPairAndTheAdjustmentMeetsTheBound) {
   const std::string dir = simulate("ties-navcam", "--preset navcam --pairs 3 --size 384 384");
   CHECK(!dir.empty());
-  const Outcome out = tiesAndAdjustment(dir, "navcam 3 pairs 384x384");
+  const AccuracyOutcome out = tiesAndAdjustment(dir, "navcam 3 pairs 384x384");
   checkIssueBounds(out, 2);
 }
 
@@ -151,7 +151,7 @@ TEST(TiesImpLong, AutomaticTiesLinkEveryAdjacentPairInAndAcrossTiersAndTheAdjust
     const std::string dir = simulate("ties-imp", "--preset imp", seed);
     CHECK(!dir.empty());
     const std::string name = "imp seed " + std::to_string(seed);
-    const Outcome out = tiesAndAdjustment(dir, name.c_str());
+    const AccuracyOutcome out = tiesAndAdjustment(dir, name.c_str());
     // Two 32-pair rings and their cross-tier links (the truth's adjacency: >= 10 shared check points).
     checkIssueBounds(out, 64);
   }
