@@ -23,6 +23,32 @@ const char* crossTieStatusName(CrossTieStatus status) {
   return "unknown";
 }
 
+CrossTieCounts& CrossTieCounts::operator+=(const CrossTieCounts& o) {
+  for (int CrossTieCounts::*field : {&CrossTieCounts::interest_points,
+                                     &CrossTieCounts::on_both_dems,
+                                     &CrossTieCounts::predicted,
+                                     &CrossTieCounts::outside_image,
+                                     &CrossTieCounts::beyond_range,
+                                     &CrossTieCounts::grazing,
+                                     &CrossTieCounts::occluded,
+                                     &CrossTieCounts::scale_gate,
+                                     &CrossTieCounts::too_uncertain,
+                                     &CrossTieCounts::patch_outside,
+                                     &CrossTieCounts::low_ncc,
+                                     &CrossTieCounts::ambiguous,
+                                     &CrossTieCounts::edge_peak,
+                                     &CrossTieCounts::lsm_diverged,
+                                     &CrossTieCounts::back_failed,
+                                     &CrossTieCounts::matched,
+                                     &CrossTieCounts::back_matched,
+                                     &CrossTieCounts::ties_before_check,
+                                     &CrossTieCounts::rejected_observations,
+                                     &CrossTieCounts::rejected_ties,
+                                     &CrossTieCounts::off_dem_ties})
+    this->*field += o.*field;
+  return *this;
+}
+
 int CrossTieResult::observationCount() const {
   int n = 0;
   for (const CrossTie& t : ties) n += static_cast<int>(t.observations.size());
@@ -49,7 +75,8 @@ void matchRegistered(const SiteProducts& a, const SiteProducts& b, const CrossTi
   const RelativePose registered = out.registration.a_from_b;
   CrossTieParams wide = params;
   wide.patch.radius_px = params.second_pass ? params.first_radius_px : params.patch.radius_px;
-  matchTies(a, b, registered, out.registration.covariance, wide, first_point,
+  const SourcePoints points = sourcePoints(b, params);
+  matchTies(a, b, points, registered, out.registration.covariance, wide, first_point,
             params.second_pass ? params.first_pass_stride : 1, out);
   out.counts.ties_before_check = static_cast<int>(out.ties.size());
   checkTies(a, b, registered, params, out);
@@ -62,7 +89,7 @@ void matchRegistered(const SiteProducts& a, const SiteProducts& b, const CrossTi
     narrow.patch.radius_px = params.second_radius_px;
     out.counts = CrossTieCounts{};
     out.counts_in_a = CrossTieCounts{};
-    matchTies(a, b, first, first_cov, narrow, first_point, 1, out);
+    matchTies(a, b, points, first, first_cov, narrow, first_point, 1, out);
     out.counts.ties_before_check = static_cast<int>(out.ties.size());
     checkTies(a, b, first, narrow, out);
   }

@@ -109,7 +109,8 @@ struct CrossTieCounts {
   int ties_before_check = 0;
   int rejected_observations = 0;  // by the geometric check
   int rejected_ties = 0;
-  int off_dem_ties = 0;  // triangulated off either DEM
+  int off_dem_ties = 0;                                     // triangulated off either DEM
+  CrossTieCounts& operator+=(const CrossTieCounts& other);  // every count summed
 };
 
 struct CrossTieResult {

@@ -11,6 +11,7 @@
 
 #include "firmware_core/base/Angles.hpp"
 #include "firmware_core/match/ForstnerDetector.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/traverse/CrossTieSteps.hpp"
 
 namespace areomap::traverse {
@@ -82,6 +83,10 @@ Eigen::Vector3d turned(const RelativePose& a_from_b, bool from_a, bool to_a, con
 
 // Most steps of the local ray-DEM search (each half a DEM cell): 4 m either side at 5 cm cells.
 constexpr int kMaxSurfaceSteps = 160;
+// Most regula falsi steps on the bracket of the crossing, and the height above the surface (m) taken as
+// on it: far below what a pixel sees.
+constexpr int kCrossingSteps = 12;
+constexpr double kCrossingTolerance = 1e-7;
 
 // One image's pixel to another's through a site's DEM: the pixel's ray meets the DEM near the tie's point
 // (the first crossing from above, searched from the point's distance along the ray), projected into the
@@ -123,20 +128,39 @@ class DemSurface : public PatchSurface {
       h = above(t, valid);
       if (!valid || t <= 0.0) return false;
     }
-    double lo = t, hi = t;
+    double lo = t, hi = t, h_lo = h, h_hi = h;
     for (k = 0; k < kMaxSurfaceSteps; ++k) {
       hi = lo + step;
-      h = above(hi, valid);
+      h_hi = above(hi, valid);
       if (!valid) return false;
-      if (h <= 0.0) break;
+      if (h_hi <= 0.0) break;
       lo = hi;
+      h_lo = h_hi;
     }
     if (k == kMaxSurfaceSteps) return false;
-    for (int it = 0; it < 20; ++it) {
-      const double mid = 0.5 * (lo + hi);
-      (above(mid, valid) > 0.0 ? lo : hi) = mid;
+    // The crossing within the bracket by regula falsi with the Illinois step (the end kept twice has its
+    // height halved), which keeps the bracket and converges in a few steps on the piecewise bilinear
+    // surface, until the ray is within kCrossingTolerance of it.
+    double crossing = 0.5 * (lo + hi);
+    int kept = 0;  // +1: lo kept last, -1: hi kept last
+    for (int it = 0; it < kCrossingSteps; ++it) {
+      if (!(h_lo - h_hi > 0.0)) break;
+      crossing = lo + (hi - lo) * h_lo / (h_lo - h_hi);
+      const double h_at = above(crossing, valid);
+      if (!valid || std::fabs(h_at) < kCrossingTolerance) break;
+      if (h_at > 0.0) {
+        lo = crossing;
+        h_lo = h_at;
+        if (kept == -1) h_hi *= 0.5;
+        kept = -1;
+      } else {
+        hi = crossing;
+        h_hi = h_at;
+        if (kept == 1) h_lo *= 0.5;
+        kept = 1;
+      }
     }
-    const Eigen::Vector3d hit = moved(pose_, dem_a_, to_a_, o + 0.5 * (lo + hi) * d);
+    const Eigen::Vector3d hit = moved(pose_, dem_a_, to_a_, o + crossing * d);
     Vec2 px;
     if (!ok(project(to_, hit, px))) return false;
     j_px = px;
@@ -272,6 +296,12 @@ bool derivedRadius(const SiteImage& target, const Eigen::Vector3d& p, bool in_a,
   return true;
 }
 
+// What one candidate's predictions refused, matched and back-matched: over every target image and over A's
+// alone.
+struct Tally {
+  CrossTieCounts all, in_a;
+};
+
 // What the candidate search of one pass shares.
 struct Pass {
   const SiteProducts& a;
@@ -287,12 +317,12 @@ struct Pass {
 // first that refuses it), matched on the DEM-warped grid and matched back. The observation goes into `tie`
 // when it holds; true then.
 bool matchIntoImage(const Pass& pass, const SiteImage& source, const SiteProducts& site, bool in_a,
-                    const SiteImage& target, const Candidate& c, CrossTie& tie, CrossTieResult& out) {
+                    const SiteImage& target, const Candidate& c, CrossTie& tie, Tally& tally) {
   const CrossTieParams& params = pass.params;
   const Eigen::Vector3d p = in_a ? c.pa : c.pb;
   auto bump = [&](int CrossTieCounts::*field) {
-    ++(out.counts.*field);
-    if (in_a) ++(out.counts_in_a.*field);
+    ++(tally.all.*field);
+    if (in_a) ++(tally.in_a.*field);
   };
   Vec2 pj;
   if (!ok(project(target.model, p, pj)) || !inside(target, pj, 2.0)) {
@@ -343,8 +373,8 @@ bool matchIntoImage(const Pass& pass, const SiteImage& source, const SiteProduct
   const PatchMatch m =
       matchWarpedPatch(source.pyramid, c.q, target.pyramid, pj, map, patch, use_surface ? &forward : nullptr);
   if (m.result != PatchResult::kOk) {
-    countRefusal(m.result, out.counts);
-    if (in_a) countRefusal(m.result, out.counts_in_a);
+    countRefusal(m.result, tally.all);
+    if (in_a) countRefusal(m.result, tally.in_a);
     return false;
   }
   bump(&CrossTieCounts::matched);
@@ -359,49 +389,80 @@ bool matchIntoImage(const Pass& pass, const SiteImage& source, const SiteProduct
     return false;
   }
   bump(&CrossTieCounts::back_matched);
-  tie.observations.push_back({tie.point, site.id, target.stem, m.j_px, false, m.ncc_final});
+  tie.observations.push_back({0, site.id, target.stem, m.j_px, false, m.ncc_final});
   return true;
 }
 
 }  // namespace
 
-void matchTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& pose,
-               const Eigen::Matrix4d& pose_cov, const CrossTieParams& params, int64_t first_point, int stride,
-               CrossTieResult& out) {
-  out.ties.clear();
-  auto workspace = std::make_unique<ForstnerWorkspace>();
+std::vector<std::vector<Eigen::Vector2d>> sourcePoints(const SiteProducts& b, const CrossTieParams& params) {
+  std::vector<std::vector<Eigen::Vector2d>> points(b.images.size());
   const int border = params.patch.half + 2;
+  cli::parallelFor(b.images.size(), 0, [&](std::size_t k) {
+    auto workspace = std::make_unique<ForstnerWorkspace>();
+    points[k] = interestPoints(b.images[k], params, border, *workspace);
+  });
+  return points;
+}
+
+void matchTies(const SiteProducts& a, const SiteProducts& b, const SourcePoints& points,
+               const RelativePose& pose, const Eigen::Matrix4d& pose_cov, const CrossTieParams& params,
+               int64_t first_point, int stride, CrossTieResult& out) {
+  out.ties.clear();
   Pass pass{a, b, pose, pose_cov, params};
   pass.sin_incidence = std::sin(params.min_incidence_deg * kDegToRad);
   pass.max_scale = params.max_scale_ratio > 0.0
                        ? params.max_scale_ratio
                        : std::sqrt(2.0) * static_cast<double>(1 << (kPyramidLevels - 1));
-  int64_t next_point = first_point;
-  for (const SiteImage& source : b.images) {
-    const std::vector<Eigen::Vector2d> points = interestPoints(source, params, border, *workspace);
-    out.counts.interest_points += static_cast<int>(points.size());
-    for (std::size_t n = 0; n < points.size(); n += static_cast<std::size_t>(stride)) {
-      Candidate c;
-      const bool cast = castCandidate(a, b, pose, params, source, points[n], pass.sin_incidence, c);
-      if (c.on_both_dems) ++out.counts.on_both_dems;
-      if (!cast) continue;
-      CrossTie tie;
-      tie.point = next_point;
-      tie.b_m = c.pb;
-      tie.observations.push_back({next_point, b.id, source.stem, c.q, true, 1.0});
-      bool any_a = false;
-      for (int side = 0; side < 2; ++side) {
-        const bool in_a = side == 0;
-        const SiteProducts& site = in_a ? a : b;
-        for (const SiteImage& target : site.images) {
-          if (&target == &source) continue;
-          if (matchIntoImage(pass, source, site, in_a, target, c, tie, out)) any_a = any_a || in_a;
-        }
+  // Every stride-th interest point of every source image, in image order: each is matched on its own (in
+  // parallel), and what they give is merged in this order, so that the ties and their point ids are the
+  // same for any thread count.
+  struct Item {
+    int image = 0;
+    std::size_t n = 0;
+  };
+  std::vector<Item> items;
+  for (std::size_t k = 0; k < b.images.size(); ++k) {
+    out.counts.interest_points += static_cast<int>(points[k].size());
+    for (std::size_t n = 0; n < points[k].size(); n += static_cast<std::size_t>(stride))
+      items.push_back({static_cast<int>(k), n});
+  }
+  struct Found {
+    bool on_both_dems = false;
+    bool any_a = false;
+    CrossTie tie;
+    Tally tally;
+  };
+  std::vector<Found> found(items.size());
+  cli::parallelFor(items.size(), 0, [&](std::size_t i) {
+    const SiteImage& source = b.images[items[i].image];
+    Found& f = found[i];
+    Candidate c;
+    const bool cast =
+        castCandidate(a, b, pose, params, source, points[items[i].image][items[i].n], pass.sin_incidence, c);
+    f.on_both_dems = c.on_both_dems;
+    if (!cast) return;
+    f.tie.b_m = c.pb;
+    f.tie.observations.push_back({0, b.id, source.stem, c.q, true, 1.0});
+    for (int side = 0; side < 2; ++side) {
+      const bool in_a = side == 0;
+      const SiteProducts& site = in_a ? a : b;
+      for (const SiteImage& target : site.images) {
+        if (&target == &source) continue;
+        if (matchIntoImage(pass, source, site, in_a, target, c, f.tie, f.tally)) f.any_a = f.any_a || in_a;
       }
-      if (!any_a) continue;
-      out.ties.push_back(std::move(tie));
-      ++next_point;
     }
+  });
+  int64_t next_point = first_point;
+  for (Found& f : found) {
+    if (f.on_both_dems) ++out.counts.on_both_dems;
+    out.counts += f.tally.all;
+    out.counts_in_a += f.tally.in_a;
+    if (!f.any_a) continue;
+    f.tie.point = next_point;
+    for (CrossTieObservation& o : f.tie.observations) o.point = next_point;
+    out.ties.push_back(std::move(f.tie));
+    ++next_point;
   }
 }
 

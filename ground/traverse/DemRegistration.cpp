@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 
 #include "firmware_core/base/Angles.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/traverse/OrthoRegistration.hpp"
 
 namespace areomap::traverse {
@@ -193,17 +194,17 @@ void coarseCosts(const SiteProducts& a, const DemGrid& coarse_a, const std::vect
   g.sx = 2 * g.nxy + 1;
   g.sh = 2 * g.nh + 1;
   g.cost.assign(static_cast<std::size_t>(g.sx) * g.sx * g.sh, std::numeric_limits<double>::infinity());
-  for (int k = 0; k < g.sh; ++k) {
-    for (int j = 0; j < g.sx; ++j) {
-      for (int i = 0; i < g.sx; ++i) {
-        const Moments m = moments(
-            a, coarse_a, coarse_samples,
-            shiftedPose(apriori, (i - g.nxy) * g.step_m, (j - g.nxy) * g.step_m, (k - g.nh) * g.step_rad),
-            params);
-        if (m.n >= min_coarse) g.cost[g.index(i, j, k)] = m.variance();
-      }
-    }
-  }
+  // Each candidate's cost into its own slot, in parallel.
+  const std::size_t per_heading = static_cast<std::size_t>(g.sx) * g.sx;
+  cli::parallelFor(g.cost.size(), 0, [&](std::size_t n) {
+    const int k = static_cast<int>(n / per_heading);
+    const int j = static_cast<int>(n % per_heading) / g.sx, i = static_cast<int>(n % per_heading) % g.sx;
+    const Moments m =
+        moments(a, coarse_a, coarse_samples,
+                shiftedPose(apriori, (i - g.nxy) * g.step_m, (j - g.nxy) * g.step_m, (k - g.nh) * g.step_rad),
+                params);
+    if (m.n >= min_coarse) g.cost[g.index(i, j, k)] = m.variance();
+  });
 }
 
 Candidate bestOf(const CoarseGrid& g) {
@@ -265,15 +266,19 @@ Candidate fineSearch(const SiteProducts& a, const SiteProducts& b, const Relativ
   fine.cost = std::numeric_limits<double>::infinity();
   const std::vector<Sample> fine_samples =
       samplesOf(b, b.dem, std::max(params.sample_spacing_m, 0.1), params);
-  for (int k = -6; k <= 6; ++k) {
-    for (int j = -6; j <= 6; ++j) {
-      for (int i = -6; i <= 6; ++i) {
-        const double dx = best.dx + g.step_m / 4.0 * i, dy = best.dy + g.step_m / 4.0 * j;
-        const double dh = best.dh + g.step_rad / 5.0 * k;
-        const Moments m = moments(a, a.dem, fine_samples, shiftedPose(apriori, dx, dy, dh), params);
-        if (m.n >= min_samples / 2 && m.variance() < fine.cost) fine = {dx, dy, dh, m.variance()};
-      }
-    }
+  // Every candidate's cost in parallel, then the best of them in the order of the grid (the first of equals).
+  constexpr int kSide = 13;
+  std::vector<Candidate> grid(static_cast<std::size_t>(kSide) * kSide * kSide);
+  cli::parallelFor(grid.size(), 0, [&](std::size_t n) {
+    const int k = static_cast<int>(n) / (kSide * kSide) - 6;
+    const int j = static_cast<int>(n) / kSide % kSide - 6, i = static_cast<int>(n) % kSide - 6;
+    const double dx = best.dx + g.step_m / 4.0 * i, dy = best.dy + g.step_m / 4.0 * j;
+    const double dh = best.dh + g.step_rad / 5.0 * k;
+    const Moments m = moments(a, a.dem, fine_samples, shiftedPose(apriori, dx, dy, dh), params);
+    grid[n] = {dx, dy, dh, m.n >= min_samples / 2 ? m.variance() : std::numeric_limits<double>::infinity()};
+  });
+  for (const Candidate& c : grid) {
+    if (c.cost < fine.cost) fine = c;
   }
   return fine;
 }

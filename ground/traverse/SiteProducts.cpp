@@ -2,11 +2,13 @@
 
 #include <cmath>
 #include <filesystem>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
 #include "ground/cli/Cli.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/CameraFile.hpp"
 #include "ground/io/ImageFile.hpp"
@@ -34,20 +36,26 @@ SiteProducts loadSite(const std::string& id, const Dataset& ds, const ImageOf& i
                       const ModelOf& model_of) {
   SiteProducts s;
   s.id = id;
+  std::vector<const ImageRef*> refs;
   for (std::size_t p = 0; p < ds.pairs.size(); ++p) {
     for (int side = 0; side < 2; ++side) {
       const ImageRef* ref =
           side == 0 ? &ds.pairs[p].left : (ds.pairs[p].right ? &*ds.pairs[p].right : nullptr);
       if (ref == nullptr) continue;
+      refs.push_back(ref);
       SiteImage im;
       im.stem = ref->stem;
       im.pair_index = static_cast<int>(p);
       im.right = side == 1;
-      im.pyramid = makePyramid(image_of(*ref));
-      im.model = model_of(*ref, im.pyramid[0].cols, im.pyramid[0].rows);
       s.images.push_back(std::move(im));
     }
   }
+  // Each image read and its pyramid made in parallel (the first failure by image order is thrown).
+  cli::parallelFor(refs.size(), 0, [&](std::size_t k) {
+    SiteImage& im = s.images[k];
+    im.pyramid = makePyramid(image_of(*refs[k]));
+    im.model = model_of(*refs[k], im.pyramid[0].cols, im.pyramid[0].rows);
+  });
   return s;
 }
 

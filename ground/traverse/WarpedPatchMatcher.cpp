@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <Eigen/Dense>
 
@@ -56,12 +57,79 @@ struct Footprint {
   }
 };
 
+// A bilinear sample of an image at a point (its pixel and the weights of its fraction), also moved by whole
+// pixels: the search steps a window by whole pixels with the weights kept. NaN outside the image.
+struct BilinearTap {
+  int c = 0, r = 0;
+  double fx = 0.0, fy = 0.0;
+  BilinearTap() = default;
+  explicit BilinearTap(const Eigen::Vector2d& p)
+      : c(static_cast<int>(std::floor(p.x()))), r(static_cast<int>(std::floor(p.y()))) {
+    fx = p.x() - c;
+    fy = p.y() - r;
+  }
+  double at(const cv::Mat& m, int dx, int dy) const {
+    const int cc = c + dx, rr = r + dy;
+    if (cc < 0 || rr < 0 || cc + 1 >= m.cols || rr + 1 >= m.rows) return NAN;
+    const float* row0 = m.ptr<float>(rr);
+    const float* row1 = m.ptr<float>(rr + 1);
+    return row0[cc] * (1 - fx) * (1 - fy) + row0[cc + 1] * fx * (1 - fy) + row1[cc] * (1 - fx) * fy +
+           row1[cc + 1] * fx * fy;
+  }
+};
+
 // A window that varies less than this (n * sum_sq - sum^2) has no NCC.
 constexpr double kMinVariance = 1e-9;
 
 double nccOf(const std::vector<double>& t, const std::vector<double>& s) {
   return nccOfSamples(t.data(), s.data(), static_cast<int32_t>(t.size()), kMinVariance);
 }
+
+// The search's windows where J is stepped by whole pixels at full resolution: each template sample's tap
+// is made once, the window's bounds are checked once per shift, and the template's sums once; a window's
+// score is nccOf's (the same sums in the same order).
+struct WholePixelWindows {
+  const cv::Mat& image;
+  const std::vector<double>& tmpl;
+  std::vector<BilinearTap> taps;
+  int min_c = 0, max_c = 0, min_r = 0, max_r = 0;  // the taps' pixels
+  double t_sum = 0.0, t_sq = 0.0;
+
+  WholePixelWindows(const cv::Mat& j, const Eigen::Vector2d& j_predicted_px,
+                    const std::vector<Eigen::Vector2d>& off_j, const std::vector<double>& t)
+      : image(j), tmpl(t), taps(off_j.size()) {
+    for (std::size_t k = 0; k < off_j.size(); ++k) {
+      taps[k] = BilinearTap(j_predicted_px + off_j[k]);
+      min_c = k == 0 ? taps[k].c : std::min(min_c, taps[k].c);
+      max_c = k == 0 ? taps[k].c : std::max(max_c, taps[k].c);
+      min_r = k == 0 ? taps[k].r : std::min(min_r, taps[k].r);
+      max_r = k == 0 ? taps[k].r : std::max(max_r, taps[k].r);
+    }
+    for (double v : tmpl) {
+      t_sum += v;
+      t_sq += v * v;
+    }
+  }
+
+  // False when the window at shift (dx, dy) leaves the image; else its NCC in `score`.
+  bool score(int dx, int dy, double& score) const {
+    if (min_c + dx < 0 || min_r + dy < 0 || max_c + dx + 1 >= image.cols || max_r + dy + 1 >= image.rows)
+      return false;
+    double ss = 0.0, sss = 0.0, sts = 0.0;
+    for (std::size_t k = 0; k < taps.size(); ++k) {
+      const double v = taps[k].at(image, dx, dy);
+      ss += v;
+      sss += v * v;
+      sts += tmpl[k] * v;
+    }
+    const double n = static_cast<double>(taps.size());
+    const double var_t = n * t_sq - t_sum * t_sum;
+    score = var_t <= kMinVariance
+                ? kNccInvalid
+                : nccFromSums(n, t_sum, var_t, ss, sss, sts, std::nextafter(kMinVariance, INFINITY));
+    return true;
+  }
+};
 
 // The template on the grid: per grid sample k (row-major over the (2h+1)^2 grid) its value sampled in I and
 // its offset in J from the prediction (through the surface where one is given, else the affine map mj).
@@ -200,13 +268,7 @@ double samplePyramid(const std::vector<cv::Mat>& pyramid, int level, double x_px
   const double f = 1.0 / (1 << level);
   const double x = x_px * f, y = y_px * f;
   if (!(x >= 0.0 && y >= 0.0)) return NAN;
-  const int c = static_cast<int>(x), r = static_cast<int>(y);
-  if (c + 1 >= m.cols || r + 1 >= m.rows) return NAN;
-  const double fx = x - c, fy = y - r;
-  const float* row0 = m.ptr<float>(r);
-  const float* row1 = m.ptr<float>(r + 1);
-  return row0[c] * (1 - fx) * (1 - fy) + row0[c + 1] * fx * (1 - fy) + row1[c] * (1 - fx) * fy +
-         row1[c + 1] * fx * fy;
+  return BilinearTap(Eigen::Vector2d(x, y)).at(m, 0, 0);
 }
 
 PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Vector2d& i_px,
@@ -242,20 +304,30 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
   const int ns = 2 * radius + 1;
   std::vector<double> score(static_cast<std::size_t>(ns) * ns, -2.0);
   std::vector<double> window(count);
+  // J at full resolution stepped by whole pixels (J the coarser view): each sample keeps its bilinear
+  // weights over the whole search, only its pixel moves.
+  const bool whole_pixels = mj == Eigen::Matrix2d::Identity() && sample_j.level == 0 && sample_j.taps == 1;
+  std::optional<WholePixelWindows> windows;
+  if (whole_pixels) windows.emplace(image_j[0], j_predicted_px, off_j, tmpl);
   int best_k = -1;
   for (int sy = 0; sy < ns; ++sy) {
     for (int sx = 0; sx < ns; ++sx) {
-      const Eigen::Vector2d shift = j_predicted_px + mj * Eigen::Vector2d(sx - radius, sy - radius);
+      const int k = sy * ns + sx;
       bool inside = true;
-      for (std::size_t k = 0; k < count && inside; ++k) {
-        const Eigen::Vector2d p = shift + off_j[k];
-        window[k] = sample_j.at(p.x(), p.y());
-        inside = std::isfinite(window[k]);
+      if (windows) {
+        inside = windows->score(sx - radius, sy - radius, score[k]);
+      } else {
+        const Eigen::Vector2d shift = j_predicted_px + mj * Eigen::Vector2d(sx - radius, sy - radius);
+        for (std::size_t n = 0; n < count && inside; ++n) {
+          const Eigen::Vector2d p = shift + off_j[n];
+          window[n] = sample_j.at(p.x(), p.y());
+          inside = std::isfinite(window[n]);
+        }
+        if (inside) score[k] = nccOf(tmpl, window);
       }
       // A shift whose window leaves the image is not scored (the search is clipped at the image's edge).
-      const int k = sy * ns + sx;
       if (!inside && !params.clip_at_edge) return out;
-      score[k] = inside ? nccOf(tmpl, window) : kUnscored;
+      if (!inside) score[k] = kUnscored;
       if (inside && (best_k < 0 || score[k] > score[best_k])) best_k = k;
     }
   }

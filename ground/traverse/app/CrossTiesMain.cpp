@@ -23,7 +23,7 @@ using namespace areomap::traverse;
 
 constexpr const char* kUsage =
     "usage: areomap-cross-ties TRAVERSE --products DIR --out DIR [--sites ID,...] [--all-pairs] "
-    "[--truth-products]\n"
+    "[--truth-products] [--threads N]\n"
     "\n"
     "Cross-site tie points between the sites of a traverse (docs/cross-site-ties.md): for each pair "
     "of\n"
@@ -44,6 +44,7 @@ constexpr const char* kUsage =
     "  --truth-products   use each site's truth (truth/models, truth/dem.tif averaged to --truth-cell-m,\n"
     "                     default 0.05) instead of --products: the matcher alone, for checking\n"
     "  --sites ID,ID,...  only these sites (pairs of neighbours among them, in driving order)\n"
+    "  --threads N        threads for the matching (default: every core; the ties are the same for any N)\n"
     "  --ncc X            NCC threshold (default 0.75); --radius-px R search radius (default 6)\n"
     "  --plane-warp       warp patches by the DEM's local plane only (the matcher before the per-sample\n"
     "                     DEM warp; for comparison)\n"
@@ -64,6 +65,7 @@ constexpr const char* kUsage =
 
 int main(int argc, char** argv) {
   return cli::runTool("areomap-cross-ties", argc, argv, kUsage, [](cli::Args& args) {
+    cli::threadsOption(args);
     const std::string out = args.required("--out");
     const bool truth_products = args.flag("--truth-products");
     const std::optional<std::string> products = args.option("--products");

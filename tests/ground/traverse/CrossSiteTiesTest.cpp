@@ -8,6 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "ground/cli/Parallel.hpp"
 #include "ground/dataset/Traverse.hpp"
 #include "ground/sim/TraverseSim.hpp"
 #include "ground/traverse/CrossSiteTies.hpp"
@@ -74,22 +75,27 @@ CrossTieResult tiesOf(int i, int j) {
                            relativePose(f.traverse.sites[i].apriori, f.traverse.sites[j].apriori), params);
 }
 
-// areomap-cross-ties on the first two sites (truth products), run once per process.
+// areomap-cross-ties on the first two sites (truth products) on one thread, run once per process.
 const std::string& toolOutputDir() {
   static const std::string dir = [] {
     const std::string out = test::scratchDir("cross-site-ties-tool-ok");
-    const int status = test::runTool(
-        "areomap-cross-ties", tinyTraverseDir() + " --truth-products --sites site01,site02 --out " + out);
+    const int status = test::runTool("areomap-cross-ties", tinyTraverseDir() +
+                                                               " --truth-products --threads 1 --sites "
+                                                               "site01,site02 --out " +
+                                                               out);
     return status == 0 ? out : std::string();
   }();
   return dir;
 }
 
-// The ties of the neighbours (k-1, k), found once per process.
+// The ties of the neighbours (k-1, k), found once per process on three threads (the tool's, compared in
+// SameInputSameTies, on one).
 const CrossTieResult& neighbourTies(int k) {
   static const std::vector<CrossTieResult> results = [] {
     std::vector<CrossTieResult> r;
+    cli::setThreads(3);
     for (int j = 1; j < 3; ++j) r.push_back(tiesOf(j - 1, j));
+    cli::setThreads(0);
     return r;
   }();
   return results[k - 1];
@@ -309,7 +315,8 @@ TEST(CrossSiteTies, ASitePairWithoutOverlapGetsTheStatus) {
 }
 
 TEST(CrossSiteTies, SameInputSameTies) {
-  // The tool, in another process, writes exactly the ties found here (the CSV's numbers round-trip).
+  // The tool, in another process and on one thread, writes exactly the ties found here on three (the CSV's
+  // numbers round-trip).
   const CrossTieResult& a = neighbourTies(1);
   CHECK(!toolOutputDir().empty());
   std::ifstream csv(toolOutputDir() + "/cross_ties.csv");
