@@ -433,6 +433,8 @@ void matchTies(const SiteProducts& a, const SiteProducts& b, const SourcePoints&
     CrossTie tie;
     Tally tally;
   };
+  // Kept whole and merged after, not through cli::orderedFor: the items' costs differ widely, and a thread
+  // done with an item would wait there for a slow earlier one.
   std::vector<Found> found(items.size());
   cli::parallelFor(items.size(), 0, [&](std::size_t i) {
     const SiteImage& source = b.images[items[i].image];
