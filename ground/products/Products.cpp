@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <optional>
 #include <stdexcept>
 
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/dem/SiteDem.hpp"
 #include "ground/products/CameraHeightError.hpp"
 #include "ground/dense/DenseMatcher.hpp"
@@ -113,34 +115,49 @@ DemGrid orthoGrid(const ortho::OrthoResult& o) {
 }
 
 // Of what each pair's cameras see at 2-5 m and 5-10 m, how much the DEM covers; the ground under empty
-// cells from the plane of the DEM's cells within twice the outer range of the panorama's centre.
-void coverageStage(Context& ctx, const DemGrid& dem, const DemGrid& sigma) {
+// cells from the plane of the DEM's cells within twice the outer range of the panorama's centre. Counted
+// off the run's thread (coverageCounts), said and recorded on it (recordCoverage).
+struct PairCoverage {
+  int id = 0;
+  CoverageCount near, far;
+};
+
+std::vector<PairCoverage> coverageCounts(const ProductInputs& in, const DemGrid& dem, const DemGrid& sigma) {
   constexpr double kNear = 2.0, kMid = 5.0, kFar = 10.0;
   constexpr double kSampleM = 0.1;  // a lattice of 10 cm: a band's figure in a small part of the DEM's time
+  std::vector<PairCoverage> out;
   GroundPlane plane;
-  if (!groundPlane(dem, ctx.in.gimbal_site_m, 2.0 * kFar, plane)) return;
-  for (const ProductPair& p : ctx.in.pairs) {
+  if (!groundPlane(dem, in.gimbal_site_m, 2.0 * kFar, plane)) return out;
+  for (const ProductPair& p : in.pairs) {
     if (p.left < 0 || p.right < 0) continue;
-    const ProductImage& l = ctx.in.images[p.left];
-    const ProductImage& r = ctx.in.images[p.right];
+    const ProductImage& l = in.images[p.left];
+    const ProductImage& r = in.images[p.right];
     if (l.grey.empty() || r.grey.empty()) continue;
-    const CoverageCount near = demCoverage(dem, &sigma, sized(l), sized(r), plane, kNear, kMid, kSampleM);
-    const CoverageCount far = demCoverage(dem, &sigma, sized(l), sized(r), plane, kMid, kFar, kSampleM);
-    ctx.result.coverage.push_back({p.id, near.seen, near.filled, far.seen, far.filled});
+    out.push_back({p.id, demCoverage(dem, &sigma, sized(l), sized(r), plane, kNear, kMid, kSampleM),
+                   demCoverage(dem, &sigma, sized(l), sized(r), plane, kMid, kFar, kSampleM)});
+  }
+  return out;
+}
+
+void recordCoverage(Context& ctx, const std::vector<PairCoverage>& counts) {
+  for (const PairCoverage& c : counts) {
+    ctx.result.coverage.push_back({c.id, c.near.seen, c.near.filled, c.far.seen, c.far.filled});
     auto figure = [](const CoverageCount& n) {
       char f[48];
       if (n.seen == 0) return std::string("none seen");
       std::snprintf(f, sizeof f, "%.1f %%", 100 * n.fraction());
       return std::string(f);
     };
-    cli::info("pair " + std::to_string(p.id) + ": the DEM covers " + figure(near) + " (2-5 m) and " +
-              figure(far) + " (5-10 m) of what both cameras see");
+    cli::info("pair " + std::to_string(c.id) + ": the DEM covers " + figure(c.near) + " (2-5 m) and " +
+              figure(c.far) + " (5-10 m) of what both cameras see");
   }
 }
 
-// Step 2: the DEMs (ground/dem SiteDem) from the cloud's DEM points, written; the cloud is freed.
-void demStage(Context& ctx, Cloud& cloud) {
+// Step 2: the DEMs (ground/dem SiteDem) from the cloud's DEM points; the cloud is freed. Their rasters are
+// written by finishProducts.
+std::optional<dem::SiteDem> demStage(Context& ctx, Cloud& cloud) {
   const double t0 = cli::nowSeconds();
+  std::optional<dem::SiteDem> made;
   if (!cloud.empty()) {
     // The DEM needs only the DEM points: taken over (no copy), and the rest of the cloud freed.
     std::vector<PlyExtra>().swap(cloud.extra);
@@ -157,77 +174,126 @@ void demStage(Context& ctx, Cloud& cloud) {
     }
     const std::optional<dem::SharedHeightError> cameras = cameraHeightError(ctx.in);
     if (cameras) so.shared_error = &*cameras;
-    dem::SiteDem dems = dem::makeSiteDem(std::move(cloud.dem), so);
+    made = dem::makeSiteDem(std::move(cloud.dem), so);
+    const dem::SiteDem& dems = *made;
     for (const std::string& w : dems.warnings) ctx.result.warnings.push_back(w);
     ctx.result.dem_points = dems.points_binned;
     if (dems.dem) {
-      const dem::KrigingResult& kr = *dems.dem;
-      ctx.result.dem = kr.elevation;
-      ctx.result.dem_sigma = kr.sigma;
+      ctx.result.dem = dems.dem->elevation;
+      ctx.result.dem_sigma = dems.dem->sigma;
       ctx.result.dem_seen = dems.dem_seen.classes;
-      coverageStage(ctx, kr.elevation, kr.sigma);
-      try {
-        dem::writeDemProducts(ctx.out_dir, kr, ctx.meta, "dem", &dems.dem_seen);
-        for (const char* f : {"/dem.tif", "/dem_sigma.tif", "/dem_seen.tif"}) ctx.result.files.push_back(ctx.out_dir + f);
-      } catch (const cli::InputError& e) {
-        ctx.writeFailed(e);  // the DEM is still used for the ortho and the previews
-      }
-      if (const DemGrid* truth = ctx.truthDem()) ctx.result.dem_rmse_m = rmseAgainst(kr.elevation, *truth);
     }
-    if (dems.near) {
-      ctx.result.dem_near = dems.near->elevation;
-      try {
-        dem::writeDemProducts(ctx.out_dir, *dems.near, ctx.meta, "dem_near", &dems.near_seen);
-        for (const char* f : {"/dem_near.tif", "/dem_near_sigma.tif", "/dem_near_seen.tif"})
-          ctx.result.files.push_back(ctx.out_dir + f);
-      } catch (const cli::InputError& e) {
-        ctx.writeFailed(e);
-      }
-    }
+    if (dems.near) ctx.result.dem_near = dems.near->elevation;
   }
   ctx.result.seconds.emplace_back("dem", cli::nowSeconds() - t0);
+  return made;
 }
 
-// Step 3: the orthoimage on the DEM grid, written (absent when there is no DEM or it failed).
-std::optional<ortho::OrthoResult> orthoStage(Context& ctx) {
-  const double t0 = cli::nowSeconds();
-  std::optional<ortho::OrthoResult> made;
-  if (ctx.result.dem) {
-    std::vector<ortho::OrthoSource> sources;
-    for (const ProductImage& im : ctx.in.images) {
-      ortho::OrthoSource s;
-      if (usable(ctx, im)) {
-        s.grey = im.grey;
-        s.model = sized(im);
-      }
-      sources.push_back(s);
+// The orthoimage's sources: every image, empty where it is not usable (warned here, on the run's thread).
+std::vector<ortho::OrthoSource> orthoSources(Context& ctx) {
+  std::vector<ortho::OrthoSource> sources;
+  for (const ProductImage& im : ctx.in.images) {
+    ortho::OrthoSource s;
+    if (usable(ctx, im)) {
+      s.grey = im.grey;
+      s.model = sized(im);
     }
-    try {
-      ortho::OrthoOptions oo;
-      if (ctx.result.dem_sigma) oo.dem_sigma = &*ctx.result.dem_sigma;
-      made = ortho::makeOrthoimage(*ctx.result.dem, sources, oo);
-      const ortho::OrthoResult& orth =
-          *made;  // the preview and the report show it even when ortho.tif cannot be written
-      ctx.result.ortho = orthoGrid(orth);
-      if (orth.seams.checked > 0) {
-        ctx.result.ortho_seam_px = orth.seams.geometric_median_px;
-        if (orth.seams.geometric_median_px > 0.5) {
-          char b[200];
-          std::snprintf(b, sizeof b,
-                        "ortho seams: images disagree by %.2f px (median; RMS %.2f, 95 %% %.2f px) at %lld seam cells",
-                        orth.seams.geometric_median_px, orth.seams.geometric_rms_px, orth.seams.geometric_p95_px,
-                        orth.seams.checked);
-          ctx.warn(b);
-        }
-      }
-      writeOrthoTif(ctx.out_dir + "/ortho.tif", orth, ctx.meta);
-      ctx.result.files.push_back(ctx.out_dir + "/ortho.tif");
-    } catch (const cli::InputError& e) {
-      ctx.writeFailed(e);
-    } catch (const std::exception& e) {
-      ctx.warn(std::string("ortho.tif not made: ") + e.what());
-    }
+    sources.push_back(s);
   }
+  return sources;
+}
+
+// The ortho as made (or what its making threw), recorded and written: ortho.tif (absent when the making
+// failed).
+void recordOrtho(Context& ctx, const std::optional<ortho::OrthoResult>& made, const std::exception_ptr& error) {
+  try {
+    if (error) std::rethrow_exception(error);
+    const ortho::OrthoResult& orth = *made;  // the preview and the report show it even when ortho.tif cannot be written
+    ctx.result.ortho = orthoGrid(orth);
+    if (orth.seams.checked > 0) {
+      ctx.result.ortho_seam_px = orth.seams.geometric_median_px;
+      if (orth.seams.geometric_median_px > 0.5) {
+        char b[200];
+        std::snprintf(b, sizeof b,
+                      "ortho seams: images disagree by %.2f px (median; RMS %.2f, 95 %% %.2f px) at %lld seam cells",
+                      orth.seams.geometric_median_px, orth.seams.geometric_rms_px, orth.seams.geometric_p95_px,
+                      orth.seams.checked);
+        ctx.warn(b);
+      }
+    }
+    writeOrthoTif(ctx.out_dir + "/ortho.tif", orth, ctx.meta);
+    ctx.result.files.push_back(ctx.out_dir + "/ortho.tif");
+  } catch (const cli::InputError& e) {
+    ctx.writeFailed(e);
+  } catch (const std::exception& e) {
+    ctx.warn(std::string("ortho.tif not made: ") + e.what());
+  }
+}
+
+// A DEM's three rasters, written (or what the writing threw).
+std::exception_ptr writeDem(const Context& ctx, const dem::KrigingResult& kr, const char* stem,
+                            const dem::DemSeen& seen) {
+  try {
+    dem::writeDemProducts(ctx.out_dir, kr, ctx.meta, stem, &seen);
+  } catch (...) {
+    return std::current_exception();
+  }
+  return nullptr;
+}
+
+// Recorded as the run's files, or as its write error (the DEM is still used for the ortho and the
+// previews); any other failure goes on up.
+void recordDemWrite(Context& ctx, const std::exception_ptr& error, const char* stem) {
+  try {
+    if (error) std::rethrow_exception(error);
+    for (const char* suffix : {".tif", "_sigma.tif", "_seen.tif"})
+      ctx.result.files.push_back(ctx.out_dir + "/" + stem + suffix);
+  } catch (const cli::InputError& e) {
+    ctx.writeFailed(e);
+  }
+}
+
+// Step 3: the DEMs' rasters written, the DEM's coverage and RMSE, and the orthoimage on the DEM grid:
+// independent of one another, so made side by side (the rasters' compression, the coverage and the RMSE
+// beside the ortho's rows), then said, recorded and written in the order of a serial run. Returns the
+// ortho (none when there is no DEM or its making failed).
+std::optional<ortho::OrthoResult> finishProducts(Context& ctx, const std::optional<dem::SiteDem>& dems) {
+  const double t0 = cli::nowSeconds();
+  const dem::KrigingResult* kr = dems && dems->dem ? &*dems->dem : nullptr;
+  const dem::KrigingResult* near = dems && dems->near ? &*dems->near : nullptr;
+  const DemGrid* truth = kr != nullptr ? ctx.truthDem() : nullptr;
+  std::vector<ortho::OrthoSource> sources;
+  if (ctx.result.dem) sources = orthoSources(ctx);
+  std::exception_ptr dem_error, near_error, ortho_error;
+  std::vector<PairCoverage> coverage;
+  std::optional<double> rmse;
+  std::optional<ortho::OrthoResult> made;
+  cli::parallelFor(3, 0, [&](std::size_t task) {
+    if (task == 0 && ctx.result.dem) {
+      try {
+        ortho::OrthoOptions oo;
+        if (ctx.result.dem_sigma) oo.dem_sigma = &*ctx.result.dem_sigma;
+        made = ortho::makeOrthoimage(*ctx.result.dem, sources, oo);
+      } catch (...) {
+        ortho_error = std::current_exception();
+      }
+    }
+    if (task == 1 && kr != nullptr) {
+      coverage = coverageCounts(ctx.in, kr->elevation, kr->sigma);
+      if (truth != nullptr) rmse = rmseAgainst(kr->elevation, *truth);
+    }
+    if (task == 2 && kr != nullptr) {
+      dem_error = writeDem(ctx, *kr, "dem", dems->dem_seen);
+      if (near != nullptr) near_error = writeDem(ctx, *near, "dem_near", dems->near_seen);
+    }
+  });
+  if (kr != nullptr) {
+    recordCoverage(ctx, coverage);
+    recordDemWrite(ctx, dem_error, "dem");
+    if (truth != nullptr) ctx.result.dem_rmse_m = rmse;
+    if (near != nullptr) recordDemWrite(ctx, near_error, "dem_near");
+  }
+  if (ctx.result.dem) recordOrtho(ctx, made, ortho_error);
   ctx.result.seconds.emplace_back("ortho", cli::nowSeconds() - t0);
   return made;
 }
@@ -271,8 +337,7 @@ ProductsResult makeProducts(const ProductInputs& in, const ProductOptions& optio
     throw cli::InputError(out_dir, "out", "cannot create the folder");
   Context ctx{in, options, out_dir, ProductsResult{}, {}, {}, {}};
   Cloud cloud = denseCloud(ctx);
-  demStage(ctx, cloud);
-  const std::optional<ortho::OrthoResult> orth = orthoStage(ctx);
+  const std::optional<ortho::OrthoResult> orth = finishProducts(ctx, demStage(ctx, cloud));
   truthSeenStage(ctx, orth ? &*orth : nullptr);
   ctx.truth_dem_read.reset();
   previewsAndReport(ctx, orth ? &*orth : nullptr, adjustment);
