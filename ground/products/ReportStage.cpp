@@ -1,15 +1,19 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <map>
 #include <set>
 
 #include "ground/cli/AtomicFile.hpp"
 #include "ground/cli/Cli.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/dense/Triangulation.hpp"
 #include "ground/products/Previews.hpp"
 #include "ground/products/ProductStages.hpp"
 #include "ground/products/ReportHtml.hpp"
+#include "ground/raster/RasterFiles.hpp"
 
 namespace areomap::products {
 
@@ -82,25 +86,92 @@ void previewsAndReport(Context& ctx, const ortho::OrthoResult* ortho,
   const double t0 = cli::nowSeconds();
   HtmlInputs html;
   html.site = ctx.in.site;
-  if (ctx.result.dem) {
-    const cv::Mat p = demPreview(*ctx.result.dem);
-    writePng(ctx, ctx.out_dir + "/dem.png", p);
-    char caption[96];
-    std::snprintf(caption, sizeof caption, "DEM (colour relief, hillshade from the north-west), cell %.3f m",
-                  ctx.result.dem->cell_m);
-    html.products.push_back({caption, p});
-  }
-  if (ortho != nullptr) {
-    const cv::Mat p = orthoPreview(ortho->image, ortho->valid, ortho->grid.cell_m);
-    writePng(ctx, ctx.out_dir + "/ortho.png", p);
-    html.products.push_back({"Orthoimage", p});
+  // The previews (dem.png and ortho.png as item 0, each image's tie overlay as item 1 + its index) made and
+  // encoded in parallel, recorded in item order (files, write errors, the report's figures), so that the
+  // files and the report are those of a serial run.
+  struct Preview {
+    cv::Mat dem, ortho, overlay;
+    std::exception_ptr dem_error, ortho_error, overlay_error;
+    std::size_t ties = 0;
+  };
+  const auto encode = [](const std::string& path, const cv::Mat& image) -> std::exception_ptr {
+    try {
+      raster::writePng(path, image);
+    } catch (const std::exception&) {
+      return std::current_exception();
+    }
+    return nullptr;
+  };
+  const auto record = [&ctx](const std::string& path, const std::exception_ptr& error) {
+    try {
+      if (error) std::rethrow_exception(error);
+      ctx.result.files.push_back(path);
+    } catch (const std::exception& e) {
+      ctx.writeFailed(e);
+    }
+  };
+  const std::string dem_png = ctx.out_dir + "/dem.png", ortho_png = ctx.out_dir + "/ortho.png";
+  const auto overlay_png = [&ctx](const ProductImage& im) { return ctx.out_dir + "/overlays/" + im.stem + ".png"; };
+  const auto drawn = [](const ProductImage& im) { return !im.grey.empty() && im.grey.type() == CV_8U; };
+  if (ctx.options.write_overlays && std::any_of(ctx.in.images.begin(), ctx.in.images.end(), drawn)) {
+    std::error_code ec;
+    std::filesystem::create_directories(ctx.out_dir + "/overlays", ec);
   }
   std::vector<CameraModel> models;
   std::vector<bool> ok;
-  for (const ProductImage& im : ctx.in.images) {
-    ok.push_back(usable(ctx, im));
-    models.push_back(ok.back() ? sized(im) : im.model);
-  }
+  const auto make = [&](std::size_t item) {
+    Preview p;
+    if (item == 0) {
+      if (ctx.result.dem) {
+        p.dem = demPreview(*ctx.result.dem);
+        p.dem_error = encode(dem_png, p.dem);
+      }
+      if (ortho != nullptr) {
+        p.ortho = orthoPreview(ortho->image, ortho->valid, ortho->grid.cell_m);
+        p.ortho_error = encode(ortho_png, p.ortho);
+      }
+      return p;
+    }
+    const std::size_t i = item - 1;
+    const ProductImage& im = ctx.in.images[i];
+    if (!drawn(im)) return p;
+    std::vector<Vec2> px;
+    std::vector<bool> inter;
+    for (const ProductTie& t : ctx.in.ties) {
+      if (t.image != static_cast<int>(i)) continue;
+      px.push_back(t.pixel_px);
+      inter.push_back(t.inter);
+    }
+    p.ties = px.size();
+    p.overlay = tieOverlay(im.grey, px, inter);
+    if (ctx.options.write_overlays) p.overlay_error = encode(overlay_png(im), p.overlay);
+    return p;
+  };
+  const auto use = [&](std::size_t item, Preview p) {
+    if (item == 0) {
+      if (ctx.result.dem) {
+        record(dem_png, p.dem_error);
+        char caption[96];
+        std::snprintf(caption, sizeof caption, "DEM (colour relief, hillshade from the north-west), cell %.3f m",
+                      ctx.result.dem->cell_m);
+        html.products.push_back({caption, p.dem});
+      }
+      if (ortho != nullptr) {
+        record(ortho_png, p.ortho_error);
+        html.products.push_back({"Orthoimage", p.ortho});
+      }
+      for (const ProductImage& im : ctx.in.images) {
+        ok.push_back(usable(ctx, im));
+        models.push_back(ok.back() ? sized(im) : im.model);
+      }
+      return;
+    }
+    const ProductImage& im = ctx.in.images[item - 1];
+    if (!drawn(im)) return;
+    if (ctx.options.write_overlays) record(overlay_png(im), p.overlay_error);
+    html.overlays.push_back({im.stem + " (" + std::to_string(p.ties) + " tie points)", p.overlay});
+  };
+  cli::orderedFor(1 + ctx.in.images.size(), 0, make, use);
   const std::vector<double> residuals = tieResiduals(ctx.in, models, ok);
   std::map<int, std::pair<double, int>> per_image;  // sum of squares, count
   for (std::size_t i = 0; i < ctx.in.ties.size(); ++i) {
@@ -116,24 +187,6 @@ void previewsAndReport(Context& ctx, const ortho::OrthoResult* ortho,
     if (kv.first < 0 || kv.first >= static_cast<int>(ctx.in.images.size())) continue;
     html.image_rms_px.emplace_back(ctx.in.images[kv.first].stem,
                                    std::sqrt(kv.second.first / kv.second.second));
-  }
-  for (std::size_t i = 0; i < ctx.in.images.size(); ++i) {
-    const ProductImage& im = ctx.in.images[i];
-    if (im.grey.empty() || im.grey.type() != CV_8U) continue;
-    std::vector<Vec2> px;
-    std::vector<bool> inter;
-    for (const ProductTie& t : ctx.in.ties) {
-      if (t.image != static_cast<int>(i)) continue;
-      px.push_back(t.pixel_px);
-      inter.push_back(t.inter);
-    }
-    const cv::Mat o = tieOverlay(im.grey, px, inter);
-    if (ctx.options.write_overlays) {
-      std::error_code ec;
-      std::filesystem::create_directories(ctx.out_dir + "/overlays", ec);
-      writePng(ctx, ctx.out_dir + "/overlays/" + im.stem + ".png", o);
-    }
-    html.overlays.push_back({im.stem + " (" + std::to_string(px.size()) + " tie points)", o});
   }
   ctx.result.seconds.emplace_back("previews", cli::nowSeconds() - t0);
 
