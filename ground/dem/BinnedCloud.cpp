@@ -401,6 +401,7 @@ BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
   }
   const std::size_t band_points =
       std::max<std::size_t>(1, static_cast<std::size_t>(sums.binned_points) / kBinBands);
+  std::vector<std::pair<long long, long long>> bands;  // rows [lo, hi] of the bands that hold points
   for (std::size_t first = 0; first < per_row.size();) {
     std::size_t last = first, n = per_row[first];
     while (last + 1 < per_row.size() && n + per_row[last + 1] <= band_points) n += per_row[++last];
@@ -408,13 +409,29 @@ BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
         first == 0 ? std::numeric_limits<long long>::min() : lo + static_cast<long long>(first);
     const long long row_hi = last + 1 == per_row.size() ? std::numeric_limits<long long>::max()
                                                         : lo + static_cast<long long>(last);
-    if (n > 0) {
-      const std::vector<KeyedBin> by_cell = bandSums(cloud, slots, grid, keep, row_lo, row_hi);
-      overlapBins(by_cell, kBinPairSlots, correlation_px, sums.overlaps);
-      sums.bands.push_back(bandCells(by_cell, correlation_px));
-    }
+    if (n > 0) bands.emplace_back(row_lo, row_hi);
     first = last + 1;
   }
+  // The bands summed as many at a time as there are threads (a band's points lie in a few pairs' slots,
+  // which leaves the other threads of its slot-parallel sums idle), appended in the order of their rows:
+  // the sums of a serial run, with as many bands' bins held as there are threads.
+  struct MadeBand {
+    BinSums::Band band;
+    std::vector<BinSums::Overlap> overlaps;
+  };
+  cli::orderedFor(
+      bands.size(), 0,
+      [&](std::size_t b) {
+        MadeBand m;
+        const std::vector<KeyedBin> by_cell = bandSums(cloud, slots, grid, keep, bands[b].first, bands[b].second);
+        overlapBins(by_cell, kBinPairSlots, correlation_px, m.overlaps);
+        m.band = bandCells(by_cell, correlation_px);
+        return m;
+      },
+      [&](std::size_t, MadeBand m) {
+        sums.overlaps.insert(sums.overlaps.end(), m.overlaps.begin(), m.overlaps.end());
+        sums.bands.push_back(std::move(m.band));
+      });
   return sums;
 }
 
