@@ -79,16 +79,12 @@ std::vector<double> tieResiduals(const ProductInputs& in, const std::vector<Came
   return res;
 }
 
-}  // namespace
-
-void previewsAndReport(Context& ctx, const ortho::OrthoResult* ortho,
-                       const ground::AdjustReport* adjustment) {
-  const double t0 = cli::nowSeconds();
-  HtmlInputs html;
-  html.site = ctx.in.site;
-  // The previews (dem.png and ortho.png as item 0, each image's tie overlay as item 1 + its index) made and
-  // encoded in parallel, recorded in item order (files, write errors, the report's figures), so that the
-  // files and the report are those of a serial run.
+// The previews (dem.png and ortho.png as item 0, each image's tie overlay as item 1 + its index) made and
+// encoded in parallel, recorded in item order (files, write errors, the report's figures), so that the
+// files and the report are those of a serial run; with item 0 the images' usable models and flags (`models`,
+// `ok`, warned in a serial run's order).
+void previews(Context& ctx, const ortho::OrthoResult* ortho, HtmlInputs& html, std::vector<CameraModel>& models,
+              std::vector<bool>& ok) {
   struct Preview {
     cv::Mat dem, ortho, overlay;
     std::exception_ptr dem_error, ortho_error, overlay_error;
@@ -117,8 +113,6 @@ void previewsAndReport(Context& ctx, const ortho::OrthoResult* ortho,
     std::error_code ec;
     std::filesystem::create_directories(ctx.out_dir + "/overlays", ec);
   }
-  std::vector<CameraModel> models;
-  std::vector<bool> ok;
   const auto make = [&](std::size_t item) {
     Preview p;
     if (item == 0) {
@@ -172,6 +166,18 @@ void previewsAndReport(Context& ctx, const ortho::OrthoResult* ortho,
     html.overlays.push_back({im.stem + " (" + std::to_string(p.ties) + " tie points)", p.overlay});
   };
   cli::orderedFor(1 + ctx.in.images.size(), 0, make, use);
+}
+
+}  // namespace
+
+void previewsAndReport(Context& ctx, const ortho::OrthoResult* ortho,
+                       const ground::AdjustReport* adjustment) {
+  const double t0 = cli::nowSeconds();
+  HtmlInputs html;
+  html.site = ctx.in.site;
+  std::vector<CameraModel> models;
+  std::vector<bool> ok;
+  previews(ctx, ortho, html, models, ok);
   const std::vector<double> residuals = tieResiduals(ctx.in, models, ok);
   std::map<int, std::pair<double, int>> per_image;  // sum of squares, count
   for (std::size_t i = 0; i < ctx.in.ties.size(); ++i) {
