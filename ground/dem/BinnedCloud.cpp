@@ -368,8 +368,9 @@ BinSums::Band bandCells(const std::vector<KeyedBin>& by_cell, double l_px) {
   return band;
 }
 
-// Bands of grid rows summed one at a time, about a sixteenth of the points each.
-constexpr int kBinBands = 16;
+// Bands of grid rows summed a band per thread at a time, about a sixteenth of the points each with one
+// thread (a 1/(16 T) part with T threads).
+constexpr std::size_t kBinBands = 16;
 
 }  // namespace
 
@@ -399,8 +400,11 @@ BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
       sums.binned_points += static_cast<long long>(rows[r]);
     }
   }
+  // kBinBands bands for each thread's band in flight: as many bins held as a serial run holds. A bin lies
+  // in one row and a band holds whole rows, so the bands' bounds do not change the sums.
+  const std::size_t in_flight = static_cast<std::size_t>(cli::threadCount());
   const std::size_t band_points =
-      std::max<std::size_t>(1, static_cast<std::size_t>(sums.binned_points) / kBinBands);
+      std::max<std::size_t>(1, static_cast<std::size_t>(sums.binned_points) / (kBinBands * in_flight));
   std::vector<std::pair<long long, long long>> bands;  // rows [lo, hi] of the bands that hold points
   for (std::size_t first = 0; first < per_row.size();) {
     std::size_t last = first, n = per_row[first];
@@ -414,7 +418,7 @@ BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
   }
   // The bands summed as many at a time as there are threads (a band's points lie in a few pairs' slots,
   // which leaves the other threads of its slot-parallel sums idle), appended in the order of their rows:
-  // the sums of a serial run, with as many bands' bins held as there are threads.
+  // the sums of a serial run.
   struct MadeBand {
     BinSums::Band band;
     std::vector<BinSums::Overlap> overlaps;
