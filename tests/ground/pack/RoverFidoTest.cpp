@@ -47,8 +47,9 @@ RoverFidoRun roverOnScene(const std::string& sim_args, const char* name) {
   out.fido = rover.counters().fido_model;
   // A copy (several MiB, on the heap outside the pipeline) to compare its a-priori cameras as well.
   auto net = std::make_unique<Network>(rover.network());
-  CHECK_EQUAL(!out.fido, net->rig.use_gimbal);
-  CHECK_EQUAL(out.fido, net->rig.use_spin_centre);
+  CHECK(net->rig.use_gimbal);  // Eq. 3 either way: with the mast's tilt arm on the FIDO mast
+  CHECK_EQUAL(out.fido, net->rig.use_tilt_arm);
+  CHECK(!net->rig.use_spin_centre);
   ground::NetworkSource source;
   for (int32_t i = 0; i < net->imageCount(); ++i) source.stems.push_back(rover.stemOfImage(i));
   const ground::NetworkTruth truth = ground::loadNetworkTruth(readDataset(dir), source, false);

@@ -115,6 +115,7 @@ FidoRun runScene(const std::string& sim_args, int seed, const char* name) {
   // The control: Eq. 3 (fitted to the a-priori cameras) held instead.
   net.resetToApriori();
   net.rig.use_gimbal = true;
+  net.rig.use_tilt_arm = false;
   net.rig.use_spin_centre = false;
   net.rig.use_lr_distance = false;
   out.sigma0_eq3 = adjustNetwork(net, FastAdjustOptions{}).result.sigma0;
