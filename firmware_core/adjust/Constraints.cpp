@@ -31,7 +31,8 @@ void tiltArmRows(const TiltArm& arm, int32_t side, int32_t sol, const Vec3& c, c
   const Vec3 u = w / len;
   g -= arm.arm_m * u;
   const Mat3 du = (Mat3::Identity() - u * u.transpose()) / len;
-  j.block<3, 3>(0, 3).noalias() -= arm.arm_m * du * skew(arm.pan_axis) * m.transpose() * skew(arm.tilt_axis[side]);
+  j.block<3, 3>(0, 3).noalias() -=
+      arm.arm_m * du * skew(arm.pan_axis) * m.transpose() * skew(arm.tilt_axis[side]);
 }
 
 // Eq. 4, the stereo-base constraint of one pair: g = C_R - C_L - M_L^T e (e = C_R - C_L in the left camera
@@ -66,7 +67,8 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
   const double distances[2] = {rig.left_distance_m, rig.right_distance_m};
 
   const bool arm = rig.use_tilt_arm && rig.tilt_arm.centre_set[left.sol];
-  if (rig.use_gimbal && (arm || (!rig.use_tilt_arm && rig.gimbal_set[left.sol])) && rig.sigma_gimbal_m > 0.0) {
+  if (rig.use_gimbal && (arm || (!rig.use_tilt_arm && rig.gimbal_set[left.sol])) &&
+      rig.sigma_gimbal_m > 0.0) {
     const double w = 1.0 / rig.sigma_gimbal_m;
     for (int32_t s = 0; s < sides; ++s) {
       Vec3 g;

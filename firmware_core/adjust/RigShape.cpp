@@ -194,7 +194,8 @@ TiltArmFit fitTiltArm(Network& net) {
     a.col(6) = tiltArmForward(arm, im);
     return a;
   };
-  const Eigen::Matrix<double, 7, 1> x = fitPerSolCentres<7>(net, block, fit.rms_m, arm.centre_m, arm.centre_set);
+  const Eigen::Matrix<double, 7, 1> x =
+      fitPerSolCentres<7>(net, block, fit.rms_m, arm.centre_m, arm.centre_set);
   arm.offset_m[0] = x.head<3>();
   arm.offset_m[1] = x.segment<3>(3);
   arm.arm_m = x(6);
@@ -205,8 +206,8 @@ TiltArmFit fitTiltArm(Network& net) {
 
 RigShape checkRigShape(const Network& net) {
   RigShape shape;
-  const Vec6 offsets =
-      fitPerSolCentres<6>(net, [&net](int32_t i) { return rigShapeOffsetBlock(net.image(i)); }, shape.fit_rms_m);
+  const Vec6 offsets = fitPerSolCentres<6>(
+      net, [&net](int32_t i) { return rigShapeOffsetBlock(net.image(i)); }, shape.fit_rms_m);
   shape.lever_m = std::fmax(offsets.head<3>().norm(), offsets.tail<3>().norm());
   shape.threshold_m = kRigMisfitBound_m + shape.lever_m * net.rig.sigma_datum_rad;
   shape.one_point = !(shape.fit_rms_m > shape.threshold_m);

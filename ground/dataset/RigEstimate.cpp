@@ -154,7 +154,8 @@ void estimateFidoVariants(Network& net, RigEstimate& out) {
   out.estimated.push_back(s.str());
   const TiltArm& arm = rig.tilt_arm;
   if (!fit.tilt_arm.fitted) {
-    out.estimated.push_back("FIDO: the tilts do not fix the mast's axes: no tilt arm, the distances are used.");
+    out.estimated.push_back(
+        "FIDO: the tilts do not fix the mast's axes: no tilt arm, the distances are used.");
     return;
   }
   std::ostringstream a;

@@ -168,7 +168,7 @@ TEST(RigShape, TheTiltArmFittedToTheAprioriCamerasHoldsAtTheTrueOnesAndKeepsEach
       tiltArmRows(arm, side, 0, turned, g_true_m[i], g, j);
       slid = std::fmin(slid, g.norm() / (kSlideRad * r.head<2>().norm()));
     }
-    CHECK(worst < 1e-9);          // the true cameras satisfy the fitted model
+    CHECK(worst < 1e-9);             // the true cameras satisfy the fitted model
     DOUBLES_EQUAL(1.0, slid, 1e-3);  // a slide along the circle is seen in full (the distance sees none)
   }
 }

@@ -144,11 +144,12 @@ FidoRun runScene(const std::string& sim_args, int seed, const char* name) {
       rig.use_lr_distance = true;
     });
   }
-  std::printf("\n  %s seed %d: %s (Eq. 3 fit %.3f mm RMS); EO vs truth %.2f -> %.3f px, covariance %.3f px "
-              "(ratio %.2f); DEM %.4f m; sigma0 %.3f; with Eq. 3 held: sigma0 %.3f, ratio %.2f, DEM %.4f m",
-              name, seed, out.fido ? "FIDO" : "gimbal", out.fit_rms_mm, out.eo_before_px, out.chosen.eo_px,
-              out.chosen.predicted_px, out.chosen.ratio(), out.chosen.dem_m, out.chosen.sigma0, out.eq3.sigma0,
-              out.eq3.ratio(), out.eq3.dem_m);
+  std::printf(
+      "\n  %s seed %d: %s (Eq. 3 fit %.3f mm RMS); EO vs truth %.2f -> %.3f px, covariance %.3f px "
+      "(ratio %.2f); DEM %.4f m; sigma0 %.3f; with Eq. 3 held: sigma0 %.3f, ratio %.2f, DEM %.4f m",
+      name, seed, out.fido ? "FIDO" : "gimbal", out.fit_rms_mm, out.eo_before_px, out.chosen.eo_px,
+      out.chosen.predicted_px, out.chosen.ratio(), out.chosen.dem_m, out.chosen.sigma0, out.eq3.sigma0,
+      out.eq3.ratio(), out.eq3.dem_m);
   if (out.fido) {
     std::printf("; with the distances: EO %.3f px, covariance %.3f px (ratio %.2f), DEM %.4f m, sigma0 %.3f",
                 out.distances.eo_px, out.distances.predicted_px, out.distances.ratio(), out.distances.dem_m,
