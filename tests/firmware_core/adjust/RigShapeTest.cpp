@@ -140,10 +140,9 @@ TEST(RigShape, ATiltAxisAheadOfThePanAxisIsSwitchedOverTwoTiersNotOverOne) {
 }
 
 TEST(RigShape, TheTiltArmFittedToTheAprioriCamerasHoldsAtTheTrueOnesAndKeepsEachCentreOnItsRotation) {
+  constexpr double kArmM = 0.10;
   for (const uint32_t seed : {41u, 42u, 43u}) {
-    MastSpec spec;
-    spec.tilt_axis_m = 0.10;
-    makeMast(spec, seed);
+    makeMast(MastSpec{kArmM}, seed);
     const HeapAllocationScope heap;
     const TiltArmFit fit = fitTiltArm(g_shape_net);
     CHECK_EQUAL(0u, heap.allocations());
@@ -151,7 +150,7 @@ TEST(RigShape, TheTiltArmFittedToTheAprioriCamerasHoldsAtTheTrueOnesAndKeepsEach
     std::printf("\n  seed %u: arm %.6f m, %.3g mm RMS at the a-priori centres", seed, fit.arm_m,
                 fit.rms_m * 1000.0);
     CHECK(fit.fitted);
-    DOUBLES_EQUAL(spec.tilt_axis_m, std::fabs(fit.arm_m), 1e-9);
+    DOUBLES_EQUAL(kArmM, std::fabs(fit.arm_m), 1e-9);
     CHECK(fit.rms_m < 1e-9);
     CHECK(arm.pan_axis.cross(Vec3::UnitZ()).norm() < 1e-9);
     CHECK((arm.centre_m[0] - kGimbal).norm() < 1e-9);
@@ -174,9 +173,7 @@ TEST(RigShape, TheTiltArmFittedToTheAprioriCamerasHoldsAtTheTrueOnesAndKeepsEach
 }
 
 TEST(RigShape, TheTiltArmRowsJacobianAgreesWithNumericDifferences) {
-  MastSpec spec;
-  spec.tilt_axis_m = 0.10;
-  makeMast(spec, 51u);
+  makeMast(MastSpec{0.10}, 51u);
   (void)fitTiltArm(g_shape_net);
   const TiltArm& arm = g_shape_net.rig.tilt_arm;
   constexpr double kStep = 1e-7;

@@ -128,22 +128,18 @@ FidoRun runScene(const std::string& sim_args, int seed, const char* name) {
                                  net.rig.gimbal_m[0], true, kFidoEoRangeM)
                          .eo_px;
   out.chosen = adjustAndMeasure(net, truth, dem, [](RigConstraints&) {});
-  out.eq3 = adjustAndMeasure(net, truth, dem, [&](RigConstraints& rig) {
-    rig = chosen;
-    rig.use_gimbal = true;
-    rig.use_tilt_arm = false;
-    rig.use_spin_centre = false;
-    rig.use_lr_distance = false;
-  });
-  if (out.fido) {
-    out.distances = adjustAndMeasure(net, truth, dem, [&](RigConstraints& rig) {
+  // A control: the chosen network's rig values with Eq. 3 (no arm) or the spin-centre distances instead.
+  const auto control = [&chosen](bool eq3) {
+    return [&chosen, eq3](RigConstraints& rig) {
       rig = chosen;
-      rig.use_gimbal = false;
+      rig.use_gimbal = eq3;
       rig.use_tilt_arm = false;
-      rig.use_spin_centre = true;
-      rig.use_lr_distance = true;
-    });
-  }
+      rig.use_spin_centre = !eq3;
+      rig.use_lr_distance = !eq3;
+    };
+  };
+  out.eq3 = adjustAndMeasure(net, truth, dem, control(true));
+  if (out.fido) out.distances = adjustAndMeasure(net, truth, dem, control(false));
   std::printf(
       "\n  %s seed %d: %s (Eq. 3 fit %.3f mm RMS); EO vs truth %.2f -> %.3f px, covariance %.3f px "
       "(ratio %.2f); DEM %.4f m; sigma0 %.3f; with Eq. 3 held: sigma0 %.3f, ratio %.2f, DEM %.4f m",
