@@ -98,18 +98,28 @@ Vec3 scatterAxis(const Mat3& scatter, int32_t k, bool* unique = nullptr) {
   return eig.eigenvectors().col(k);
 }
 
+// Two unit vectors spanning the plane perpendicular to unit v.
+Eigen::Matrix<double, 3, 2> tangentBasis(const Vec3& v) {
+  const Vec3 other = std::fabs(v.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+  Eigen::Matrix<double, 3, 2> t;
+  t.col(0) = v.cross(other).normalized();
+  t.col(1) = v.cross(t.col(0));
+  return t;
+}
+
 // Two axes closer than this (rad) are one: far below any pointing a mast's encoders give.
 constexpr double kTiltArmAxisTolerance_rad = 1e-12;
-// The alternation below converges linearly; on pointing-derived cameras it meets the tolerance in a few
-// steps. A cap, not a setting.
+// Gauss-Newton below converges quadratically from the start; on pointing-derived cameras it meets the
+// tolerance in a few steps. A cap, not a setting.
 constexpr int32_t kMaxTiltArmIterations = 100;
 
 // The pan axis (site frame) and each side's tilt axis (camera frame) of the a-priori cameras: a rotation
 // between two images of one tier and side is a pan, about the pan axis a (its rotation vectors' principal
 // direction starts a); the pan axis in a camera frame, M a, turns only with the tilt, so it stays
-// perpendicular to the tilt axis k (the scatter's least direction), and the tilt axis in the site frame,
-// M^T k, stays perpendicular to a: alternated until a no longer moves. False when the tilts do not span a
-// plane (one tilt: the arm is then an offset like any other, and Eq. 3 holds as it is).
+// perpendicular to the tilt axis k (the scatter's least direction starts k), and the tilt axis in the site
+// frame, M^T k, stays perpendicular to a: a . M_i^T k = 0 for every image, solved for a and both k by
+// Gauss-Newton. False when the tilts do not span a plane (one tilt: the arm is then an offset like any
+// other, and Eq. 3 holds as it is).
 bool fitTiltArmAxes(const Network& net, TiltArm& arm) {
   const int32_t n_img = net.imageCount();
   int32_t first[kMaxTiers][2];
@@ -130,33 +140,40 @@ bool fitTiltArmAxes(const Network& net, TiltArm& arm) {
   Vec3 a = scatterAxis(pans, 2);
   bool has_side[2] = {false, false};
   for (int32_t i = 0; i < n_img; ++i) has_side[net.image(i).side == Side::kLeft ? 0 : 1] = true;
-  for (int32_t it = 0; it < kMaxTiltArmIterations; ++it) {
-    for (int32_t side = 0; side < 2; ++side) {
-      if (!has_side[side]) continue;
-      Mat3 scatter = Mat3::Zero();
-      for (int32_t i = 0; i < n_img; ++i) {
-        const NetImage& im = net.image(i);
-        if ((im.side == Side::kLeft ? 0 : 1) != side) continue;
-        const Vec3 v = im.m_apriori * a;
-        scatter.noalias() += v * v.transpose();
-      }
-      bool unique = false;
-      arm.tilt_axis[side] = scatterAxis(scatter, 0, &unique);
-      if (!unique) return false;
-    }
+  for (int32_t side = 0; side < 2; ++side) {
+    if (!has_side[side]) continue;
     Mat3 scatter = Mat3::Zero();
     for (int32_t i = 0; i < n_img; ++i) {
       const NetImage& im = net.image(i);
-      const Vec3 v = im.m_apriori.transpose() * arm.tilt_axis[im.side == Side::kLeft ? 0 : 1];
+      if ((im.side == Side::kLeft ? 0 : 1) != side) continue;
+      const Vec3 v = im.m_apriori * a;
       scatter.noalias() += v * v.transpose();
     }
     bool unique = false;
-    Vec3 next = scatterAxis(scatter, 0, &unique);
+    arm.tilt_axis[side] = scatterAxis(scatter, 0, &unique);
     if (!unique) return false;
-    if (next.dot(a) < 0.0) next = -next;
-    const double moved = (next - a).norm();
-    a = next;
-    if (moved < kTiltArmAxisTolerance_rad) break;
+  }
+  // Gauss-Newton on r_i = a . M_i^T k_side over [a, k_L, k_R], each moved in its tangent plane.
+  Vec3* axes[3] = {&a, &arm.tilt_axis[0], &arm.tilt_axis[1]};
+  for (int32_t it = 0; it < kMaxTiltArmIterations; ++it) {
+    Eigen::Matrix<double, 3, 2> tangent[3];
+    for (int32_t k = 0; k < 3; ++k) tangent[k] = tangentBasis(*axes[k]);
+    Mat6 normal = Mat6::Zero();
+    Vec6 rhs = Vec6::Zero();
+    for (int32_t i = 0; i < n_img; ++i) {
+      const NetImage& im = net.image(i);
+      const int32_t side = im.side == Side::kLeft ? 0 : 1;
+      const Vec3 k_site = im.m_apriori.transpose() * arm.tilt_axis[side];
+      const Vec3 a_cam = im.m_apriori * a;
+      Vec6 row = Vec6::Zero();
+      row.head<2>() = tangent[0].transpose() * k_site;
+      row.segment<2>(2 + 2 * side) = tangent[1 + side].transpose() * a_cam;
+      normal.noalias() += row * row.transpose();
+      rhs -= row * a.dot(k_site);
+    }
+    const Vec6 step = rigShapeMinimumNormSolve<6>(normal, rhs, kRigShapeRelativeRank);
+    for (int32_t k = 0; k < 3; ++k) *axes[k] = (*axes[k] + tangent[k] * step.segment<2>(2 * k)).normalized();
+    if (step.norm() < kTiltArmAxisTolerance_rad) break;
   }
   arm.pan_axis = a;
   // The arm is one for both cameras: their tilt axes are turned to give the same forward direction.

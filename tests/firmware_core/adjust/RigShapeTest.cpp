@@ -31,6 +31,8 @@ struct MastSpec {
   double tilts_deg[2] = {20.0, 42.0};
   int32_t tiers = 2;
   bool rotation_only_error = false;  // the pointing error moves the rotations, not the centres
+  int32_t pans = 12;                  // pairs per tier
+  double pan_step_deg = 30.0;
 };
 
 constexpr double kFocalPx = 1236.0;
@@ -49,12 +51,11 @@ void makeMast(const MastSpec& spec, uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   const InteriorOrientation io = test::centredPinhole(kFocalPx, 1024, 1024);
-  constexpr int32_t kPans = 12;
   for (int32_t t = 0; t < spec.tiers; ++t) {
-    for (int32_t k = 0; k < kPans; ++k) {
+    for (int32_t k = 0; k < spec.pans; ++k) {
       const double error = (3.0 + 12.0 * u(rng)) / kFocalPx;
       const double direction = 2.0 * M_PI * u(rng);
-      const double pan = 2.0 * M_PI * k / kPans;
+      const double pan = spec.pan_step_deg * k * M_PI / 180.0;
       const double tilt = spec.tilts_deg[t] * M_PI / 180.0;
       const double pan_err = pan + error * std::cos(direction);
       const double tilt_err = tilt + error * std::sin(direction);
@@ -141,8 +142,11 @@ TEST(RigShape, ATiltAxisAheadOfThePanAxisIsSwitchedOverTwoTiersNotOverOne) {
 
 TEST(RigShape, TheTiltArmFittedToTheAprioriCamerasHoldsAtTheTrueOnesAndKeepsEachCentreOnItsRotation) {
   constexpr double kArmM = 0.10;
-  for (const uint32_t seed : {41u, 42u, 43u}) {
-    makeMast(MastSpec{kArmM}, seed);
+  MastSpec partial{kArmM};  // three pairs per tier over 90 degrees, like the reduced fido scene
+  partial.pans = 3;
+  partial.pan_step_deg = 45.0;
+  for (const uint32_t seed : {41u, 42u, 43u, 44u, 45u, 46u}) {
+    makeMast(seed < 44u ? MastSpec{kArmM} : partial, seed);
     const HeapAllocationScope heap;
     const TiltArmFit fit = fitTiltArm(g_shape_net);
     CHECK_EQUAL(0u, heap.allocations());
