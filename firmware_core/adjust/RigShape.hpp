@@ -40,7 +40,8 @@ struct TiltArmFit {
 
 // Eq. 3 with the tilt arm (Network.hpp TiltArm) fitted to the a-priori cameras into net.rig.tilt_arm: the
 // pan axis and each side's tilt axis from the rotations alone (the rotations between images of a tier
-// turn about the pan axis; the pan axis seen from a camera turns about the tilt axis), then XA per sol,
+// turn about the pan axis; the pan axis seen from a camera turns about the tilt axis; then a . M_i^T k = 0
+// solved for both by Gauss-Newton), then XA per sol,
 // the offsets and the arm by Eq. 3's linear least squares with the arm's column (XA eliminated per sol,
 // minimum norm). Leaves use_tilt_arm alone.
 TiltArmFit fitTiltArm(Network& net);

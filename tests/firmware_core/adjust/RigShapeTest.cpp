@@ -31,7 +31,7 @@ struct MastSpec {
   double tilts_deg[2] = {20.0, 42.0};
   int32_t tiers = 2;
   bool rotation_only_error = false;  // the pointing error moves the rotations, not the centres
-  int32_t pans = 12;                  // pairs per tier
+  int32_t pans = 12;                 // pairs per tier
   double pan_step_deg = 30.0;
 };
 

@@ -3,7 +3,7 @@
 // adjustNetwork): areomap-sim --preset fido (tilt axis 10 cm ahead of the pan axis, two tiers) against the
 // same scene with the axes meeting (--tilt-axis-forward-m 0, a gimbal rig whose panorama.json gives Eq. 3),
 // reduced to 3 pairs per tier of 256 x 256 (the preset's 45-degree geometry, tier overlap and pointing
-// errors; a coarser, smaller terrain), on seeds not used to make the rule: one in the default run, three
+// errors; a coarser, smaller terrain), on seeds not used to make the rule: one in the default run, five
 // more in the `long` group.
 #include <unistd.h>
 
