@@ -21,6 +21,20 @@ void gimbalRows(const Vec3& c, const Mat3& m, const Vec3& xg, const Vec3& offset
   j.block<3, 3>(0, 3).noalias() = -(m.transpose() * skew(offset));
 }
 
+void tiltArmRows(const TiltArm& arm, int32_t side, int32_t sol, const Vec3& c, const Mat3& m, Vec3& g,
+                 Mat3x6& j) {
+  gimbalRows(c, m, arm.centre_m[sol], arm.offset_m[side], g, j);
+  const Vec3 k_site = m.transpose() * arm.tilt_axis[side];
+  const Vec3 w = arm.pan_axis.cross(k_site);
+  const double len = w.norm();
+  if (!(len > 0.0)) return;  // a camera looking along the pan axis: no pan direction (never on a mast)
+  const Vec3 u = w / len;
+  g -= arm.arm_m * u;
+  const Mat3 du = (Mat3::Identity() - u * u.transpose()) / len;
+  j.block<3, 3>(0, 3).noalias() -=
+      arm.arm_m * du * skew(arm.pan_axis) * m.transpose() * skew(arm.tilt_axis[side]);
+}
+
 // Eq. 4, the stereo-base constraint of one pair: g = C_R - C_L - M_L^T e (e = C_R - C_L in the left camera
 // frame); over the pair's unknowns [left dC, left delta, right dC, right delta]: dg/dC_L = -I,
 // dg/ddelta_L = -M_L^T [e]x (as in Eq. 3), dg/dC_R = I, dg/ddelta_R = 0.
@@ -52,12 +66,18 @@ int32_t pairConstraintRows(const Network& net, int32_t pair, const Vec3& c_left,
   const Vec3* offsets[2] = {&rig.left_offset_m, &rig.right_offset_m};
   const double distances[2] = {rig.left_distance_m, rig.right_distance_m};
 
-  if (rig.use_gimbal && rig.gimbal_set[left.sol] && rig.sigma_gimbal_m > 0.0) {
+  const bool arm = rig.use_tilt_arm && rig.tilt_arm.centre_set[left.sol];
+  if (rig.use_gimbal && (arm || (!rig.use_tilt_arm && rig.gimbal_set[left.sol])) &&
+      rig.sigma_gimbal_m > 0.0) {
     const double w = 1.0 / rig.sigma_gimbal_m;
     for (int32_t s = 0; s < sides; ++s) {
       Vec3 g;
       Mat3x6 j;
-      gimbalRows(*centres[s], *ms[s], rig.gimbal_m[left.sol], *offsets[s], g, j);
+      if (arm) {
+        tiltArmRows(rig.tilt_arm, s, left.sol, *centres[s], *ms[s], g, j);
+      } else {
+        gimbalRows(*centres[s], *ms[s], rig.gimbal_m[left.sol], *offsets[s], g, j);
+      }
       rows.segment<3>(n) = g * w;
       jacobian.block<3, 6>(n, 6 * s) = j * w;
       tagRows(kinds, n, 3, ConstraintKind::kGimbal);
@@ -173,7 +193,10 @@ ConstraintMisfit networkMisfit(const Network& net) {
 
 double rigInconsistency(const RigConstraints& rig) {
   if (!rig.use_gimbal || !rig.use_base) return 0.0;
-  return std::fabs(rig.right_offset_m.norm() - (rig.left_offset_m + rig.base_m).norm());
+  // With the tilt arm the loop closes the same way: the arm's term is common to both cameras of a pair.
+  const Vec3& left = rig.use_tilt_arm ? rig.tilt_arm.offset_m[0] : rig.left_offset_m;
+  const Vec3& right = rig.use_tilt_arm ? rig.tilt_arm.offset_m[1] : rig.right_offset_m;
+  return std::fabs(right.norm() - (left + rig.base_m).norm());
 }
 
 ConstraintMisfit misfitFloor(const RigConstraints& rig) {

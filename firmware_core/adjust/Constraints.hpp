@@ -29,6 +29,11 @@ struct ConstraintMisfit {
 // Eq. 3 (gimbal, per image): g = C - XG - M^T c, over [dC, delta] of the image;
 // Eq. 4 (stereo base, per pair): g = C_R - C_L - M_L^T e, over [left dC, delta, right dC, delta].
 void gimbalRows(const Vec3& c, const Mat3& m, const Vec3& xg, const Vec3& offset, Vec3& g, Mat3x6& j);
+// Eq. 3 with the tilt arm (Network.hpp TiltArm) of image side `side` (0 left, 1 right) of sol `sol`:
+// g = C - XA - M^T o - arm u(M), u = w / |w|, w = a x M^T k; over [dC, delta]: dg/dC = I, dg/ddelta =
+// -M^T [o]x - arm (I - u u^T) / |w| [a]x M^T [k]x (M'^T k = M^T k + M^T [k]x delta).
+void tiltArmRows(const TiltArm& arm, int32_t side, int32_t sol, const Vec3& c, const Mat3& m, Vec3& g,
+                 Mat3x6& j);
 void baseRows(const Vec3& c_left, const Mat3& m_left, const Vec3& c_right, const Vec3& base, Vec3& g,
               Mat3x12& j);
 

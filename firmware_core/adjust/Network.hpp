@@ -79,12 +79,28 @@ constexpr double kHeldRigSigma_m = kRigMisfitBound_m / 10.0;
 constexpr double kMinHeldRigSigma_m = kRigMisfitBound_m * 0.03;
 constexpr int32_t kMaxRigTightenings = 4;  // each at least halves the sigma; the linear bound needs one
 
+// A mast whose tilt axis does not meet its pan axis (a FIDO-like head): each camera centre is
+//   C_i = XA_sol + M_i^T o_side + arm u_i,   u_i = unit(pan_axis x M_i^T tilt_axis_side),
+// XA the point of the pan axis nearest the tilt axis, arm the tilt axis's distance from the pan axis along
+// u (the horizontal direction the head faces, turned by the pan alone), o the camera's offset from the
+// tilt axis in its camera frame. It is Eq. 3 with the lever of the pan: three rows per camera that tie the
+// centre to the rotation, as Eq. 3 does on a one-point rig (RigShape.hpp fitFidoRig fits it).
+struct TiltArm {
+  Vec3 centre_m[kMaxSols] = {};  // XA per sol
+  bool centre_set[kMaxSols] = {};
+  Vec3 offset_m[2] = {};         // o of the left and right camera, camera frame
+  Vec3 tilt_axis[2] = {};        // unit tilt axis in the left and right camera frame
+  Vec3 pan_axis = Vec3::Zero();  // unit, site frame
+  double arm_m = 0.0;
+};
+
 // The rig constraints as pseudo-observations with very small variances (§3.2). Each can be switched off.
 // Eq. 3 (per image):  C_i - XG_sol - M_i^T c_side = 0   (c = camera centre minus gimbal centre, camera frame)
 // Eq. 4 (per pair):   C_R - C_L - M_L^T e = 0           (e = C_R - C_L in the left camera frame)
 // FIDO variants (rigs without a calibration report): |C_i - S_tier| = d_side (a virtual spin centre per
-// tier), |C_R - C_L| = d_LR. A weak prior on every rotation towards its a-priori value keeps the datum of
-// the free network (the common rotation about the gimbal centre has zero curvature otherwise).
+// tier), |C_R - C_L| = d_LR; or, where the mast's axes do not meet, Eq. 3 with its tilt arm (TiltArm). A
+// weak prior on every rotation towards its a-priori value keeps the datum of the free network (the common
+// rotation about the gimbal centre has zero curvature otherwise).
 struct RigConstraints {
   bool use_gimbal = true;
   bool use_base = true;
@@ -111,6 +127,11 @@ struct RigConstraints {
   double right_distance_m = 0.0;  // |C_R - S_tier|
   double lr_distance_m = 0.0;     // |C_R - C_L|
   double sigma_distance_m = 0.001;
+
+  // With use_gimbal: Eq. 3 with the tilt arm (TiltArm) instead of the gimbal centres and offsets above;
+  // rows, sigma and hold rule are Eq. 3's.
+  bool use_tilt_arm = false;
+  TiltArm tilt_arm;
 
   // Datum prior: sigma of each image's rotation about its a-priori value. Weak (0.01 rad = ~10x the
   // pointing error, 1e-5 of the weight of a pair's image data) so that it fixes the zero-curvature

@@ -507,8 +507,7 @@ void RoverNode::chooseRigModel() {
   counters_.rig_fit_rms_m = shape.fit_rms_m;
   if (shape.one_point) {
     rig.use_gimbal = true;
-    rig.use_spin_centre = false;
-    rig.use_lr_distance = false;
+    rig.use_tilt_arm = rig.use_spin_centre = rig.use_lr_distance = false;
     counters_.fido_model = false;
     return;
   }
@@ -517,8 +516,9 @@ void RoverNode::chooseRigModel() {
   if (!counters_.fido_model && options_.log_to_stderr) {
     std::fprintf(stderr,
                  "areomap-rover: %s: Eq. 3 misses the a-priori cameras by %.2f mm RMS (one point: at most "
-                 "%.2f mm): FIDO model (a virtual spin centre per tier, distances, stereo base; Eq. 3 off)\n",
-                 panorama_, shape.fit_rms_m * 1000.0, shape.threshold_m * 1000.0);
+                 "%.2f mm): FIDO model (%s, stereo base)\n",
+                 panorama_, shape.fit_rms_m * 1000.0, shape.threshold_m * 1000.0,
+                 rig.use_tilt_arm ? "Eq. 3 with the tilt arm" : "distances");
   }
   counters_.fido_model = true;
 }

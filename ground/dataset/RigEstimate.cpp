@@ -152,6 +152,18 @@ void estimateFidoVariants(Network& net, RigEstimate& out) {
     << " mm RMS at the a-priori centres) and left-right distance " << rig.lr_distance_m << " m ("
     << fit.lr_pairs << " pairs) from the a-priori models.";
   out.estimated.push_back(s.str());
+  const TiltArm& arm = rig.tilt_arm;
+  if (!fit.tilt_arm.fitted) {
+    out.estimated.push_back(
+        "FIDO: the tilts do not fix the mast's axes: no tilt arm, the distances are used.");
+    return;
+  }
+  std::ostringstream a;
+  a << "FIDO: Eq. 3 with the tilt arm fitted to the a-priori models: pan axis " << vecText(arm.pan_axis)
+    << ", tilt axis " << vecText(arm.tilt_axis[0]) << " (left camera frame), arm " << arm.arm_m
+    << " m, offsets " << vecText(arm.offset_m[0]) << " / " << vecText(arm.offset_m[1]) << " m; "
+    << fit.tilt_arm.rms_m * 1000.0 << " mm RMS at the a-priori centres.";
+  out.estimated.push_back(a.str());
 }
 
 // A sol seen by one pair alone: its gimbal centre cannot be estimated (its two camera centres fix the

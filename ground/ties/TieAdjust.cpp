@@ -26,8 +26,10 @@ RigModelChoice setRigConstraints(const Dataset& dataset, const std::vector<int>&
     << " m, times the a-priori pointing sigma, " << net.rig.sigma_datum_rad << " rad): ";
   if (choice.fido) {
     useFidoModel(net);
-    s << "the mast does not turn the cameras about one point, so the FIDO model is used (a virtual spin "
-         "centre per tier, camera-to-centre and left-right distances, the stereo base; Eq. 3 off).";
+    s << "the mast does not turn the cameras about one point, so the FIDO model is used ("
+      << (net.rig.use_tilt_arm ? "Eq. 3 with the mast's tilt arm, held; the stereo base)."
+                               : "a virtual spin centre per tier, camera-to-centre and left-right distances, "
+                                 "the stereo base; Eq. 3 off).");
   } else {
     s << "the gimbal model (Eq. 3) is used.";
   }
@@ -47,9 +49,9 @@ void dropGimbalModelNotes(std::vector<std::string>& notes) {
 }
 
 std::map<std::string, bool> constraintsInUse(const RigConstraints& rig) {
-  return {{"gimbal", rig.use_gimbal},
+  return {{"gimbal", rig.use_gimbal && !rig.use_tilt_arm},
           {"base", rig.use_base},
-          {"fido", rig.use_spin_centre},
+          {"fido", rig.use_spin_centre || rig.use_tilt_arm},
           {"datum_prior", rig.use_datum_prior}};
 }
 

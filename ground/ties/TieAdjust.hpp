@@ -26,14 +26,15 @@ struct RigModelChoice {
 // Fills net.rig by estimateRig (sols of the network images must index dataset.rig.gimbal_m keys in order,
 // as runTiePoints assigns them) and holds the stereo base where the network has a right image; when the
 // a-priori cameras do not turn about one point (checkRigShape), switches to the FIDO model (useFidoModel:
-// Eq. 3 off, a virtual spin centre per tier, the distances and the base on). `notes` receives what was
+// Eq. 3 with the mast's tilt arm and the base; the spin-centre distances where the tilts do not fix the
+// arm). `notes` receives what was
 // estimated, the fit's warnings and the choice.
 RigModelChoice setRigConstraints(const Dataset& dataset, const std::vector<int>& sol_of_index, Network& net,
                                  std::vector<std::string>& notes);
 
 // Drops from `notes` the dataset's notes on the gimbal model's values (rig.gimbal_m.<sol>, the camera
-// offsets, rig.sigma_gimbal_m held): after a switch to the FIDO model they describe a constraint that is not
-// used.
+// offsets, rig.sigma_gimbal_m held): after a switch to the FIDO model they describe values that are not
+// used (the tilt arm's own are fitted and said by estimateRig).
 void dropGimbalModelNotes(std::vector<std::string>& notes);
 
 // report.json's "constraints" of a network: which rig constraints its rig uses.
