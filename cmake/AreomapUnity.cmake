@@ -1,9 +1,10 @@
 # Unity builds (CMAKE_UNITY_BUILD=ON) for the builds whose binaries are only tested, never shipped: the
-# asan-ci and fuzz presets (CMakePresets.json) and CI's native build (./setup.sh --unity, .ci/run). Each
+# asan-ci and fuzz presets (CMakePresets.json), CI's native build (./setup.sh --unity) and CI's aarch64 build
+# (.ci/run: its rover runs only under qemu). Each
 # target's sources are compiled a few at a time as one translation unit, so the heavy headers (Eigen, OpenCV,
 # CppUTest) are parsed once per batch instead of once per file. The native preset and ./setup.sh without
 # --unity stay one file per translation unit: the developers' build, where a file that compiles alone is what
-# is checked (in CI the cross presets check it for the rover side).
+# is checked (in CI the powerpc preset checks it for the rover side).
 #
 # A batch is a run of neighbouring files in the target's source list, and a file added or removed moves the
 # others between batches: names in anonymous namespaces (and file-scope statics) are kept unique within the

@@ -73,8 +73,12 @@ std::size_t g_last_status_bytes = 0;
 int64_t g_last_status_us = 0;
 int64_t g_status_sequence = 0;
 
+// Every channel the pipeline publishes on: an outbox record carries its index (a publish on any other channel
+// is refused, never sent under another channel's name).
 const char* const kChannels[] = {areomap::channels::kTiePoints, areomap::channels::kEoSolution,
-                                 areomap::channels::kCoarseDem, areomap::channels::kRoverStatus};
+                                 areomap::channels::kCoarseDem, areomap::channels::kRoverStatus,
+                                 areomap::channels::kSitePose};
+constexpr uint8_t kChannelCount = sizeof(kChannels) / sizeof(kChannels[0]);
 
 std::mutex g_mutex;
 std::condition_variable g_wake;
@@ -93,10 +97,11 @@ std::size_t g_inbox_peak_bytes = 0;  // the inbox's highest fill
 class OutboxTransport final : public areomap::platform::Transport {
  public:
   Status publish(const char* channel, const uint8_t* data, std::size_t size) override {
-    uint8_t tag = 0;
-    for (uint8_t i = 0; i < 4; ++i) {
+    uint8_t tag = kChannelCount;
+    for (uint8_t i = 0; i < kChannelCount; ++i) {
       if (std::strcmp(channel, kChannels[i]) == 0) tag = i;
     }
+    if (tag == kChannelCount) return Status::kInvalidArgument;
     std::lock_guard<std::mutex> lock(g_mutex);
     return g_outbox.push(tag, data, size) ? Status::kOk : Status::kCapacityExceeded;
   }

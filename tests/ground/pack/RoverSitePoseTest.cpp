@@ -8,6 +8,8 @@
 // (firmware_core/match CrossSiteMatcher, firmware_core/dem CoarseDemRegistration).
 // The legs are 6-8 m: the tiny camera (tilted 30 degrees down on a 1.5 m mast) sees the ground out to about
 // 11 m, so neighbouring sites share ground only on such legs.
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -15,9 +17,11 @@
 #include <vector>
 
 #include "areomap/site_pose_t.hpp"
+#include "areomap/tiepoints_t.hpp"
 #include "ground/dataset/Traverse.hpp"
 #include "msgs/Channels.hpp"
 #include "msgs/MessageCheck.hpp"
+#include "platform/posix/LcmLogReplay.hpp"
 #include "tests/ground/pack/RoverHarness.hpp"
 #include "tests/support/TestData.hpp"
 
@@ -39,22 +43,50 @@ struct SitePoseCapture {
   }
 };
 
+// Counts the messages on AREOMAP_TIEPOINTS that do not decode as tiepoints_t (another message sent under
+// its name).
+struct ForeignTiePoints {
+  int messages = 0;
+  int foreign = 0;
+  static void on(void* ctx, const char*, const uint8_t* data, std::size_t size) {
+    auto* self = static_cast<ForeignTiePoints*>(ctx);
+    self->messages += 1;
+    self->foreign += ok(msgs::decodeMessage(data, size, self->scratch)) ? 0 : 1;
+  }
+  tiepoints_t scratch;
+};
+
+constexpr int kSites = 3;
+
+// The small traverse, simulated once per process, and its stream.
+const std::string& traverseDir() {
+  static const std::string ds = [] {
+    const std::string d = test::scratchDir("rover-site-poses-" + std::to_string(::getpid())) + "/ds";
+    CHECK_EQUAL(0, test::runTool("areomap-sim", "--preset traverse --camera tiny --pairs 4 --sites 3 --seed 21 "
+                                                "--leg-min-m 6 --leg-max-m 8 --max-turn-deg 20 --out " +
+                                                    d));
+    return d;
+  }();
+  return ds;
+}
+
+std::vector<LogEvent> traverseStream(const Traverse& traverse) {
+  PackOptions options;
+  options.start_utime = 1'700'000'000'000'000;
+  return packTraverse(traverse, options);
+}
+
 }  // namespace
 
 TEST_GROUP(RoverSitePoses){};
 
 TEST(RoverSitePoses, SmallTraverseLocalisedOnBoardWithZeroHeap) {
-  const std::string ds = test::scratchDir("rover-site-poses") + "/ds";
-  const int sites = 3;
-  CHECK_EQUAL(0, test::runTool("areomap-sim", "--preset traverse --camera tiny --pairs 4 --sites 3 --seed 21 "
-                                              "--leg-min-m 6 --leg-max-m 8 --max-turn-deg 20 --out " +
-                                                  ds));
+  const std::string& ds = traverseDir();
+  const int sites = kSites;
   const Traverse traverse = readTraverse(ds);
   const std::optional<TraverseTruth> truth = readTraverseTruth(ds, traverse);
   CHECK_TRUE(truth.has_value());
-  PackOptions options;
-  options.start_utime = 1'700'000'000'000'000;
-  const std::vector<LogEvent> events = packTraverse(traverse, options);
+  const std::vector<LogEvent> events = traverseStream(traverse);
   SitePoseCapture capture;
   const uint64_t allocations = test::feedRover(events, [&](platform::MemoryTransport& outbox) {
     CHECK(ok(outbox.subscribe(channels::kSitePose, SitePoseCapture::on, &capture)));
@@ -93,4 +125,31 @@ TEST(RoverSitePoses, SmallTraverseLocalisedOnBoardWithZeroHeap) {
   const double rms_after = std::sqrt(sum2_after / (sites - 1)), rms_apriori = std::sqrt(sum2_apriori / (sites - 1));
   std::printf("  position RMS %.3f m after, %.3f m a priori, over %.1f m driven (%.2f %% and %.2f %%)\n", rms_after,
               rms_apriori, distance, 100.0 * rms_after / distance, 100.0 * rms_apriori / distance);
+}
+
+// The areomap-rover process (its transport thread, outbox and LCM publisher, not only the node) on a file://
+// replay of the traverse, publishing into a log: every site pose on AREOMAP_SITE_POSE, one per site of each
+// window as in-process, and nothing else sent under another channel's name.
+TEST(RoverSitePoses, TheRoverProcessPublishesThemOnTheirChannel) {
+  const std::string& ds = traverseDir();
+  const Traverse traverse = readTraverse(ds);
+  const std::string dir = test::scratchDir("rover-site-poses-tool-" + std::to_string(::getpid()));
+  writeEventLog(dir + "/traverse.lcm", traverseStream(traverse));
+  CHECK_EQUAL(0, test::runTool("areomap-rover", "--lcm file://" + dir + "/traverse.lcm --publish file://" + dir +
+                                                    "/out.lcm?mode=w --quiet"));
+  std::vector<uint8_t> buffer(8u << 20);
+  platform::LcmLogReplay replay(buffer.data(), buffer.size());
+  CHECK_TRUE(ok(replay.open((dir + "/out.lcm").c_str())));
+  SitePoseCapture poses;
+  ForeignTiePoints ties;
+  CHECK(ok(replay.subscribe(channels::kSitePose, SitePoseCapture::on, &poses)));
+  CHECK(ok(replay.subscribe(channels::kTiePoints, ForeignTiePoints::on, &ties)));
+  while (replay.handle(0) == Status::kOk) {
+  }
+  std::printf("\nareomap-rover: %d site poses, %d tie-point messages (%d foreign)\n", poses.messages, ties.messages,
+              ties.foreign);
+  CHECK_EQUAL(1 + 2 + 3, poses.messages);
+  for (const TraverseSite& site : traverse.sites) CHECK_TRUE(poses.last.count(site.id) == 1);
+  CHECK_TRUE(ties.messages > 0);
+  CHECK_EQUAL(0, ties.foreign);
 }

@@ -116,8 +116,12 @@ TEST(TiesNavcamAdjustment, AutomaticTiesLinkEveryAdjacentPairAndTheAdjustmentMee
 // stereo geometry (PanoramaMatcher::transferInPair). Over three seeds of the full-size navcam (3 pairs,
 // the preset's rocks), the mean x error of the inter-stereo observations in the right images less that in
 // the left ones (the disparity bias of the inter-stereo ties; direct matches: -0.040 px here, 0.003 px
-// with the transfer; the standard error is ~0.007 px) stays within 0.012 px.
-TEST(TiesNavcamAdjustment, InterStereoDisparityIsUnbiasedOnRockyGround) {
+// with the transfer; the standard error is ~0.007 px) stays within 0.012 px. Three full-size scenes: the group
+// TiesRockyBiasLong, label `long`, runs only when AREOMAP_LONG_TESTS=1 is set.
+TEST_GROUP(TiesRockyBiasLong){};
+
+TEST(TiesRockyBiasLong, InterStereoDisparityIsUnbiasedOnRockyGround) {
+  if (!test::longTestsWanted("three full-size navcam scenes")) return;
   double sum[2] = {0.0, 0.0};
   int count[2] = {0, 0};
   for (int seed = 1; seed <= 3; ++seed) {
