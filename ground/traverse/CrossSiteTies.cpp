@@ -2,6 +2,7 @@
 // matching and checking (CrossTieSteps.hpp) and the result's status.
 #include "ground/traverse/CrossSiteTies.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -161,13 +162,20 @@ void confirmByImages(const SiteProducts& a, const SiteProducts& b, const SourceP
     firstPass(a, b, points, params, first_point, t);
     if (t.first_pass_ties > best.first_pass_ties) best = std::move(t);
   }
-  if (best.first_pass_ties < params.min_ties || best.first_pass_ties <= before) return;
-  secondPass(a, b, points, params, first_point, best);
-  char buffer[160];
+  char buffer[200];
   std::snprintf(buffer, sizeof buffer, " (%d first-pass ties of %zu hypotheses' best, against %d)",
-                best.first_pass_ties, tries.size(), before);
-  best.registration.message += buffer;
-  if (best.ties.size() > out.ties.size()) out = std::move(best);
+                std::max(0, best.first_pass_ties), tries.size(), before);
+  if (best.first_pass_ties >= params.min_ties && best.first_pass_ties > before) {
+    secondPass(a, b, points, params, first_point, best);
+    best.registration.message += buffer;
+    if (best.ties.size() > out.ties.size()) {
+      out = std::move(best);
+      return;
+    }
+  }
+  // The images confirmed none: the result stays the registration's, and its message says what was tried.
+  out.message += "; no other hypothesis of the pose was confirmed by the images" + std::string(buffer);
+  if (!dem.summary.empty()) out.message += ": " + dem.summary;
 }
 
 }  // namespace

@@ -12,6 +12,14 @@
 
 namespace areomap::traverse {
 
+namespace {
+
+// The most of B's cells the grid's costs are taken on: its cost is samples times poses (a 2 m, 6 deg
+// window has 4851 poses).
+constexpr int kMaxHypothesisSamples = 8000;
+
+}  // namespace
+
 PoseHypotheses demPoseHypotheses(const SiteProducts& a, const SiteProducts& b,
                                  const DemRegistration& registration, const RegistrationParams& params,
                                  double sigmas) {
@@ -20,9 +28,17 @@ PoseHypotheses demPoseHypotheses(const SiteProducts& a, const SiteProducts& b,
   // The registration's coarse grid about the a-priori pose, costed on the full DEMs with B's cells one step
   // apart (the cost's resolution that of the poses').
   const double step_m = coarseStepM(params), step_rad = coarseStepRad(params);
-  const std::vector<demcost::Sample> samples = demcost::samplesOf(b, b.dem, step_m, params);
+  // At most kMaxHypothesisSamples of them, spread wider where B's DEM has more: the effective count n / D
+  // that bounds V0's error changes little with the spacing while it is below the DEM errors' correlation
+  // length (D falls as the spacing grows).
   RegistrationParams at_step = params;
   at_step.sample_spacing_m = step_m;
+  std::vector<demcost::Sample> samples = demcost::samplesOf(b, b.dem, step_m, params);
+  if (samples.size() > static_cast<std::size_t>(kMaxHypothesisSamples)) {
+    at_step.sample_spacing_m =
+        step_m * std::sqrt(static_cast<double>(samples.size()) / kMaxHypothesisSamples);
+    samples = demcost::samplesOf(b, b.dem, at_step.sample_spacing_m, params);
+  }
   const int min_samples = demcost::minSamples(a, b, at_step);
   const int nxy = static_cast<int>(std::lround(params.search_m / step_m));
   const int nh = static_cast<int>(std::lround(params.search_deg * kDegToRad / step_rad));
@@ -65,7 +81,7 @@ PoseHypotheses demPoseHypotheses(const SiteProducts& a, const SiteProducts& b,
   if (!std::isfinite(v0) || n0 == 0) return out;
   out.best_variance_m2 = v0;
   out.samples = n0;
-  out.design_effect = demcost::designEffect(a, samples, best_pose, params, std::sqrt(v0));
+  out.design_effect = demcost::designEffect(a, samples, best_pose, at_step, std::sqrt(v0));
   out.bound_m2 = v0 * (1.0 + sigmas * std::sqrt(2.0 * out.design_effect / n0));
   std::vector<PoseHypothesis> plausible;
   for (PoseHypothesis& h : grid) {

@@ -273,8 +273,9 @@ TEST(CrossSiteHypotheses, AWrongButConfidentRegistrationGivesWayToThePoseTheImag
   params.registration = searchWindowOf(f.traverse, 0, 1);
   const RelativePose apriori = relativePose(f.traverse.sites[0].apriori, f.traverse.sites[1].apriori);
   const RelativePose truth = relativePose(f.truth.poses[0], f.truth.poses[1]);
-  DemRegistration wrong = registerDems(f.sites[0], f.sites[1], apriori, params.registration);
-  CHECK(wrong.status == RegistrationStatus::kOk);
+  DemRegistration wrong;
+  wrong.status = RegistrationStatus::kOk;
+  wrong.apriori = apriori;
   wrong.a_from_b = shiftedPose(truth, 0.3, -0.25, 1.5 * kPi / 180.0);
   wrong.covariance = Eigen::Vector4d(4e-4, 4e-4, 4e-4, std::pow(0.05 * kPi / 180.0, 2)).asDiagonal();
   wrong.sigma = wrong.covariance.diagonal().cwiseSqrt();

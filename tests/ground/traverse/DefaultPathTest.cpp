@@ -5,8 +5,8 @@
 // driven and below the a-priori one, and that a pair of sites left untied is said on the console as well as
 // in report.json. Both groups are labelled long and run with AREOMAP_LONG_TESTS=1: TraverseDefaultPath, two
 // sites on level ground (about 170 s of CPU); TraverseDefaultPathLong, three sites on seeds 21, 22, 23, each
-// on level ground and on slopes up to 10 deg, one test each (about 350 s of CPU each). No constant here was
-// tuned on these seeds.
+// on level ground and on slopes up to 10 deg, and seeds 26 (level) and 27 (sloped), one test each (about
+// 350 s of CPU each). No constant here was tuned on these seeds.
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -127,4 +127,12 @@ TEST(TraverseDefaultPathLong, Seed23Level) {
 }
 TEST(TraverseDefaultPathLong, Seed23Sloped) {
   threeSites(23, true);
+}
+
+// Seeds not looked at while the cross-site matcher's pose hypotheses were developed (on 21-23).
+TEST(TraverseDefaultPathLong, Seed26Level) {
+  threeSites(26, false);
+}
+TEST(TraverseDefaultPathLong, Seed27Sloped) {
+  threeSites(27, true);
 }
