@@ -2,10 +2,16 @@
 // matching and checking (CrossTieSteps.hpp) and the result's status.
 #include "ground/traverse/CrossSiteTies.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "ground/traverse/CrossSiteAdjustment.hpp"
 #include "ground/traverse/CrossTieSteps.hpp"
+#include "ground/traverse/PoseHypotheses.hpp"
 
 namespace areomap::traverse {
 
@@ -57,31 +63,27 @@ int CrossTieResult::observationCount() const {
 
 namespace {
 
-// The two passes of matching and checking under out.registration (none when it was refused) and the
-// result's status.
-void matchRegistered(const SiteProducts& a, const SiteProducts& b, const CrossTieParams& params,
-                     int64_t first_point, CrossTieResult& out) {
+// The first pass under out.registration (kOk): every first_pass_stride-th interest point, searched over the
+// registration's uncertainty (the registration's error is 10-30 cm on ground-pass DEMs, ten pixels and more
+// at navcam scale), and the geometric check of what it found.
+void firstPass(const SiteProducts& a, const SiteProducts& b, const SourcePoints& points,
+               const CrossTieParams& params, int64_t first_point, CrossTieResult& out) {
   out.a_from_b = out.registration.a_from_b;
-  if (out.registration.status != RegistrationStatus::kOk) {
-    out.status = out.registration.status == RegistrationStatus::kNoOverlap
-                     ? CrossTieStatus::kNoOverlap
-                     : CrossTieStatus::kRegistrationFailed;
-    out.message = out.registration.message;
-    return;
-  }
-  // A first pass under the registered pose (every first_pass_stride-th interest point, a wide search: the
-  // registration's error is 10-30 cm on ground-pass DEMs, ten pixels and more at navcam scale), a second
-  // one, every point, under the pose of the first pass's ties with a narrow search.
   const RelativePose registered = out.registration.a_from_b;
   CrossTieParams wide = params;
   wide.patch.radius_px = params.second_pass ? params.first_radius_px : params.patch.radius_px;
-  const SourcePoints points = sourcePoints(b, params);
   matchTies(a, b, points, registered, out.registration.covariance, wide, first_point,
             params.second_pass ? params.first_pass_stride : 1, out);
   out.counts.ties_before_check = static_cast<int>(out.ties.size());
   checkTies(a, b, registered, params, out);
   out.first_pass_ties = static_cast<int>(out.ties.size());
   out.first_pass_counts = out.counts;
+}
+
+// The second pass, every point under the pose of the first pass's ties with a narrow search, and the
+// result's status.
+void secondPass(const SiteProducts& a, const SiteProducts& b, const SourcePoints& points,
+                const CrossTieParams& params, int64_t first_point, CrossTieResult& out) {
   if (params.second_pass && static_cast<int>(out.ties.size()) >= params.min_ties) {
     const RelativePose first = out.a_from_b;
     const Eigen::Matrix4d first_cov = out.a_from_b_covariance;
@@ -102,31 +104,104 @@ void matchRegistered(const SiteProducts& a, const SiteProducts& b, const CrossTi
   }
 }
 
+// Both passes under out.registration (none when it was refused) and the result's status.
+void matchRegistered(const SiteProducts& a, const SiteProducts& b, const SourcePoints& points,
+                     const CrossTieParams& params, int64_t first_point, CrossTieResult& out) {
+  out.a_from_b = out.registration.a_from_b;
+  if (out.registration.status != RegistrationStatus::kOk) {
+    out.status = out.registration.status == RegistrationStatus::kNoOverlap
+                     ? CrossTieStatus::kNoOverlap
+                     : CrossTieStatus::kRegistrationFailed;
+    out.message = out.registration.message;
+    return;
+  }
+  firstPass(a, b, points, params, first_point, out);
+  secondPass(a, b, points, params, first_point, out);
+}
+
+// A registration the images do not confirm (too few ties under it), or none, is a hypothesis among others:
+// the orthoimages' registration and every pose the DEMs cannot tell from their best (PoseHypotheses.hpp).
+// Each is tried by the first pass; the one whose checked ties are the most, and more than the registration's,
+// goes on to the second pass and replaces the result when it ties more.
+void confirmByImages(const SiteProducts& a, const SiteProducts& b, const SourcePoints& points,
+                     const CrossTieParams& params, int64_t first_point, CrossTieResult& out) {
+  const std::string pair = "sites " + a.id + " and " + b.id;
+  const std::string why =
+      out.registration.status == RegistrationStatus::kOk
+          ? pair +
+                (out.registration.method == "dem" ? ": the DEM registration gave "
+                                                  : ": the orthoimages' registration gave ") +
+                std::to_string(out.ties.size()) + " ties"
+          : out.registration.message;
+  std::vector<DemRegistration> tries;
+  if (out.registration.method == "dem") {
+    DemRegistration ortho = registerOrthosInstead(a, b, out.registration, why, params.registration);
+    if (ortho.status == RegistrationStatus::kOk) tries.push_back(std::move(ortho));
+  }
+  const PoseHypotheses dem =
+      demPoseHypotheses(a, b, out.registration, params.registration, params.search_sigmas);
+  for (std::size_t k = 0; k < dem.poses.size(); ++k) {
+    DemRegistration h = out.registration;
+    h.status = RegistrationStatus::kOk;
+    h.method = "dem_hypothesis";
+    h.a_from_b = dem.poses[k].a_from_b;
+    h.covariance = dem.poses[k].covariance;
+    for (int i = 0; i < 4; ++i) h.sigma[i] = std::sqrt(h.covariance(i, i));
+    h.message = why + "; " + dem.summary + "; the images confirmed the one " + std::to_string(k + 1) +
+                " in the order of fit";
+    tries.push_back(std::move(h));
+  }
+  const int before = out.first_pass_ties;
+  CrossTieResult best;
+  best.first_pass_ties = -1;
+  for (DemRegistration& r : tries) {
+    CrossTieResult t;
+    t.site_a = a.id;
+    t.site_b = b.id;
+    t.registration = std::move(r);
+    firstPass(a, b, points, params, first_point, t);
+    if (t.first_pass_ties > best.first_pass_ties) best = std::move(t);
+  }
+  char buffer[200];
+  std::snprintf(buffer, sizeof buffer, " (%d first-pass ties of %zu hypotheses' best, against %d)",
+                std::max(0, best.first_pass_ties), tries.size(), before);
+  if (best.first_pass_ties >= params.min_ties && best.first_pass_ties > before) {
+    secondPass(a, b, points, params, first_point, best);
+    best.registration.message += buffer;
+    if (best.ties.size() > out.ties.size()) {
+      out = std::move(best);
+      return;
+    }
+  }
+  // The images confirmed none: the result stays the registration's, and its message says what was tried.
+  out.message += "; no other hypothesis of the pose was confirmed by the images" + std::string(buffer);
+  if (!dem.summary.empty()) out.message += ": " + dem.summary;
+}
+
 }  // namespace
 
-CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
-                                 const CrossTieParams& params, int64_t first_point) {
+CrossTieResult tiesUnderRegistration(const SiteProducts& a, const SiteProducts& b,
+                                     DemRegistration registration, const CrossTieParams& params,
+                                     int64_t first_point) {
   CrossTieResult out;
   out.site_a = a.id;
   out.site_b = b.id;
-  out.registration = registerDems(a, b, apriori, params.registration);
-  matchRegistered(a, b, params, first_point, out);
-  // A DEM registration the images do not confirm (too few ties under it: the DEMs' errors, not their relief,
-  // placed it) is replaced by the orthoimages' where they register.
-  if (out.status == CrossTieStatus::kTooFewTies && out.registration.method == "dem") {
-    const std::string why = "sites " + a.id + " and " + b.id + ": the DEM registration gave " +
-                            std::to_string(out.ties.size()) + " ties";
-    DemRegistration ortho = registerOrthosInstead(a, b, out.registration, why, params.registration);
-    if (ortho.status == RegistrationStatus::kOk) {
-      CrossTieResult again;
-      again.site_a = a.id;
-      again.site_b = b.id;
-      again.registration = std::move(ortho);
-      matchRegistered(a, b, params, first_point, again);
-      if (again.ties.size() > out.ties.size()) out = std::move(again);
-    }
+  out.registration = std::move(registration);
+  if (out.registration.status == RegistrationStatus::kNoOverlap) {
+    out.a_from_b = out.registration.a_from_b;
+    out.status = CrossTieStatus::kNoOverlap;
+    out.message = out.registration.message;
+    return out;
   }
+  const SourcePoints points = sourcePoints(b, params);
+  matchRegistered(a, b, points, params, first_point, out);
+  if (out.status != CrossTieStatus::kOk) confirmByImages(a, b, points, params, first_point, out);
   return out;
+}
+
+CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
+                                 const CrossTieParams& params, int64_t first_point) {
+  return tiesUnderRegistration(a, b, registerDems(a, b, apriori, params.registration), params, first_point);
 }
 
 std::vector<CrossSiteTie> crossSiteObservations(const std::vector<CrossTie>& ties) {

@@ -3,8 +3,10 @@
 // change), found through each site's DEM and the a-priori relative pose.
 //
 //  1. The relative pose of the sites is registered on their DEMs (DemRegistration.hpp), or on their
-//     orthoimages where the DEMs are refused or the ties under the DEMs' pose are too few
-//     (OrthoRegistration.hpp); a pair whose DEMs do not overlap, or that neither registers, gets that status
+//     orthoimages where the DEMs are refused (OrthoRegistration.hpp). The registration is a hypothesis the
+//     images must confirm: where the ties under it are too few, the orthoimages' pose and the poses the
+//     DEMs cannot tell from their best (PoseHypotheses.hpp) are tried too, and the one the most checked
+//     ties confirm is kept. A pair whose DEMs do not overlap, or that no hypothesis ties, gets that status
 //     and no ties.
 //  2. Förstner points of every image of B are cast onto B's DEM, moved into A's frame by the registered
 //     pose and kept where A's DEM agrees. Each is predicted into every image of A (and every other image of
@@ -134,6 +136,16 @@ struct CrossTieResult {
 // `first_point`.
 CrossTieResult findCrossSiteTies(const SiteProducts& a, const SiteProducts& b, const RelativePose& apriori,
                                  const CrossTieParams& params = {}, int64_t first_point = 0);
+
+// The steps after the registration: both passes under `registration` and, where the images do not confirm
+// it (fewer than min_ties under it, or it was refused), the other hypotheses — the orthoimages'
+// registration, every pose the DEMs cannot tell from their best (PoseHypotheses.hpp) —, each tried by the
+// first pass; the one with the most checked ties, when more than the registration's, goes through the
+// second pass and is the result when it ties more (its registration's method "ortho" or "dem_hypothesis",
+// its message saying why and how many were tried).
+CrossTieResult tiesUnderRegistration(const SiteProducts& a, const SiteProducts& b,
+                                     DemRegistration registration, const CrossTieParams& params = {},
+                                     int64_t first_point = 0);
 
 // The ties as the multi-site adjustment and cross_ties.csv take them: one observation each, ties in order.
 std::vector<CrossSiteTie> crossSiteObservations(const std::vector<CrossTie>& ties);

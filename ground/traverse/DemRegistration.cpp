@@ -13,132 +13,26 @@
 
 #include "firmware_core/base/Angles.hpp"
 #include "ground/cli/Parallel.hpp"
+#include "ground/traverse/DemCost.hpp"
 #include "ground/traverse/OrthoRegistration.hpp"
 
 namespace areomap::traverse {
 
 namespace {
 
-constexpr double kFloorSigmaM = 0.02;  // added to every cell's sigma: no cell weighs more than 2 cm's worth
+using demcost::designEffect;
+using demcost::kFloorSigmaM;
+using demcost::Moments;
+using demcost::moments;
+using demcost::Sample;
+using demcost::samplesOf;
+using demcost::sigmaAt;
+
 constexpr int kMaxGaussNewtonIterations = 40;
-
-struct Sample {
-  Eigen::Vector3d b_m;  // cell centre on the surface, B's frame
-  double sigma2 = 0.0;  // B's dem_sigma^2 (0 without one)
-};
-
-double sigmaAt(const std::optional<DemGrid>& sigma, double x, double y) {
-  if (!sigma) return 0.0;
-  const double s = demElevation(*sigma, x, y);
-  return std::isfinite(s) ? s : std::numeric_limits<double>::infinity();
-}
-
-std::vector<Sample> samplesOf(const SiteProducts& b, const DemGrid& dem, double spacing_m,
-                              const RegistrationParams& params) {
-  const int stride = std::max(1, static_cast<int>(std::lround(spacing_m / dem.cell_m)));
-  std::vector<Sample> out;
-  for (int r = stride / 2; r < dem.rows; r += stride) {
-    for (int c = stride / 2; c < dem.cols; c += stride) {
-      const float v = dem.at(c, r);
-      if (v == dem.nodata || !std::isfinite(v)) continue;
-      const Eigen::Vector3d p(dem.northOfRow(r), dem.eastOfCol(c), -v);
-      if (p.head<2>().norm() > params.max_range_m) continue;
-      const double s = sigmaAt(b.dem_sigma, p.x(), p.y());
-      if (s > params.max_sigma_m) continue;
-      out.push_back({p, s * s});
-    }
-  }
-  return out;
-}
-
-struct Moments {
-  double w = 0.0, wd = 0.0, wdd = 0.0;
-  double dd = 0.0, ss = 0.0;  // unweighted: the differences' squares, their dem_sigma variances
-  int n = 0;
-  double mean() const { return wd / w; }
-  double variance() const { return std::max(0.0, wdd / w - mean() * mean()); }
-};
-
-// The elevation differences (A's DEM minus B's surface moved into A) of every sample under `pose`.
-Moments moments(const SiteProducts& a, const DemGrid& dem_a, const std::vector<Sample>& samples,
-                const RelativePose& pose, const RegistrationParams& params) {
-  Moments m;
-  const Eigen::Matrix3d r = pose.rotation();
-  for (const Sample& s : samples) {
-    const Eigen::Vector3d p = r * s.b_m + pose.translation_m;
-    if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
-    const double e = demElevation(dem_a, p.x(), p.y());
-    if (!std::isfinite(e)) continue;
-    const double sa = sigmaAt(a.dem_sigma, p.x(), p.y());
-    if (sa > params.max_sigma_m) continue;
-    const double w = 1.0 / (kFloorSigmaM * kFloorSigmaM + sa * sa + s.sigma2);
-    const double d = e + p.z();
-    m.w += w;
-    m.wd += w * d;
-    m.wdd += w * d * d;
-    m.dd += d * d;
-    m.ss += sa * sa + s.sigma2;
-    ++m.n;
-  }
-  return m;
-}
 
 struct Candidate {
   double dx = 0.0, dy = 0.0, dh = 0.0, cost = std::numeric_limits<double>::infinity();
 };
-
-// The variance inflation of a mean of the elevation differences under `pose` through their spatial
-// correlation: over square blocks of side L, (variance of the block means) / (variance of one difference /
-// samples a block), the largest over L doubling from 4 sample spacings while at least 8 blocks are filled;
-// differences beyond 3 times `rms_m` are left out (as the trimmed solution does). At least 1.
-double designEffect(const SiteProducts& a, const std::vector<Sample>& samples, const RelativePose& pose,
-                    const RegistrationParams& params, double rms_m) {
-  struct Residual {
-    double x, y, d;
-  };
-  std::vector<Residual> res;
-  const Eigen::Matrix3d r = pose.rotation();
-  double sum = 0.0, sum2 = 0.0;
-  for (const Sample& s : samples) {
-    const Eigen::Vector3d p = r * s.b_m + pose.translation_m;
-    if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
-    const double e = demElevation(a.dem, p.x(), p.y());
-    if (!std::isfinite(e) || sigmaAt(a.dem_sigma, p.x(), p.y()) > params.max_sigma_m) continue;
-    const double d = e + p.z();
-    if (std::fabs(d) > 3.0 * rms_m) continue;
-    res.push_back({p.x(), p.y(), d});
-    sum += d;
-    sum2 += d * d;
-  }
-  if (res.size() < 100) return 1.0;
-  const double n = static_cast<double>(res.size());
-  const double mean = sum / n, var = std::max(sum2 / n - mean * mean, 1e-12);
-  double factor = 1.0;
-  for (double side = 4.0 * params.sample_spacing_m; side < params.max_range_m; side *= 2.0) {
-    std::map<std::pair<long, long>, std::pair<double, int>> blocks;
-    for (const Residual& q : res) {
-      auto& b = blocks[{std::lround(std::floor(q.x / side)), std::lround(std::floor(q.y / side))}];
-      b.first += q.d;
-      ++b.second;
-    }
-    // Blocks at least half full, as in the interior of the overlap.
-    int full = 0, per_block_max = 0;
-    for (const auto& [key, b] : blocks) per_block_max = std::max(per_block_max, b.second);
-    double m1 = 0.0, m2 = 0.0, count = 0.0;
-    for (const auto& [key, b] : blocks) {
-      if (2 * b.second < per_block_max) continue;
-      const double bm = b.first / b.second - mean;
-      m1 += b.second;
-      m2 += bm * bm;
-      count += 1.0;
-      ++full;
-    }
-    if (full < 8) break;
-    const double per_block = m1 / count;
-    factor = std::max(factor, (m2 / count) * per_block / var);
-  }
-  return factor;
-}
 
 std::string format(const char* fmt, double a, double b = 0.0, double c = 0.0) {
   char buffer[160];
@@ -467,6 +361,14 @@ RegistrationParams searchWindowOf(const Traverse& traverse, int i, int j, const 
   return p;
 }
 
+double coarseStepM(const RegistrationParams& params) {
+  return std::max(0.2, params.search_m / 10.0);
+}
+
+double coarseStepRad(const RegistrationParams& params) {
+  return std::max(1.0, params.search_deg / 5.0) * kDegToRad;
+}
+
 std::string windowCut(const RegistrationParams& p) {
   std::string s;
   if (p.three_sigma_m > p.search_m * (1.0 + 1e-9))
@@ -511,8 +413,8 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   // The coarse steps grow with the search window (about 10 steps each side, at least 0.2 m and 1 degree);
   // the DEMs are averaged to the step.
   CoarseGrid grid;
-  grid.step_m = std::max(0.2, params.search_m / 10.0);
-  grid.step_rad = std::max(1.0, params.search_deg / 5.0) * kDegToRad;
+  grid.step_m = coarseStepM(params);
+  grid.step_rad = coarseStepRad(params);
   const int fa = std::max(1, static_cast<int>(std::lround(grid.step_m / a.dem.cell_m)));
   const int fb = std::max(1, static_cast<int>(std::lround(grid.step_m / b.dem.cell_m)));
   const DemGrid coarse_a = fa > 1 ? coarsenDem(a.dem, fa) : a.dem;
@@ -521,9 +423,7 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   const std::vector<Sample> samples = samplesOf(b, b.dem, params.sample_spacing_m, params);
 
   const Moments at_apriori = moments(a, a.dem, samples, apriori, params);
-  const double area_per_sample = std::pow(std::max(params.sample_spacing_m, b.dem.cell_m), 2);
-  const int min_samples = std::max(
-      20, static_cast<int>(params.min_overlap_cells * a.dem.cell_m * a.dem.cell_m / area_per_sample));
+  const int min_samples = demcost::minSamples(a, b, params);
   if (at_apriori.n < min_samples) {
     out.overlap_cells = at_apriori.n;
     out.message = pair + ": their DEMs share " + std::to_string(at_apriori.n) +

@@ -110,6 +110,11 @@ struct DemRegistration {
 RegistrationParams searchWindowOf(const Traverse& traverse, int i, int j,
                                   const RegistrationParams& base = {});
 
+// The coarse search's steps over the window of `params`: about ten each side, at least 0.2 m and 1 degree
+// (the DEMs and orthos are averaged to the step).
+double coarseStepM(const RegistrationParams& params);
+double coarseStepRad(const RegistrationParams& params);
+
 // One sentence when the window cuts the a-priori pose's 3-sigma range ("" when it does not).
 std::string windowCut(const RegistrationParams& params);
 

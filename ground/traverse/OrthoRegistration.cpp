@@ -163,8 +163,8 @@ OrthoRegistration registerOrthos(const SiteProducts& a, const SiteProducts& b, c
   }
   // Coarse: about ten steps each side, the orthos averaged to the step.
   OrthoNccGrid coarse;
-  coarse.step_m = std::max(0.2, params.search_m / 10.0);
-  coarse.step_rad = std::max(1.0, params.search_deg / 5.0) * kDegToRad;
+  coarse.step_m = coarseStepM(params);
+  coarse.step_rad = coarseStepRad(params);
   coarse.n = static_cast<int>(std::lround(params.search_m / coarse.step_m));
   coarse.nh = static_cast<int>(std::lround(params.search_deg * kDegToRad / coarse.step_rad));
   const int fa = std::max(1, static_cast<int>(std::lround(coarse.step_m / a.ortho->cell_m)));

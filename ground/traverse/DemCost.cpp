@@ -1,0 +1,117 @@
+#include "ground/traverse/DemCost.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <utility>
+
+namespace areomap::traverse::demcost {
+
+double sigmaAt(const std::optional<DemGrid>& sigma, double x, double y) {
+  if (!sigma) return 0.0;
+  const double s = demElevation(*sigma, x, y);
+  return std::isfinite(s) ? s : std::numeric_limits<double>::infinity();
+}
+
+std::vector<Sample> samplesOf(const SiteProducts& b, const DemGrid& dem, double spacing_m,
+                              const RegistrationParams& params) {
+  const int stride = std::max(1, static_cast<int>(std::lround(spacing_m / dem.cell_m)));
+  std::vector<Sample> out;
+  for (int r = stride / 2; r < dem.rows; r += stride) {
+    for (int c = stride / 2; c < dem.cols; c += stride) {
+      const float v = dem.at(c, r);
+      if (v == dem.nodata || !std::isfinite(v)) continue;
+      const Eigen::Vector3d p(dem.northOfRow(r), dem.eastOfCol(c), -v);
+      if (p.head<2>().norm() > params.max_range_m) continue;
+      const double s = sigmaAt(b.dem_sigma, p.x(), p.y());
+      if (s > params.max_sigma_m) continue;
+      out.push_back({p, s * s});
+    }
+  }
+  return out;
+}
+
+int minSamples(const SiteProducts& a, const SiteProducts& b, const RegistrationParams& params) {
+  const double area_per_sample = std::pow(std::max(params.sample_spacing_m, b.dem.cell_m), 2);
+  return std::max(20,
+                  static_cast<int>(params.min_overlap_cells * a.dem.cell_m * a.dem.cell_m / area_per_sample));
+}
+
+double Moments::variance() const {
+  return std::max(0.0, wdd / w - mean() * mean());
+}
+
+Moments moments(const SiteProducts& a, const DemGrid& dem_a, const std::vector<Sample>& samples,
+                const RelativePose& pose, const RegistrationParams& params) {
+  Moments m;
+  const Eigen::Matrix3d r = pose.rotation();
+  for (const Sample& s : samples) {
+    const Eigen::Vector3d p = r * s.b_m + pose.translation_m;
+    if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
+    const double e = demElevation(dem_a, p.x(), p.y());
+    if (!std::isfinite(e)) continue;
+    const double sa = sigmaAt(a.dem_sigma, p.x(), p.y());
+    if (sa > params.max_sigma_m) continue;
+    const double w = 1.0 / (kFloorSigmaM * kFloorSigmaM + sa * sa + s.sigma2);
+    const double d = e + p.z();
+    m.w += w;
+    m.wd += w * d;
+    m.wdd += w * d * d;
+    m.dd += d * d;
+    m.ss += sa * sa + s.sigma2;
+    ++m.n;
+  }
+  return m;
+}
+
+double designEffect(const SiteProducts& a, const std::vector<Sample>& samples, const RelativePose& pose,
+                    const RegistrationParams& params, double rms_m) {
+  struct Residual {
+    double x, y, d;
+  };
+  std::vector<Residual> res;
+  const Eigen::Matrix3d r = pose.rotation();
+  double sum = 0.0, sum2 = 0.0;
+  for (const Sample& s : samples) {
+    const Eigen::Vector3d p = r * s.b_m + pose.translation_m;
+    if (p.head<2>().squaredNorm() > params.max_range_m * params.max_range_m) continue;
+    const double e = demElevation(a.dem, p.x(), p.y());
+    if (!std::isfinite(e) || sigmaAt(a.dem_sigma, p.x(), p.y()) > params.max_sigma_m) continue;
+    const double d = e + p.z();
+    if (std::fabs(d) > 3.0 * rms_m) continue;
+    res.push_back({p.x(), p.y(), d});
+    sum += d;
+    sum2 += d * d;
+  }
+  if (res.size() < 100) return 1.0;
+  const double n = static_cast<double>(res.size());
+  const double mean = sum / n, var = std::max(sum2 / n - mean * mean, 1e-12);
+  double factor = 1.0;
+  for (double side = 4.0 * params.sample_spacing_m; side < params.max_range_m; side *= 2.0) {
+    std::map<std::pair<long, long>, std::pair<double, int>> blocks;
+    for (const Residual& q : res) {
+      auto& b = blocks[{std::lround(std::floor(q.x / side)), std::lround(std::floor(q.y / side))}];
+      b.first += q.d;
+      ++b.second;
+    }
+    // Blocks at least half full, as in the interior of the overlap.
+    int full = 0, per_block_max = 0;
+    for (const auto& [key, b] : blocks) per_block_max = std::max(per_block_max, b.second);
+    double m1 = 0.0, m2 = 0.0, count = 0.0;
+    for (const auto& [key, b] : blocks) {
+      if (2 * b.second < per_block_max) continue;
+      const double bm = b.first / b.second - mean;
+      m1 += b.second;
+      m2 += bm * bm;
+      count += 1.0;
+      ++full;
+    }
+    if (full < 8) break;
+    const double per_block = m1 / count;
+    factor = std::max(factor, (m2 / count) * per_block / var);
+  }
+  return factor;
+}
+
+}  // namespace areomap::traverse::demcost
