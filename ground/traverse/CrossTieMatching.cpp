@@ -377,6 +377,13 @@ bool matchIntoImage(const Pass& pass, const SiteImage& source, const SiteProduct
     if (in_a) countRefusal(m.result, tally.in_a);
     return false;
   }
+  // A match whose own precision puts its 3 sigma beyond the geometric check's residual floor could not be
+  // told from a blunder by that check: refused (counted with the diverged ones).
+  if (3.0 * std::sqrt(m.cov_px.trace()) > params.residual_floor_px) {
+    countRefusal(PatchResult::kLsmDiverged, tally.all);
+    if (in_a) countRefusal(PatchResult::kLsmDiverged, tally.in_a);
+    return false;
+  }
   bump(&CrossTieCounts::matched);
   // The back-match starts from the source point itself: the matcher's own pull-in is enough.
   PatchParams back_patch = params.patch;

@@ -197,7 +197,7 @@ bool edgePeak(const std::vector<double>& score, int ns, int bx, int by) {
 PatchResult refineLeastSquares(const Footprint& sample_j, const Eigen::Vector2d& j_predicted_px,
                                const Eigen::Matrix2d& mj, const std::vector<Eigen::Vector2d>& off_j,
                                const std::vector<double>& tmpl, int h, const PatchParams& params,
-                               Eigen::Vector2d& d, Eigen::Matrix2d& b_fix) {
+                               Eigen::Vector2d& d, Eigen::Matrix2d& b_fix, Eigen::Matrix2d& d_cov) {
   const int side = 2 * h + 1;
   double tm = 0, tv = 0;
   for (double t : tmpl) tm += t;
@@ -239,6 +239,19 @@ PatchResult refineLeastSquares(const Footprint& sample_j, const Eigen::Vector2d&
         rhs += j * r;
       }
     }
+    // The translation's covariance (grid steps): the residuals' variance over the redundancy times the
+    // inverse normal matrix.
+    double rr = 0.0;
+    for (int v = -h; v <= h; ++v) {
+      for (int u = -h; u <= h; ++u) {
+        const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
+        const double r = (tmpl[k] - tm) / tn - (sv[k] - sm) / sn;
+        rr += r * r;
+      }
+    }
+    const double s2 = rr / std::max(1.0, static_cast<double>(tmpl.size()) - unknowns);
+    d_cov = unknowns == 6 ? Eigen::Matrix2d(s2 * n.inverse().topLeftCorner<2, 2>())
+                          : Eigen::Matrix2d(s2 * n.topLeftCorner<2, 2>().inverse());
     Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
     if (unknowns == 6) {
       step = n.ldlt().solve(rhs);
@@ -353,7 +366,9 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
   }
   Eigen::Vector2d d(bx - radius, by - radius);
   Eigen::Matrix2d b_fix = Eigen::Matrix2d::Zero();
-  out.result = refineLeastSquares(sample_j, j_predicted_px, mj, off_j, tmpl, h, params, d, b_fix);
+  Eigen::Matrix2d d_cov = Eigen::Matrix2d::Zero();
+  out.result = refineLeastSquares(sample_j, j_predicted_px, mj, off_j, tmpl, h, params, d, b_fix, d_cov);
+  out.cov_px = mj * d_cov * mj.transpose();
   if (out.result != PatchResult::kOk) return out;
   // NCC at the refined position.
   for (int v = -h; v <= h; ++v) {

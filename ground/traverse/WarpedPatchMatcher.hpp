@@ -34,6 +34,9 @@ struct PatchMatch {
   double ncc = 0.0;                                // at the integer peak
   double second = 0.0;                             // the second peak
   double ncc_final = 0.0;                          // NCC of the refined position
+  // The least-squares translation's covariance (J pixels; the residuals' variance over the redundancy
+  // times the inverse normal matrix of its last step).
+  Eigen::Matrix2d cov_px = Eigen::Matrix2d::Zero();
 };
 
 // The surface between the two views: maps a pixel of image I to image J through the ground (e.g. the ray
