@@ -413,9 +413,13 @@ void StreamCollector::rejectPair(const stereo_pair_t& pair, const std::string& c
 }
 
 bool StreamCollector::roverFinished() const {
-  if (rover_eo_ && rover_eo_->is_final) return true;
   // The rover's heartbeat repeats FINISHED after a panorama: it ends this one only after a RUNNING status.
-  return rover_running_seen_ && rover_status_ && rover_status_->state == rover_status_t::STATE_FINISHED;
+  const bool finished_status =
+      rover_running_seen_ && rover_status_ && rover_status_->state == rover_status_t::STATE_FINISHED;
+  // On a traverse the rover publishes its site poses after the final EO and before that FINISHED status (one
+  // outbox, in order): the site ends with the status, so that the last site's pose is not left unread.
+  if (traverse_) return finished_status;
+  return (rover_eo_ && rover_eo_->is_final) || finished_status;
 }
 
 std::vector<const ReceivedPair*> StreamCollector::pairs() const {

@@ -110,7 +110,8 @@ class StreamCollector {
   void receive(const std::string& channel, const uint8_t* data, std::size_t size);
 
   bool endOfPanorama() const { return end_of_panorama_; }
-  bool roverFinished() const;  // a final EO solution, or a FINISHED status after a RUNNING one, arrived
+  // A final EO solution (not on a traverse), or a FINISHED status after a RUNNING one, arrived.
+  bool roverFinished() const;
   // Ready for the next panorama (after its products are made): the camera stream's numbering starts
   // again at 0; the rover's channels go on from where they were; everything else is forgotten.
   void nextPanorama();

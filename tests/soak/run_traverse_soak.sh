@@ -179,9 +179,10 @@ rp = r.get("rover_poses")
 if not rp:
     bad("no site pose from the rover (AREOMAP_SITE_POSE)")
 else:
+    num = lambda k: float("nan") if rp.get(k) is None else rp[k]
     print("rover poses: %s sites, error %.3f m (%.2f %%); the ground over them %.3f m; %.3f m RMS apart" % (
-        rp.get("sites"), rp.get("position_error_m") or float("nan"), rp.get("position_error_pct") or float("nan"),
-        rp.get("ground_position_error_m") or float("nan"), rp.get("vs_ground_rms_m") or float("nan")))
+        rp.get("sites"), num("position_error_m"), num("position_error_pct"), num("ground_position_error_m"),
+        num("vs_ground_rms_m")))
     if rp.get("sites") != sites:
         bad("the rover published %s of %d site poses (missing %s)" % (rp.get("sites"), sites, rp.get("missing")))
     elif not rp.get("position_error_m") <= apriori_m * (1 + 1e-9):
