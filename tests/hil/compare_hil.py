@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """compare_hil.py NATIVE_PRODUCTS HIL_PRODUCTS PAIRS: the HIL run's products against the all-native run's
-(tests/hil/run.sh). Checks: both streams complete (PAIRS pairs, no gaps, duplicates or rejections), the
+(tests/hil/run.sh); of a traverse, every site's (PAIRS each) and the rover's own site poses (rover_poses.csv
+within the golden EO tolerance, a pose for every site). Checks per panorama: both streams complete (PAIRS pairs, no gaps, duplicates or rejections), the
 rover's final EO arrived with 0 heap allocations after start-up on both (native and under qemu); rover_tiepoints.csv identical; the rover's
 adjusted models (rover_models/*.cahvor) and the ground's products derived from the stream (models/, eo.csv,
 tiepoints.csv) equal within the golden EO tolerance (tests/golden/compare_golden.py: 1e-9 relative; the
@@ -43,6 +44,36 @@ def compare_numbers(a_path, b_path, tol):
 
 def main():
     native, hil, pairs = sys.argv[1], sys.argv[2], int(sys.argv[3])
+    sites_dir = os.path.join(native, "sites")
+    if not os.path.isdir(sites_dir):
+        return 1 if compare_products(native, hil, pairs, "") else 0
+    # A traverse: every site's products as a panorama's, and the rover's own site poses.
+    problems, site_problems = [], []
+    sites = sorted(os.listdir(sites_dir))
+    for site in sites:
+        site_problems += compare_products(os.path.join(native, "sites", site), os.path.join(hil, "sites", site), pairs,
+                                     site + ": ")
+    for name, d in (("native", native), ("hil", hil)):
+        rp = json.load(open(os.path.join(d, "report.json"))).get("rover_poses") or {}
+        if rp.get("sites") != len(sites):
+            problems.append("%s: the rover published poses of %s of %d sites (missing %s)" % (
+                name, rp.get("sites"), len(sites), rp.get("missing")))
+    a, b = os.path.join(native, "rover_poses.csv"), os.path.join(hil, "rover_poses.csv")
+    if not (os.path.isfile(a) and os.path.isfile(b)):
+        problems.append("no rover_poses.csv in both runs")
+    else:
+        worst, p = compare_numbers(a, b, EO_TOL)
+        print("hil: rover_poses.csv: %s, max relative difference %.3g" % (
+            "byte-identical" if open(a, "rb").read() == open(b, "rb").read() else "not byte-identical", worst))
+        if p:
+            problems.append(p)
+    for p in problems:
+        print("hil: " + p, file=sys.stderr)
+    return 1 if problems or site_problems else 0
+
+
+def compare_products(native, hil, pairs, site):
+    """The problems (printed) of one panorama's products, HIL against native."""
     problems = []
     reports = {}
     for name, d in (("native", native), ("hil", hil)):
@@ -84,16 +115,17 @@ def main():
             if p:
                 problems.append(p)
         figures[label] = "%d/%d files byte-identical, max relative difference %.3g" % (identical, len(files), worst)
-    print("hil: rover tie observations %d lines, %s" % (ties_native.count("\n") - 1, "identical" if ties_native == ties_hil else "DIFFERENT"))
+    print("hil: %srover tie observations %d lines, %s" % (site, ties_native.count("\n") - 1, "identical" if ties_native == ties_hil else "DIFFERENT"))
     for k, v in figures.items():
-        print("hil: %s: %s" % (k, v))
+        print("hil: %s%s: %s" % (site, k, v))
     sn = reports["native"].get("rover", {}).get("stage_seconds_per_pair", {})
     sh = reports["hil"].get("rover", {}).get("stage_seconds_per_pair", {})
-    print("hil: rover seconds per pair native -> qemu-aarch64: " + ", ".join(
+    print("hil: %srover seconds per pair native -> qemu-aarch64: " % site + ", ".join(
         "%s %.3f -> %.3f (%.0fx)" % (k, sn[k], sh.get(k, 0), sh.get(k, 0) / sn[k]) for k in sn if sn[k]))
+    problems = [site + p for p in problems]
     for p in problems:
         print("hil: " + p, file=sys.stderr)
-    return 1 if problems else 0
+    return problems
 
 
 if __name__ == "__main__":

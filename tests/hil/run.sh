@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
 # The hardware-in-the-loop run (CTest label `hil` in the aarch64 build). One command:
-#   tests/hil/run.sh [--host-build build] [--target-build build-aarch64] [--out DIR] [--pairs N]
-# 1. the native build makes a `tiny` panorama (areomap-sim --pairs N) ;
+#   tests/hil/run.sh [--host-build build] [--target-build build-aarch64] [--out DIR] [--pairs N] [--sites S]
+# 1. the native build makes a traverse of S `tiny` sites (default 2; areomap-sim --preset traverse --pairs N
+#    per site; S = 1: one panorama);
 # 2. all-native run: ./run.sh --dataset (areomap-ground and areomap-rover over udpm on loopback, stock
 #    lcm-logplayer at full speed; a private network namespace when the host has no multicast route);
 # 3. HIL run: the same ./run.sh, but areomap-rover is the aarch64 build under qemu-aarch64 (a bin/ folder
 #    whose areomap-rover execs the emulator, the other tools the native ones);
-# 4. the products of both compared (compare_hil.py): the rover's tie points identical, the rover's EO
-#    within the golden tolerance (tests/golden/compare_golden.py), the ground's products made and equal.
+# 4. the products of both compared, site by site (compare_hil.py): the rover's tie points identical, the
+#    rover's EO within the golden tolerance (tests/golden/compare_golden.py), the ground's products made and
+#    equal; on a traverse also the rover's own site poses (rover_poses.csv, AREOMAP_SITE_POSE) within that
+#    tolerance, a pose for every site.
 # Exit: 0 equal, 1 different or a step failed, 2 usage, 77 skipped (a build lacks the programs).
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -15,14 +18,16 @@ HOST=${AREOMAP_HOST_BUILD:-$ROOT/build}
 TARGET_BUILD=$ROOT/build-aarch64
 OUT=$ROOT/build-aarch64/test-scratch/hil
 PAIRS=${AREOMAP_HIL_PAIRS:-4}
+SITES=${AREOMAP_HIL_SITES:-2}
 EMULATOR=${AREOMAP_HIL_EMULATOR:-qemu-aarch64 -L /}
 while [[ $# -gt 0 ]]; do
   case "$1" in
-    --help|-h) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --help|-h) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     --host-build) HOST=${2:?--host-build needs a folder}; shift 2 ;;
     --target-build) TARGET_BUILD=${2:?--target-build needs a folder}; shift 2 ;;
     --out) OUT=${2:?--out needs a folder}; shift 2 ;;
     --pairs) PAIRS=${2:?--pairs needs a number}; shift 2 ;;
+    --sites) SITES=${2:?--sites needs a number}; shift 2 ;;
     *) echo "hil: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -45,7 +50,14 @@ for t in areomap-sim areomap-pack areomap-ground; do ln -s "$HOST/bin/$t" "$OUT/
 printf '#!/bin/sh\nexec %s %s "$@"\n' "$EMULATOR" "$TARGET_BUILD/bin/areomap-rover" > "$OUT/hil-build/bin/areomap-rover"
 chmod +x "$OUT/hil-build/bin/areomap-rover"
 
-"$HOST/bin/areomap-sim" --preset tiny --seed 1 --pairs "$PAIRS" --threads 2 --out "$OUT/tiny" > "$OUT/sim.log" 2>&1 \
+# The sites' legs are 6-8 m: the tiny camera sees the ground out to about 11 m, so neighbours share ground.
+NAME=tiny
+SIM=(--preset tiny --seed 1 --pairs "$PAIRS")
+if [[ "$SITES" -gt 1 ]]; then
+  NAME=tiny-traverse
+  SIM=(--preset traverse --camera tiny --seed 1 --pairs "$PAIRS" --sites "$SITES" --leg-min-m 6 --leg-max-m 8)
+fi
+"$HOST/bin/areomap-sim" "${SIM[@]}" --threads 2 --out "$OUT/$NAME" > "$OUT/sim.log" 2>&1 \
   || { cat "$OUT/sim.log"; fail "areomap-sim"; }
 # udpm in a private network namespace (lo, route 239.0.0.0/8 dev lo) when this user may make one: isolated
 # from other udpm traffic on the host; else ./run.sh picks (host multicast route, else file replay).
@@ -55,10 +67,11 @@ for run in native hil; do
   build=$HOST
   [[ $run == hil ]] && build=$OUT/hil-build
   start=$(date +%s)
-  "$ROOT/run.sh" --build "$build" --dataset "$OUT/tiny" --out "$OUT/$run" --transport "$TRANSPORT" > "$OUT/$run.out" 2>&1 \
+  "$ROOT/run.sh" --build "$build" --dataset "$OUT/$NAME" --out "$OUT/$run" --transport "$TRANSPORT" > "$OUT/$run.out" 2>&1 \
     || { cat "$OUT/$run.out"; fail "run.sh ($run) exited $?"; }
   echo "hil: $run run ($(grep '^transport:' "$OUT/$run.out" | sed 's/^transport: //')) took $(( $(date +%s) - start )) s"
-  grep -E '^(rover|stream):' "$OUT/$run.out" | sed "s/^/hil: $run: /"
-  [[ "$(tail -n 1 "$OUT/$run.out")" == "products: $OUT/$run/products-tiny" ]] || fail "$run: no products line"
+  grep -E '^(rover|stream|traverse|site [^ ]*):' "$OUT/$run.out" | sed "s/^/hil: $run: /"
+  [[ "$(tail -n 1 "$OUT/$run.out")" == "products: $OUT/$run/products-$NAME" ]] || fail "$run: no products line"
 done
-python3 "$ROOT/tests/hil/compare_hil.py" "$OUT/native/products-tiny" "$OUT/hil/products-tiny" "$PAIRS" || fail "the HIL products differ from the all-native run's"
+python3 "$ROOT/tests/hil/compare_hil.py" "$OUT/native/products-$NAME" "$OUT/hil/products-$NAME" "$PAIRS" \
+  || fail "the HIL products differ from the all-native run's"
