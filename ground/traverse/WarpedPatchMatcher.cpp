@@ -228,6 +228,7 @@ PatchResult refineLeastSquares(const Footprint& sample_j, const Eigen::Vector2d&
     // r = tn_k - sn_k(d, B); d(sn_k)/dd = grad / sn (the normalisation's own derivative is second order).
     Eigen::Matrix<double, 6, 6> n = Eigen::Matrix<double, 6, 6>::Zero();
     Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+    double rr = 0.0;
     for (int v = -h; v <= h; ++v) {
       for (int u = -h; u <= h; ++u) {
         const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
@@ -237,18 +238,11 @@ PatchResult refineLeastSquares(const Footprint& sample_j, const Eigen::Vector2d&
         j << jx, jy, jx * u, jx * v, jy * u, jy * v;
         n.noalias() += j * j.transpose();
         rhs += j * r;
+        rr += r * r;
       }
     }
     // The translation's covariance (grid steps): the residuals' variance over the redundancy times the
     // inverse normal matrix.
-    double rr = 0.0;
-    for (int v = -h; v <= h; ++v) {
-      for (int u = -h; u <= h; ++u) {
-        const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
-        const double r = (tmpl[k] - tm) / tn - (sv[k] - sm) / sn;
-        rr += r * r;
-      }
-    }
     const double s2 = rr / std::max(1.0, static_cast<double>(tmpl.size()) - unknowns);
     d_cov = unknowns == 6 ? Eigen::Matrix2d(s2 * n.inverse().topLeftCorner<2, 2>())
                           : Eigen::Matrix2d(s2 * n.topLeftCorner<2, 2>().inverse());
