@@ -7,6 +7,10 @@
 #include <cstdlib>
 #include <exception>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include "ground/cli/Parallel.hpp"
 
 namespace areomap::cli {
@@ -216,6 +220,15 @@ void Progress::print(bool final) {
   }
   last_decile_ = decile;
   std::fflush(stderr);
+}
+
+void keepFreedMemory() {
+#if defined(__GLIBC__)
+  constexpr int kHeapBlockBytes = 32 << 20;  // glibc's largest mmap threshold on 64-bit hosts
+  constexpr int kKeptTopBytes = 64 << 20;
+  mallopt(M_MMAP_THRESHOLD, kHeapBlockBytes);
+  mallopt(M_TRIM_THRESHOLD, kKeptTopBytes);
+#endif
 }
 
 int threadsOption(Args& args) {

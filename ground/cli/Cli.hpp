@@ -86,6 +86,13 @@ int runTool(const char* name, int argc, char** argv, const char* usage, const st
 // N >= 1; absent: every core. Set before any work; returns the count that will be used.
 int threadsOption(Args& args);
 
+// The allocator's policy for a ground pass, set by a tool's main before any work: blocks below 32 MiB come
+// from the heaps, and up to 64 MiB free at a heap's top stay mapped. glibc's own policy (blocks above a
+// threshold that starts at 128 KiB mapped on their own, a heap's free top beyond twice it returned) gives the
+// pass's buffers of a few MiB per pair, band of rows and tile back to the kernel as they are freed, and
+// the next ones are mapped and zeroed afresh, page by page. Nothing elsewhere than glibc.
+void keepFreedMemory();
+
 // "name: warning: text" on stderr.
 void warn(const std::string& text);
 // "name: text" on stderr (progress and information that is not the tool's output).

@@ -267,7 +267,39 @@ bool binRow(const DemPoint& p, const DemGrid& grid, const std::function<bool(con
 // The bins of the points that keep(p) accepts in rows [row_lo, row_hi], in the order of rows, then of
 // keys, each the sum over its points in the cloud's order: slot by slot (in parallel), a slot's points
 // sorted by (row, column, place in the cloud) and summed bin by bin; then the bins of every slot sorted.
-std::vector<KeyedBin> bandSums(const PackedCloud& cloud, const SlotRuns& slots, const DemGrid& grid,
+// A point's row from its north coordinate alone (bandSums' first test: most points lie in other bands).
+double northRow(const PackedCloud& cloud, const DemGrid& grid, std::size_t i) {
+  return std::floor((grid.north0_m - cloud.northOf(i)) / grid.cell_m);
+}
+
+// Per block of kRowBlock consecutive points of the cloud: the least and the greatest northRow of its points
+// within 1e9 (lo > hi: none), so that a band passes over the blocks that hold none of its rows without
+// reading their points (one image row's neighbouring pixels lie on neighbouring ground: a block spans a
+// few rows).
+constexpr std::size_t kRowBlock = 64;
+constexpr std::size_t kBlocksPerTask = 4096;
+struct RowSpan {
+  int32_t lo = std::numeric_limits<int32_t>::max(), hi = std::numeric_limits<int32_t>::min();
+};
+
+std::vector<RowSpan> blockRows(const PackedCloud& cloud, const DemGrid& grid) {
+  const std::size_t blocks = (cloud.size() + kRowBlock - 1) / kRowBlock;
+  std::vector<RowSpan> spans(blocks);
+  cli::parallelFor((blocks + kBlocksPerTask - 1) / kBlocksPerTask, 0, [&](std::size_t t) {
+    for (std::size_t b = t * kBlocksPerTask; b < std::min(blocks, (t + 1) * kBlocksPerTask); ++b) {
+      for (std::size_t i = b * kRowBlock; i < std::min(cloud.size(), (b + 1) * kRowBlock); ++i) {
+        const double row = northRow(cloud, grid, i);
+        if (!(std::fabs(row) < 1e9)) continue;
+        spans[b].lo = std::min(spans[b].lo, static_cast<int32_t>(row));
+        spans[b].hi = std::max(spans[b].hi, static_cast<int32_t>(row));
+      }
+    }
+  });
+  return spans;
+}
+
+std::vector<KeyedBin> bandSums(const PackedCloud& cloud, const SlotRuns& slots,
+                               const std::vector<RowSpan>& spans, const DemGrid& grid,
                                const std::function<bool(const DemPoint&)>& keep, long long row_lo,
                                long long row_hi) {
   std::vector<std::vector<KeyedBin>> bins_of_slot(slots.size());
@@ -284,16 +316,24 @@ std::vector<KeyedBin> bandSums(const PackedCloud& cloud, const SlotRuns& slots, 
     };
     std::vector<Keyed> keyed;
     for (uint32_t ri = 0; ri < runs.size(); ++ri) {
-      for (std::size_t i = runs[ri].first; i < runs[ri].end; ++i) {
-        // The row from the north coordinate alone first: most points lie in other bands.
-        const double row = std::floor((grid.north0_m - cloud.northOf(i)) / grid.cell_m);
-        if (!(std::fabs(row) < 1e9) || row < static_cast<double>(row_lo) || row > static_cast<double>(row_hi))
+      for (std::size_t i = runs[ri].first; i < runs[ri].end;) {
+        const std::size_t block_end = std::min(runs[ri].end, (i / kRowBlock + 1) * kRowBlock);
+        const RowSpan& span = spans[i / kRowBlock];
+        if (span.lo > row_hi || span.hi < row_lo) {
+          i = block_end;
           continue;
-        const DemPoint p = cloud.at(runs[ri], i);
-        long long r = 0;
-        if (!binRow(p, grid, keep, r)) continue;
-        const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
-        keyed.push_back(Keyed{c * kBinPairSlots + slots[k].first, i, static_cast<int32_t>(r), ri});
+        }
+        for (; i < block_end; ++i) {
+          const double row = northRow(cloud, grid, i);
+          if (!(std::fabs(row) < 1e9) || row < static_cast<double>(row_lo) ||
+              row > static_cast<double>(row_hi))
+            continue;
+          const DemPoint p = cloud.at(runs[ri], i);
+          long long r = 0;
+          if (!binRow(p, grid, keep, r)) continue;
+          const long long c = static_cast<long long>(std::floor((p.east_m - grid.east0_m) / grid.cell_m));
+          keyed.push_back(Keyed{c * kBinPairSlots + slots[k].first, i, static_cast<int32_t>(r), ri});
+        }
       }
     }
     std::sort(keyed.begin(), keyed.end());
@@ -378,6 +418,7 @@ BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
                 const std::function<bool(const DemPoint&)>& keep, double correlation_px) {
   BinSums sums;
   const SlotRuns slots = runsBySlot(cloud);
+  const std::vector<RowSpan> spans = blockRows(cloud, grid);
   // Points per row, rows beyond the grid by more than its height counted with the outermost ones (the
   // bands' sizes only).
   const long long lo = -static_cast<long long>(grid.rows), hi = 2LL * grid.rows;
@@ -427,7 +468,8 @@ BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
       bands.size(), 0,
       [&](std::size_t b) {
         MadeBand m;
-        const std::vector<KeyedBin> by_cell = bandSums(cloud, slots, grid, keep, bands[b].first, bands[b].second);
+        const std::vector<KeyedBin> by_cell =
+            bandSums(cloud, slots, spans, grid, keep, bands[b].first, bands[b].second);
         overlapBins(by_cell, kBinPairSlots, correlation_px, m.overlaps);
         m.band = bandCells(by_cell, correlation_px);
         return m;
@@ -450,47 +492,56 @@ BinnedCloud finishBins(BinSums sums, double cell_m, double correlation_px) {
     float gsd_m, rep_var_m2, pair_sd_m;
     PointPairs pairs;
   };
+  // The bands as many at a time as there are threads, each into its own slice of `out` (the cells in the
+  // bands' order, as one thread would append them) and freed once done: `out` grows as the bands shrink.
+  std::vector<std::size_t> first_cell(sums.bands.size() + 1, 0);
+  for (std::size_t b = 0; b < sums.bands.size(); ++b)
+    first_cell[b + 1] = first_cell[b] + sums.bands[b].cells.size();
   std::vector<Binned> out;
-  {
-    std::size_t cells = 0;
-    for (const BinSums::Band& band : sums.bands) cells += band.cells.size();
-    out.reserve(cells);
-  }
-  for (BinSums::Band& band : sums.bands) {
-    std::size_t k = 0;  // the cell's first pair slot in band.pair_sums
-    for (const BinSums::Cell& cell : band.cells) {
-      double var_n2 = 0.0, n_max = 0.0;  // sum_p n_p^2 Var(pair's mean); the most points of one pair
-      double shared_n2 = 0.0;            // the pair-wide part of var_n2
-      double sum_sd_n = 0.0;             // sum_p n_p sd(pair's mean), for the pairs' common error
-      long long pair_max = 0;
-      PointPairs shares;  // the largest kMaxPointPairs pairs by points, fractions of those kept
-      for (const std::size_t end = k + cell.pair_count; k < end; ++k) {
-        const BinSums::PairSum& a = band.pair_sums[k];
-        if (a.slot > 0) addShare(shares, static_cast<int32_t>(a.slot - 1), a.n);
-        const double factor = patchVarianceFactor(std::sqrt(a.n), l_px);
-        var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
-        shared_n2 += a.n * a.n * (a.s2 / a.n) * shared;
-        sum_sd_n += a.n * std::sqrt((a.s2 / a.n) * (factor + shared));
-        if (a.n > n_max) {
-          n_max = a.n;
-          pair_max = a.slot;
+  out.reserve(first_cell.back());
+  const std::size_t at_once = static_cast<std::size_t>(cli::threadCount());
+  for (std::size_t b0 = 0; b0 < sums.bands.size(); b0 += at_once) {
+    const std::size_t b1 = std::min(sums.bands.size(), b0 + at_once);
+    out.resize(first_cell[b1]);
+    cli::parallelFor(b1 - b0, 0, [&](std::size_t j) {
+      BinSums::Band& band = sums.bands[b0 + j];
+      std::size_t k = 0;  // the cell's first pair slot in band.pair_sums
+      Binned* next = &out[first_cell[b0 + j]];
+      for (const BinSums::Cell& cell : band.cells) {
+        double var_n2 = 0.0, n_max = 0.0;  // sum_p n_p^2 Var(pair's mean); the most points of one pair
+        double shared_n2 = 0.0;            // the pair-wide part of var_n2
+        double sum_sd_n = 0.0;             // sum_p n_p sd(pair's mean), for the pairs' common error
+        long long pair_max = 0;
+        PointPairs shares;  // the largest kMaxPointPairs pairs by points, fractions of those kept
+        for (const std::size_t end = k + cell.pair_count; k < end; ++k) {
+          const BinSums::PairSum& a = band.pair_sums[k];
+          if (a.slot > 0) addShare(shares, static_cast<int32_t>(a.slot - 1), a.n);
+          const double factor = patchVarianceFactor(std::sqrt(a.n), l_px);
+          var_n2 += a.n * a.n * (a.s2 / a.n) * (factor + shared);
+          shared_n2 += a.n * a.n * (a.s2 / a.n) * shared;
+          sum_sd_n += a.n * std::sqrt((a.s2 / a.n) * (factor + shared));
+          if (a.n > n_max) {
+            n_max = a.n;
+            pair_max = a.slot;
+          }
         }
+        // Two pairs' errors in one bin are correlated by `common`: Var(mean) gains
+        // sum_{p != q} n_p n_q rho sd_p sd_q / n^2 = rho ((sum_p n_p sd_p)^2 - sum_p n_p^2 sd_p^2) / n^2.
+        var_n2 += common * std::max(0.0, sum_sd_n * sum_sd_n - var_n2);
+        DemPoint p;
+        p.north_m = cell.north_m;
+        p.east_m = cell.east_m;
+        p.elevation_m = cell.elevation_m;
+        p.sigma_m = std::sqrt(var_n2) / cell.n;
+        p.line =
+            pair_max > 0 ? dense::lineId(pair_max - 1, 0) : -1;  // the pair of most of its points (row 0)
+        normaliseShares(shares);
+        *next++ = Binned{p, static_cast<float>(cell_m / std::sqrt(n_max)), cell.rep_var_m2,
+                         static_cast<float>(std::sqrt(shared_n2) / cell.n), shares};
       }
-      // Two pairs' errors in one bin are correlated by `common`: Var(mean) gains
-      // sum_{p != q} n_p n_q rho sd_p sd_q / n^2 = rho ((sum_p n_p sd_p)^2 - sum_p n_p^2 sd_p^2) / n^2.
-      var_n2 += common * std::max(0.0, sum_sd_n * sum_sd_n - var_n2);
-      DemPoint p;
-      p.north_m = cell.north_m;
-      p.east_m = cell.east_m;
-      p.elevation_m = cell.elevation_m;
-      p.sigma_m = std::sqrt(var_n2) / cell.n;
-      p.line = pair_max > 0 ? dense::lineId(pair_max - 1, 0) : -1;  // the pair of most of its points (row 0)
-      normaliseShares(shares);
-      out.push_back({p, static_cast<float>(cell_m / std::sqrt(n_max)), cell.rep_var_m2,
-                     static_cast<float>(std::sqrt(shared_n2) / cell.n), shares});
-    }
-    std::vector<BinSums::PairSum>().swap(band.pair_sums);
-    std::vector<BinSums::Cell>().swap(band.cells);
+      std::vector<BinSums::PairSum>().swap(band.pair_sums);
+      std::vector<BinSums::Cell>().swap(band.cells);
+    });
   }
   std::sort(out.begin(), out.end(), [](const Binned& a, const Binned& b) {
     return a.point.north_m != b.point.north_m ? a.point.north_m < b.point.north_m

@@ -39,6 +39,7 @@ constexpr int kMinCalibrationPoints = 30;
 // plus Var(sum_i w_i e_i) = sum_ij w_i w_j s_i s_j rho_ij (s_i the point's own sigma) + nugget sum_i w_i^2.
 struct CorrelatedNoise {
   double l_px = 0.0;
+  double q = 0.0;  // exp(-1 / l_px), once (patchCorrelation)
   const std::vector<float>* gsd = nullptr;
   double bin_m = 0.0;
   VariogramModel signal;
@@ -56,7 +57,7 @@ struct CorrelatedNoise {
   double rho(const DemPoint& a, const DemPoint& b, double gsd_a, double gsd_b) const {
     const double g = std::max(1e-6, 0.5 * (gsd_a + gsd_b));
     return patchCorrelation(std::fabs(a.north_m - b.north_m) / g, std::fabs(a.east_m - b.east_m) / g,
-                            std::max(1.0, bin_m / g), l_px);
+                            std::max(1.0, bin_m / g), l_px, q);
   }
 
   // Cov(e_i, e_j) of two different points.
@@ -238,9 +239,15 @@ CorrelatedNoise correlatedNoiseOf(const std::vector<DemPoint>& points, const Kri
   const auto matching = [&](const auto* per_point) {
     return per_point != nullptr && per_point->size() == points.size() ? per_point : nullptr;
   };
-  return CorrelatedNoise{
-      o.noise_correlation_px,         matching(o.point_gsd_m),     o.bin_cell_m, VariogramModel{},
-      matching(o.point_extra_var_m2), matching(o.point_pair_sd_m), nullptr};
+  const double l_px = o.noise_correlation_px;
+  return CorrelatedNoise{l_px,
+                         l_px > 0.0 ? std::exp(-1.0 / l_px) : 0.0,
+                         matching(o.point_gsd_m),
+                         o.bin_cell_m,
+                         VariogramModel{},
+                         matching(o.point_extra_var_m2),
+                         matching(o.point_pair_sd_m),
+                         nullptr};
 }
 
 // Per point: sqrt(sigma^2 - pair_sd^2), its noise sd less the part its whole pair shares.
@@ -404,8 +411,12 @@ double patchVarianceFactor(double m_px, double l_px) {
 // Per axis: 1 for the same segment, at_m for adjacent ones (centres m apart: the mean over the pixel pairs
 // q * ((1 - q^m) / (1 - q))^2 / m^2, over g), at_m q^(d - m) beyond, linear in between (overlapping).
 double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px) {
+  return patchCorrelation(dx_px, dy_px, m_px, l_px, l_px > 0.0 ? std::exp(-1.0 / l_px) : 0.0);
+}
+
+double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px, double q) {
   if (!(l_px > 0.0)) return dx_px == 0.0 && dy_px == 0.0 ? 1.0 : 0.0;
-  const double m = std::max(1.0, m_px), q = std::exp(-1.0 / l_px), qm = std::exp(-m / l_px);
+  const double m = std::max(1.0, m_px), qm = std::exp(-m / l_px);
   const double a = (1.0 - qm) / (1.0 - q);
   const double at_m = q * a * a / (m * m) / segmentVariance(m, q, qm);
   const bool far_x = dx_px >= m, far_y = dy_px >= m;

@@ -115,6 +115,8 @@ struct KrigingResult {
 double patchVarianceFactor(double m_px, double l_px);
 // Correlation of the means of two such patches (m x m pixels each) whose centres are dx, dy pixels apart.
 double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px);
+// The same with q = exp(-1 / l_px) given (for l_px > 0): a caller with one L computes it once.
+double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px, double q);
 
 // `grid` gives the geometry (east0, north0, cell, cols, rows, nodata); its values are ignored.
 // Throws std::invalid_argument on an empty cloud or a bad grid.

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -122,8 +123,10 @@ TEST_GROUP(BinnedCloud){};
 // Every point reaches the bins, and each cell's mean is the one summed directly: per pair slot the
 // points in the cloud's order, then the slots in increasing order (as binPoints sums them, whatever
 // band of rows a cell falls in): bit for bit.
-TEST(BinnedCloud, EveryPointIsBinnedAndEachCellMeanIsTheDirectSum) {
-  const PackedCloud cloud = packedCloudOf(packedTestPoints(5, 4000, 5));
+namespace {
+
+// binPoints of `cloud` over the test square against the sums made directly (the test below).
+void checkDirectSums(const PackedCloud& cloud) {
   DemGrid grid;  // over the whole square
   grid.cell_m = 0.25;
   grid.north0_m = kCloudOrigin.x() + 6.5;
@@ -167,4 +170,23 @@ TEST(BinnedCloud, EveryPointIsBinnedAndEachCellMeanIsTheDirectSum) {
     CHECK(it != mean_height.end());
     if (it != mean_height.end()) CHECK_EQUAL(it->second, p.elevation_m);
   }
+}
+
+}  // namespace
+
+TEST(BinnedCloud, EveryPointIsBinnedAndEachCellMeanIsTheDirectSum) {
+  checkDirectSums(packedCloudOf(packedTestPoints(5, 4000, 5)));
+}
+
+// The same with each pair's points in the order of their north coordinate, as neighbouring pixels of an
+// image row lie on neighbouring ground: most blocks of the cloud's points then hold the rows of one band
+// of the sums, and the bands pass over the others without reading them.
+TEST(BinnedCloud, PointsInGroundOrderAreEachBinnedOnce) {
+  std::vector<DemPoint> pts = packedTestPoints(5, 4000, 6);
+  for (std::size_t first = 0; first < pts.size(); first += 4000) {
+    std::sort(pts.begin() + static_cast<std::ptrdiff_t>(first),
+              pts.begin() + static_cast<std::ptrdiff_t>(first + 4000),
+              [](const DemPoint& a, const DemPoint& b) { return a.north_m > b.north_m; });
+  }
+  checkDirectSums(packedCloudOf(pts));
 }

@@ -25,7 +25,7 @@ using namespace areomap;
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: products_bench DATASET OUT [--truth-models]\n");
+    std::fprintf(stderr, "usage: products_bench DATASET OUT [--truth-models] [--threads N] [--reference]\n");
     return 2;
   }
   const std::string root = argv[1];
@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[k], "--reference") == 0) reference = true;
     if (std::strcmp(argv[k], "--threads") == 0 && k + 1 < argc) threads = std::atoi(argv[++k]);
   }
+  cli::keepFreedMemory();  // as the ground's tools run the pass
   const double t0 = cli::nowSeconds();
   const Dataset ds = readDataset(root);
   products::ProductInputs in;
