@@ -17,8 +17,7 @@ Mat3x6 rigShapeOffsetBlock(const NetImage& im) {
 // the largest are taken as zero (directions the data leave free).
 template <int N>
 Eigen::Matrix<double, N, 1> rigShapeMinimumNormSolve(const Eigen::Matrix<double, N, N>& n,
-                                                     const Eigen::Matrix<double, N, 1>& rhs,
-                                                     double relative) {
+                                             const Eigen::Matrix<double, N, 1>& rhs, double relative) {
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eig(n);
   const double largest = eig.eigenvalues().cwiseAbs().maxCoeff();
   Eigen::Matrix<double, N, 1> x = Eigen::Matrix<double, N, 1>::Zero();

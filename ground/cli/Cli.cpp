@@ -153,8 +153,7 @@ void Args::finish() {
   }
 }
 
-int runTool(const char* name, int argc, char** argv, const char* usage,
-            const std::function<int(Args&)>& body) {
+int runTool(const char* name, int argc, char** argv, const char* usage, const std::function<int(Args&)>& body) {
   g_tool_name = name;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -176,12 +175,8 @@ int runTool(const char* name, int argc, char** argv, const char* usage,
   }
 }
 
-void warn(const std::string& text) {
-  std::fprintf(stderr, "%s: warning: %s\n", g_tool_name.c_str(), text.c_str());
-}
-void info(const std::string& text) {
-  std::fprintf(stderr, "%s: %s\n", g_tool_name.c_str(), text.c_str());
-}
+void warn(const std::string& text) { std::fprintf(stderr, "%s: warning: %s\n", g_tool_name.c_str(), text.c_str()); }
+void info(const std::string& text) { std::fprintf(stderr, "%s: %s\n", g_tool_name.c_str(), text.c_str()); }
 
 double nowSeconds() {
   using Clock = std::chrono::steady_clock;

@@ -80,8 +80,7 @@ class Args {
 
 // Runs a tool body with the exit-code contract: `--help`/`-h` prints `usage` to stdout and exits 0;
 // UsageError -> 2; InputError and any other exception -> 1, the message on stderr prefixed by the tool name.
-int runTool(const char* name, int argc, char** argv, const char* usage,
-            const std::function<int(Args&)>& body);
+int runTool(const char* name, int argc, char** argv, const char* usage, const std::function<int(Args&)>& body);
 
 // `--threads N` (consumed): the process-wide thread count of the ground's parallel work (Parallel.hpp),
 // N >= 1; absent: every core. Set before any work; returns the count that will be used.

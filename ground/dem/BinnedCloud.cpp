@@ -55,7 +55,7 @@ constexpr double kMinOverlapPoints = 4;  // points of each of the two pairs in t
 constexpr int kBlockCells = 5;           // a block is 5 x 5 cells: about one kriging neighbourhood
 constexpr int kMinBlockBins = 8;         // bins the two pairs share in a block
 constexpr long long kMinOverlapBlocks = 50;
-constexpr double kChiSquare1Median = 0.454936;   // median of chi-square with one degree of freedom
+constexpr double kChiSquare1Median = 0.454936;  // median of chi-square with one degree of freedom
 constexpr long long kCellKeyStride = 1000003LL;  // cell key = row * stride + column (binPoints)
 
 // A pair's points in a bin (count n, in its `fraction` slot until normaliseShares): kept when among the
@@ -427,8 +427,7 @@ BinSums sumBins(const PackedCloud& cloud, const DemGrid& grid,
       bands.size(), 0,
       [&](std::size_t b) {
         MadeBand m;
-        const std::vector<KeyedBin> by_cell =
-            bandSums(cloud, slots, grid, keep, bands[b].first, bands[b].second);
+        const std::vector<KeyedBin> by_cell = bandSums(cloud, slots, grid, keep, bands[b].first, bands[b].second);
         overlapBins(by_cell, kBinPairSlots, correlation_px, m.overlaps);
         m.band = bandCells(by_cell, correlation_px);
         return m;

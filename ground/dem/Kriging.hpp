@@ -33,7 +33,7 @@ struct DemPoint {
 };
 
 struct KrigingOptions {
-  int neighbours = 16;  // k (at most kMaxNeighbours)
+  int neighbours = 16;           // k (at most kMaxNeighbours)
   // Cells farther than this from every point stay nodata (-1: automatic, three times the cloud's median
   // point spacing, the distance to a point's 8th nearest, itself counted).
   double max_gap_m = -1.0;
@@ -51,8 +51,8 @@ struct KrigingOptions {
   // clump would be spread into a disc of radius max_gap); 1: every point supports (no rule). Clamped to
   // the cloud's size. The points of small clusters still count as data for the cells of others.
   int min_cluster_points = -1;
-  double max_lag_m = -1.0;      // variogram extent (-1: 6 neighbourhood radii, at most 1/3 of the cloud)
-  bool use_point_sigma = true;  // point sigmas enter the diagonal (at least the nugget)
+  double max_lag_m = -1.0;       // variogram extent (-1: 6 neighbourhood radii, at most 1/3 of the cloud)
+  bool use_point_sigma = true;   // point sigmas enter the diagonal (at least the nugget)
   const VariogramModel* model = nullptr;  // given model instead of the fitted one
   // Correlated point errors (dense matches share their matching footprint in the image). With
   // noise_correlation_px = L > 0 and a ground sample distance per point (point_gsd_m[i]: the ground size of
@@ -96,12 +96,12 @@ struct KrigingResult {
   // surface (the experimental one less the points' noise semivariances) that the sigma uses.
   VariogramModel signal_model;
   ExperimentalVariogram signal_experimental;
-  double max_gap_m = 0.0;           // the gap limit used
-  double max_local_gap_m = 0.0;     // the largest point reach (KrigingOptions::local_reach; 0: none)
+  double max_gap_m = 0.0;  // the gap limit used
+  double max_local_gap_m = 0.0;  // the largest point reach (KrigingOptions::local_reach; 0: none)
   int min_cluster_points = 1;       // the support rule used (KrigingOptions::min_cluster_points)
   long long isolated_points = 0;    // points in clusters smaller than that
   long long cells_unsupported = 0;  // cells within max_gap of a point, left nodata by the support rule
-  double sigma_scale = 1.0;         // leave-one-out calibration factor applied to the kriging sigma
+  double sigma_scale = 1.0;  // leave-one-out calibration factor applied to the kriging sigma
   long long cells_kriged = 0;
   double variogram_seconds = 0.0;
   double kriging_seconds = 0.0;
@@ -118,8 +118,7 @@ double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px);
 
 // `grid` gives the geometry (east0, north0, cell, cols, rows, nodata); its values are ignored.
 // Throws std::invalid_argument on an empty cloud or a bad grid.
-KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
-                       const KrigingOptions& options);
+KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid, const KrigingOptions& options);
 
 // A grid covering the points' bounding box (plus a margin of one cell) at `cell_m`.
 DemGrid gridAround(const std::vector<DemPoint>& points, double cell_m);

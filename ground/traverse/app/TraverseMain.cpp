@@ -18,11 +18,9 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: areomap-traverse DATASET --out DIR [--cross-ties FILE | --truth-cross-ties [--noise-px S] |\n"
-    "                        --no-cross-ties] [--no-products] [--reuse-sites | --resume] [--cell-m C] "
-    "[--quiet]\n"
+    "                        --no-cross-ties] [--no-products] [--reuse-sites | --resume] [--cell-m C] [--quiet]\n"
     "                        [--threads N]\n"
-    "                        [--jobs N | --executor slurm [--partition P] [--sbatch-arg ARG]... "
-    "[--no-wait]]\n"
+    "                        [--jobs N | --executor slurm [--partition P] [--sbatch-arg ARG]... [--no-wait]]\n"
     "       areomap-traverse DATASET --out DIR --site K [--no-products] [--quiet]\n"
     "       areomap-traverse DATASET --out DIR --join [the cross-site options above]\n"
     "\n"
@@ -67,8 +65,7 @@ constexpr const char* kUsage =
     "job has ended well, \"--join\" runs the cross-site step on what they wrote.\n"
     "  --jobs N         N site passes at a time as child processes, logs in DIR/logs/ (default: the\n"
     "                   machine's cores; 1: one after the other in this process)\n"
-    "  --executor slurm  the sites' passes as one Slurm job array (sbatch --array), the cross-site step as "
-    "a\n"
+    "  --executor slurm  the sites' passes as one Slurm job array (sbatch --array), the cross-site step as a\n"
     "                   job after it (afterok; cancelled when a task fails); waits, showing progress.\n"
     "                   DIR and DATASET must be on storage every node shares\n"
     "  --partition P    Slurm partition (default: the cluster's)\n"
@@ -80,6 +77,7 @@ constexpr const char* kUsage =
     "stops the cross-site step: report.json (\"status\": \"incomplete\") says which site and why; --resume\n"
     "goes on. Exit: 0 ok, 2 usage error, 1 other error (the message names the file and field), also 1 when\n"
     "a product could not be written or a site's job failed.\n";
+
 
 // The options of the pass and of the cross-site step.
 traverse::TraverseRunOptions runOptions(cli::Args& args) {
@@ -164,17 +162,16 @@ std::string resumeCommand(const std::vector<std::string>& argv) {
   return traverse::shellLine(line);
 }
 
-int runOnSlurm(const Traverse& t, const traverse::TraverseCommand& command,
-               const traverse::TraverseRunOptions& o, Execution& e, const std::vector<std::string>& argv) {
+int runOnSlurm(const Traverse& t, const traverse::TraverseCommand& command, const traverse::TraverseRunOptions& o,
+               Execution& e, const std::vector<std::string>& argv) {
   e.slurm.progress = o.progress;
   traverse::SlurmRun run =
       traverse::submitTraverse(command, traverse::sitesToRun(t, o.out_dir, o.resume, o.progress), e.slurm);
-  std::printf("slurm: sites job %s (%zu tasks), join job %s\n",
-              run.sites_job.empty() ? "-" : run.sites_job.c_str(), run.sites.size(), run.join_job.c_str());
+  std::printf("slurm: sites job %s (%zu tasks), join job %s\n", run.sites_job.empty() ? "-" : run.sites_job.c_str(),
+              run.sites.size(), run.join_job.c_str());
   std::fflush(stdout);
   if (!e.wait) {
-    std::printf("slurm: the join job finishes the run with\n  %s\n",
-                traverse::shellLine(command.join()).c_str());
+    std::printf("slurm: the join job finishes the run with\n  %s\n", traverse::shellLine(command.join()).c_str());
     std::printf("slurm: if a task fails the join is cancelled; then, once the cause is fixed:\n  %s\n",
                 resumeCommand(argv).c_str());
     return 0;
@@ -191,22 +188,19 @@ int runOnSlurm(const Traverse& t, const traverse::TraverseCommand& command,
                  traverse::reasonFromLog(o.out_dir + "/logs/join.log").c_str());
     return 1;
   }
-  traverse::reportFailedSites(
-      t, o.out_dir, run.failed,
-      {{"name", "slurm"},
-       {"sites_job", run.sites_job},
-       {"join_job", run.join_job},
-       {"join_state", run.join_state + (run.join_reason.empty() ? "" : " (" + run.join_reason + ")")}},
-      resumeCommand(argv));
+  traverse::reportFailedSites(t, o.out_dir, run.failed,
+                              {{"name", "slurm"},
+                               {"sites_job", run.sites_job},
+                               {"join_job", run.join_job},
+                               {"join_state", run.join_state + (run.join_reason.empty() ? "" : " (" + run.join_reason + ")")}},
+                              resumeCommand(argv));
   return 1;
 }
 
-int runHere(const Traverse& t, const traverse::TraverseCommand& command,
-            const traverse::TraverseRunOptions& o, const Execution& e, const std::vector<std::string>& argv) {
-  const std::vector<std::size_t> sites =
-      traverse::sitesToRun(t, o.out_dir, o.resume && !o.reuse_sites, false);
-  if (e.jobs <= 1 || sites.size() <= 1 || o.reuse_sites)
-    return printResult(traverse::runTraverse(t, o), o.out_dir);
+int runHere(const Traverse& t, const traverse::TraverseCommand& command, const traverse::TraverseRunOptions& o,
+            const Execution& e, const std::vector<std::string>& argv) {
+  const std::vector<std::size_t> sites = traverse::sitesToRun(t, o.out_dir, o.resume && !o.reuse_sites, false);
+  if (e.jobs <= 1 || sites.size() <= 1 || o.reuse_sites) return printResult(traverse::runTraverse(t, o), o.out_dir);
   const std::vector<traverse::FailedSite> failed =
       traverse::runSitesLocally(command, t, sites, e.jobs, o.progress);
   if (!failed.empty()) {

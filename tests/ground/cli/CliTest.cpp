@@ -53,9 +53,8 @@ TEST(Cli, ExitCodesFollowTheContract) {
                 return static_cast<int>(args.integer("--seed", 0));
               }));
   Argv missing({"tool"});
-  LONGS_EQUAL(2, areomap::cli::runTool("t", missing.argc(), missing.argv(), "usage\n", [](Args& args) {
-                return static_cast<int>(args.required("--out").size());
-              }));
+  LONGS_EQUAL(2, areomap::cli::runTool("t", missing.argc(), missing.argv(), "usage\n",
+                                       [](Args& args) { return static_cast<int>(args.required("--out").size()); }));
   LONGS_EQUAL(1, areomap::cli::runTool("t", ok.argc(), ok.argv(), "usage\n", [](Args&) -> int {
                 throw areomap::cli::InputError("panorama.json", "pairs[0].left.image", "missing");
               }));

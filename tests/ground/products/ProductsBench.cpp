@@ -93,8 +93,7 @@ int main(int argc, char** argv) {
   const products::ProductsResult r = products::makeProducts(in, products::ProductOptions{}, out, &report);
   const double wall = cli::nowSeconds() - w0, cpu = static_cast<double>(std::clock()) / CLOCKS_PER_SEC - c0;
   std::printf("%d threads: wall %.1f s, CPU %.1f s", cli::threadCount(), wall, cpu);
-  if (reference)
-    std::printf("; reference 1 thread: wall %.1f s (%.2fx), CPU %.1f s", ref_wall, ref_wall / wall, ref_cpu);
+  if (reference) std::printf("; reference 1 thread: wall %.1f s (%.2fx), CPU %.1f s", ref_wall, ref_wall / wall, ref_cpu);
   std::printf("\n");
   products::mergeIntoReport(r, report);
   std::printf("| load (%zu images) | %.1f s |\n", in.images.size(), t_load);
@@ -104,11 +103,9 @@ int main(int argc, char** argv) {
     total += kv.second;
   }
   std::printf("| total | %.1f s |\n", total);
-  std::printf(
-      "points %lld, pairs matched %d, DEM %dx%d cells of %.3f m, DEM RMSE vs truth %s, ortho seams %.2f px, "
-      "%zu warnings\n",
-      r.points, r.pairs_matched, r.dem ? r.dem->cols : 0, r.dem ? r.dem->rows : 0,
-      r.dem ? r.dem->cell_m : 0.0, r.dem_rmse_m ? std::to_string(*r.dem_rmse_m).c_str() : "n/a",
-      r.ortho_seam_px, r.warnings.size());
+  std::printf("points %lld, pairs matched %d, DEM %dx%d cells of %.3f m, DEM RMSE vs truth %s, ortho seams %.2f px, "
+              "%zu warnings\n",
+              r.points, r.pairs_matched, r.dem ? r.dem->cols : 0, r.dem ? r.dem->rows : 0, r.dem ? r.dem->cell_m : 0.0,
+              r.dem_rmse_m ? std::to_string(*r.dem_rmse_m).c_str() : "n/a", r.ortho_seam_px, r.warnings.size());
   return 0;
 }
