@@ -17,6 +17,7 @@
 #include "ground/cli/Cli.hpp"
 #include "ground/dataset/TruthFiles.hpp"
 #include "ground/io/CameraFile.hpp"
+#include "ground/traverse/DemRegistration.hpp"
 #include "ground/traverse/SiteDatum.hpp"
 
 namespace areomap::traverse {
@@ -401,6 +402,8 @@ CrossSiteAdjustment adjustSitePoses(const Traverse& traverse, const std::vector<
     SitePoseEstimate& e = out.poses.sites[k];
     e.pose.position_m = st.pose.position_m;
     e.pose.heading_rad = std::atan2(st.pose.rotation(1, 0), st.pose.rotation(0, 0));
+    e.tilt_rad = relativePoseOf(st.pose.rotation, st.pose.position_m).tilt_rad;
+    e.tilt_sigma_rad = Eigen::Vector2d(st.sigma[3], st.sigma[4]);
     e.covariance.setZero();
     e.covariance.topLeftCorner<3, 3>() = st.covariance.topLeftCorner<3, 3>();
     e.covariance.block<3, 1>(0, 3) = st.covariance.block<3, 1>(0, 5);

@@ -86,7 +86,7 @@ void secondPass(const SiteProducts& a, const SiteProducts& b, const SourcePoints
                 const CrossTieParams& params, int64_t first_point, CrossTieResult& out) {
   if (params.second_pass && static_cast<int>(out.ties.size()) >= params.min_ties) {
     const RelativePose first = out.a_from_b;
-    const Eigen::Matrix4d first_cov = out.a_from_b_covariance;
+    const PoseMatrix first_cov = out.a_from_b_covariance;
     CrossTieParams narrow = params;
     narrow.patch.radius_px = params.second_radius_px;
     out.counts = CrossTieCounts{};
@@ -146,7 +146,7 @@ void confirmByImages(const SiteProducts& a, const SiteProducts& b, const SourceP
     h.method = "dem_hypothesis";
     h.a_from_b = dem.poses[k].a_from_b;
     h.covariance = dem.poses[k].covariance;
-    for (int i = 0; i < 4; ++i) h.sigma[i] = std::sqrt(h.covariance(i, i));
+    for (int i = 0; i < 6; ++i) h.sigma[i] = std::sqrt(h.covariance(i, i));
     h.message = why + "; " + dem.summary + "; the images confirmed the one " + std::to_string(k + 1) +
                 " in the order of fit";
     tries.push_back(std::move(h));

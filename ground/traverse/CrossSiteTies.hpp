@@ -14,8 +14,9 @@
 //  3. The patch is matched by NCC on the DEM-warped grid (WarpedPatchMatcher.hpp: the ground plane under
 //     the point maps one view into the other) with an NCC threshold, a second-peak ratio, a least-squares
 //     sub-pixel position and a back-match (J to I) that must land within lr_tolerance_px of the point.
-//  4. Geometric check: a bundle of the site pose (x, y, z, heading of B in A) and every tie's point, from
-//     all observations, with a weak prior on the registered pose; observations beyond max(floor_px,
+//  4. Geometric check: a bundle of the site pose (x, y, z, heading and tilt of B in A) and every tie's
+//     point, from all observations, with a weak prior on the registered pose (the tilt's: the registration's
+//     tilt prior, RegistrationParams::tilt_sigma_rad); observations beyond max(floor_px,
 //     k robust sigmas) are dropped round by round (and a tie that loses its source, or its last image of
 //     either site, goes).
 // Every observation is in the delivered image's pixels of the site's own products (x = sample, y = line).
@@ -121,8 +122,8 @@ struct CrossTieResult {
   std::string site_a, site_b;
   DemRegistration registration;
   RelativePose a_from_b;  // the geometric check's pose (the registration's when it did not run)
-  Eigen::Vector4d a_from_b_sigma = Eigen::Vector4d::Zero();  // x, y, z (m), heading (rad)
-  Eigen::Matrix4d a_from_b_covariance = Eigen::Matrix4d::Zero();
+  PoseVector a_from_b_sigma = PoseVector::Zero();  // x, y, z (m), heading, tilt x, tilt y (rad)
+  PoseMatrix a_from_b_covariance = PoseMatrix::Zero();
   double rms_px = 0.0;      // RMS residual of the kept observations
   CrossTieCounts counts;    // of the last pass
   int first_pass_ties = 0;  // kept by the first pass's check

@@ -1,6 +1,7 @@
 // Step 4 of the cross-site ties (CrossTieSteps.hpp): the geometric check, a bundle of the site pose
-// (x, y, z, heading of B in A) and every tie's point from all observations under a weak prior, trimmed
-// round by round, then the ties whose point leaves either site's DEM dropped.
+// (x, y, z, heading and, where the registration solves it, the tilt of B in A) and every tie's point from
+// all observations under a weak prior, trimmed round by round, then the ties whose point leaves either
+// site's DEM dropped.
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -60,7 +61,7 @@ struct CheckState {
   std::vector<bool> tie_alive;
   std::vector<Eigen::Vector3d> x;
   RelativePose current;
-  Eigen::Matrix4d reduced = Eigen::Matrix4d::Identity();  // the pose's normal matrix, points eliminated
+  PoseMatrix reduced = PoseMatrix::Identity();  // the pose's normal matrix, points eliminated
   double rms = 0.0;
 };
 
@@ -81,23 +82,25 @@ void gatherObservations(const SiteProducts& a, const SiteProducts& b, const Cros
   s.x.resize(out.ties.size());
 }
 
-// Gauss-Newton steps of the pose (x, y, z, heading of B in A) and the live ties' points, the points
-// eliminated by their 3x3 blocks, with the weak prior on `prior`.
-void gaussNewtonSteps(const RelativePose& prior, const Eigen::Vector4d& prior_sigma, std::size_t ties,
+// Gauss-Newton steps of the pose (x, y, z, heading of B in A, and its tilt when prior_sigma gives the tilt a
+// sigma; else the tilt is held) and the live ties' points, the points eliminated by their 3x3 blocks, with
+// the weak prior on `prior`.
+void gaussNewtonSteps(const RelativePose& prior, const PoseVector& prior_sigma, std::size_t ties,
                       CheckState& s) {
+  const bool tilt = prior_sigma[4] > 0.0 && prior_sigma[5] > 0.0;
+  const int unknowns = tilt ? 6 : 4;
   for (int it = 0; it < kGaussNewtonSteps; ++it) {
     s.reduced.setZero();
-    Eigen::Vector4d g = Eigen::Vector4d::Zero();
-    const Eigen::Vector4d offset(s.current.translation_m.x() - prior.translation_m.x(),
-                                 s.current.translation_m.y() - prior.translation_m.y(),
-                                 s.current.translation_m.z() - prior.translation_m.z(),
-                                 s.current.heading_rad - prior.heading_rad);
-    for (int c = 0; c < 4; ++c) {
+    PoseVector g = PoseVector::Zero();
+    PoseVector offset;
+    offset << s.current.translation_m - prior.translation_m, s.current.heading_rad - prior.heading_rad,
+        s.current.tilt_rad - prior.tilt_rad;
+    for (int c = 0; c < unknowns; ++c) {
       s.reduced(c, c) += 1.0 / (prior_sigma[c] * prior_sigma[c]);
       g[c] += offset[c] / (prior_sigma[c] * prior_sigma[c]);
     }
     std::vector<Eigen::Matrix3d> hxx(ties);
-    std::vector<Eigen::Matrix<double, 3, 4>> hxc(ties);
+    std::vector<Eigen::Matrix<double, 3, 6>> hxc(ties);
     std::vector<Eigen::Vector3d> gx(ties);
     const Eigen::Matrix3d r = s.current.rotation();
     for (std::size_t i = 0; i < ties; ++i) {
@@ -105,8 +108,8 @@ void gaussNewtonSteps(const RelativePose& prior, const Eigen::Vector4d& prior_si
       hxx[i].setZero();
       hxc[i].setZero();
       gx[i].setZero();
-      Eigen::Matrix4d hcc = Eigen::Matrix4d::Zero();
-      Eigen::Vector4d gc = Eigen::Vector4d::Zero();
+      PoseMatrix hcc = PoseMatrix::Zero();
+      PoseVector gc = PoseVector::Zero();
       for (int k : s.of_tie[i]) {
         const GeoObservation& ob = s.geo[k];
         if (!ob.active) continue;
@@ -117,11 +120,12 @@ void gaussNewtonSteps(const RelativePose& prior, const Eigen::Vector4d& prior_si
         if (!ok(project(*ob.model, p, pixel, &dp))) continue;
         const Eigen::Vector2d res = pixel - ob.pixel;
         Eigen::Matrix<double, 2, 3> jx = dp;
-        Eigen::Matrix<double, 2, 4> jc = Eigen::Matrix<double, 2, 4>::Zero();
+        Eigen::Matrix<double, 2, 6> jc = Eigen::Matrix<double, 2, 6>::Zero();
         if (ob.in_a) {
           jx = dp * r;
           jc.leftCols<3>() = dp;
           jc.col(3) = dp * Eigen::Vector3d(-rx.y(), rx.x(), 0.0);
+          if (tilt) jc.rightCols<2>() = dp * turnJacobian(rx).leftCols<2>();
         }
         hxx[i].noalias() += jx.transpose() * jx;
         hxc[i].noalias() += jx.transpose() * jc;
@@ -134,10 +138,19 @@ void gaussNewtonSteps(const RelativePose& prior, const Eigen::Vector4d& prior_si
       s.reduced += hcc - hxc[i].transpose() * inv * hxc[i];
       g += gc - hxc[i].transpose() * inv * gx[i];
     }
-    const Eigen::Vector4d dc = -s.reduced.ldlt().solve(g);
+    PoseVector dc = PoseVector::Zero();
+    if (tilt) {
+      dc = -s.reduced.ldlt().solve(g);
+    } else {
+      dc.head<4>() = -s.reduced.topLeftCorner<4, 4>().ldlt().solve(g.head<4>());
+    }
     if (!dc.allFinite()) break;
     s.current.translation_m += dc.head<3>();
-    s.current.heading_rad += dc[3];
+    if (tilt) {
+      s.current = turnedPose(s.current, Eigen::Vector3d(dc[4], dc[5], dc[3]));
+    } else {
+      s.current.heading_rad += dc[3];
+    }
     for (std::size_t i = 0; i < ties; ++i) {
       if (s.tie_alive[i]) s.x[i] += -hxx[i].inverse() * (gx[i] + hxc[i] * dc);
     }
@@ -226,8 +239,11 @@ void checkTies(const SiteProducts& a, const SiteProducts& b, const RelativePose&
   CheckState s;
   gatherObservations(a, b, out, s);
   s.current = pose;
-  const Eigen::Vector4d prior_sigma(params.prior_sigma_m, params.prior_sigma_m, params.prior_sigma_m,
-                                    params.prior_sigma_deg * kDegToRad);
+  // The tilt's prior is the registration's (the two frames' levelling by their attitudes), about the pose's.
+  PoseVector prior_sigma;
+  prior_sigma << params.prior_sigma_m, params.prior_sigma_m, params.prior_sigma_m,
+      params.prior_sigma_deg * kDegToRad, params.registration.tilt_sigma_rad,
+      params.registration.tilt_sigma_rad;
   for (int round = 0; round < params.max_check_rounds; ++round) {
     for (std::size_t i = 0; i < out.ties.size(); ++i) {
       if (s.tie_alive[i] && !triangulate(s.geo, s.of_tie[i], s.current, s.x[i])) s.tie_alive[i] = false;
@@ -235,9 +251,15 @@ void checkTies(const SiteProducts& a, const SiteProducts& b, const RelativePose&
     gaussNewtonSteps(pose, prior_sigma, out.ties.size(), s);
     if (rejectWorst(params, out, s) <= 0) break;
   }
-  const Eigen::Matrix4d cov = s.reduced.inverse() * std::max(s.rms * s.rms / 2.0, 1e-6);
+  PoseMatrix cov = PoseMatrix::Zero();
+  const double variance_px2 = std::max(s.rms * s.rms / 2.0, 1e-6);
+  if (prior_sigma[4] > 0.0) {
+    cov = s.reduced.inverse() * variance_px2;
+  } else {
+    cov.topLeftCorner<4, 4>() = s.reduced.topLeftCorner<4, 4>().inverse() * variance_px2;
+  }
   out.a_from_b_covariance = cov;
-  for (int c = 0; c < 4; ++c) out.a_from_b_sigma[c] = std::sqrt(std::max(0.0, cov(c, c)));
+  for (int c = 0; c < 6; ++c) out.a_from_b_sigma[c] = std::sqrt(std::max(0.0, cov(c, c)));
   out.a_from_b = s.current;
   out.rms_px = s.rms;
   dropOffDemTies(a, b, params, out, s);

@@ -275,7 +275,7 @@ bool castCandidate(const SiteProducts& a, const SiteProducts& b, const RelativeP
 // and B's DEM height along the source ray (the cast point slides along it by dh / sin(incidence)). False
 // when the point does not project.
 bool derivedRadius(const SiteImage& target, const Eigen::Vector3d& p, bool in_a, const RelativePose& pose,
-                   const Eigen::Matrix4d& pose_cov, const Candidate& c, const CrossTieParams& params,
+                   const PoseMatrix& pose_cov, const Candidate& c, const CrossTieParams& params,
                    double& radius_px) {
   Mat2x3 dp;
   Vec2 unused;
@@ -284,9 +284,10 @@ bool derivedRadius(const SiteImage& target, const Eigen::Vector3d& p, bool in_a,
   Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
   if (in_a) {
     const Eigen::Vector3d rb = r * c.pb;
-    Eigen::Matrix<double, 2, 4> jc;
+    Eigen::Matrix<double, 2, 6> jc;
     jc.leftCols<3>() = dp;
     jc.col(3) = dp * Eigen::Vector3d(-rb.y(), rb.x(), 0.0);
+    jc.rightCols<2>() = dp * turnJacobian(rb).leftCols<2>();
     cov = jc * pose_cov * jc.transpose();
   }
   const Eigen::Vector2d slide = dp * (r * Eigen::Vector3d(c.d)) * c.source_dh_m / c.source_sin;
@@ -307,7 +308,7 @@ struct Pass {
   const SiteProducts& a;
   const SiteProducts& b;
   const RelativePose& pose;
-  const Eigen::Matrix4d& pose_cov;
+  const PoseMatrix& pose_cov;
   const CrossTieParams& params;
   double sin_incidence = 0.0;
   double max_scale = 0.0;
@@ -413,7 +414,7 @@ std::vector<std::vector<Eigen::Vector2d>> sourcePoints(const SiteProducts& b, co
 }
 
 void matchTies(const SiteProducts& a, const SiteProducts& b, const SourcePoints& points,
-               const RelativePose& pose, const Eigen::Matrix4d& pose_cov, const CrossTieParams& params,
+               const RelativePose& pose, const PoseMatrix& pose_cov, const CrossTieParams& params,
                int64_t first_point, int stride, CrossTieResult& out) {
   out.ties.clear();
   Pass pass{a, b, pose, pose_cov, params};

@@ -6,6 +6,8 @@
 #include <map>
 #include <utility>
 
+#include <Eigen/Dense>
+
 namespace areomap::traverse::demcost {
 
 double sigmaAt(const std::optional<DemGrid>& sigma, double x, double y) {
@@ -42,6 +44,43 @@ double Moments::variance() const {
   return std::max(0.0, wdd / w - mean() * mean());
 }
 
+namespace {
+
+// The plane d = c0 + c1 x + c2 y of the weighted least squares with the prior on c1, c2, and the weighted
+// mean square of the differences about it.
+Eigen::Vector3d planeOf(const Moments& m, double tilt_sigma_rad, double& mean_square) {
+  Eigen::Matrix3d a;
+  a << m.w, m.wx, m.wy, m.wx, m.wxx, m.wxy, m.wy, m.wxy, m.wyy;
+  a /= m.w;
+  const Eigen::Vector3d b = Eigen::Vector3d(m.wd, m.wxd, m.wyd) / m.w;
+  // Minimise S(c) / V + n (c1^2 + c2^2) / sigma^2, S the weighted mean square about the plane.
+  const double lambda = m.variance() / (std::max(1, m.n) * tilt_sigma_rad * tilt_sigma_rad);
+  a(1, 1) += lambda;
+  a(2, 2) += lambda;
+  const Eigen::Vector3d c = a.ldlt().solve(b);
+  a(1, 1) -= lambda;
+  a(2, 2) -= lambda;
+  mean_square = std::max(0.0, m.wdd / m.w - 2.0 * c.dot(b) + c.dot(a * c));
+  return c;
+}
+
+}  // namespace
+
+Eigen::Vector2d Moments::levellingTilt(double tilt_sigma_rad) const {
+  if (!(tilt_sigma_rad > 0.0) || n < 3) return Eigen::Vector2d::Zero();
+  double unused = 0.0;
+  const Eigen::Vector3d c = planeOf(*this, tilt_sigma_rad, unused);
+  // omega_x y - omega_y x cancels c1 x + c2 y: omega = (-c2, c1).
+  return {-c.z(), c.y()};
+}
+
+double Moments::levelledVariance(double tilt_sigma_rad) const {
+  if (!(tilt_sigma_rad > 0.0) || n < 3) return variance();
+  double mean_square = 0.0;
+  (void)planeOf(*this, tilt_sigma_rad, mean_square);
+  return mean_square;
+}
+
 Moments moments(const SiteProducts& a, const DemGrid& dem_a, const std::vector<Sample>& samples,
                 const RelativePose& pose, const RegistrationParams& params) {
   Moments m;
@@ -61,6 +100,13 @@ Moments moments(const SiteProducts& a, const DemGrid& dem_a, const std::vector<S
     m.dd += d * d;
     m.ss += sa * sa + s.sigma2;
     ++m.n;
+    m.wx += w * p.x();
+    m.wy += w * p.y();
+    m.wxx += w * p.x() * p.x();
+    m.wxy += w * p.x() * p.y();
+    m.wyy += w * p.y() * p.y();
+    m.wxd += w * p.x() * d;
+    m.wyd += w * p.y() * d;
   }
   return m;
 }

@@ -36,8 +36,18 @@ struct Moments {
   double w = 0.0, wd = 0.0, wdd = 0.0;
   double dd = 0.0, ss = 0.0;  // unweighted: the differences' squares, their dem_sigma variances
   int n = 0;
+  // Weighted sums over the samples' positions in A's frame (x north, y east) for the plane of the
+  // differences: w x, w y, w x^2, w x y, w y^2, w x d, w y d.
+  double wx = 0.0, wy = 0.0, wxx = 0.0, wxy = 0.0, wyy = 0.0, wxd = 0.0, wyd = 0.0;
   double mean() const { return wd / w; }
   double variance() const;
+  // The relative tilt that best levels the differences at this pose, and their weighted variance then. A
+  // small turn omega about A's x and y changes a difference by omega_x y - omega_y x (to first order, the
+  // DEM's slope times the sample's height left out), so the tilt is a plane fitted to the differences, its
+  // two slopes drawn to zero by the prior sigma `tilt_sigma_rad` (weighed against variance() per sample as
+  // if the samples were independent). With tilt_sigma_rad 0 the tilt is zero and the variance variance().
+  Eigen::Vector2d levellingTilt(double tilt_sigma_rad) const;
+  double levelledVariance(double tilt_sigma_rad) const;
 };
 
 // The elevation differences (A's DEM minus B's surface moved into A) of every sample under `pose`.

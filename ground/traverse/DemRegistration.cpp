@@ -13,6 +13,7 @@
 
 #include "firmware_core/base/Angles.hpp"
 #include "ground/cli/Parallel.hpp"
+#include "ground/traverse/CrossSiteAdjustment.hpp"
 #include "ground/traverse/DemCost.hpp"
 #include "ground/traverse/OrthoRegistration.hpp"
 
@@ -69,7 +70,7 @@ std::string noiseAgainstRelief(const DemRegistration& r, const RegistrationParam
 
 // The coarse search's grid of poses about the a-priori one: nxy steps of step_m each side in x and y, nh of
 // step_rad in heading, and the variance of the elevation differences at each (infinite where too few
-// samples are common).
+// samples are common), about their levelling plane where the tilt is solved.
 struct CoarseGrid {
   double step_m = 0.0, step_rad = 0.0;
   int nxy = 0, nh = 0, sx = 0, sh = 0;
@@ -97,7 +98,7 @@ void coarseCosts(const SiteProducts& a, const DemGrid& coarse_a, const std::vect
         moments(a, coarse_a, coarse_samples,
                 shiftedPose(apriori, (i - g.nxy) * g.step_m, (j - g.nxy) * g.step_m, (k - g.nh) * g.step_rad),
                 params);
-    if (m.n >= min_coarse) g.cost[g.index(i, j, k)] = m.variance();
+    if (m.n >= min_coarse) g.cost[g.index(i, j, k)] = m.levelledVariance(params.tilt_sigma_rad);
   });
 }
 
@@ -169,7 +170,9 @@ Candidate fineSearch(const SiteProducts& a, const SiteProducts& b, const Relativ
     const double dx = best.dx + g.step_m / 4.0 * i, dy = best.dy + g.step_m / 4.0 * j;
     const double dh = best.dh + g.step_rad / 5.0 * k;
     const Moments m = moments(a, a.dem, fine_samples, shiftedPose(apriori, dx, dy, dh), params);
-    grid[n] = {dx, dy, dh, m.n >= min_samples / 2 ? m.variance() : std::numeric_limits<double>::infinity()};
+    grid[n] = {dx, dy, dh,
+               m.n >= min_samples / 2 ? m.levelledVariance(params.tilt_sigma_rad)
+                                      : std::numeric_limits<double>::infinity()};
   });
   for (const Candidate& c : grid) {
     if (c.cost < fine.cost) fine = c;
@@ -177,24 +180,52 @@ Candidate fineSearch(const SiteProducts& a, const SiteProducts& b, const Relativ
   return fine;
 }
 
-// The Gauss-Newton fit's state: the pose, its normal matrix and the weighted residual's sigma.
+// The Gauss-Newton fit's state: the pose, the data's normal matrix (weights 1 / sigma^2 of the cells), the
+// weighted residual's sigma, and the tilt prior's information (zero: the tilt held).
 struct Fit {
   RelativePose pose;
-  Eigen::Matrix4d normal = Eigen::Matrix4d::Identity();
+  PoseMatrix normal = PoseMatrix::Identity();
   double s0 = 0.0;
+  double tilt_information = 0.0;  // 1 / tilt_sigma_rad^2 per axis
+  Eigen::Vector2d tilt_prior = Eigen::Vector2d::Zero();
+  bool solvesTilt() const { return tilt_information > 0.0; }
+  // The covariance of the solution: the data's normal matrix scaled to information by s0^2 and the design
+  // effect `factor` of their spatial correlation, plus the tilt's prior row.
+  PoseMatrix information(double factor) const {
+    PoseMatrix info = normal / std::max(s0 * s0 * factor, 1e-12);
+    info(4, 4) += tilt_information;
+    info(5, 5) += tilt_information;
+    return info;
+  }
 };
 
+// The step of one Gauss-Newton iteration: x, y, z, heading alone when the tilt is held (as a levelled
+// registration), else all six with the tilt's prior row weighed against the data's information (s0^2 and
+// the design effect `factor`).
+PoseVector gaussNewtonStep(const Fit& fit, const PoseVector& rhs, double factor) {
+  PoseVector delta = PoseVector::Zero();
+  if (!fit.solvesTilt()) {
+    delta.head<4>() = -fit.normal.topLeftCorner<4, 4>().ldlt().solve(rhs.head<4>());
+    return delta;
+  }
+  PoseVector g = rhs / std::max(fit.s0 * fit.s0 * factor, 1e-12);
+  g.tail<2>() += fit.tilt_information * (fit.pose.tilt_rad - fit.tilt_prior);
+  return -fit.information(factor).ldlt().solve(g);
+}
+
 // Gauss-Newton on the elevation differences against `dem_a` (gradients over +-h), reweighted and trimmed at
-// 3 robust sigmas. False when fewer than min_used samples count or a step is not finite; `converged` when
-// the step settled within the iterations.
+// 3 robust sigmas; the tilt solved when fit.solvesTilt(), its prior weighed with the design effect
+// `factor`. False when fewer than min_used samples count or a step is not finite; `converged` when the step
+// settled within the iterations.
 bool gaussNewton(const SiteProducts& a, const DemGrid& dem_a, const std::vector<Sample>& used, double h,
-                 int min_used, const RegistrationParams& params, Fit& fit, DemRegistration& out,
-                 bool& converged) {
+                 int min_used, double factor, const RegistrationParams& params, Fit& fit,
+                 DemRegistration& out, bool& converged) {
   double trim = std::numeric_limits<double>::infinity();
   converged = false;
+  const int unknowns = fit.solvesTilt() ? 6 : 4;
   for (int it = 0; it < kMaxGaussNewtonIterations; ++it) {
     fit.normal.setZero();
-    Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+    PoseVector rhs = PoseVector::Zero();
     std::vector<double> abs_d;
     double wrr = 0.0;
     int n = 0, total = 0;
@@ -216,7 +247,12 @@ bool gaussNewton(const SiteProducts& a, const DemGrid& dem_a, const std::vector<
       abs_d.push_back(std::fabs(d));
       if (std::fabs(d) > trim) continue;
       const double w = 1.0 / (kFloorSigmaM * kFloorSigmaM + sa * sa + s.sigma2);
-      const Eigen::Vector4d j(ex, ey, 1.0, ex * -rb.y() + ey * rb.x());
+      // d = e_a(p) + p_z: its derivatives by p are (ex, ey, 1); a turn about A's axes moves p by
+      // turnJacobian(rb) omega.
+      const Eigen::Vector3d dd_dp(ex, ey, 1.0);
+      const Eigen::RowVector3d dd_domega = dd_dp.transpose() * turnJacobian(rb);
+      PoseVector j;
+      j << ex, ey, 1.0, ex * -rb.y() + ey * rb.x(), dd_domega.x(), dd_domega.y();
       fit.normal.noalias() += w * j * j.transpose();
       rhs += w * j * d;
       wrr += w * d * d;
@@ -225,17 +261,21 @@ bool gaussNewton(const SiteProducts& a, const DemGrid& dem_a, const std::vector<
     if (n < min_used) return false;
     out.overlap_cells = total;
     out.used_cells = n;
-    fit.s0 = std::sqrt(wrr / std::max(1, n - 4));
-    const Eigen::Vector4d delta = -fit.normal.ldlt().solve(rhs);
+    fit.s0 = std::sqrt(wrr / std::max(1, n - unknowns));
+    const PoseVector delta = gaussNewtonStep(fit, rhs, factor);
     if (!delta.allFinite()) return false;
     fit.pose.translation_m += delta.head<3>();
-    fit.pose.heading_rad += delta[3];
+    if (fit.solvesTilt()) {
+      fit.pose = turnedPose(fit.pose, Eigen::Vector3d(delta[4], delta[5], delta[3]));
+    } else {
+      fit.pose.heading_rad += delta[3];
+    }
     // The trimming threshold settles after a few steps (so that the set of samples stops changing).
     if (it < 4) {
       std::nth_element(abs_d.begin(), abs_d.begin() + abs_d.size() / 2, abs_d.end());
       trim = std::max(3.0 * 1.4826 * abs_d[abs_d.size() / 2], 0.01);
     }
-    if (it >= 4 && delta.head<3>().norm() < 5e-4 && std::fabs(delta[3]) < 1e-5) {
+    if (it >= 4 && delta.head<3>().norm() < 5e-4 && delta.tail<3>().cwiseAbs().maxCoeff() < 1e-5) {
       converged = true;
       return true;
     }
@@ -253,9 +293,15 @@ void judgeSolution(const SiteProducts& a, const std::vector<Sample>& samples, co
   out.difference_rms_m = std::sqrt(at_solution.dd / at_solution.n);
   out.dem_sigma_rms_m = std::sqrt(at_solution.ss / at_solution.n);
   out.correlation_factor = designEffect(a, samples, fit.pose, params, out.rms_m);
-  const Eigen::Matrix4d cov = fit.normal.inverse() * fit.s0 * fit.s0 * out.correlation_factor;
+  PoseMatrix cov = PoseMatrix::Zero();
+  if (fit.solvesTilt()) {
+    cov = fit.information(out.correlation_factor).inverse();
+  } else {
+    cov.topLeftCorner<4, 4>() =
+        fit.normal.topLeftCorner<4, 4>().inverse() * fit.s0 * fit.s0 * out.correlation_factor;
+  }
   out.covariance = cov;
-  for (int i = 0; i < 4; ++i) out.sigma[i] = std::sqrt(std::max(0.0, cov(i, i)));
+  for (int i = 0; i < 6; ++i) out.sigma[i] = std::sqrt(std::max(0.0, cov(i, i)));
   out.a_from_b = fit.pose;
   const double moved = (fit.pose.translation_m - apriori.translation_m).head<2>().norm();
   if (!converged) {
@@ -293,9 +339,12 @@ void tryOrthos(const SiteProducts& a, const std::vector<Sample>& samples, const 
   if (m.n < 20) return;
   pose.translation_m.z() -= m.mean();
   out.a_from_b = pose;
-  out.covariance = o.covariance;
+  // The orthos' pose is levelled: its tilt the a-priori one, known to the tilt's prior.
+  out.covariance.setZero();
+  out.covariance.topLeftCorner<4, 4>() = o.covariance;
+  out.covariance(4, 4) = out.covariance(5, 5) = params.tilt_sigma_rad * params.tilt_sigma_rad;
   out.covariance(2, 2) = m.variance();  // the height from the mean difference: the differences' spread
-  for (int i = 0; i < 4; ++i) out.sigma[i] = std::sqrt(std::max(0.0, out.covariance(i, i)));
+  for (int i = 0; i < 6; ++i) out.sigma[i] = std::sqrt(std::max(0.0, out.covariance(i, i)));
   out.status = RegistrationStatus::kOk;
   out.method = "ortho";
   out.message += format("; the orthoimages registered instead (NCC %.2f, second peak %.2f, median %.2f)",
@@ -304,18 +353,63 @@ void tryOrthos(const SiteProducts& a, const std::vector<Sample>& samples, const 
 
 }  // namespace
 
-Eigen::Matrix3d RelativePose::rotation() const {
+namespace {
+
+Eigen::Matrix3d headingRotation(double heading_rad) {
   const double c = std::cos(heading_rad), s = std::sin(heading_rad);
   Eigen::Matrix3d r;
   r << c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0;
   return r;
 }
 
+Eigen::Matrix3d rotationOf(const Eigen::Vector3d& omega_rad) {
+  const double angle = omega_rad.norm();
+  if (angle == 0.0) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle, omega_rad / angle).toRotationMatrix();
+}
+
+}  // namespace
+
+RelativePose relativePoseOf(const Eigen::Matrix3d& r, const Eigen::Vector3d& translation_m) {
+  RelativePose p;
+  p.translation_m = translation_m;
+  const Eigen::Vector3d up = r.col(2);
+  const Eigen::Vector3d axis = Eigen::Vector3d::UnitZ().cross(up);
+  const double angle = std::atan2(axis.norm(), up.z());
+  if (axis.norm() > 0.0) p.tilt_rad = (axis / axis.norm() * angle).head<2>();
+  const Eigen::Matrix3d heading =
+      rotationOf(Eigen::Vector3d(p.tilt_rad.x(), p.tilt_rad.y(), 0.0)).transpose() * r;
+  p.heading_rad = std::atan2(heading(1, 0), heading(0, 0));
+  return p;
+}
+
+Eigen::Matrix3d RelativePose::rotation() const {
+  // A levelled pose is Rz alone, not multiplied by an identity tilt (the same bits as before tilts).
+  if (tilt_rad.isZero(0.0)) return headingRotation(heading_rad);
+  return rotationOf(Eigen::Vector3d(tilt_rad.x(), tilt_rad.y(), 0.0)) * headingRotation(heading_rad);
+}
+
 RelativePose RelativePose::inverse() const {
   RelativePose inv;
   inv.heading_rad = -heading_rad;
   inv.translation_m = -(rotation().transpose() * translation_m);
+  if (!tilt_rad.isZero(0.0)) {
+    // R^T = Rz(-h) exp(-[t]x) = exp(-[Rz(-h) t]x) Rz(-h), and Rz(-h) t stays horizontal.
+    inv.tilt_rad =
+        -(headingRotation(-heading_rad) * Eigen::Vector3d(tilt_rad.x(), tilt_rad.y(), 0.0)).head<2>();
+  }
   return inv;
+}
+
+RelativePose turnedPose(const RelativePose& base, const Eigen::Vector3d& omega_rad) {
+  return relativePoseOf(rotationOf(omega_rad) * base.rotation(), base.translation_m);
+}
+
+Eigen::Matrix3d turnJacobian(const Eigen::Vector3d& rotated_b) {
+  Eigen::Matrix3d j;  // omega x v = -[v]x omega
+  j << 0.0, rotated_b.z(), -rotated_b.y(), -rotated_b.z(), 0.0, rotated_b.x(), rotated_b.y(), -rotated_b.x(),
+      0.0;
+  return j;
 }
 
 RelativePose shiftedPose(const RelativePose& base, double dx, double dy, double dh) {
@@ -358,6 +452,9 @@ RegistrationParams searchWindowOf(const Traverse& traverse, int i, int j, const 
   p.three_sigma_deg = 3.0 * std::sqrt(std::max(0.0, cov(2, 2))) / kDegToRad;
   p.search_m = std::min(std::max(p.three_sigma_m, base.search_m), kMaxSearchM);
   p.search_deg = std::min(std::max(p.three_sigma_deg, base.search_deg), kMaxSearchDeg);
+  const double attitude2 = traverse.sites[i].attitude_sigma_rad * traverse.sites[i].attitude_sigma_rad +
+                           traverse.sites[j].attitude_sigma_rad * traverse.sites[j].attitude_sigma_rad;
+  p.tilt_sigma_rad = std::sqrt(std::max(kLevelSigmaRad * kLevelSigmaRad, attitude2));
   return p;
 }
 
@@ -451,6 +548,14 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
   const Candidate fine = fineSearch(a, b, apriori, params, grid, best, min_samples);
   Fit fit;
   fit.pose = shiftedPose(apriori, fine.dx, fine.dy, fine.dh);
+  if (params.tilt_sigma_rad > 0.0) {
+    fit.tilt_information = 1.0 / (params.tilt_sigma_rad * params.tilt_sigma_rad);
+    fit.tilt_prior = apriori.tilt_rad;
+    // The refinement starts from the tilt that levels the differences at the searched pose.
+    const Eigen::Vector2d tilt =
+        moments(a, a.dem, samples, fit.pose, params).levellingTilt(params.tilt_sigma_rad);
+    fit.pose = turnedPose(fit.pose, Eigen::Vector3d(tilt.x(), tilt.y(), 0.0));
+  }
   const Moments start = moments(a, a.dem, samples, fit.pose, params);
   if (start.n < min_samples) {
     out.message = pair + ": too few common DEM samples at the best pose";
@@ -460,11 +565,16 @@ DemRegistration registerDems(const SiteProducts& a, const SiteProducts& b, const
 
   // Gauss-Newton on the coarse DEMs (gradients over 0.2 m, a wide basin), then on the full ones (gradients
   // over two cells).
+  // The tilt's prior is weighed against the data with the design effect of the differences at the start
+  // (their spatial correlation: DemCost.hpp); the covariance takes it at the solution.
+  const double start_factor =
+      fit.solvesTilt() ? designEffect(a, samples, fit.pose, params, std::sqrt(start.variance())) : 1.0;
   bool converged = false;
   const RelativePose searched = fit.pose;
-  const bool enough =
-      gaussNewton(a, coarse_a, coarse_samples, coarse_a.cell_m, min_coarse, params, fit, out, converged) &&
-      gaussNewton(a, a.dem, samples, 2.0 * a.dem.cell_m, min_samples, params, fit, out, converged);
+  const bool enough = gaussNewton(a, coarse_a, coarse_samples, coarse_a.cell_m, min_coarse, start_factor,
+                                  params, fit, out, converged) &&
+                      gaussNewton(a, a.dem, samples, 2.0 * a.dem.cell_m, min_samples, start_factor, params,
+                                  fit, out, converged);
   out.drift_m = (fit.pose.translation_m - searched.translation_m).head<2>().norm();
   out.drift_deg = std::fabs(fit.pose.heading_rad - searched.heading_rad) / kDegToRad;
   if (!enough) {

@@ -43,13 +43,21 @@ PoseHypotheses demPoseHypotheses(const SiteProducts& a, const SiteProducts& b,
   const int nxy = static_cast<int>(std::lround(params.search_m / step_m));
   const int nh = static_cast<int>(std::lround(params.search_deg * kDegToRad / step_rad));
   const int sx = 2 * nxy + 1, sh = 2 * nh + 1;
+  // The relative tilt of the two frames is the registration's where it registered (the grid's levelled
+  // search does not see it).
+  const bool registered = registration.status == RegistrationStatus::kOk;
+  RelativePose centre = registration.apriori;
+  Eigen::Matrix2d tilt_cov = Eigen::Matrix2d::Identity() * params.tilt_sigma_rad * params.tilt_sigma_rad;
+  if (registered) {
+    centre.tilt_rad = registration.a_from_b.tilt_rad;
+    tilt_cov = registration.covariance.bottomRightCorner<2, 2>();
+  }
   std::vector<PoseHypothesis> grid(static_cast<std::size_t>(sx) * sx * sh);
   std::vector<int> counts(grid.size(), 0);
   cli::parallelFor(grid.size(), 0, [&](std::size_t n) {
     const int k = static_cast<int>(n / (static_cast<std::size_t>(sx) * sx));
     const int j = static_cast<int>(n / sx % sx), i = static_cast<int>(n % sx);
-    RelativePose pose =
-        shiftedPose(registration.apriori, (i - nxy) * step_m, (j - nxy) * step_m, (k - nh) * step_rad);
+    RelativePose pose = shiftedPose(centre, (i - nxy) * step_m, (j - nxy) * step_m, (k - nh) * step_rad);
     const demcost::Moments m = demcost::moments(a, a.dem, samples, pose, params);
     PoseHypothesis& h = grid[n];
     h.variance_m2 = std::numeric_limits<double>::infinity();
@@ -70,7 +78,7 @@ PoseHypotheses demPoseHypotheses(const SiteProducts& a, const SiteProducts& b,
       best_pose = grid[n].a_from_b;
     }
   }
-  if (registration.status == RegistrationStatus::kOk) {
+  if (registered) {
     const demcost::Moments m = demcost::moments(a, a.dem, samples, registration.a_from_b, params);
     if (m.n >= min_samples && m.variance() < v0) {
       v0 = m.variance();
@@ -87,7 +95,8 @@ PoseHypotheses demPoseHypotheses(const SiteProducts& a, const SiteProducts& b,
   for (PoseHypothesis& h : grid) {
     if (!(h.variance_m2 <= out.bound_m2)) continue;
     const double half_m = 0.5 * step_m, half_rad = 0.5 * step_rad;
-    h.covariance.diagonal() << half_m * half_m, half_m * half_m, h.variance_m2, half_rad * half_rad;
+    h.covariance.diagonal().head<4>() << half_m * half_m, half_m * half_m, h.variance_m2, half_rad * half_rad;
+    h.covariance.bottomRightCorner<2, 2>() = tilt_cov;
     plausible.push_back(h);
   }
   // Best-fitting first; equal variances in the grid's order.

@@ -11,7 +11,9 @@
 // on the differences at that pose, DemCost.hpp), so its relative standard error is sqrt(2 D / n); a pose
 // whose V(p) lies within `sigmas` such errors of V0 fits the DEMs as well as their noise lets one say. Those
 // poses are the hypotheses, the best-fitting first, each with a covariance that covers its grid cell (half a
-// step per axis, so that 3 sigmas reach the neighbours) and its height from the differences' mean.
+// step per axis, so that 3 sigmas reach the neighbours) and its height from the differences' mean. The grid
+// is levelled at the registration's tilt when it registered (its tilt and covariance carried), else at the
+// a-priori tilt with the tilt's prior sigma.
 #pragma once
 
 #include <string>
@@ -30,8 +32,8 @@ inline constexpr int kMaxPoseHypotheses = 24;
 
 struct PoseHypothesis {
   RelativePose a_from_b;
-  Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();  // x, y, z (m), heading (rad)
-  double variance_m2 = 0.0;                              // of the DEM differences there
+  PoseMatrix covariance = PoseMatrix::Zero();  // x, y, z (m), heading, tilt x, tilt y (rad)
+  double variance_m2 = 0.0;                    // of the DEM differences there
 };
 
 struct PoseHypotheses {

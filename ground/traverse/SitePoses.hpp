@@ -27,6 +27,11 @@ struct SitePoseEstimate {
   Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();  // [x, y, z (m), heading (rad)]
   PoseSource source = PoseSource::kOdometry;
   double distance_m = 0.0;  // driven from the first site
+  // The site frame's tilt in the traverse frame as the multi-site adjustment solved it (its rotation
+  // exp([tilt]x) Rz(heading), the tilt about the traverse frame's x and y: the sites' levelling against
+  // the first's), and its sigmas; zero where the odometry placed the site (levelled frames).
+  Eigen::Vector2d tilt_rad = Eigen::Vector2d::Zero();
+  Eigen::Vector2d tilt_sigma_rad = Eigen::Vector2d::Zero();
 };
 
 struct SitePoseSolution {

@@ -16,7 +16,6 @@ using json = nlohmann::json;
 
 namespace {
 
-
 json countsJson(const CrossTieCounts& c) {
   return json{{"interest_points", c.interest_points},
               {"on_both_dems", c.on_both_dems},
@@ -43,7 +42,13 @@ json countsJson(const CrossTieCounts& c) {
 
 json poseJson(const RelativePose& p) {
   return json{{"position_m", {p.translation_m.x(), p.translation_m.y(), p.translation_m.z()}},
-              {"heading_deg", p.heading_rad * kRadToDeg}};
+              {"heading_deg", p.heading_rad * kRadToDeg},
+              {"tilt_deg", {p.tilt_rad.x() * kRadToDeg, p.tilt_rad.y() * kRadToDeg}}};
+}
+
+// x, y, z (m), heading and the tilt's two axes (deg).
+json sigmaJson(const PoseVector& s) {
+  return json::array({s[0], s[1], s[2], s[3] * kRadToDeg, s[4] * kRadToDeg, s[5] * kRadToDeg});
 }
 
 }  // namespace
@@ -147,16 +152,26 @@ std::string pairMatchLine(const Traverse& traverse, const SitePairMatch& m) {
   std::snprintf(buffer, sizeof buffer, "%s, %zu ties, %d observations, rms %.3f px",
                 crossTieStatusName(r.status), r.ties.size(), r.observationCount(), r.rms_px);
   std::string line = sites + buffer;
+  const DemRegistration& g = r.registration;
+  if (g.status == RegistrationStatus::kOk && m.params.registration.tilt_sigma_rad > 0.0) {
+    std::snprintf(buffer, sizeof buffer, "; relative tilt %.3f, %.3f deg (sigma %.3f, %.3f; prior %.3f)",
+                  g.a_from_b.tilt_rad.x() * kRadToDeg, g.a_from_b.tilt_rad.y() * kRadToDeg,
+                  g.sigma[4] * kRadToDeg, g.sigma[5] * kRadToDeg,
+                  m.params.registration.tilt_sigma_rad * kRadToDeg);
+    line += buffer;
+  }
   if (const std::string cut = windowCut(m.params.registration); !cut.empty()) line += "; " + cut;
   if (m.truth) {
     const TruthCheck& t = *m.truth;
     std::snprintf(buffer, sizeof buffer,
-                  "; truth: registration %.3f m xy, %.3f m z, %.3f deg; ties' pose %.3f m xy, %.3f deg; "
+                  "; truth: registration %.3f m xy, %.3f m z, %.3f deg, tilt %.3f deg (of %.3f); ties' pose "
+                  "%.3f m xy, %.3f deg, tilt %.3f deg; "
                   "median %.3f px, 90%% %.3f px, %d of %zu > %.0f px; in A's images median %.3f px, 90%% "
                   "%.3f px, %d of %zu > %.0f px",
-                  t.registration_xy_m, t.registration_z_m, t.registration_heading_deg, t.ties_xy_m,
-                  t.ties_heading_deg, t.median_px, t.p90_px, t.gross, t.errors_px.size(), t.gross_px,
-                  t.cross_median_px, t.cross_p90_px, t.cross_gross, t.cross_errors_px.size(), t.gross_px);
+                  t.registration_xy_m, t.registration_z_m, t.registration_heading_deg,
+                  t.registration_tilt_deg, t.true_tilt_deg, t.ties_xy_m, t.ties_heading_deg, t.ties_tilt_deg,
+                  t.median_px, t.p90_px, t.gross, t.errors_px.size(), t.gross_px, t.cross_median_px,
+                  t.cross_p90_px, t.cross_gross, t.cross_errors_px.size(), t.gross_px);
     line += buffer;
   }
   return line;
@@ -186,7 +201,7 @@ json matchingJson(const Traverse& traverse, const std::string& products, const T
                           {"message", g.message},
                           {"apriori", poseJson(g.apriori)},
                           {"a_from_b", poseJson(g.a_from_b)},
-                          {"sigma", {g.sigma[0], g.sigma[1], g.sigma[2], g.sigma[3] * kRadToDeg}},
+                          {"sigma", sigmaJson(g.sigma)},
                           {"overlap_samples", g.overlap_cells},
                           {"used_samples", g.used_cells},
                           {"rms_m", g.rms_m},
@@ -199,14 +214,14 @@ json matchingJson(const Traverse& traverse, const std::string& products, const T
                           {"second_minimum", {{"m", g.second_offset_m}, {"deg", g.second_offset_deg}}},
                           {"drift", {{"m", g.drift_m}, {"deg", g.drift_deg}}}};
     pj["a_from_b"] = poseJson(r.a_from_b);
-    pj["a_from_b_sigma"] = {r.a_from_b_sigma[0], r.a_from_b_sigma[1], r.a_from_b_sigma[2],
-                            r.a_from_b_sigma[3] * kRadToDeg};
+    pj["a_from_b_sigma"] = sigmaJson(r.a_from_b_sigma);
     pj["rms_px"] = r.rms_px;
     const RegistrationParams& w = m.params.registration;
     pj["search"] = {{"m", w.search_m},
                     {"deg", w.search_deg},
                     {"three_sigma_m", w.three_sigma_m},
-                    {"three_sigma_deg", w.three_sigma_deg}};
+                    {"three_sigma_deg", w.three_sigma_deg},
+                    {"tilt_sigma_deg", w.tilt_sigma_rad * kRadToDeg}};
     if (const std::string cut = windowCut(w); !cut.empty()) pj["search"]["cut"] = cut;
     pj["first_pass_ties"] = r.first_pass_ties;
     pj["ties"] = r.ties.size();
@@ -231,7 +246,10 @@ json matchingJson(const Traverse& traverse, const std::string& products, const T
                      {"registration_heading_deg", t.registration_heading_deg},
                      {"ties_xy_m", t.ties_xy_m},
                      {"ties_z_m", t.ties_z_m},
-                     {"ties_heading_deg", t.ties_heading_deg}};
+                     {"ties_heading_deg", t.ties_heading_deg},
+                     {"true_tilt_deg", t.true_tilt_deg},
+                     {"registration_tilt_deg", t.registration_tilt_deg},
+                     {"ties_tilt_deg", t.ties_tilt_deg}};
     }
     report["pairs"].push_back(pj);
   }

@@ -246,6 +246,8 @@ json poseJson(const SitePoseEstimate& e) {
           {"heading_deg", e.pose.heading_rad * 180.0 / M_PI},
           {"sigma_m", {sd(0), sd(1), sd(2)}},
           {"sigma_heading_deg", sd(3) * 180.0 / M_PI},
+          {"tilt_deg", {e.tilt_rad.x() * 180.0 / M_PI, e.tilt_rad.y() * 180.0 / M_PI}},
+          {"sigma_tilt_deg", {e.tilt_sigma_rad.x() * 180.0 / M_PI, e.tilt_sigma_rad.y() * 180.0 / M_PI}},
           {"source", poseSourceName(e.source)},
           {"distance_m", e.distance_m}};
 }
@@ -421,7 +423,8 @@ SiteOutcome mapSite(const Traverse& traverse, std::size_t k, const TraverseRunOp
   return s;
 }
 
-std::optional<SiteOutcome> recordedSite(const TraverseSite& site, const std::string& out_dir, std::string* why) {
+std::optional<SiteOutcome> recordedSite(const TraverseSite& site, const std::string& out_dir,
+                                        std::string* why) {
   const SiteRecord record = checkSiteManifest(out_dir, site.id);
   if (!record.complete) {
     if (why) *why = record.why_not;
@@ -465,9 +468,9 @@ TraverseResult joinTraverse(const Traverse& traverse, const TraverseRunOptions& 
     }
   }
   if (!missing.empty())
-    throw cli::InputError(o.out_dir + "/sites", kSiteManifestName,
-                          "sites without a complete pass (map them with --site ID, or run with --resume): " +
-                              missing);
+    throw cli::InputError(
+        o.out_dir + "/sites", kSiteManifestName,
+        "sites without a complete pass (map them with --site ID, or run with --resume): " + missing);
   return finishTraverse(traverse, std::move(sites), o, readTraverseTruthInput(traverse));
 }
 

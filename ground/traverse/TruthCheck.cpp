@@ -4,7 +4,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <map>
+
+#include <nlohmann/json.hpp>
 
 #include "firmware_core/base/Angles.hpp"
 #include "ground/dataset/TruthFiles.hpp"
@@ -13,7 +16,6 @@
 namespace areomap::traverse {
 
 namespace {
-
 
 double wrapDeg(double rad) {
   return std::remainder(rad, 2.0 * kPi) * kRadToDeg;
@@ -27,12 +29,60 @@ double quantile(std::vector<double> v, double q) {
 
 }  // namespace
 
+namespace {
+
+// How a site's pass maps its truly levelled frame: turned by the attitude error E = R_apriori R_true^T about
+// the rover's base b (x' = E (x - b) + b); the identity without an attitude.
+struct SiteLevelling {
+  Eigen::Matrix3d error = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d base_m = Eigen::Vector3d::Zero();
+};
+
+SiteLevelling levellingOf(const TraverseSite& site) {
+  SiteLevelling l;
+  const std::string path = site.dir + "/truth/sim.json";
+  std::ifstream in(path);
+  if (!in) return l;
+  const nlohmann::json j = nlohmann::json::parse(in);
+  if (!j.contains("traverse") || !j["traverse"].contains("true_attitude")) return l;
+  const nlohmann::json& t = j["traverse"];
+  const auto attitude = [](const nlohmann::json& a) {
+    RoverAttitude r;
+    r.roll_rad = a.at("roll_deg").get<double>() * kDegToRad;
+    r.pitch_rad = a.at("pitch_deg").get<double>() * kDegToRad;
+    return r.rotation();
+  };
+  l.error = attitude(t.at("apriori_attitude")) * attitude(t.at("true_attitude")).transpose();
+  const double site_z = t.at("true_pose").at("position_m").at(2).get<double>();
+  l.base_m = Eigen::Vector3d(0.0, 0.0, -t.at("base_elevation_m").get<double>() - site_z);
+  return l;
+}
+
+}  // namespace
+
+RelativePose mappedTruePose(const TraverseSite& site_a, const TraverseSite& site_b, const SitePose& true_a,
+                            const SitePose& true_b) {
+  const RelativePose level = relativePose(true_a, true_b);
+  const SiteLevelling la = levellingOf(site_a), lb = levellingOf(site_b);
+  // x_a' = E_a (x_a - b_a) + b_a, x_a = R x_b + t, x_b = E_b^T (x_b' - b_b) + b_b.
+  const Eigen::Matrix3d r = level.rotation();
+  const Eigen::Matrix3d rotation = la.error * r * lb.error.transpose();
+  const Eigen::Vector3d translation =
+      la.error * (r * (lb.base_m - lb.error.transpose() * lb.base_m) + level.translation_m - la.base_m) +
+      la.base_m;
+  if (la.error.isIdentity(0.0) && lb.error.isIdentity(0.0)) return level;
+  return relativePoseOf(rotation, translation);
+}
+
 TruthCheck checkAgainstTruth(const CrossTieResult& result, const TraverseSite& site_a,
                              const TraverseSite& site_b, const SitePose& true_a, const SitePose& true_b,
                              double gross_px) {
   TruthCheck c;
   c.gross_px = gross_px;
-  const RelativePose truth = relativePose(true_a, true_b);
+  const RelativePose truth = mappedTruePose(site_a, site_b, true_a, true_b);
+  c.true_tilt_deg = truth.tilt_rad.norm() * kRadToDeg;
+  c.registration_tilt_deg = (result.registration.a_from_b.tilt_rad - truth.tilt_rad).norm() * kRadToDeg;
+  c.ties_tilt_deg = (result.a_from_b.tilt_rad - truth.tilt_rad).norm() * kRadToDeg;
   c.registration_xy_m = (result.registration.a_from_b.translation_m - truth.translation_m).head<2>().norm();
   c.registration_z_m = result.registration.a_from_b.translation_m.z() - truth.translation_m.z();
   c.registration_heading_deg = wrapDeg(result.registration.a_from_b.heading_rad - truth.heading_rad);

@@ -277,7 +277,9 @@ TEST(CrossSiteHypotheses, AWrongButConfidentRegistrationGivesWayToThePoseTheImag
   wrong.status = RegistrationStatus::kOk;
   wrong.apriori = apriori;
   wrong.a_from_b = shiftedPose(truth, 0.3, -0.25, 1.5 * kPi / 180.0);
-  wrong.covariance = Eigen::Vector4d(4e-4, 4e-4, 4e-4, std::pow(0.05 * kPi / 180.0, 2)).asDiagonal();
+  PoseVector variance;
+  variance << 4e-4, 4e-4, 4e-4, std::pow(0.05 * kPi / 180.0, 2), 0.0, 0.0;
+  wrong.covariance = variance.asDiagonal();
   wrong.sigma = wrong.covariance.diagonal().cwiseSqrt();
   const CrossTieResult r = tiesUnderRegistration(f.sites[0], f.sites[1], wrong, params);
   const double xy = (r.a_from_b.translation_m - truth.translation_m).head<2>().norm();
