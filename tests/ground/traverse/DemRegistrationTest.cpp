@@ -21,8 +21,8 @@ using namespace areomap::traverse;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
+constexpr double kRegistrationTestPi = 3.14159265358979323846;
+constexpr double kDeg = kRegistrationTestPi / 180.0;
 constexpr double kCellM = 0.1;
 constexpr double kRangeM = 12.0;  // each DEM covers this far from its site
 
