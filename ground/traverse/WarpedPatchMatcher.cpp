@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include "firmware_core/match/Ncc.hpp"
+#include "ground/traverse/PatchWarp.hpp"
 
 namespace areomap::traverse {
 
@@ -135,22 +136,26 @@ struct WholePixelWindows {
 // its offset in J from the prediction (through the surface where one is given, else the affine map mj).
 // False when a template sample leaves I.
 bool sampleTemplate(const Footprint& sample_i, const Eigen::Vector2d& i_px, const Eigen::Matrix2d& mi,
-                    const Eigen::Matrix2d& mj, int h, const PatchSurface* surface, std::vector<double>& tmpl,
-                    std::vector<Eigen::Vector2d>& off_j) {
+                    const Eigen::Matrix2d& mj, int h, const PatchSurface* surface, double tolerance_px,
+                    std::vector<double>& tmpl, std::vector<Eigen::Vector2d>& off_j) {
   const int side = 2 * h + 1;
-  Eigen::Vector2d j_centre;
-  const bool mapped = surface != nullptr && surface->map(i_px, j_centre);
   for (int v = -h; v <= h; ++v) {
     for (int u = -h; u <= h; ++u) {
       const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
-      const Eigen::Vector2d g(u, v);
-      const Eigen::Vector2d p = i_px + mi * g;
+      const Eigen::Vector2d p = i_px + mi * Eigen::Vector2d(u, v);
       const double value = sample_i.at(p.x(), p.y());
       if (!std::isfinite(value)) return false;
       tmpl[k] = value;
-      Eigen::Vector2d pj;
-      off_j[k] = mapped && surface->map(p, pj) ? Eigen::Vector2d(pj - j_centre) : Eigen::Vector2d(mj * g);
     }
+  }
+  Eigen::Vector2d j_centre;
+  if (surface != nullptr && surface->map(i_px, j_centre)) {
+    surfaceOffsets(*surface, i_px, j_centre, mi, mj, h, tolerance_px, off_j);
+    return true;
+  }
+  for (int v = -h; v <= h; ++v) {
+    for (int u = -h; u <= h; ++u)
+      off_j[static_cast<std::size_t>(v + h) * side + (u + h)] = mj * Eigen::Vector2d(u, v);
   }
   return true;
 }
@@ -307,7 +312,8 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
   const std::size_t count = static_cast<std::size_t>(side) * side;
   std::vector<double> tmpl(count);
   std::vector<Eigen::Vector2d> off_j(count);
-  if (!sampleTemplate(sample_i, i_px, mi, mj, h, surface, tmpl, off_j)) return out;
+  const double tolerance_px = params.warp_tolerance_steps * std::sqrt(std::fabs(mj.determinant()));
+  if (!sampleTemplate(sample_i, i_px, mi, mj, h, surface, tolerance_px, tmpl, off_j)) return out;
   const int ns = 2 * radius + 1;
   std::vector<double> score(static_cast<std::size_t>(ns) * ns, -2.0);
   std::vector<double> window(count);
