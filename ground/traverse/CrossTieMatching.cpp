@@ -222,12 +222,12 @@ constexpr double kFootprintStepPx = 2.0;
 
 // Step 2 for one interest point: cast onto B's DEM, found on A's (within max_height_gap_m), on a plane the
 // source ray meets steeply enough. False when any of that fails.
-bool castCandidate(const SiteProducts& a, const SiteProducts& b, const RelativePose& pose,
-                   const CrossTieParams& params, const SiteImage& source, const Eigen::Vector2d& q,
-                   double sin_incidence, Candidate& c) {
+bool castCandidate(const SiteProducts& a, const SiteProducts& b, const DemCeiling& b_ceiling,
+                   const RelativePose& pose, const CrossTieParams& params, const SiteImage& source,
+                   const Eigen::Vector2d& q, double sin_incidence, Candidate& c) {
   Vec3 o, d;
   double t = 0.0;
-  if (!ok(unproject(source.model, q, o, d)) || !castRayOnDem(b.dem, o, d, params.max_range_m, t))
+  if (!ok(unproject(source.model, q, o, d)) || !castRayOnDem(b.dem, b_ceiling, o, d, params.max_range_m, t))
     return false;
   const Eigen::Vector3d pb = o + t * d;
   const Eigen::Vector3d pa = pose.toA(pb);
@@ -312,6 +312,7 @@ struct Pass {
   const CrossTieParams& params;
   double sin_incidence = 0.0;
   double max_scale = 0.0;
+  DemCeiling a_ceiling{}, b_ceiling{};  // of a.dem and b.dem, for the rays cast onto them
 };
 
 // Step 3 for one target image of `site`: the candidate predicted into it through the gates (counted by the
@@ -341,7 +342,8 @@ bool matchIntoImage(const Pass& pass, const SiteImage& source, const SiteProduct
     return false;
   }
   double hit = 0.0;
-  if (castRayOnDem(site.dem, target.model.c, ray / range, range + 1.0, hit) &&
+  const DemCeiling& ceiling = in_a ? pass.a_ceiling : pass.b_ceiling;
+  if (castRayOnDem(site.dem, ceiling, target.model.c, ray / range, range + 1.0, hit) &&
       hit < range * (1.0 - params.occlusion_tolerance) - 0.05) {
     bump(&CrossTieCounts::occluded);
     return false;
@@ -422,6 +424,8 @@ void matchTies(const SiteProducts& a, const SiteProducts& b, const SourcePoints&
   pass.max_scale = params.max_scale_ratio > 0.0
                        ? params.max_scale_ratio
                        : std::sqrt(2.0) * static_cast<double>(1 << (kPyramidLevels - 1));
+  pass.a_ceiling = demCeiling(a.dem);
+  pass.b_ceiling = demCeiling(b.dem);
   // Every stride-th interest point of every source image, in image order: each is matched on its own (in
   // parallel), and what they give is merged in this order, so that the ties and their point ids are the
   // same for any thread count.
@@ -448,8 +452,8 @@ void matchTies(const SiteProducts& a, const SiteProducts& b, const SourcePoints&
     const SiteImage& source = b.images[items[i].image];
     Found& f = found[i];
     Candidate c;
-    const bool cast =
-        castCandidate(a, b, pose, params, source, points[items[i].image][items[i].n], pass.sin_incidence, c);
+    const bool cast = castCandidate(a, b, pass.b_ceiling, pose, params, source,
+                                    points[items[i].image][items[i].n], pass.sin_incidence, c);
     f.on_both_dems = c.on_both_dems;
     if (!cast) return;
     f.tie.b_m = c.pb;

@@ -144,19 +144,6 @@ SiteProducts loadSiteTruth(const TraverseSite& site, double cell_m) {
   return s;
 }
 
-double demElevation(const DemGrid& dem, double x_north_m, double y_east_m) {
-  const double u = (y_east_m - dem.east0_m) / dem.cell_m - 0.5;
-  const double v = (dem.north0_m - x_north_m) / dem.cell_m - 0.5;
-  if (!(u >= 0.0 && v >= 0.0)) return NAN;
-  const int c = static_cast<int>(u), r = static_cast<int>(v);
-  if (c + 1 >= dem.cols || r + 1 >= dem.rows) return NAN;
-  const float a = dem.at(c, r), b = dem.at(c + 1, r), d = dem.at(c, r + 1), e = dem.at(c + 1, r + 1);
-  if (a == dem.nodata || b == dem.nodata || d == dem.nodata || e == dem.nodata) return NAN;
-  if (!std::isfinite(a) || !std::isfinite(b) || !std::isfinite(d) || !std::isfinite(e)) return NAN;
-  const double fu = u - c, fv = v - r;
-  return a * (1 - fu) * (1 - fv) + b * fu * (1 - fv) + d * (1 - fu) * fv + e * fu * fv;
-}
-
 DemGrid coarsenDem(const DemGrid& dem, int factor) {
   DemGrid out;
   out.east0_m = dem.east0_m;
@@ -185,8 +172,40 @@ DemGrid coarsenDem(const DemGrid& dem, int factor) {
   return out;
 }
 
-bool castRayOnDem(const DemGrid& dem, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
-                  double max_range_m, double& t_m) {
+namespace {
+
+// The last step index from k on (at most `steps`) up to which the ray is above the ceiling of the block
+// under step k: every step of that stretch is above the surface or off it, so none is a crossing. k - 1
+// when there is none (step k is off the grid or may be at or below the surface).
+int lastStepAbove(const DemGrid& dem, const DemCeiling& ceiling, const Eigen::Vector3d& origin,
+                  const Eigen::Vector3d& direction, double step, int k, int steps) {
+  const double t0 = k * step;
+  const Eigen::Vector3d p = origin + t0 * direction;
+  // The cell coordinates demElevation computes, linear along the ray.
+  const double u0 = (p.y() - dem.east0_m) / dem.cell_m - 0.5, v0 = (dem.north0_m - p.x()) / dem.cell_m - 0.5;
+  if (!(u0 >= 0.0 && v0 >= 0.0)) return k - 1;
+  const int bc = static_cast<int>(u0) / ceiling.block, br = static_cast<int>(v0) / ceiling.block;
+  if (bc >= ceiling.cols || br >= ceiling.rows) return k - 1;
+  const double top = ceiling.top[static_cast<std::size_t>(br) * ceiling.cols + bc];
+  // Where the ray leaves the block widened by half a cell (its ceiling covers a cell more), so that the
+  // rounding of the steps' coordinates cannot take one beyond what the ceiling covers.
+  auto leave = [&](double w0, double dw, int b) {
+    const double lo = b * ceiling.block - 0.5, hi = (b + 1) * ceiling.block + 0.5;
+    if (dw > 0.0) return t0 + (hi - w0) / dw;
+    if (dw < 0.0) return t0 + (lo - w0) / dw;
+    return static_cast<double>(INFINITY);
+  };
+  const double t1 = std::min(
+      {leave(u0, direction.y() / dem.cell_m, bc), leave(v0, -direction.x() / dem.cell_m, br), steps * step});
+  // The ray's height is linear in t: its least over [t0, t1] is at an end; a margin far above rounding.
+  constexpr double kMargin = 1e-6;
+  const double lowest = std::min(-p.z(), -(origin.z() + t1 * direction.z()));
+  if (!(lowest > top + kMargin)) return k - 1;
+  return std::clamp(static_cast<int>(std::floor(t1 / step)), k - 1, steps);
+}
+
+bool castRay(const DemGrid& dem, const DemCeiling* ceiling, const Eigen::Vector3d& origin,
+             const Eigen::Vector3d& direction, double max_range_m, double& t_m) {
   const double step = std::max(0.5 * dem.cell_m, 0.01);
   const int steps = static_cast<int>(max_range_m / step);
   auto above = [&](double t, bool& valid) {
@@ -198,6 +217,14 @@ bool castRayOnDem(const DemGrid& dem, const Eigen::Vector3d& origin, const Eigen
   bool prev_valid = false;
   double prev_h = 0.0;
   for (int k = 1; k <= steps; ++k) {
+    const int last =
+        ceiling != nullptr ? lastStepAbove(dem, *ceiling, origin, direction, step, k, steps) : k - 1;
+    if (last >= k) {
+      // Steps k..last are no crossing; the next step compares with the last one's height.
+      prev_h = above(last * step, prev_valid);
+      k = last;
+      continue;
+    }
     const double t = k * step;
     bool valid = false;
     const double h = above(t, valid);
@@ -217,6 +244,39 @@ bool castRayOnDem(const DemGrid& dem, const Eigen::Vector3d& origin, const Eigen
     prev_h = h;
   }
   return false;
+}
+
+}  // namespace
+
+bool castRayOnDem(const DemGrid& dem, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                  double max_range_m, double& t_m) {
+  return castRay(dem, nullptr, origin, direction, max_range_m, t_m);
+}
+
+bool castRayOnDem(const DemGrid& dem, const DemCeiling& ceiling, const Eigen::Vector3d& origin,
+                  const Eigen::Vector3d& direction, double max_range_m, double& t_m) {
+  return castRay(dem, &ceiling, origin, direction, max_range_m, t_m);
+}
+
+DemCeiling demCeiling(const DemGrid& dem, int block) {
+  DemCeiling out;
+  out.block = block;
+  out.cols = (dem.cols + block - 1) / block;
+  out.rows = (dem.rows + block - 1) / block;
+  out.top.assign(static_cast<std::size_t>(out.cols) * out.rows, -INFINITY);
+  for (int br = 0; br < out.rows; ++br) {
+    for (int bc = 0; bc < out.cols; ++bc) {
+      float top = -INFINITY;
+      for (int r = std::max(0, br * block - 1); r <= std::min(dem.rows - 1, (br + 1) * block + 1); ++r) {
+        for (int c = std::max(0, bc * block - 1); c <= std::min(dem.cols - 1, (bc + 1) * block + 1); ++c) {
+          const float v = dem.at(c, r);
+          if (v != dem.nodata && std::isfinite(v)) top = std::max(top, v);
+        }
+      }
+      out.top[static_cast<std::size_t>(br) * out.cols + bc] = top;
+    }
+  }
+  return out;
 }
 
 bool demPlane(const DemGrid& dem, const Eigen::Vector3d& point_m, double radius_m, Eigen::Vector3d& normal,

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include "firmware_core/match/Ncc.hpp"
+#include "ground/traverse/PatchWarp.hpp"
 
 namespace areomap::traverse {
 
@@ -23,40 +24,6 @@ int levelFor(const std::vector<cv::Mat>& pyramid, double scale) {
   return std::clamp(l, 0, static_cast<int>(pyramid.size()) - 1);
 }
 
-// Most taps of a footprint along its long axis (a grid step up to this many pyramid pixels long).
-constexpr int kMaxFootprintTaps = 16;
-
-// Samples an image through a grid-step map m (grid step -> full-resolution pixels) low-passed to the
-// step's footprint, which is anisotropic where the views see the ground at different obliquities: the
-// pyramid level of the footprint's short axis (singular value), and along its long axis the mean of taps
-// one level pixel apart spanning the step (a box over the footprint). With an isotropic map this is the
-// pyramid level of its scale alone.
-struct Footprint {
-  const std::vector<cv::Mat>* pyramid = nullptr;
-  int level = 0;
-  Eigen::Vector2d axis = Eigen::Vector2d::Zero();  // the long axis' extent (full-resolution pixels)
-  int taps = 1;
-
-  Footprint(const std::vector<cv::Mat>& p, const Eigen::Matrix2d& m) : pyramid(&p) {
-    const Eigen::JacobiSVD<Eigen::Matrix2d> svd(m, Eigen::ComputeFullU);
-    const double s_long = svd.singularValues()[0], s_short = svd.singularValues()[1];
-    level = levelFor(p, s_short);
-    const double pixel = static_cast<double>(1 << level);
-    taps = std::clamp(static_cast<int>(std::lround(s_long / pixel)), 1, kMaxFootprintTaps);
-    if (taps > 1) axis = svd.matrixU().col(0) * s_long;
-  }
-
-  double at(double x_px, double y_px) const {
-    if (taps == 1) return samplePyramid(*pyramid, level, x_px, y_px);
-    double sum = 0.0;
-    for (int t = 0; t < taps; ++t) {
-      const double f = (t + 0.5) / taps - 0.5;
-      sum += samplePyramid(*pyramid, level, x_px + f * axis.x(), y_px + f * axis.y());
-    }
-    return sum / taps;  // NaN when a tap is
-  }
-};
-
 // A bilinear sample of an image at a point (its pixel and the weights of its fraction), also moved by whole
 // pixels: the search steps a window by whole pixels with the weights kept. NaN outside the image.
 struct BilinearTap {
@@ -71,10 +38,61 @@ struct BilinearTap {
   double at(const cv::Mat& m, int dx, int dy) const {
     const int cc = c + dx, rr = r + dy;
     if (cc < 0 || rr < 0 || cc + 1 >= m.cols || rr + 1 >= m.rows) return NAN;
+    return inside(m, dx, dy);
+  }
+  // at() where the caller knows the moved pixel and its neighbours are in the image.
+  double inside(const cv::Mat& m, int dx, int dy) const {
+    const int cc = c + dx, rr = r + dy;
     const float* row0 = m.ptr<float>(rr);
     const float* row1 = m.ptr<float>(rr + 1);
     return row0[cc] * (1 - fx) * (1 - fy) + row0[cc + 1] * fx * (1 - fy) + row1[cc] * (1 - fx) * fy +
            row1[cc + 1] * fx * fy;
+  }
+};
+
+// Bilinear sample of a pyramid level whose pixel is 1 / f full-resolution pixels, at full-resolution pixel
+// coordinates (NaN outside): samplePyramid's arithmetic, with the level's image and scale found once.
+inline double sampleLevel(const cv::Mat& m, double f, double x_px, double y_px) {
+  const double x = x_px * f, y = y_px * f;
+  if (!(x >= 0.0 && y >= 0.0)) return NAN;
+  return BilinearTap(Eigen::Vector2d(x, y)).at(m, 0, 0);
+}
+
+// Most taps of a footprint along its long axis (a grid step up to this many pyramid pixels long).
+constexpr int kMaxFootprintTaps = 16;
+
+// Samples an image through a grid-step map m (grid step -> full-resolution pixels) low-passed to the
+// step's footprint, which is anisotropic where the views see the ground at different obliquities: the
+// pyramid level of the footprint's short axis (singular value), and along its long axis the mean of taps
+// one level pixel apart spanning the step (a box over the footprint). With an isotropic map this is the
+// pyramid level of its scale alone.
+struct Footprint {
+  const std::vector<cv::Mat>* pyramid = nullptr;
+  int level = 0;
+  const cv::Mat* image = nullptr;                  // pyramid[level]
+  double f = 1.0;                                  // its pixels per full-resolution pixel
+  Eigen::Vector2d axis = Eigen::Vector2d::Zero();  // the long axis' extent (full-resolution pixels)
+  int taps = 1;
+
+  Footprint(const std::vector<cv::Mat>& p, const Eigen::Matrix2d& m) : pyramid(&p) {
+    const Eigen::JacobiSVD<Eigen::Matrix2d> svd(m, Eigen::ComputeFullU);
+    const double s_long = svd.singularValues()[0], s_short = svd.singularValues()[1];
+    level = levelFor(p, s_short);
+    const double pixel = static_cast<double>(1 << level);
+    taps = std::clamp(static_cast<int>(std::lround(s_long / pixel)), 1, kMaxFootprintTaps);
+    if (taps > 1) axis = svd.matrixU().col(0) * s_long;
+    image = &p[static_cast<std::size_t>(level)];
+    f = 1.0 / (1 << level);
+  }
+
+  double at(double x_px, double y_px) const {
+    if (taps == 1) return sampleLevel(*image, f, x_px, y_px);
+    double sum = 0.0;
+    for (int t = 0; t < taps; ++t) {
+      const double along = (t + 0.5) / taps - 0.5;
+      sum += sampleLevel(*image, f, x_px + along * axis.x(), y_px + along * axis.y());
+    }
+    return sum / taps;  // NaN when a tap is
   }
 };
 
@@ -117,7 +135,7 @@ struct WholePixelWindows {
       return false;
     double ss = 0.0, sss = 0.0, sts = 0.0;
     for (std::size_t k = 0; k < taps.size(); ++k) {
-      const double v = taps[k].at(image, dx, dy);
+      const double v = taps[k].inside(image, dx, dy);  // the window's bounds are checked above
       ss += v;
       sss += v * v;
       sts += tmpl[k] * v;
@@ -135,22 +153,26 @@ struct WholePixelWindows {
 // its offset in J from the prediction (through the surface where one is given, else the affine map mj).
 // False when a template sample leaves I.
 bool sampleTemplate(const Footprint& sample_i, const Eigen::Vector2d& i_px, const Eigen::Matrix2d& mi,
-                    const Eigen::Matrix2d& mj, int h, const PatchSurface* surface, std::vector<double>& tmpl,
-                    std::vector<Eigen::Vector2d>& off_j) {
+                    const Eigen::Matrix2d& mj, int h, const PatchSurface* surface, double tolerance_px,
+                    std::vector<double>& tmpl, std::vector<Eigen::Vector2d>& off_j) {
   const int side = 2 * h + 1;
-  Eigen::Vector2d j_centre;
-  const bool mapped = surface != nullptr && surface->map(i_px, j_centre);
   for (int v = -h; v <= h; ++v) {
     for (int u = -h; u <= h; ++u) {
       const std::size_t k = static_cast<std::size_t>(v + h) * side + (u + h);
-      const Eigen::Vector2d g(u, v);
-      const Eigen::Vector2d p = i_px + mi * g;
+      const Eigen::Vector2d p = i_px + mi * Eigen::Vector2d(u, v);
       const double value = sample_i.at(p.x(), p.y());
       if (!std::isfinite(value)) return false;
       tmpl[k] = value;
-      Eigen::Vector2d pj;
-      off_j[k] = mapped && surface->map(p, pj) ? Eigen::Vector2d(pj - j_centre) : Eigen::Vector2d(mj * g);
     }
+  }
+  Eigen::Vector2d j_centre;
+  if (surface != nullptr && surface->map(i_px, j_centre)) {
+    surfaceOffsets(*surface, i_px, j_centre, mi, mj, h, tolerance_px, off_j);
+    return true;
+  }
+  for (int v = -h; v <= h; ++v) {
+    for (int u = -h; u <= h; ++u)
+      off_j[static_cast<std::size_t>(v + h) * side + (u + h)] = mj * Eigen::Vector2d(u, v);
   }
   return true;
 }
@@ -271,11 +293,7 @@ PatchResult refineLeastSquares(const Footprint& sample_j, const Eigen::Vector2d&
 }  // namespace
 
 double samplePyramid(const std::vector<cv::Mat>& pyramid, int level, double x_px, double y_px) {
-  const cv::Mat& m = pyramid[level];
-  const double f = 1.0 / (1 << level);
-  const double x = x_px * f, y = y_px * f;
-  if (!(x >= 0.0 && y >= 0.0)) return NAN;
-  return BilinearTap(Eigen::Vector2d(x, y)).at(m, 0, 0);
+  return sampleLevel(pyramid[level], 1.0 / (1 << level), x_px, y_px);
 }
 
 PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Vector2d& i_px,
@@ -307,7 +325,8 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
   const std::size_t count = static_cast<std::size_t>(side) * side;
   std::vector<double> tmpl(count);
   std::vector<Eigen::Vector2d> off_j(count);
-  if (!sampleTemplate(sample_i, i_px, mi, mj, h, surface, tmpl, off_j)) return out;
+  const double tolerance_px = params.warp_tolerance_steps * std::sqrt(std::fabs(mj.determinant()));
+  if (!sampleTemplate(sample_i, i_px, mi, mj, h, surface, tolerance_px, tmpl, off_j)) return out;
   const int ns = 2 * radius + 1;
   std::vector<double> score(static_cast<std::size_t>(ns) * ns, -2.0);
   std::vector<double> window(count);

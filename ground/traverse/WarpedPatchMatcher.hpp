@@ -24,6 +24,9 @@ struct PatchParams {
   bool lsm_affine = true;          // the refinement also corrects the warp's linear part
   bool anisotropic = true;         // the finer image low-passed to the footprint's shape (else its scale)
   bool clip_at_edge = true;        // search only the shifts whose window is inside J (else refuse the point)
+  // Through a surface: the casts interpolated from a lattice where that is within this many grid steps of
+  // J (PatchWarp.hpp); 0: every sample cast.
+  double warp_tolerance_steps = 0.05;
 };
 
 enum class PatchResult { kOk, kOutside, kFlat, kLowNcc, kAmbiguous, kEdgePeak, kLsmDiverged };

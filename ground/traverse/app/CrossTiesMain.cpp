@@ -56,6 +56,8 @@ constexpr const char* kUsage =
     "                     comparison)\n"
     "  --no-edge-clip     refuse a point whose search window leaves the image (else the search is clipped\n"
     "                     at the edge; for comparison). All five: the matcher before its reach was extended\n"
+    "  --every-ray        cast every template sample's ray onto the DEM (else the casts of a lattice are\n"
+    "                     interpolated where they agree within 0.05 grid step; for comparison)\n"
     "\n"
     "A pair of sites whose DEMs do not overlap, or match ambiguously, is reported with its status and no\n"
     "ties; that is not an error. Exit: 0 ok, 2 usage error, 1 bad input (the message names the file and\n"
@@ -80,6 +82,7 @@ int main(int argc, char** argv) {
     params.derived_radius = !args.flag("--fixed-radius");
     params.patch.anisotropic = !args.flag("--isotropic");
     params.patch.clip_at_edge = !args.flag("--no-edge-clip");
+    if (args.flag("--every-ray")) params.patch.warp_tolerance_steps = 0.0;
     if (args.flag("--isotropic")) params.max_scale_ratio = 6.0;  // the gate that went with it
     const std::string dir = args.positional(0, "TRAVERSE");
     if (!truth_products && !products)
