@@ -2,8 +2,8 @@
 // made DEM is one of:
 //   measured (2): points of the cloud lie in it, and some camera whose image holds it does not show a
 //     nearer measured surface all about its pixel (free space: a camera cannot have measured ground behind
-//     what it images; such a cell holds points moved along their lines of sight into a shadow, e.g. a rock
-//     top's range error, and is unseen);
+//     what it images; such a cell holds points carried along their rays beyond the surface their pixels
+//     image, e.g. a rock's face matched at the ground's disparity, and is unseen);
 //   interpolated (1): no point in it, kriged from points around it within the kriging's reach, and some
 //     camera of the panorama sees it: it lies inside that camera's image and no measured terrain between
 //     them hides it;
