@@ -77,7 +77,10 @@ float lowestAround(const DemGrid& z, const std::vector<uint8_t>& measured, int c
 // foreshortened by the angle the line of sight makes with the ground), so that a cell the matcher missed
 // leaves no hole between its neighbours, and down to its lowest measured neighbour: a step in the DEM
 // (a rock's face) covers the pixels between its top and its foot, which no cell of a 2.5-D grid fills.
-MeasuredDepth measuredDepth(const CameraModel& camera, const DemGrid& z, const std::vector<uint8_t>& measured) {
+// footprint false: each cell over the bins of its own square only (and its step down): a buffer that shows
+// a surface in a bin only where a measured cell lies in it.
+MeasuredDepth measuredDepth(const CameraModel& camera, const DemGrid& z, const std::vector<uint8_t>& measured,
+                            bool footprint = true) {
   MeasuredDepth d;
   d.camera = &camera;
   d.cone = imageCone(camera);
@@ -97,7 +100,8 @@ MeasuredDepth measuredDepth(const CameraModel& camera, const DemGrid& z, const s
       const float dist = static_cast<float>(to.norm());
       const double across = z.cell_m / dist * bins_per_rad;
       const double along = across * std::fabs(to.z()) / dist;
-      const int hu = std::min(8, static_cast<int>(across)), hv = std::min(8, static_cast<int>(along));
+      const double grow = footprint ? 1.0 : 0.5;
+      const int hu = std::min(8, static_cast<int>(grow * across)), hv = std::min(8, static_cast<int>(grow * along));
       splat(d, static_cast<int>(std::floor(b.x())), static_cast<int>(std::floor(b.y())), hu, hv, dist);
       const float low = lowestAround(z, measured, col, row);
       Vec2 foot;
@@ -112,6 +116,32 @@ MeasuredDepth measuredDepth(const CameraModel& camera, const DemGrid& z, const s
   return d;
 }
 
+// A cell's line of sight in the camera of `d`: its bin (projectInto), its distance, horizontal distance, a
+// bin's angle, the ground's spacing per bin at its grazing angle, and the image direction of the vertical
+// at the cell, one bin long. False where it does not project or lies straight below the camera.
+struct Sight {
+  Vec2 bin, down;
+  double dist = 0.0, horizontal = 0.0, bin_rad = 0.0, step = 0.0;
+};
+
+bool sightOf(const MeasuredDepth& d, const Vec3& x, Sight& s) {
+  if (!projectInto(d, x, s.bin)) return false;
+  const Vec3 to = x - d.camera->c;
+  s.dist = to.norm();
+  s.horizontal = std::hypot(to.x(), to.y());
+  if (!(s.horizontal > 0.0)) return false;
+  const double tan_grazing = to.z() / s.horizontal;  // Z down: the line of sight descends to the cell
+  s.bin_rad = d.bin / d.cone.px_per_rad;
+  s.step = s.dist * s.bin_rad / std::max(tan_grazing, s.bin_rad);  // ground distance per bin
+  Vec2 q;
+  const double drop = std::max(0.01, 0.02 * s.dist);
+  if (!projectInto(d, x + Vec3(0, 0, drop), q)) q = s.bin + Vec2(0, 1);
+  s.down = q - s.bin;
+  if (!(s.down.norm() > 1e-9)) s.down = Vec2(0, 1);
+  s.down.normalize();
+  return true;
+}
+
 // Whether the camera of `d` sees the ground of the cell at `x` (its kriged estimate, `sigma_m` its
 // sigma): it projects into the image, and along the image's vertical through its projection, within the
 // estimate's uncertainty and a few bins, two neighbouring measured bins that straddle the cell's distance
@@ -120,23 +150,12 @@ MeasuredDepth measuredDepth(const CameraModel& camera, const DemGrid& z, const s
 // pixel cannot tell). The window must also show the cell's own distance (to the spacing of the ground's
 // samples at that grazing angle) unless it holds no measured bin at all (no evidence either way).
 bool depthSees(const MeasuredDepth& d, const Vec3& x, double sigma_m, double cell_m) {
-  Vec2 p;
-  if (!projectInto(d, x, p)) return false;
-  const Vec3 to = x - d.camera->c;
-  const double dist = to.norm();
-  const double horizontal = std::hypot(to.x(), to.y());
-  if (!(horizontal > 0.0)) return false;
-  const double tan_grazing = to.z() / horizontal;  // Z down: the line of sight descends to the cell
-  const double bin_rad = d.bin / d.cone.px_per_rad;
-  const double step = dist * bin_rad / std::max(tan_grazing, bin_rad);  // ground distance per bin
+  Sight los;
+  if (!sightOf(d, x, los)) return false;
+  const Vec2& p = los.bin;
+  const Vec2& down = los.down;
+  const double dist = los.dist, horizontal = los.horizontal, bin_rad = los.bin_rad, step = los.step;
   const double tolerance = step + cell_m;
-  // The image direction of the vertical at the cell, one bin long.
-  Vec2 q;
-  const double drop = std::max(0.01, 0.02 * dist);
-  if (!projectInto(d, x + Vec3(0, 0, drop), q)) q = p + Vec2(0, 1);
-  Vec2 down = q - p;
-  if (!(down.norm() > 1e-9)) down = Vec2(0, 1);
-  down.normalize();
   const double estimate_bins = 3.0 * std::max(sigma_m, 0.0) * (horizontal / dist) / dist / bin_rad;
   const int reach = static_cast<int>(std::min(48.0, 3.0 + estimate_bins));
   bool close = false;
@@ -154,6 +173,28 @@ bool depthSees(const MeasuredDepth& d, const Vec3& x, double sigma_m, double cel
     previous_k = k;
   }
   return close || previous == MeasuredDepth::kNoDepth;
+}
+
+// Whether the camera of `d` shows, at the projection of the measured cell at `x` (`sigma_m` its height
+// sigma), a measured surface nearer than the cell by more than the cell's place along its line of sight can
+// be wrong: the cell lies behind what that pixel images (free space: the camera cannot have measured it
+// there). The allowance is the ground's spacing per bin at that grazing angle and a cell (the bin's nearest
+// cell may lie that much before the cell on seen ground) and three sigmas of two cells' difference along
+// the line of sight (a height sigma over the grazing angle's sine).
+bool hiddenBehind(const MeasuredDepth& d, const Vec3& x, double sigma_m, double cell_m) {
+  Sight s;
+  if (!sightOf(d, x, s)) return false;
+  const double sine = std::max(std::sqrt(std::max(0.0, s.dist * s.dist - s.horizontal * s.horizontal)) / s.dist, s.bin_rad);
+  const double along = std::max(sigma_m, 0.0) / sine;
+  const double allowed = s.dist - (s.step + cell_m + 3.0 * std::sqrt(2.0) * along);
+  // The bin of the projection and its neighbours along the image's vertical all nearer: a bin that an
+  // occlusion edge crosses holds the nearer surface's depth for the farther surface's pixels in it too.
+  for (int k = -1; k <= 1; ++k) {
+    const Vec2 b = s.bin + s.down * static_cast<double>(k);
+    const float v = d.at(static_cast<int>(std::floor(b.x())), static_cast<int>(std::floor(b.y())));
+    if (!(v < allowed)) return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -185,11 +226,45 @@ DemSeen classifyDemCells(KrigingResult& dem, const std::vector<uint8_t>& measure
     std::vector<MeasuredDepth> depths(cameras.size());
     cli::parallelFor(cameras.size(), 0,
                      [&](std::size_t k) { depths[k] = measuredDepth(cameras[k], z, measured); });
+    // Measured cells that every camera holding them shows behind a nearer measured surface (hiddenBehind)
+    // are unseen, and the depth buffers are made again without them.
+    std::vector<MeasuredDepth> centres(cameras.size());
+    cli::parallelFor(cameras.size(), 0,
+                     [&](std::size_t k) { centres[k] = measuredDepth(cameras[k], z, measured, false); });
+    std::vector<uint8_t> visible = measured;
+    std::vector<long long> hidden_rows(static_cast<std::size_t>(z.rows), 0);
     cli::parallelFor(static_cast<std::size_t>(z.rows), 0, [&](std::size_t row_index) {
       const int row = static_cast<int>(row_index);
       for (int col = 0; col < z.cols; ++col) {
         const std::size_t i = static_cast<std::size_t>(row) * z.cols + col;
-        if (out.classes[i] != kCellUnseen || !filled(z, i)) continue;
+        if (out.classes[i] != kCellMeasured) continue;
+        const Vec3 x(z.northOfRow(row), z.eastOfCol(col), -z.values[i]);
+        const double s = filled(dem.sigma, i) ? dem.sigma.values[i] : 0.0;
+        bool held = false, seen = false;
+        for (const MeasuredDepth& depth : centres) {
+          Vec2 p;
+          if (!projectInto(depth, x, p) || !imageSees(*depth.camera, depth.cone, x)) continue;
+          held = true;
+          if (!hiddenBehind(depth, x, s, z.cell_m)) {
+            seen = true;
+            break;
+          }
+        }
+        if (!held || seen) continue;
+        out.classes[i] = kCellUnseen;
+        visible[i] = 0;
+        ++hidden_rows[row_index];
+      }
+    });
+    for (long long h : hidden_rows) out.hidden += h;
+    if (out.hidden > 0)
+      cli::parallelFor(cameras.size(), 0,
+                       [&](std::size_t k) { depths[k] = measuredDepth(cameras[k], z, visible); });
+    cli::parallelFor(static_cast<std::size_t>(z.rows), 0, [&](std::size_t row_index) {
+      const int row = static_cast<int>(row_index);
+      for (int col = 0; col < z.cols; ++col) {
+        const std::size_t i = static_cast<std::size_t>(row) * z.cols + col;
+        if (out.classes[i] != kCellUnseen || measured[i] || !filled(z, i)) continue;
         const Vec3 x(z.northOfRow(row), z.eastOfCol(col), -z.values[i]);
         const double s = filled(dem.sigma, i) ? dem.sigma.values[i] : 0.0;
         for (const MeasuredDepth& depth : depths) {

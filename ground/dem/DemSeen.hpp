@@ -1,6 +1,9 @@
 // Seen, interpolated, unseen (dem_seen.tif, docs/products.md "Seen and unseen cells"). Every cell of a
 // made DEM is one of:
-//   measured (2): points of the cloud lie in it;
+//   measured (2): points of the cloud lie in it, and some camera whose image holds it does not show a
+//     nearer measured surface all about its pixel (free space: a camera cannot have measured ground behind
+//     what it images; such a cell holds points carried along their rays beyond the surface their pixels
+//     image, e.g. a rock's face matched at the ground's disparity, and is unseen);
 //   interpolated (1): no point in it, kriged from points around it within the kriging's reach, and some
 //     camera of the panorama sees it: it lies inside that camera's image and no measured terrain between
 //     them hides it;
@@ -34,6 +37,7 @@ struct DemSeen {
   std::vector<uint8_t> classes;  // per cell of the DEM's grid, row-major
   long long measured = 0, interpolated = 0;
   long long emptied = 0;  // kriged cells left empty as unseen
+  long long hidden = 0;   // of them, cells holding points that every camera shows behind nearer ones
 };
 
 // Per cell of `grid`: 1 where a point of `bins` (BinnedCloud::points: one per cell) lies in it.

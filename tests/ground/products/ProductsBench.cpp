@@ -3,8 +3,9 @@
 // --threads N: the pass on N threads (default every core); --reference: first the same pass on 1 thread
 // into OUT-1thread, the reference of the same run (wall and CPU seconds of both, their ratio).
 // Images and models from panorama.json (with --truth-models: truth/models/<stem>.cahvor, standing in for
-// the adjusted models), tie points from truth/observations.csv when present, truth/dem.tif for the DEM
-// RMSE. Prints the stage timings and figures. Not a CTest test (minutes on the full navcam preset).
+// the adjusted models, and the cells the true cameras see and do not see are measured: the "truth:" line),
+// tie points from truth/observations.csv when present, truth/dem.tif for the DEM RMSE. Prints the stage
+// timings and figures. Not a CTest test (minutes on the full navcam preset).
 #include <cstdio>
 #include <cstring>
 #include <ctime>
@@ -50,6 +51,7 @@ int main(int argc, char** argv) {
     const std::string tm = root + "/truth/models/" + ref.stem + ".cahvor";
     im.model = io::readCameraModelFile(truth_models && std::filesystem::exists(tm) ? tm : ref.model_path);
     index[ref.stem] = static_cast<int>(in.images.size());
+    if (truth_models) in.truth_models.push_back(im.model);
     in.images.push_back(im);
     return index[ref.stem];
   };
