@@ -15,17 +15,18 @@ Mat3x6 rigShapeOffsetBlock(const NetImage& im) {
 
 // Minimum-norm solution of a symmetric positive semi-definite system: eigenvalues below `relative` times
 // the largest are taken as zero (directions the data leave free). One eigensolver for every size used here:
-// its matrices are sized at run time within a fixed capacity (no heap), because each fixed-size eigensolver
-// is a template instantiation of its own, seconds of compile time for no gain at these sizes.
-constexpr int kMaxNormalSize = 7;
-using NormalMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxNormalSize, kMaxNormalSize>;
-using NormalVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxNormalSize, 1>;
+// a system of N unknowns is solved inside a kNormalSize one, the rows and columns beyond N zero (their
+// eigenvalues are exactly zero, so they take no part), because each fixed-size eigensolver is a template
+// instantiation of its own, seconds of compile time for no gain at these sizes.
+constexpr int kNormalSize = 7;
+using NormalMatrix = Eigen::Matrix<double, kNormalSize, kNormalSize>;
+using NormalVector = Eigen::Matrix<double, kNormalSize, 1>;
 
 NormalVector minimumNormSolve(const NormalMatrix& n, const NormalVector& rhs, double relative) {
   const Eigen::SelfAdjointEigenSolver<NormalMatrix> eig(n);
   const double largest = eig.eigenvalues().cwiseAbs().maxCoeff();
-  NormalVector x = NormalVector::Zero(n.rows());
-  for (Eigen::Index k = 0; k < n.rows(); ++k) {
+  NormalVector x = NormalVector::Zero();
+  for (int k = 0; k < kNormalSize; ++k) {
     const double lambda = eig.eigenvalues()(k);
     if (!(lambda > relative * largest)) continue;
     x += eig.eigenvectors().col(k) * (eig.eigenvectors().col(k).dot(rhs) / lambda);
@@ -36,8 +37,12 @@ NormalVector minimumNormSolve(const NormalMatrix& n, const NormalVector& rhs, do
 template <int N>
 Eigen::Matrix<double, N, 1> rigShapeMinimumNormSolve(const Eigen::Matrix<double, N, N>& n,
                                                      const Eigen::Matrix<double, N, 1>& rhs, double relative) {
-  static_assert(N <= kMaxNormalSize, "kMaxNormalSize bounds the unknowns");
-  return minimumNormSolve(NormalMatrix(n), NormalVector(rhs), relative);
+  static_assert(N <= kNormalSize, "kNormalSize bounds the unknowns");
+  NormalMatrix padded = NormalMatrix::Zero();
+  padded.template topLeftCorner<N, N>() = n;
+  NormalVector padded_rhs = NormalVector::Zero();
+  padded_rhs.template head<N>() = rhs;
+  return minimumNormSolve(padded, padded_rhs, relative).template head<N>();
 }
 
 // Eigenvalues of a normal matrix this far below its largest are rounding (the square of a condition of
