@@ -100,6 +100,7 @@ Moments moments(const SiteProducts& a, const DemGrid& dem_a, const std::vector<S
     m.dd += d * d;
     m.ss += sa * sa + s.sigma2;
     ++m.n;
+    if (!(params.tilt_sigma_rad > 0.0)) continue;  // the plane's moments are read only when it is solved
     m.wx += w * p.x();
     m.wy += w * p.y();
     m.wxx += w * p.x() * p.x();

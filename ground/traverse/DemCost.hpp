@@ -37,7 +37,8 @@ struct Moments {
   double dd = 0.0, ss = 0.0;  // unweighted: the differences' squares, their dem_sigma variances
   int n = 0;
   // Weighted sums over the samples' positions in A's frame (x north, y east) for the plane of the
-  // differences: w x, w y, w x^2, w x y, w y^2, w x d, w y d.
+  // differences: w x, w y, w x^2, w x y, w y^2, w x d, w y d (summed only when the fit solves the tilt,
+  // RegistrationParams::tilt_sigma_rad > 0; zero otherwise).
   double wx = 0.0, wy = 0.0, wxx = 0.0, wxy = 0.0, wyy = 0.0, wxd = 0.0, wyd = 0.0;
   double mean() const { return wd / w; }
   double variance() const;
