@@ -114,6 +114,9 @@ Status LcmTransport::subscribe(const char* channel, MessageHandler handler, void
   };
   s.lcm_subscription = lcm_subscribe(static_cast<lcm_t*>(lcm_), s.channel, trampoline, &s);
   if (s.lcm_subscription == nullptr) return Status::kIoError;
+  if (queue_capacity_ >= 0) {
+    lcm_subscription_set_queue_capacity(static_cast<lcm_subscription_t*>(s.lcm_subscription), queue_capacity_);
+  }
   ++num_subscriptions_;
   return Status::kOk;
 }

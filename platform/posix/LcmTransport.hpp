@@ -26,6 +26,11 @@ class LcmTransport final : public Transport {
   // `channel` is a plain name: letters, digits, '_', '-', '/' (LCM would read other characters as a regex).
   [[nodiscard]] Status subscribe(const char* channel, MessageHandler handler, void* context) override;
   [[nodiscard]] Status handle(int32_t timeout_ms) override;
+  // How many received messages LCM keeps per subscription while handle() is not called, for the
+  // subscriptions made after this call: 0 = no limit; beyond it LCM drops the newest. LCM's default (30)
+  // suits a node that handles all the time (the rover's transport thread); a node that stops reading for
+  // minutes (the ground making products) would lose the stream and the rover's messages of that time.
+  void setQueueCapacity(int32_t messages) { queue_capacity_ = messages; }
 
   const char* url() const { return url_; }  // the completed URL in use
   // udpm only (0 otherwise): the receive buffer asked for in the URL, and what the kernel grants a socket
@@ -50,6 +55,7 @@ class LcmTransport final : public Transport {
   int64_t requested_recv_buf_ = 0;
   int64_t effective_recv_buf_ = 0;
   int32_t num_subscriptions_ = 0;
+  int32_t queue_capacity_ = -1;  // -1: LCM's default
   Subscription subscriptions_[kMaxSubscriptions] = {};
 };
 

@@ -72,6 +72,9 @@ for run in native hil; do
   echo "hil: $run run ($(grep '^transport:' "$OUT/$run.out" | sed 's/^transport: //')) took $(( $(date +%s) - start )) s"
   grep -E '^(rover|stream|traverse|site [^ ]*):' "$OUT/$run.out" | sed "s/^/hil: $run: /"
   [[ "$(tail -n 1 "$OUT/$run.out")" == "products: $OUT/$run/products-$NAME" ]] || fail "$run: no products line"
+  # The ground heard the rover end every site (its final EO and status), not a wait that timed out.
+  heard=$(grep -c '^rover: .*; final EO arrived$' "$OUT/$run/ground.out" || true)
+  [[ "$heard" -eq "$SITES" ]] || fail "$run: the ground heard the rover finish $heard of $SITES sites ($OUT/$run/ground.out)"
 done
 python3 "$ROOT/tests/hil/compare_hil.py" "$OUT/native/products-$NAME" "$OUT/hil/products-$NAME" "$PAIRS" \
   || fail "the HIL products differ from the all-native run's"

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "msgs/Channels.hpp"
@@ -60,6 +61,33 @@ void raiseReceiveBufferCapIfRoot() {
               static_cast<long long>(granted),
               raised ? "raised to the transport's request (sysctl -w net.core.rmem_max=8388608)"
                      : "could not raise it (read-only here)");
+}
+
+// A node that does not call handle() for a while (the ground making products) and then reads on: on a
+// channel subscribed after setQueueCapacity(0) every message of that time is delivered; LCM's default queue
+// (printed) keeps only its first few dozen per channel. "" when all arrived.
+std::string queueWhileBusy(LcmTransport& publisher, LcmTransport& subscriber) {
+  constexpr int kBurst = 100;
+  int counts[2] = {0, 0};
+  const auto count = [](void* context, const char*, const uint8_t*, std::size_t) {
+    ++*static_cast<int*>(context);
+  };
+  if (!ok(subscriber.subscribe("AREOMAP_UDPM_QUEUE_DEFAULT", count, &counts[0]))) return "queue: subscribe";
+  subscriber.setQueueCapacity(0);
+  if (!ok(subscriber.subscribe("AREOMAP_UDPM_QUEUE_ALL", count, &counts[1]))) return "queue: subscribe";
+  (void)subscriber.handle(50);
+  const uint8_t payload[64] = {0};
+  for (int i = 0; i < kBurst; ++i) {
+    if (!ok(publisher.publish("AREOMAP_UDPM_QUEUE_DEFAULT", payload, sizeof payload)) ||
+        !ok(publisher.publish("AREOMAP_UDPM_QUEUE_ALL", payload, sizeof payload)))
+      return "queue: publish failed";
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // busy: LCM's receive thread queues them
+  for (int quiet = 0; quiet < 4;) quiet = ok(subscriber.handle(50)) ? 0 : quiet + 1;
+  std::printf("udpm: %d messages sent while the subscriber was busy: %d delivered with LCM's default queue, "
+              "%d with setQueueCapacity(0)\n",
+              kBurst, counts[0], counts[1]);
+  return counts[1] == kBurst ? "" : "queue: messages sent while the subscriber was busy were lost";
 }
 
 // Publishes kMessages stereo pairs on one transport and receives them on another. Returns "" on success,
@@ -121,6 +149,8 @@ std::string exchange(bool& nothing_arrived) {
   } else {
     return "slot channel: subscribe or publish failed";
   }
+  const std::string queue = queueWhileBusy(publisher, subscriber);
+  if (!queue.empty()) return queue;
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf("udpm: %zu of %d messages of %zu bytes received intact (%d damaged) in %.3f s\n",
               received.sequences.size(), kMessages, received.bytes, received.bad, seconds);

@@ -53,6 +53,13 @@ bool longTestsWanted(const char* what) {
   return false;
 }
 
+bool underEmulation(const char* what) {
+  const char* emulator = std::getenv("AREOMAP_TEST_EMULATOR");
+  if (emulator == nullptr || *emulator == '\0') return false;
+  std::printf("emulated: %s\n", what);
+  return true;
+}
+
 std::string toolPath(const std::string& tool) {
   const char* env = std::getenv("AREOMAP_BINARY_DIR");
   return (env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR)) + "/bin/" + tool;

@@ -16,6 +16,10 @@ bool requireSharedData(const std::string& folder);
 // Whether AREOMAP_LONG_TESTS=1 asks for the long groups; otherwise prints "SKIP: <what> run with ..." and the
 // group passes without running.
 bool longTestsWanted(const char* what);
+// Whether this test runs under a cross build's emulator (AREOMAP_TEST_EMULATOR, set by CTest): a solver test
+// whose arithmetic is shown on the target by one case of a family runs that one there, and the whole family
+// natively; it prints "emulated: <what>".
+bool underEmulation(const char* what);
 bool fileExists(const std::string& path);
 
 // build/bin/<tool> ($AREOMAP_BINARY_DIR, else the build tree this test was configured in).

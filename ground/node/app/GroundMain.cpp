@@ -282,6 +282,9 @@ ground::GroundNodeResult receive(GroundArgs& a, StreamRun& run) {
   if (!ok(transport.open(a.lcm->c_str()))) {
     throw cli::InputError(*a.lcm, "url", "LCM cannot open it (for udpm: is there a multicast route?)");
   }
+  // The ground reads nothing while it makes a panorama's products (minutes): what arrives meanwhile (the next
+  // site's pairs, the rover's statuses at 1 Hz) waits in LCM's queues, whole.
+  transport.setQueueCapacity(0);
   cli::info(std::string("listening on ") + transport.url());
   if (!a.no_record && !options.stream_only) options.record_path = a.out + "/" + ground::kRecordingName;
   result = ground::runGroundNode(transport, *a.lcm, options, done);
