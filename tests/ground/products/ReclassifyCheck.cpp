@@ -5,9 +5,11 @@
 // before and after, the DEM's error over the measured cells it empties per truth class, and the RMSE over
 // the filled cells. The kriged cells the pass emptied are not in dem.tif: they stay empty.
 // Then per range band the truth-unseen cells left filled (measured, interpolated) and the truth-seen cells
-// left empty, before and after; with RECLASSIFY_GAPS set, histograms of the radial gaps (reclassifyGapRows)
-// of the interpolated cells the classes keep, per truth class. For dem.tif to hold every kriged cell, make
-// PRODUCTS with a build whose products pass classifies without emptying.
+// left empty, before and after. Of the cells holding no point at 10-20 and 20-40 m (truth-unseen ones kept,
+// truth-seen ones kept, truth-seen ones emptied): with RECLASSIFY_GAPS set, histograms of their radial gaps
+// (reclassifyGapRows) and of how far inside the images their projection lies; with RECLASSIFY_CLEARANCE,
+// of how far their estimate clears the measured cells' horizon in sigmas. For dem.tif to hold every kriged
+// cell, make PRODUCTS with a build whose products pass classifies without emptying.
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -66,6 +68,110 @@ double reclassifyGapRows(const DemGrid& z, const std::vector<uint8_t>& measured,
   return (side[0] + side[1]) / row_m;
 }
 
+// What the histograms read: the DEM as kriged (elevation, sigma) and its measured cells, the true cameras,
+// the truth classes and the classes made, the gimbal centre.
+struct ReclassifyInputs {
+  const DemGrid &z0, &sigma0;
+  const std::vector<uint8_t>& measured;
+  const std::vector<CameraModel>& models;
+  const std::vector<uint8_t>&truth, &classes;
+  Vec3 centre;
+};
+
+const char* const kReclassifyKinds[3] = {"unseen kept", "seen kept", "seen emptied"};
+
+// Of the kriged cells holding no point at 10-40 m: 2 x kind (0 truth-unseen kept interpolated, 1 truth-seen
+// kept, 2 truth-seen emptied) + 1 beyond 20 m; -1 for the others.
+int reclassifyKind(const ReclassifyInputs& in, int col, int row) {
+  const std::size_t i = static_cast<std::size_t>(row) * in.z0.cols + col;
+  if (in.measured[i] || in.z0.values[i] == in.z0.nodata || in.truth[i] == products::kTruthMarginal) return -1;
+  const bool kept = in.classes[i] == dem::kCellInterpolated;
+  if (in.truth[i] != products::kTruthSeen && !kept) return -1;
+  const double range = std::hypot(in.z0.northOfRow(row) - in.centre.x(), in.z0.eastOfCol(col) - in.centre.y());
+  if (range < 10 || range >= 40) return -1;
+  const int kind = in.truth[i] != products::kTruthSeen ? 0 : kept ? 1 : 2;
+  return 2 * kind + (range >= 20);
+}
+
+// One histogram per kind and band: "label, truth KIND, BAND m: <UPPER:COUNT ...", the last "<-1" the rest.
+template <int N>
+void reclassifyPrint(const char* label, const long long (&tally)[6][N], const double (&upper)[N]) {
+  for (int k = 0; k < 6; ++k) {
+    std::printf("%s, truth %s, %s m:", label, kReclassifyKinds[k / 2], k % 2 ? "20-40" : "10-20");
+    for (int h = 0; h < N; ++h) std::printf(" <%g:%lld", upper[h] > 1e100 ? -1 : upper[h], tally[k][h]);
+    std::printf("\n");
+  }
+}
+
+// The radial gaps (reclassifyGapRows, the fewest rows over the cameras whose images hold the cell) and how
+// far inside those images the cells' projections lie (pixels from the border, the most over them).
+void reclassifyGaps(const ReclassifyInputs& in) {
+  constexpr int kHist = 13, kBorders = 6;
+  constexpr double kUpper[kHist] = {0.5, 1, 1.5, 2, 3, 4, 6, 8, 12, 16, 24, 1e9, 2e300};
+  constexpr double kInside[kBorders] = {4, 8, 16, 32, 64, 1e9};
+  long long hist[6][kHist] = {}, inside_hist[6][kBorders] = {};
+  std::vector<dem::ImageCone> cones;
+  for (const CameraModel& m : in.models) cones.push_back(dem::imageCone(m));
+  const DemGrid& z0 = in.z0;
+  for (int r = 0; r < z0.rows; ++r)
+    for (int c = 0; c < z0.cols; ++c) {
+      const int kind = reclassifyKind(in, c, r);
+      if (kind < 0) continue;
+      const Vec3 x(z0.northOfRow(r), z0.eastOfCol(c), -z0.at(c, r));
+      double best = 3e300, inside = -1;
+      for (std::size_t k = 0; k < in.models.size(); ++k) {
+        const CameraModel& m = in.models[k];
+        Vec2 px;
+        if (!dem::imageSees(m, cones[k], x) || project(m, x, px) != Status::kOk) continue;
+        inside = std::max(inside, std::min({px.x() + 0.5, px.y() + 0.5, m.width - 0.5 - px.x(), m.height - 0.5 - px.y()}));
+        const double g = reclassifyGapRows(z0, in.measured, m, cones[k].px_per_rad, c, r, 48.0);
+        if (g >= 0) best = std::min(best, g);
+      }
+      int h = 0, o = 0;
+      while (h + 1 < kHist && best >= kUpper[h]) ++h;
+      while (o + 1 < kBorders && inside >= kInside[o]) ++o;
+      ++hist[kind][h];
+      ++inside_hist[kind][o];
+    }
+  reclassifyPrint("gap rows", hist, kUpper);
+  reclassifyPrint("px inside", inside_hist, kInside);
+}
+
+// How far the cells' kriged estimates clear the horizon of the measured cells alone (dem::horizonFrom over
+// a grid of them, the rest nodata), over the estimate's sigma, the most over the cameras whose images hold
+// the cell.
+void reclassifyClearance(const ReclassifyInputs& in) {
+  const DemGrid& z0 = in.z0;
+  DemGrid only = z0;
+  for (std::size_t i = 0; i < only.values.size(); ++i)
+    if (!in.measured[i]) only.values[i] = only.nodata;
+  std::vector<float> clear(z0.values.size(), -std::numeric_limits<float>::infinity()), horizon;
+  for (const CameraModel& m : in.models) {
+    const dem::ImageCone cone = dem::imageCone(m);
+    dem::horizonFrom(only, m.c, horizon, false);
+    for (int r = 0; r < z0.rows; ++r)
+      for (int c = 0; c < z0.cols; ++c) {
+        const std::size_t i = static_cast<std::size_t>(r) * z0.cols + c;
+        if (reclassifyKind(in, c, r) < 0 || !dem::imageSees(m, cone, Vec3(z0.northOfRow(r), z0.eastOfCol(c), -z0.values[i]))) continue;
+        const float sv = in.sigma0.values[i];
+        const double sigma = sv == in.sigma0.nodata ? 1e-3 : std::max(1e-3, static_cast<double>(sv));
+        clear[i] = std::max(clear[i], static_cast<float>((z0.values[i] - horizon[i]) / sigma));
+      }
+  }
+  constexpr int kClear = 10;
+  constexpr double kClearUpper[kClear] = {-3, -2, -1, -0.5, 0, 0.5, 1, 2, 3, 1e300};
+  long long tally[6][kClear] = {};
+  for (int r = 0; r < z0.rows; ++r)
+    for (int c = 0; c < z0.cols; ++c) {
+      const int kind = reclassifyKind(in, c, r);
+      if (kind < 0) continue;
+      int h = 0;
+      while (h + 1 < kClear && clear[static_cast<std::size_t>(r) * z0.cols + c] >= kClearUpper[h]) ++h;
+      ++tally[kind][h];
+    }
+  reclassifyPrint("clearance sigmas", tally, kClearUpper);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -98,7 +204,7 @@ int main(int argc, char** argv) {
   const products::SeenTruth b = products::seenAgainstTruth(kr.elevation, nullptr, truth, images, models, frame, 60.0, &before);
   std::printf("before: unseen %lld, %.2f %% empty (%lld measured); seen %lld, %.2f %% filled\n", b.cells_unseen,
               100 * b.unseen_empty.value_or(-1), b.unseen_measured, b.cells_seen, 100 * b.seen_filled.value_or(-1));
-  const DemGrid z0 = kr.elevation;
+  const DemGrid z0 = kr.elevation, sigma0 = kr.sigma;
   const dem::DemSeen s = dem::classifyDemCells(kr, measured, models);
   {
     std::vector<double> err[3], all;
@@ -116,38 +222,9 @@ int main(int argc, char** argv) {
     for (int k = 0; k < 3; ++k) std::printf("hidden, truth class %d: %zu cells, |dz| median %.3f p90 %.3f\n", k, err[k].size(), med(err[k], 0.5), med(err[k], 0.9));
     std::printf("kept measured (1/7): |dz| median %.3f p90 %.3f\n", med(all, 0.5), med(all, 0.9));
   }
-  if (std::getenv("RECLASSIFY_GAPS") != nullptr) {
-    // The radial gaps (reclassifyGapRows, the fewest rows over the cameras holding the cell) of the
-    // interpolated cells the classes keep filled, per truth class, at 10-20 and 20-40 m.
-    constexpr int kHist = 13;
-    constexpr double kUpper[kHist] = {0.5, 1, 1.5, 2, 3, 4, 6, 8, 12, 16, 24, 1e9, 2e300};
-    long long hist[2][2][kHist] = {};
-    std::vector<dem::ImageCone> cones;
-    for (const CameraModel& m : models) cones.push_back(dem::imageCone(m));
-    for (int r = 0; r < z0.rows; ++r)
-      for (int c = 0; c < z0.cols; ++c) {
-        const std::size_t i = static_cast<std::size_t>(r) * z0.cols + c;
-        if (s.classes[i] != dem::kCellInterpolated || b.seen[i] == products::kTruthMarginal) continue;
-        const double range = std::hypot(z0.northOfRow(r) - datum.centre.x(), z0.eastOfCol(c) - datum.centre.y());
-        if (range < 10 || range >= 40) continue;
-        const Vec3 x(z0.northOfRow(r), z0.eastOfCol(c), -z0.values[i]);
-        double best = 3e300;
-        for (std::size_t k = 0; k < models.size(); ++k) {
-          if (!dem::imageSees(models[k], cones[k], x)) continue;
-          const double g = reclassifyGapRows(z0, measured, models[k], cones[k].px_per_rad, c, r, 48.0);
-          if (g >= 0) best = std::min(best, g);
-        }
-        int h = 0;
-        while (h + 1 < kHist && best >= kUpper[h]) ++h;
-        ++hist[b.seen[i] == products::kTruthSeen][range >= 20][h];
-      }
-    for (int t = 0; t < 2; ++t)
-      for (int band = 0; band < 2; ++band) {
-        std::printf("gap rows, truth %s, %s m:", t ? "seen" : "unseen", band ? "20-40" : "10-20");
-        for (int h = 0; h < kHist; ++h) std::printf(" <%g:%lld", kUpper[h] > 1e100 ? -1 : kUpper[h], hist[t][band][h]);
-        std::printf("\n");
-      }
-  }
+  const ReclassifyInputs in{z0, sigma0, measured, models, b.seen, s.classes, datum.centre};
+  if (std::getenv("RECLASSIFY_GAPS") != nullptr) reclassifyGaps(in);
+  if (std::getenv("RECLASSIFY_CLEARANCE") != nullptr) reclassifyClearance(in);
   std::printf("classes: %lld measured, %lld interpolated, %lld emptied (%lld hidden)\n", s.measured, s.interpolated,
               s.emptied, s.hidden);
   const products::SeenTruth a = products::seenAgainstTruth(kr.elevation, nullptr, truth, images, models, frame, 60.0, &s.classes);
