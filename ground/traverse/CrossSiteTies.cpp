@@ -119,10 +119,37 @@ void matchRegistered(const SiteProducts& a, const SiteProducts& b, const SourceP
   secondPass(a, b, points, params, first_point, out);
 }
 
+// Whether the first pass under `r` could find `need` ties, judged from its half: the pass's points of even
+// rank alone (every other point of the pass, the same patches). Each of the `need` ties that pass would check
+// lies in that half with probability 1/2, independently, so seeing no more than m ties before the check there
+// has probability at most P(Binomial(need, 1/2) <= m); below kPreemptRisk the whole pass is not run.
+constexpr double kPreemptRisk = 0.01;  // the chance of passing over a hypothesis the full pass would confirm
+
+bool halfCanConfirm(const SiteProducts& a, const SiteProducts& b, const SourcePoints& points,
+                    const CrossTieParams& params, int64_t first_point, const DemRegistration& r, int need) {
+  // As firstPass: its search radius, every other one of its points.
+  CrossTieParams half = params;
+  half.patch.radius_px = params.second_pass ? params.first_radius_px : params.patch.radius_px;
+  const int stride = 2 * (params.second_pass ? params.first_pass_stride : 1);
+  CrossTieResult t;
+  t.site_a = a.id;
+  t.site_b = b.id;
+  matchTies(a, b, points, r.a_from_b, r.covariance, half, first_point, stride, t);
+  const int seen = static_cast<int>(t.ties.size());
+  if (seen >= need) return true;
+  double below = 0.0;  // P(X <= seen) for X ~ Binomial(need, 1/2), each term from its logarithm
+  for (int k = 0; k <= seen; ++k) {
+    below += std::exp(std::lgamma(need + 1.0) - std::lgamma(k + 1.0) - std::lgamma(need - k + 1.0) -
+                      need * std::log(2.0));
+  }
+  return below >= kPreemptRisk;
+}
+
 // A registration the images do not confirm (too few ties under it), or none, is a hypothesis among others:
 // the orthoimages' registration and every pose the DEMs cannot tell from their best (PoseHypotheses.hpp).
-// Each is tried by the first pass; the one whose checked ties are the most, and more than the registration's,
-// goes on to the second pass and replaces the result when it ties more.
+// Each is tried by the first pass (unless its half says the pass cannot confirm it, halfCanConfirm); the one
+// whose checked ties are the most, and more than the registration's, goes on to the second pass and replaces
+// the result when it ties more.
 void confirmByImages(const SiteProducts& a, const SiteProducts& b, const SourcePoints& points,
                      const CrossTieParams& params, int64_t first_point, CrossTieResult& out) {
   const std::string pair = "sites " + a.id + " and " + b.id;
@@ -154,7 +181,14 @@ void confirmByImages(const SiteProducts& a, const SiteProducts& b, const SourceP
   const int before = out.first_pass_ties;
   CrossTieResult best;
   best.first_pass_ties = -1;
+  int passed_over = 0;
   for (DemRegistration& r : tries) {
+    // Only a pass that ties at least min_ties, more than the registration's and than the best so far counts.
+    const int need = std::max({params.min_ties, before + 1, best.first_pass_ties + 1});
+    if (!halfCanConfirm(a, b, points, params, first_point, r, need)) {
+      ++passed_over;
+      continue;
+    }
     CrossTieResult t;
     t.site_a = a.id;
     t.site_b = b.id;
@@ -163,8 +197,9 @@ void confirmByImages(const SiteProducts& a, const SiteProducts& b, const SourceP
     if (t.first_pass_ties > best.first_pass_ties) best = std::move(t);
   }
   char buffer[200];
-  std::snprintf(buffer, sizeof buffer, " (%d first-pass ties of %zu hypotheses' best, against %d)",
-                std::max(0, best.first_pass_ties), tries.size(), before);
+  std::snprintf(buffer, sizeof buffer,
+                " (%d first-pass ties of %zu hypotheses' best, against %d; %d passed over by half their pass)",
+                std::max(0, best.first_pass_ties), tries.size(), before, passed_over);
   if (best.first_pass_ties >= params.min_ties && best.first_pass_ties > before) {
     secondPass(a, b, points, params, first_point, best);
     best.registration.message += buffer;
