@@ -71,6 +71,7 @@ for run in native hil; do
     || { cat "$OUT/$run.out"; fail "run.sh ($run) exited $?"; }
   echo "hil: $run run ($(grep '^transport:' "$OUT/$run.out" | sed 's/^transport: //')) took $(( $(date +%s) - start )) s"
   grep -E '^(rover|stream|traverse|site [^ ]*):' "$OUT/$run.out" | sed "s/^/hil: $run: /"
+  grep -E '^areomap-rover: traverse:' "$OUT/$run/rover.log" | sed "s/^areomap-rover: /hil: $run: rover's /" || true
   [[ "$(tail -n 1 "$OUT/$run.out")" == "products: $OUT/$run/products-$NAME" ]] || fail "$run: no products line"
   # The ground heard the rover end every site (its final EO and status), not a wait that timed out.
   heard=$(grep -c '^rover: .*; final EO arrived$' "$OUT/$run/ground.out" || true)

@@ -509,6 +509,22 @@ void printSummary() {
       c.stage_seconds[static_cast<int>(areomap::RoverStage::kPublish)] / pairs,
       static_cast<unsigned long long>(g_inbox_refused), static_cast<unsigned long long>(g_inbox_waits),
       g_inbox_peak_bytes, kInboxBytes);
+  const areomap::RoverTraverse& traverse = g_node.traverse();
+  if (traverse.siteCount() == 0) return;
+  // The on-board localisation: how each site was placed, and what the site-pose steps cost.
+  int32_t tied = 0, registered = 0, refused = 0;
+  for (int32_t k = 0; k < traverse.siteCount(); ++k) {
+    const areomap::RoverSiteRecord& site = traverse.site(k);
+    tied += site.status == areomap::site_pose_t::STATUS_TIED ? 1 : 0;
+    registered += site.registration == areomap::site_pose_t::REGISTRATION_OK ? 1 : 0;
+    refused += site.registration == areomap::site_pose_t::REGISTRATION_REFUSED ? 1 : 0;
+  }
+  std::fprintf(stderr,
+               "areomap-rover: traverse: %d sites, %d tied by cross-site ties, legs registered %d, refused %d; "
+               "site-pose steps %.3f s in all, %.3f s per site after the first\n",
+               static_cast<int>(traverse.siteCount()), static_cast<int>(tied), static_cast<int>(registered),
+               static_cast<int>(refused), c.traverse_seconds,
+               traverse.siteCount() > 1 ? c.traverse_seconds / (traverse.siteCount() - 1) : 0.0);
 }
 
 }  // namespace
