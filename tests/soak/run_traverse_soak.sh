@@ -64,11 +64,13 @@ mapfile -t IDS < <(python3 -c 'import json,sys; print("\n".join(s["id"] for s in
 URL=$(node_url)
 OUT="$SCRATCH/out"
 
-"$BUILD/bin/areomap-ground" --lcm "$URL" --out "$OUT" --truth "$DATASET" --traverse \
-  > "$SCRATCH/ground.out" 2> "$SCRATCH/ground.log" &
-GROUND=$!
-"$BUILD/bin/areomap-rover" --lcm "$URL" --exit-at-end --quiet > "$SCRATCH/rover.out" 2> "$SCRATCH/rover.log" &
-ROVER=$!
+# The run lasts long enough for the pids to wrap: the exit statuses are kept by bg_start (nodes_lib.sh).
+bg_start "$SCRATCH/ground.rc" "$BUILD/bin/areomap-ground" --lcm "$URL" --out "$OUT" --truth "$DATASET" --traverse \
+  > "$SCRATCH/ground.out" 2> "$SCRATCH/ground.log"
+GROUND=$BG_PID
+bg_start "$SCRATCH/rover.rc" "$BUILD/bin/areomap-rover" --lcm "$URL" --exit-at-end --quiet \
+  > "$SCRATCH/rover.out" 2> "$SCRATCH/rover.log"
+ROVER=$BG_PID
 # The rover's resident memory every 0.2 s while it runs.
 ( while kill -0 "$ROVER" 2> /dev/null; do echo "$(date +%s.%N) $(rss_kib "$ROVER")"; sleep 0.2; done ) \
   > "$SCRATCH/rover_rss.txt" &
@@ -77,8 +79,7 @@ trap 'kill $GROUND $ROVER $SAMPLER 2> /dev/null || true' EXIT
 wait_listening "$SCRATCH/ground.log" "$SCRATCH/rover.log"
 start_all=$SECONDS
 date +%s.%N > "$SCRATCH/replay_start.txt"
-lcm-logplayer -s 1 --lcm-url="$URL" "$LOG" > "$SCRATCH/logplayer.log" 2>&1 &
-PLAYER=$!
+bg_start "$SCRATCH/logplayer.rc" lcm-logplayer -s 1 --lcm-url="$URL" "$LOG" > "$SCRATCH/logplayer.log" 2>&1
 
 # The ground's resident memory when each site's products appear.
 : > "$SCRATCH/rss.txt"
@@ -93,12 +94,12 @@ for id in "${IDS[@]}"; do
   echo "$id $g $(( SECONDS - start_all ))" >> "$SCRATCH/rss.txt"
   echo "site $id: products after $(( SECONDS - start_all )) s; RSS ground $(( g / 1024 )) MiB"
 done
-wait "$PLAYER" || fail "lcm-logplayer"
+bg_wait "$SCRATCH/logplayer.rc" || fail "lcm-logplayer"
 set +e
 wait_for "$OUT/report.json" 1800 "$GROUND"
-wait "$ROVER"
+bg_wait "$SCRATCH/rover.rc"
 rover_rc=$?
-wait "$GROUND"
+bg_wait "$SCRATCH/ground.rc"
 ground_rc=$?
 set -e
 kill "$SAMPLER" 2> /dev/null || true

@@ -63,6 +63,29 @@ wait_listening() {
 }
 
 # wait_for FILE SECONDS PID: until FILE exists (0), PID exits (1) or SECONDS pass (2).
+# bg_start RCFILE COMMAND...: COMMAND in the background, its own pid in BG_PID; its exit status is written to
+# RCFILE when it ends (bg_wait). A long script's own short-lived children can be given a finished job's pid
+# again once the kernel's pids wrap, and bash's `wait PID` then no longer knows it ("not a child of this
+# shell"); the file keeps the status. Redirections of the call apply to COMMAND.
+bg_start() {
+  local rcfile=$1
+  shift
+  rm -f "$rcfile" "$rcfile.pid"
+  ( "$@" &
+    p=$!
+    echo "$p" > "$rcfile.pid"
+    wait "$p"
+    echo $? > "$rcfile" ) &
+  while [[ ! -s "$rcfile.pid" ]]; do sleep 0.05; done
+  BG_PID=$(cat "$rcfile.pid")
+}
+
+# bg_wait RCFILE: waits until the command bg_start started with RCFILE has ended; returns its exit status.
+bg_wait() {
+  while [[ ! -s "$1" ]]; do sleep 0.2; done
+  return "$(cat "$1")"
+}
+
 wait_for() {
   local file=$1 limit=$2 pid=${3:-} start=$SECONDS
   while [[ ! -e "$file" ]]; do
