@@ -133,10 +133,17 @@ TerrainVisibility terrainVisibility(const DemGrid& dem, const std::vector<OrthoS
       if (hiding.values[i] != dem.nodata && s != sigma->nodata && std::isfinite(s)) hiding.values[i] -= 2.0f * s;
     }
   }
-  std::vector<float> horizon;
+  std::vector<std::size_t> used;
+  std::vector<Vec3> eyes;
   for (std::size_t k = 0; k < sources.size(); ++k) {
     if (sources[k].grey.empty()) continue;
-    dem::horizonFrom(hiding, sources[k].model.c, horizon, true);
+    used.push_back(k);
+    eyes.push_back(sources[k].model.c);
+  }
+  // The sources' horizons made on threads, each source's bits set in the sources' order.
+  const dem::GridWindow whole{0, 0, dem.cols, dem.rows};
+  dem::forEachHorizon(hiding, eyes, whole, true, [&](std::size_t e, const std::vector<float>& horizon) {
+    const std::size_t k = used[e];
     cli::parallelFor(static_cast<std::size_t>(dem.rows), 0, [&](std::size_t r) {
       for (int c = 0; c < dem.cols; ++c) {
         const std::size_t i = r * dem.cols + c;
@@ -144,7 +151,7 @@ TerrainVisibility terrainVisibility(const DemGrid& dem, const std::vector<OrthoS
         if (v != dem.nodata && v >= horizon[i]) vis.bits[i * vis.words + k / 64] |= uint64_t{1} << (k % 64);
       }
     });
-  }
+  });
   return vis;
 }
 

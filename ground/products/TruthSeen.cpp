@@ -96,6 +96,53 @@ void nodesAround(const DemGrid& truth, double north, double east, double cell, i
   r1 = std::min(r1, truth.rows - 1);
 }
 
+// The truth's four nodes about (north, east), for a bilinear value there: (bc, br) the first, (fc, fr) the
+// point in node units. False when one of them lies beyond the truth.
+bool prCentreNodes(const DemGrid& truth, double north, double east, double& fc, double& fr, int& bc, int& br) {
+  fc = (east - truth.east0_m) / truth.cell_m - 0.5;
+  fr = (truth.north0_m - north) / truth.cell_m - 0.5;
+  bc = static_cast<int>(std::floor(fc));
+  br = static_cast<int>(std::floor(fr));
+  return bc >= 0 && br >= 0 && bc + 1 < truth.cols && br + 1 < truth.rows;
+}
+
+// A box of the truth's nodes, grown by blocks of them (empty blocks add nothing).
+struct PrNodeBox {
+  int lo_c = std::numeric_limits<int>::max(), hi_c = -1, lo_r = std::numeric_limits<int>::max(), hi_r = -1;
+  void add(int c0, int c1, int r0, int r1) {
+    if (c1 < c0 || r1 < r0) return;
+    lo_c = std::min(lo_c, c0);
+    hi_c = std::max(hi_c, c1);
+    lo_r = std::min(lo_r, r0);
+    hi_r = std::max(hi_r, r1);
+  }
+  dem::GridWindow window() const {
+    return hi_c < lo_c ? dem::GridWindow{} : dem::GridWindow{lo_c, lo_r, hi_c - lo_c + 1, hi_r - lo_r + 1};
+  }
+};
+
+// The box of the truth's nodes that the cells (centres north, east in the truth's frame; NaN: none) read:
+// the four about each centre and those within its square. A camera's horizon is needed there only.
+dem::GridWindow prNodesRead(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
+                            const std::vector<double>& east) {
+  std::vector<PrNodeBox> rows(static_cast<std::size_t>(grid.rows));
+  cli::parallelFor(rows.size(), 0, [&](std::size_t row) {
+    for (int c = 0; c < grid.cols; ++c) {
+      const std::size_t i = row * grid.cols + c;
+      if (std::isnan(north[i])) continue;
+      int c0, c1, r0, r1;
+      nodesAround(truth, north[i], east[i], grid.cell_m, c0, c1, r0, r1);
+      rows[row].add(c0, c1, r0, r1);
+      double fc, fr;
+      int bc, br;
+      if (prCentreNodes(truth, north[i], east[i], fc, fr, bc, br)) rows[row].add(bc, bc + 1, br, br + 1);
+    }
+  });
+  PrNodeBox all;
+  for (const PrNodeBox& b : rows) all.add(b.lo_c, b.hi_c, b.lo_r, b.hi_r);
+  return all.window();
+}
+
 }  // namespace
 
 TruthFrame truthFrame(const std::vector<CameraModel>& products_models, const std::vector<CameraModel>& truth_models,
@@ -126,11 +173,19 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
       centre_up[row * grid.cols + c] = -q.z();
     }
   });
-  std::vector<float> horizon;
+  const dem::GridWindow window = prNodesRead(grid, truth, north, east);
+  if (window.cols <= 0 || window.rows <= 0) return seen;
+  std::vector<std::size_t> cameras;
+  std::vector<Vec3> eyes;
   for (std::size_t k = 0; k < models.size() && k < images.size(); ++k) {
     if (images[k].empty()) continue;
-    const CameraModel& m = models[k];
-    dem::horizonFrom(truth, m.c, horizon, false);
+    cameras.push_back(k);
+    eyes.push_back(models[k].c);
+  }
+  // A cell's verdict is the best of the cameras' (seen, marginal, unseen), so the cameras' horizons are
+  // made on threads and the cells checked against them in the cameras' order.
+  const auto check = [&](std::size_t e, const std::vector<float>& horizon) {
+    const CameraModel& m = models[cameras[e]];
     const dem::ImageCone cone = dem::imageCone(m);
     const double rad_per_px = 1.0 / cone.px_per_rad;
     cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
@@ -141,12 +196,12 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
         int c0, c1, r0, r1;
         nodesAround(truth, north[i], east[i], grid.cell_m, c0, c1, r0, r1);
         // The centre: the true surface there against the horizon between its four nodes (bilinear).
-        const double fc = (east[i] - truth.east0_m) / truth.cell_m - 0.5, fr = (truth.north0_m - north[i]) / truth.cell_m - 0.5;
-        const int bc = static_cast<int>(std::floor(fc)), br = static_cast<int>(std::floor(fr));
-        if (bc >= 0 && br >= 0 && bc + 1 < truth.cols && br + 1 < truth.rows) {
+        double fc, fr;
+        int bc, br;
+        if (prCentreNodes(truth, north[i], east[i], fc, fr, bc, br)) {
           double h = 0.0, wsum = 0.0;
           for (int q = 0; q < 4; ++q) {
-            const float hq = horizon[static_cast<std::size_t>(br + q / 2) * truth.cols + bc + q % 2];
+            const float hq = horizon[window.at(bc + q % 2, br + q / 2)];
             const double w = (q % 2 ? fc - bc : 1.0 - (fc - bc)) * (q / 2 ? fr - br : 1.0 - (fr - br));
             if (hq == -std::numeric_limits<float>::infinity()) continue;
             h += w * hq;
@@ -161,15 +216,15 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
         if (seen[i] == kTruthMarginal) continue;
         for (int tr = r0; tr <= r1 && seen[i] == kTruthUnseen; ++tr) {
           for (int tc = c0; tc <= c1 && seen[i] == kTruthUnseen; ++tc) {
-            const std::size_t j = static_cast<std::size_t>(tr) * truth.cols + tc;
-            const float z = truth.values[j];
-            if (z == truth.nodata || z + tolerance < horizon[j]) continue;
+            const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
+            if (z == truth.nodata || z + tolerance < horizon[window.at(tc, tr)]) continue;
             if (dem::imageSees(m, cone, Vec3(truth.northOfRow(tr), truth.eastOfCol(tc), -z))) seen[i] = kTruthMarginal;
           }
         }
       }
     });
-  }
+  };
+  dem::forEachHorizon(truth, eyes, window, false, check);
   return seen;
 }
 
