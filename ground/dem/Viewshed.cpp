@@ -115,21 +115,23 @@ void horizonFrom(const DemGrid& terrain, const Vec3& eye, const GridWindow& wind
   }
 }
 
-void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes, const GridWindow& window, bool widen,
-                    const std::function<void(std::size_t, const std::vector<float>&)>& use) {
-  const std::size_t bytes = std::max<std::size_t>(
-      1, static_cast<std::size_t>(std::max(0, window.cols)) * static_cast<std::size_t>(std::max(0, window.rows)) *
-             sizeof(float));
-  const std::size_t group = std::clamp<std::size_t>(static_cast<std::size_t>(cli::threadCount()), 1,
-                                                    std::max<std::size_t>(1, kMaxHorizonBytes / bytes));
-  std::vector<std::vector<float>> horizons(std::min(group, eyes.size()));
-  for (std::size_t first = 0; first < eyes.size(); first += group) {
-    const std::size_t n = std::min(group, eyes.size() - first);
-    cli::parallelFor(n, static_cast<int>(n), [&](std::size_t j) {
-      horizonFrom(terrain, eyes[first + j], window, horizons[j], widen);
-    });
-    for (std::size_t j = 0; j < n; ++j) use(first + j, horizons[j]);
-  }
+void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes, const std::vector<GridWindow>& windows,
+                    bool widen, const std::function<void(std::size_t, const std::vector<float>&)>& use) {
+  std::size_t bytes = sizeof(float);
+  for (const GridWindow& w : windows)
+    bytes = std::max(bytes, static_cast<std::size_t>(std::max(0, w.cols)) * static_cast<std::size_t>(std::max(0, w.rows)) *
+                                sizeof(float));
+  const int threads = static_cast<int>(std::clamp<std::size_t>(static_cast<std::size_t>(cli::threadCount()), 1,
+                                                               std::max<std::size_t>(1, kMaxHorizonBytes / bytes)));
+  const std::size_t n = std::min(eyes.size(), windows.size());
+  cli::orderedFor(
+      n, threads,
+      [&](std::size_t k) {
+        std::vector<float> horizon;
+        horizonFrom(terrain, eyes[k], windows[k], horizon, widen);
+        return horizon;
+      },
+      [&](std::size_t k, std::vector<float> horizon) { use(k, horizon); });
 }
 
 ImageCone imageCone(const CameraModel& m) {

@@ -42,15 +42,16 @@ struct GridWindow {
 void horizonFrom(const DemGrid& terrain, const Vec3& eye_site, const GridWindow& window,
                  std::vector<float>& horizon_up_m, bool widen);
 
-// The horizons held at once by forEachHorizon (one per eye in flight): a few windows of a navcam truth
-// DEM (5001^2 cells), well under the ground pass's peak, which the cloud sets before any horizon is made.
+// The horizons held at once by forEachHorizon (made or in use, one per thread at most): a few windows of
+// a navcam truth DEM (5001^2 cells), well under the ground pass's peak, which the cloud sets before any
+// horizon is made.
 inline constexpr std::size_t kMaxHorizonBytes = std::size_t{256} << 20;
 
-// The horizons (horizonFrom over `window`) from each of `eyes`, made on threads (as many at once as
-// kMaxHorizonBytes holds) and handed to use(k, horizon) in the eyes' order, one at a time on the calling
-// thread: the same calls as a loop over the eyes.
-void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes, const GridWindow& window, bool widen,
-                    const std::function<void(std::size_t, const std::vector<float>&)>& use);
+// The horizon from each of `eyes` over its window (horizonFrom over windows[k]), made on threads (as many
+// at once as kMaxHorizonBytes holds) and handed to use(k, horizon) in the eyes' order, one call at a time:
+// the same calls as a loop over the eyes. `use` may run on any of the threads.
+void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes, const std::vector<GridWindow>& windows,
+                    bool widen, const std::function<void(std::size_t, const std::vector<float>&)>& use);
 
 // A camera's image bounds as a cone about its axis, for a quick rejection before the projection.
 struct ImageCone {

@@ -141,7 +141,7 @@ TerrainVisibility terrainVisibility(const DemGrid& dem, const std::vector<OrthoS
     eyes.push_back(sources[k].model.c);
   }
   // The sources' horizons made on threads, each source's bits set in the sources' order.
-  const dem::GridWindow whole{0, 0, dem.cols, dem.rows};
+  const std::vector<dem::GridWindow> whole(eyes.size(), dem::GridWindow{0, 0, dem.cols, dem.rows});
   dem::forEachHorizon(hiding, eyes, whole, true, [&](std::size_t e, const std::vector<float>& horizon) {
     const std::size_t k = used[e];
     cli::parallelFor(static_cast<std::size_t>(dem.rows), 0, [&](std::size_t r) {

@@ -143,6 +143,46 @@ dem::GridWindow prNodesRead(const DemGrid& grid, const DemGrid& truth, const std
   return all.window();
 }
 
+// The box of the nodes of `within` that camera `m` may see (dem::imageSees: inside its cone) and of the
+// four nodes about each cell centre it may see: no cell's verdict from `m` reads the horizon beyond it.
+// A looser cone than imageSees's (squares, a relative margin far above their rounding), so that no point
+// it accepts is left out; the whole of `within` when the cone is a half-space or wider.
+dem::GridWindow prCameraNodes(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
+                              const std::vector<double>& east, const std::vector<double>& centre_up,
+                              const CameraModel& m, const dem::ImageCone& cone, const dem::GridWindow& within) {
+  if (!(cone.min_cos > 0.0)) return within;
+  const double cos2 = cone.min_cos * cone.min_cos * (1.0 - 1e-9);
+  const auto inCone = [&](double n, double e, double down) {
+    const Vec3 d = Vec3(n, e, down) - m.c;
+    const double along = d.dot(cone.axis);
+    return along > 0.0 && along * along >= cos2 * d.squaredNorm();
+  };
+  // Items: the window's node rows, then the grid's rows of cell centres.
+  const std::size_t node_rows = static_cast<std::size_t>(std::max(0, within.rows));
+  std::vector<PrNodeBox> rows(node_rows + static_cast<std::size_t>(grid.rows));
+  cli::parallelFor(rows.size(), 0, [&](std::size_t j) {
+    if (j < node_rows) {
+      const int tr = within.row0 + static_cast<int>(j);
+      const double n = truth.northOfRow(tr);
+      for (int tc = within.col0; tc < within.col0 + within.cols; ++tc) {
+        const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
+        if (z != truth.nodata && inCone(n, truth.eastOfCol(tc), -z)) rows[j].add(tc, tc, tr, tr);
+      }
+      return;
+    }
+    for (std::size_t i = (j - node_rows) * grid.cols, end = i + grid.cols; i < end; ++i) {
+      double fc, fr;
+      int bc, br;
+      if (!std::isnan(north[i]) && inCone(north[i], east[i], -centre_up[i]) &&
+          prCentreNodes(truth, north[i], east[i], fc, fr, bc, br))
+        rows[j].add(bc, bc + 1, br, br + 1);
+    }
+  });
+  PrNodeBox all;
+  for (const PrNodeBox& b : rows) all.add(b.lo_c, b.hi_c, b.lo_r, b.hi_r);
+  return all.window();
+}
+
 }  // namespace
 
 TruthFrame truthFrame(const std::vector<CameraModel>& products_models, const std::vector<CameraModel>& truth_models,
@@ -177,16 +217,25 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
   if (window.cols <= 0 || window.rows <= 0) return seen;
   std::vector<std::size_t> cameras;
   std::vector<Vec3> eyes;
+  std::vector<dem::ImageCone> cones;
+  std::vector<dem::GridWindow> windows;
   for (std::size_t k = 0; k < models.size() && k < images.size(); ++k) {
     if (images[k].empty()) continue;
     cameras.push_back(k);
     eyes.push_back(models[k].c);
+    cones.push_back(dem::imageCone(models[k]));
+    windows.push_back(prCameraNodes(grid, truth, north, east, centre_up, models[k], cones.back(), window));
   }
   // A cell's verdict is the best of the cameras' (seen, marginal, unseen), so the cameras' horizons are
   // made on threads and the cells checked against them in the cameras' order.
   const auto check = [&](std::size_t e, const std::vector<float>& horizon) {
     const CameraModel& m = models[cameras[e]];
-    const dem::ImageCone cone = dem::imageCone(m);
+    const dem::ImageCone& cone = cones[e];
+    const dem::GridWindow& seen_by = windows[e];
+    const auto held = [&](int tc, int tr) {
+      return tc >= seen_by.col0 && tr >= seen_by.row0 && tc < seen_by.col0 + seen_by.cols &&
+             tr < seen_by.row0 + seen_by.rows;
+    };
     const double rad_per_px = 1.0 / cone.px_per_rad;
     cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
       for (int c = 0; c < grid.cols; ++c) {
@@ -198,10 +247,11 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
         // The centre: the true surface there against the horizon between its four nodes (bilinear).
         double fc, fr;
         int bc, br;
-        if (prCentreNodes(truth, north[i], east[i], fc, fr, bc, br)) {
+        // (Nodes beyond the camera's window belong to points it cannot see: skipped, as imageSees would.)
+        if (prCentreNodes(truth, north[i], east[i], fc, fr, bc, br) && held(bc, br) && held(bc + 1, br + 1)) {
           double h = 0.0, wsum = 0.0;
           for (int q = 0; q < 4; ++q) {
-            const float hq = horizon[window.at(bc + q % 2, br + q / 2)];
+            const float hq = horizon[seen_by.at(bc + q % 2, br + q / 2)];
             const double w = (q % 2 ? fc - bc : 1.0 - (fc - bc)) * (q / 2 ? fr - br : 1.0 - (fr - br));
             if (hq == -std::numeric_limits<float>::infinity()) continue;
             h += w * hq;
@@ -217,14 +267,14 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
         for (int tr = r0; tr <= r1 && seen[i] == kTruthUnseen; ++tr) {
           for (int tc = c0; tc <= c1 && seen[i] == kTruthUnseen; ++tc) {
             const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
-            if (z == truth.nodata || z + tolerance < horizon[window.at(tc, tr)]) continue;
+            if (z == truth.nodata || !held(tc, tr) || z + tolerance < horizon[seen_by.at(tc, tr)]) continue;
             if (dem::imageSees(m, cone, Vec3(truth.northOfRow(tr), truth.eastOfCol(tc), -z))) seen[i] = kTruthMarginal;
           }
         }
       }
     });
   };
-  dem::forEachHorizon(truth, eyes, window, false, check);
+  dem::forEachHorizon(truth, eyes, windows, false, check);
   return seen;
 }
 

@@ -86,14 +86,15 @@ TEST(Viewshed, EachHorizonInOrderOnThreads) {
   const DemGrid g = viewshedTerrain();
   const std::vector<Vec3> eyes = {Vec3(0.0, 0.0, -1.5), Vec3(1.0, -2.0, -1.4), Vec3(-3.0, 2.0, -1.6),
                                   Vec3(2.5, 3.5, -1.3), Vec3(-1.0, -4.0, -1.5)};
-  const GridWindow w{20, 10, 70, 60};
+  const std::vector<GridWindow> windows = {{20, 10, 70, 60}, {0, 0, g.cols, g.rows}, {5, 50, 30, 10}, {0, 0, 0, 0},
+                                           {60, 0, 70, 110}};
   cli::setThreads(3);
   std::vector<std::size_t> order;
   int bad = 0;
-  forEachHorizon(g, eyes, w, true, [&](std::size_t k, const std::vector<float>& horizon) {
+  forEachHorizon(g, eyes, windows, true, [&](std::size_t k, const std::vector<float>& horizon) {
     order.push_back(k);
     std::vector<float> one;
-    horizonFrom(g, eyes[k], w, one, true);
+    horizonFrom(g, eyes[k], windows[k], one, true);
     bad += one.size() != horizon.size() || std::memcmp(one.data(), horizon.data(), one.size() * sizeof(float)) != 0;
   });
   cli::setThreads(0);
