@@ -60,13 +60,14 @@ void horizonFrom(const DemGrid& terrain, const Vec3& eye, std::vector<float>& ho
   horizonFrom(terrain, eye, GridWindow{0, 0, terrain.cols, terrain.rows}, horizon, widen);
 }
 
-void horizonFrom(const DemGrid& terrain, const Vec3& eye, const GridWindow& window, std::vector<float>& horizon,
-                 bool widen) {
+void horizonFrom(const DemGrid& terrain, const Vec3& eye, const GridWindow& window,
+                 std::vector<float>& horizon, bool widen) {
   const double eye_up = -eye.z();
   const int eye_col = static_cast<int>(std::floor((eye.y() - terrain.east0_m) / terrain.cell_m));
   const int eye_row = static_cast<int>(std::floor((terrain.north0_m - eye.x()) / terrain.cell_m));
-  horizon.assign(static_cast<std::size_t>(std::max(0, window.cols)) * static_cast<std::size_t>(std::max(0, window.rows)),
-                 kNone);
+  horizon.assign(
+      static_cast<std::size_t>(std::max(0, window.cols)) * static_cast<std::size_t>(std::max(0, window.rows)),
+      kNone);
   // The window's cells in the grid: c0 .. c1, r0 .. r1.
   const int c0 = std::max(0, window.col0), r0 = std::max(0, window.row0);
   const int c1 = std::min(terrain.cols, window.col0 + window.cols) - 1;
@@ -115,14 +116,15 @@ void horizonFrom(const DemGrid& terrain, const Vec3& eye, const GridWindow& wind
   }
 }
 
-void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes, const std::vector<GridWindow>& windows,
-                    bool widen, const std::function<void(std::size_t, const std::vector<float>&)>& use) {
+void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes,
+                    const std::vector<GridWindow>& windows, bool widen,
+                    const std::function<void(std::size_t, const std::vector<float>&)>& use) {
   std::size_t bytes = sizeof(float);
   for (const GridWindow& w : windows)
-    bytes = std::max(bytes, static_cast<std::size_t>(std::max(0, w.cols)) * static_cast<std::size_t>(std::max(0, w.rows)) *
-                                sizeof(float));
-  const int threads = static_cast<int>(std::clamp<std::size_t>(static_cast<std::size_t>(cli::threadCount()), 1,
-                                                               std::max<std::size_t>(1, kMaxHorizonBytes / bytes)));
+    bytes = std::max(bytes, static_cast<std::size_t>(std::max(0, w.cols)) *
+                                static_cast<std::size_t>(std::max(0, w.rows)) * sizeof(float));
+  const int threads = static_cast<int>(std::clamp<std::size_t>(
+      static_cast<std::size_t>(cli::threadCount()), 1, std::max<std::size_t>(1, kMaxHorizonBytes / bytes)));
   const std::size_t n = std::min(eyes.size(), windows.size());
   cli::orderedFor(
       n, threads,

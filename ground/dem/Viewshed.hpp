@@ -31,7 +31,8 @@ void horizonFrom(const DemGrid& terrain, const Vec3& eye_site, std::vector<float
 struct GridWindow {
   int col0 = 0, row0 = 0, cols = 0, rows = 0;
   std::size_t at(int col, int row) const {
-    return static_cast<std::size_t>(row - row0) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(col - col0);
+    return static_cast<std::size_t>(row - row0) * static_cast<std::size_t>(cols) +
+           static_cast<std::size_t>(col - col0);
   }
 };
 
@@ -50,8 +51,9 @@ inline constexpr std::size_t kMaxHorizonBytes = std::size_t{256} << 20;
 // The horizon from each of `eyes` over its window (horizonFrom over windows[k]), made on threads (as many
 // at once as kMaxHorizonBytes holds) and handed to use(k, horizon) in the eyes' order, one call at a time:
 // the same calls as a loop over the eyes. `use` may run on any of the threads.
-void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes, const std::vector<GridWindow>& windows,
-                    bool widen, const std::function<void(std::size_t, const std::vector<float>&)>& use);
+void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes,
+                    const std::vector<GridWindow>& windows, bool widen,
+                    const std::function<void(std::size_t, const std::vector<float>&)>& use);
 
 // A camera's image bounds as a cone about its axis, for a quick rejection before the projection.
 struct ImageCone {

@@ -98,7 +98,8 @@ void nodesAround(const DemGrid& truth, double north, double east, double cell, i
 
 // The truth's four nodes about (north, east), for a bilinear value there: (bc, br) the first, (fc, fr) the
 // point in node units. False when one of them lies beyond the truth.
-bool prCentreNodes(const DemGrid& truth, double north, double east, double& fc, double& fr, int& bc, int& br) {
+bool prCentreNodes(const DemGrid& truth, double north, double east, double& fc, double& fr, int& bc,
+                   int& br) {
   fc = (east - truth.east0_m) / truth.cell_m - 0.5;
   fr = (truth.north0_m - north) / truth.cell_m - 0.5;
   bc = static_cast<int>(std::floor(fc));
@@ -149,7 +150,8 @@ dem::GridWindow prNodesRead(const DemGrid& grid, const DemGrid& truth, const std
 // it accepts is left out; the whole of `within` when the cone is a half-space or wider.
 dem::GridWindow prCameraNodes(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
                               const std::vector<double>& east, const std::vector<double>& centre_up,
-                              const CameraModel& m, const dem::ImageCone& cone, const dem::GridWindow& within) {
+                              const CameraModel& m, const dem::ImageCone& cone,
+                              const dem::GridWindow& within) {
   if (!(cone.min_cos > 0.0)) return within;
   const double cos2 = cone.min_cos * cone.min_cos * (1.0 - 1e-9);
   const auto inCone = [&](double n, double e, double down) {
@@ -241,14 +243,19 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
       for (int c = 0; c < grid.cols; ++c) {
         const std::size_t i = row * grid.cols + c;
         if (seen[i] == kTruthSeen || std::isnan(north[i])) continue;
-        const double tolerance = kTruthToleranceM + rad_per_px * std::hypot(north[i] - m.c.x(), east[i] - m.c.y());
         int c0, c1, r0, r1;
         nodesAround(truth, north[i], east[i], grid.cell_m, c0, c1, r0, r1);
-        // The centre: the true surface there against the horizon between its four nodes (bilinear).
+        // Nodes beyond the camera's window belong to points it cannot see: skipped, as imageSees would
+        // reject them, and so is a cell with none inside it.
         double fc, fr;
         int bc, br;
-        // (Nodes beyond the camera's window belong to points it cannot see: skipped, as imageSees would.)
-        if (prCentreNodes(truth, north[i], east[i], fc, fr, bc, br) && held(bc, br) && held(bc + 1, br + 1)) {
+        const bool centre =
+            prCentreNodes(truth, north[i], east[i], fc, fr, bc, br) && held(bc, br) && held(bc + 1, br + 1);
+        if (!centre && (c1 < seen_by.col0 || r1 < seen_by.row0 || c0 >= seen_by.col0 + seen_by.cols ||
+                        r0 >= seen_by.row0 + seen_by.rows))
+          continue;
+        // The centre: the true surface there against the horizon between its four nodes (bilinear).
+        if (centre) {
           double h = 0.0, wsum = 0.0;
           for (int q = 0; q < 4; ++q) {
             const float hq = horizon[seen_by.at(bc + q % 2, br + q / 2)];
@@ -264,6 +271,8 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
           }
         }
         if (seen[i] == kTruthMarginal) continue;
+        const double tolerance =
+            kTruthToleranceM + rad_per_px * std::hypot(north[i] - m.c.x(), east[i] - m.c.y());
         for (int tr = r0; tr <= r1 && seen[i] == kTruthUnseen; ++tr) {
           for (int tc = c0; tc <= c1 && seen[i] == kTruthUnseen; ++tc) {
             const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];

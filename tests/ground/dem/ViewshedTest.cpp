@@ -38,7 +38,9 @@ DemGrid viewshedTerrain() {
   return g;
 }
 
-bool viewshedSameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+bool viewshedSameBits(float a, float b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
 
 // Every cell of `w` inside the grid equals the whole grid's horizon there; cells beyond it are -infinity.
 int viewshedWindowMismatches(const DemGrid& g, const Vec3& eye, const GridWindow& w, bool widen) {
@@ -64,13 +66,16 @@ TEST_GROUP(Viewshed){};
 
 TEST(Viewshed, WindowEqualsWholeGrid) {
   const DemGrid g = viewshedTerrain();
-  const Vec3 eyes[] = {Vec3(0.0, 0.0, -1.5), Vec3(5.9, -6.9, -1.2), Vec3(-8.0, 9.0, -2.0), Vec3(1.03, 2.47, -0.9)};
-  const GridWindow windows[] = {{0, 0, g.cols, g.rows}, {40, 30, 50, 40}, {100, 5, 40, 20}, {-5, 90, 30, 30}, {3, 3, 1, 1}};
+  const Vec3 eyes[] = {Vec3(0.0, 0.0, -1.5), Vec3(5.9, -6.9, -1.2), Vec3(-8.0, 9.0, -2.0),
+                       Vec3(1.03, 2.47, -0.9)};
+  const GridWindow windows[] = {
+      {0, 0, g.cols, g.rows}, {40, 30, 50, 40}, {100, 5, 40, 20}, {-5, 90, 30, 30}, {3, 3, 1, 1}};
   int checked = 0, shadowed = 0;
   for (const Vec3& eye : eyes) {
     std::vector<float> whole;
     horizonFrom(g, eye, whole, false);
-    for (std::size_t i = 0; i < whole.size(); ++i) shadowed += g.values[i] != g.nodata && g.values[i] < whole[i];
+    for (std::size_t i = 0; i < whole.size(); ++i)
+      shadowed += g.values[i] != g.nodata && g.values[i] < whole[i];
     for (const GridWindow& w : windows) {
       for (bool widen : {false, true}) {
         LONGS_EQUAL(0, viewshedWindowMismatches(g, eye, w, widen));
@@ -86,8 +91,8 @@ TEST(Viewshed, EachHorizonInOrderOnThreads) {
   const DemGrid g = viewshedTerrain();
   const std::vector<Vec3> eyes = {Vec3(0.0, 0.0, -1.5), Vec3(1.0, -2.0, -1.4), Vec3(-3.0, 2.0, -1.6),
                                   Vec3(2.5, 3.5, -1.3), Vec3(-1.0, -4.0, -1.5)};
-  const std::vector<GridWindow> windows = {{20, 10, 70, 60}, {0, 0, g.cols, g.rows}, {5, 50, 30, 10}, {0, 0, 0, 0},
-                                           {60, 0, 70, 110}};
+  const std::vector<GridWindow> windows = {
+      {20, 10, 70, 60}, {0, 0, g.cols, g.rows}, {5, 50, 30, 10}, {0, 0, 0, 0}, {60, 0, 70, 110}};
   cli::setThreads(3);
   std::vector<std::size_t> order;
   int bad = 0;
@@ -95,7 +100,8 @@ TEST(Viewshed, EachHorizonInOrderOnThreads) {
     order.push_back(k);
     std::vector<float> one;
     horizonFrom(g, eyes[k], windows[k], one, true);
-    bad += one.size() != horizon.size() || std::memcmp(one.data(), horizon.data(), one.size() * sizeof(float)) != 0;
+    bad += one.size() != horizon.size() ||
+           std::memcmp(one.data(), horizon.data(), one.size() * sizeof(float)) != 0;
   });
   cli::setThreads(0);
   LONGS_EQUAL(eyes.size(), order.size());
