@@ -78,23 +78,25 @@ void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long lon
       if (m >= static_cast<long long>(lo) && (last || m <= static_cast<long long>(hi)))
         chunk_bins[chunk][k].push_back(static_cast<float>(p.elevation_m));
     });
-    Bins bins;
-    for (Bins& b : chunk_bins) {
-      for (auto& kv : b) {
-        std::vector<float>& v = bins[kv.first];
-        v.insert(v.end(), kv.second.begin(), kv.second.end());
-      }
-      Bins().swap(b);
+    // Each bin's heights (its chunks' parts, in chunk order), median and MAD on threads, a bin per item.
+    using Parts = std::vector<const std::vector<float>*>;
+    std::unordered_map<long long, Parts> parts;
+    for (const Bins& b : chunk_bins) {
+      for (const auto& kv : b) parts[kv.first].push_back(&kv.second);
     }
-    for (auto& kv : bins) {
-      std::vector<float>& v = kv.second;
+    const std::vector<std::pair<long long, Parts>> bins(parts.begin(), parts.end());
+    std::vector<std::pair<float, float>> bin_stat(bins.size());
+    cli::parallelFor(bins.size(), 0, [&](std::size_t j) {
+      std::vector<float> v;
+      for (const std::vector<float>* part : bins[j].second) v.insert(v.end(), part->begin(), part->end());
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       const float med = v[v.size() / 2];
       for (float& x : v) x = std::fabs(x - med);
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       const float mad = v[v.size() / 2];
-      stat[kv.first] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
-    }
+      bin_stat[j] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
+    });
+    for (std::size_t j = 0; j < bins.size(); ++j) stat[bins[j].first] = bin_stat[j];
     lo = hi + 1;
   }
   std::vector<uint64_t> keep((cloud.size() + 63) / 64, 0);
