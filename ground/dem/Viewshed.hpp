@@ -44,8 +44,8 @@ void horizonFrom(const DemGrid& terrain, const Vec3& eye_site, const GridWindow&
                  std::vector<float>& horizon_up_m, bool widen);
 
 // The horizons held at once by forEachHorizon (made or in use, one per thread at most): a few windows of
-// a navcam truth DEM (5001^2 cells), well under the ground pass's peak, which the cloud sets before any
-// horizon is made.
+// a navcam truth DEM (5001^2 cells), well under the ground pass's peak, which the dense stage (the whole
+// cloud beside the pairs in matching) sets before any horizon is made.
 inline constexpr std::size_t kMaxHorizonBytes = std::size_t{256} << 20;
 
 // The horizon from each of `eyes` over its window (horizonFrom over windows[k]), made on threads (as many
