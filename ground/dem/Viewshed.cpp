@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "firmware_core/camera/CahvInternal.hpp"
+#include "ground/cli/Cli.hpp"
 #include "ground/cli/Parallel.hpp"
 
 namespace areomap::dem {
@@ -134,6 +135,7 @@ void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes,
         return horizon;
       },
       [&](std::size_t k, std::vector<float> horizon) { use(k, horizon); });
+  cli::releaseFreedMemory();  // the horizons were freed on the threads' heaps
 }
 
 ImageCone imageCone(const CameraModel& m) {
