@@ -231,6 +231,12 @@ void keepFreedMemory() {
 #endif
 }
 
+void releaseFreedMemory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
 int threadsOption(Args& args) {
   const int64_t n = args.integer("--threads", -1);
   if (n != -1 && (n < 1 || n > kMaxThreads))

@@ -92,6 +92,11 @@ int threadsOption(Args& args);
 // pass's buffers of a few MiB per pair, band of rows and tile back to the kernel as they are freed, and
 // the next ones are mapped and zeroed afresh, page by page. Nothing elsewhere than glibc.
 void keepFreedMemory();
+// Hands the heaps' free memory back to the kernel (glibc's malloc_trim; nothing elsewhere). Under
+// keepFreedMemory a worker thread's heap keeps what its blocks freed (a thread's heap never grows past
+// 64 MiB, so its free top never exceeds the threshold): called after a stage whose threads freed large
+// buffers, before one that allocates on other threads.
+void releaseFreedMemory();
 
 // "name: warning: text" on stderr.
 void warn(const std::string& text);

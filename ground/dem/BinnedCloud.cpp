@@ -499,6 +499,10 @@ BinnedCloud finishBins(BinSums sums, double cell_m, double correlation_px) {
     first_cell[b + 1] = first_cell[b] + sums.bands[b].cells.size();
   std::vector<Binned> out;
   out.reserve(first_cell.back());
+  const auto by_position = [](const Binned& a, const Binned& b) {
+    return a.point.north_m != b.point.north_m ? a.point.north_m < b.point.north_m
+                                              : a.point.east_m < b.point.east_m;
+  };
   const std::size_t at_once = static_cast<std::size_t>(cli::threadCount());
   for (std::size_t b0 = 0; b0 < sums.bands.size(); b0 += at_once) {
     const std::size_t b1 = std::min(sums.bands.size(), b0 + at_once);
@@ -539,14 +543,19 @@ BinnedCloud finishBins(BinSums sums, double cell_m, double correlation_px) {
         *next++ = Binned{p, static_cast<float>(cell_m / std::sqrt(n_max)), cell.rep_var_m2,
                          static_cast<float>(std::sqrt(shared_n2) / cell.n), shares};
       }
+      std::sort(&out[first_cell[b0 + j]], next, by_position);
       std::vector<BinSums::PairSum>().swap(band.pair_sums);
       std::vector<BinSums::Cell>().swap(band.cells);
     });
   }
-  std::sort(out.begin(), out.end(), [](const Binned& a, const Binned& b) {
-    return a.point.north_m != b.point.north_m ? a.point.north_m < b.point.north_m
-                                              : a.point.east_m < b.point.east_m;
-  });
+  // Sorted by position: the bands hold whole rows north to south (a cell's mean in its cell), so their
+  // sorted slices reversed are the order one sort gives (distinct positions); checked, else sorted whole.
+  std::reverse(out.begin(), out.end());
+  for (std::size_t b = 0; b < sums.bands.size(); ++b)
+    std::reverse(out.end() - first_cell[b + 1], out.end() - first_cell[b]);
+  const auto tie_or_after = [&](const Binned& a, const Binned& b) { return !by_position(a, b); };
+  if (std::adjacent_find(out.begin(), out.end(), tie_or_after) != out.end())
+    std::sort(out.begin(), out.end(), by_position);
   BinnedCloud binned;
   binned.points.reserve(out.size());
   binned.gsd_m.reserve(out.size());

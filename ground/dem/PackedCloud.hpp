@@ -7,11 +7,13 @@
 // points are. A point read back is the DemPoint pushed with those roundings, its line exact.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
 #include "firmware_core/base/EigenTypes.hpp"
+#include "ground/cli/Parallel.hpp"
 #include "ground/dem/Kriging.hpp"
 
 namespace areomap::dem {
@@ -46,8 +48,13 @@ class PackedCloud {
   // fn(i, point) for every point in order.
   template <class Fn>
   void forEach(const Fn& fn) const {
+    forEachIn(0, size(), fn);
+  }
+  // fn(i, point) for the points begin <= i < end, in order.
+  template <class Fn>
+  void forEachIn(std::size_t begin, std::size_t end, const Fn& fn) const {
     for (const Run& r : runs_) {
-      for (std::size_t i = r.first; i < r.end; ++i) fn(i, at(r, i));
+      for (std::size_t i = std::max(begin, r.first); i < std::min(end, r.end); ++i) fn(i, at(r, i));
     }
   }
   // Keeps the points i for which keep(i, point) holds, in their order; moved(from, to) for each kept point
@@ -72,6 +79,21 @@ class PackedCloud {
   std::vector<Packed> points_;
   std::vector<Run> runs_;
 };
+
+// The chunks of `chunk_points` points of `cloud` (the last one shorter) handed to threads: fn(chunk, i,
+// point) for the points of each chunk, in their order. What a chunk makes is its own; merged afterwards in
+// chunk order, it is the same for any thread count.
+inline std::size_t chunkCount(const PackedCloud& cloud, std::size_t chunk_points) {
+  return (cloud.size() + chunk_points - 1) / chunk_points;
+}
+template <class Fn>
+void forEachChunk(const PackedCloud& cloud, std::size_t chunk_points, const Fn& fn) {
+  cli::parallelFor(chunkCount(cloud, chunk_points), 0, [&](std::size_t chunk) {
+    const std::size_t begin = chunk * chunk_points;
+    cloud.forEachIn(begin, std::min(cloud.size(), begin + chunk_points),
+                    [&](std::size_t i, const DemPoint& p) { fn(chunk, i, p); });
+  });
+}
 
 template <class Keep, class Moved>
 void PackedCloud::keepIf(const Keep& keep, const Moved& moved) {

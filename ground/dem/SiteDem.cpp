@@ -15,26 +15,57 @@ namespace areomap::dem {
 
 namespace {
 
+// The cloud's chunks for threads (forEachChunk): each chunk's part is merged in chunk order afterwards.
+constexpr std::size_t kSiteChunk = std::size_t{1} << 20;
+
 // The two corners (south-west, north-east) of the points that `keep` accepts, as points: gridAround of
 // them is the grid around those points. Empty when it accepts none; `count` (optional) gets how many it does.
 template <class Keep>
 std::vector<DemPoint> boundingCorners(const PackedCloud& points, const Keep& keep,
                                       std::size_t* count = nullptr) {
+  struct Box {
+    double n0 = 1e300, e0 = 1e300, n1 = -1e300, e1 = -1e300;
+    std::size_t kept = 0;
+  };
+  std::vector<Box> boxes(chunkCount(points, kSiteChunk));
+  forEachChunk(points, kSiteChunk, [&](std::size_t chunk, std::size_t, const DemPoint& p) {
+    if (!keep(p)) return;
+    Box& b = boxes[chunk];
+    ++b.kept;
+    b.n0 = std::min(b.n0, p.north_m);
+    b.e0 = std::min(b.e0, p.east_m);
+    b.n1 = std::max(b.n1, p.north_m);
+    b.e1 = std::max(b.e1, p.east_m);
+  });
   std::vector<DemPoint> corners(2);
   corners[0].north_m = corners[0].east_m = 1e300;
   corners[1].north_m = corners[1].east_m = -1e300;
   std::size_t kept = 0;
-  points.forEach([&](std::size_t, const DemPoint& p) {
-    if (!keep(p)) return;
-    ++kept;
-    corners[0].north_m = std::min(corners[0].north_m, p.north_m);
-    corners[0].east_m = std::min(corners[0].east_m, p.east_m);
-    corners[1].north_m = std::max(corners[1].north_m, p.north_m);
-    corners[1].east_m = std::max(corners[1].east_m, p.east_m);
-  });
+  for (const Box& b : boxes) {
+    kept += b.kept;
+    corners[0].north_m = std::min(corners[0].north_m, b.n0);
+    corners[0].east_m = std::min(corners[0].east_m, b.e0);
+    corners[1].north_m = std::max(corners[1].north_m, b.n1);
+    corners[1].east_m = std::max(corners[1].east_m, b.e1);
+  }
   if (kept == 0) corners.clear();
   if (count != nullptr) *count = kept;
   return corners;
+}
+
+// The points that `keep` accepts, in their order: counted per chunk, then copied into place per chunk.
+template <class Keep>
+std::vector<DemPoint> pointsWhere(const PackedCloud& points, const Keep& keep) {
+  std::vector<std::size_t> first(chunkCount(points, kSiteChunk) + 1, 0);
+  forEachChunk(points, kSiteChunk, [&](std::size_t chunk, std::size_t, const DemPoint& p) {
+    if (keep(p)) ++first[chunk + 1];
+  });
+  for (std::size_t c = 1; c < first.size(); ++c) first[c] += first[c - 1];
+  std::vector<DemPoint> out(first.back());
+  forEachChunk(points, kSiteChunk, [&](std::size_t chunk, std::size_t, const DemPoint& p) {
+    if (keep(p)) out[first[chunk]++] = p;
+  });
+  return out;
 }
 
 // The kriging's support rule (KrigingOptions::min_cluster_points) as a progress line, into `log`.
@@ -122,10 +153,9 @@ SiteDem makeSiteDem(PackedCloud pts, const SiteDemOptions& o) {
   eo.centre_east_m = g.y();
   eo.centre_up_m = -g.z();
   eo.seam_m = o.seam_m;
-  std::vector<DemPoint> far;
-  pts.forEach([&](std::size_t, const DemPoint& p) {
-    if (std::hypot(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m) > eo.seam_m - eo.blend_m - 1.0)
-      far.push_back(p);
+  std::vector<DemPoint> far = pointsWhere(pts, [&](const DemPoint& p) {
+    return std::hypot(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m) >
+           eo.seam_m - eo.blend_m - 1.0;
   });
   // The finer DEM near the rover (DESIGN.md fixes dem.tif as one grid): when dem.tif is coarser than
   // near_cell_m, the points within near_range_m are kriged again at near_cell_m into dem_near.tif. Its

@@ -6,6 +6,8 @@
 #include <limits>
 
 #include "firmware_core/camera/CahvInternal.hpp"
+#include "ground/cli/Cli.hpp"
+#include "ground/cli/Parallel.hpp"
 
 namespace areomap::dem {
 
@@ -13,22 +15,29 @@ namespace {
 
 constexpr float kNone = -std::numeric_limits<float>::infinity();
 
-// The working box: the grid and the eye's cell, indices relative to the grid.
+// The working box: the window and the eye's cell, indices relative to the grid.
 struct RingBox {
   int col0, row0, cols, rows;  // first column and row (may be negative), size
   int eye_col, eye_row;
-  std::size_t at(int col, int row) const {
-    return static_cast<std::size_t>(row - row0) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(col - col0);
-  }
   bool holds(int col, int row) const {
     return col >= col0 && row >= row0 && col < col0 + cols && row < row0 + rows;
   }
 };
 
+// The place of the cell (dx, dy) of ring `ring` (max(|dx|, |dy|) = ring >= 1, offsets from the eye's cell)
+// in that ring's 8 ring values: the top side, the bottom side, then the left and right sides without their
+// corners.
+inline std::size_t ringIndex(int dx, int dy, int ring) {
+  if (dy == -ring) return static_cast<std::size_t>(dx + ring);
+  if (dy == ring) return static_cast<std::size_t>(3 * ring + 1 + dx);
+  if (dx == -ring) return static_cast<std::size_t>(5 * ring + 1 + dy);
+  return static_cast<std::size_t>(7 * ring + dy);
+}
+
 // Linear between the two cells of the inner ring that bracket the ray from the eye to (dx, dy) (offsets
-// from the eye's cell, max(|dx|, |dy|) >= 2), of `steepest` (the steepest line of sight up to and over each
-// cell).
-float innerRing(const RingBox& box, const std::vector<float>& steepest, int dx, int dy, bool widen) {
+// from the eye's cell, max(|dx|, |dy|) >= 2), of `inner` (that ring's steepest line of sight up to and
+// over each cell).
+float innerRing(const std::vector<float>& inner, int dx, int dy, bool widen) {
   const bool along_x = std::abs(dx) >= std::abs(dy);
   const int major = along_x ? dx : dy, minor = along_x ? dy : dx;
   const int n = std::abs(major);
@@ -37,9 +46,7 @@ float innerRing(const RingBox& box, const std::vector<float>& steepest, int dx, 
   const int lo = static_cast<int>(std::floor(f));
   const double w = f - lo;
   const auto value = [&](int m) {
-    const int c = box.eye_col + (along_x ? major - step : m);
-    const int r = box.eye_row + (along_x ? m : major - step);
-    return steepest[box.at(c, r)];
+    return along_x ? inner[ringIndex(major - step, m, n - 1)] : inner[ringIndex(m, major - step, n - 1)];
   };
   const float a = value(lo);
   if (w <= 0.0) return a;
@@ -51,22 +58,36 @@ float innerRing(const RingBox& box, const std::vector<float>& steepest, int dx, 
 }  // namespace
 
 void horizonFrom(const DemGrid& terrain, const Vec3& eye, std::vector<float>& horizon, bool widen) {
+  horizonFrom(terrain, eye, GridWindow{0, 0, terrain.cols, terrain.rows}, horizon, widen);
+}
+
+void horizonFrom(const DemGrid& terrain, const Vec3& eye, const GridWindow& window,
+                 std::vector<float>& horizon, bool widen) {
   const double eye_up = -eye.z();
   const int eye_col = static_cast<int>(std::floor((eye.y() - terrain.east0_m) / terrain.cell_m));
   const int eye_row = static_cast<int>(std::floor((terrain.north0_m - eye.x()) / terrain.cell_m));
-  RingBox box{std::min(0, eye_col), std::min(0, eye_row), 0, 0, eye_col, eye_row};
-  box.cols = std::max(terrain.cols - 1, eye_col) - box.col0 + 1;
-  box.rows = std::max(terrain.rows - 1, eye_row) - box.row0 + 1;
-  horizon.assign(static_cast<std::size_t>(terrain.cols) * terrain.rows, kNone);
-  // Per box cell: the steepest slope (rise over horizontal distance from the eye) of the lines of sight
-  // over the cells up to it and over it.
-  std::vector<float> steepest(static_cast<std::size_t>(box.cols) * box.rows, kNone);
+  horizon.assign(
+      static_cast<std::size_t>(std::max(0, window.cols)) * static_cast<std::size_t>(std::max(0, window.rows)),
+      kNone);
+  // The window's cells in the grid: c0 .. c1, r0 .. r1.
+  const int c0 = std::max(0, window.col0), r0 = std::max(0, window.row0);
+  const int c1 = std::min(terrain.cols, window.col0 + window.cols) - 1;
+  const int r1 = std::min(terrain.rows, window.row0 + window.rows) - 1;
+  if (c1 < c0 || r1 < r0) return;
+  // The box of the window and the eye holds every cell between the eye and a window cell, and the two
+  // inner-ring cells that bracket its line of sight: the window's values need no cell beyond it.
+  RingBox box{std::min(c0, eye_col), std::min(r0, eye_row), 0, 0, eye_col, eye_row};
+  box.cols = std::max(c1, eye_col) - box.col0 + 1;
+  box.rows = std::max(r1, eye_row) - box.row0 + 1;
+  // Per cell of the last ring and of this one: the steepest slope (rise over horizontal distance from the
+  // eye) of the lines of sight over the cells up to it and over it (a ring only reads the one inside it).
+  std::vector<float> inner, outer;
   const int rings = std::max({eye_col - box.col0, box.col0 + box.cols - 1 - eye_col, eye_row - box.row0,
                               box.row0 + box.rows - 1 - eye_row});
   const auto visit = [&](int dx, int dy, int ring) {
     const int col = eye_col + dx, row = eye_row + dy;
     if (!box.holds(col, row)) return;
-    const float before = ring >= 2 ? innerRing(box, steepest, dx, dy, widen) : kNone;
+    const float before = ring >= 2 ? innerRing(inner, dx, dy, widen) : kNone;
     const bool in_grid = col >= 0 && row >= 0 && col < terrain.cols && row < terrain.rows;
     float own = kNone;
     double dist = 0.0;
@@ -74,10 +95,10 @@ void horizonFrom(const DemGrid& terrain, const Vec3& eye, std::vector<float>& ho
       dist = std::hypot(terrain.northOfRow(row) - eye.x(), terrain.eastOfCol(col) - eye.y());
       const float z = terrain.at(col, row);
       if (z != terrain.nodata && std::isfinite(z) && dist > 0.0) own = static_cast<float>((z - eye_up) / dist);
-      if (before != kNone) horizon[static_cast<std::size_t>(row) * terrain.cols + col] =
-          static_cast<float>(eye_up + before * dist);
+      if (before != kNone && col >= c0 && col <= c1 && row >= r0 && row <= r1)
+        horizon[window.at(col, row)] = static_cast<float>(eye_up + before * dist);
     }
-    steepest[box.at(col, row)] = std::max(before, own);
+    outer[ringIndex(dx, dy, ring)] = std::max(before, own);
   };
   const auto ringCells = [](int ring, const auto& f) {
     for (int d = -ring; d <= ring; ++d) {
@@ -89,7 +110,32 @@ void horizonFrom(const DemGrid& terrain, const Vec3& eye, std::vector<float>& ho
       f(ring, d);
     }
   };
-  for (int ring = 1; ring <= rings; ++ring) ringCells(ring, [&](int dx, int dy) { visit(dx, dy, ring); });
+  for (int ring = 1; ring <= rings; ++ring) {
+    outer.assign(8 * static_cast<std::size_t>(ring), kNone);  // cells beyond the box stay without a value
+    ringCells(ring, [&](int dx, int dy) { visit(dx, dy, ring); });
+    inner.swap(outer);
+  }
+}
+
+void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes,
+                    const std::vector<GridWindow>& windows, bool widen,
+                    const std::function<void(std::size_t, const std::vector<float>&)>& use) {
+  std::size_t bytes = sizeof(float);
+  for (const GridWindow& w : windows)
+    bytes = std::max(bytes, static_cast<std::size_t>(std::max(0, w.cols)) *
+                                static_cast<std::size_t>(std::max(0, w.rows)) * sizeof(float));
+  const int threads = static_cast<int>(std::clamp<std::size_t>(
+      static_cast<std::size_t>(cli::threadCount()), 1, std::max<std::size_t>(1, kMaxHorizonBytes / bytes)));
+  const std::size_t n = std::min(eyes.size(), windows.size());
+  cli::orderedFor(
+      n, threads,
+      [&](std::size_t k) {
+        std::vector<float> horizon;
+        horizonFrom(terrain, eyes[k], windows[k], horizon, widen);
+        return horizon;
+      },
+      [&](std::size_t k, std::vector<float> horizon) { use(k, horizon); });
+  cli::releaseFreedMemory();  // the horizons were freed on the threads' heaps
 }
 
 ImageCone imageCone(const CameraModel& m) {

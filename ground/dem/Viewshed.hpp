@@ -13,6 +13,8 @@
 // Whether an image holds a point (imageSees) is beside it: the products ask both of each camera.
 #pragma once
 
+#include <cstddef>
+#include <functional>
 #include <vector>
 
 #include "firmware_core/base/EigenTypes.hpp"
@@ -24,6 +26,34 @@ namespace areomap::dem {
 // Per cell of `terrain` (row-major, its size), the horizon elevation (up, metres) seen from `eye` (site
 // frame, Z down); -infinity where nothing lies between. The eye may lie outside the grid.
 void horizonFrom(const DemGrid& terrain, const Vec3& eye_site, std::vector<float>& horizon_up_m, bool widen);
+
+// A block of a grid's cells: columns col0 .. col0 + cols - 1, rows row0 .. row0 + rows - 1.
+struct GridWindow {
+  int col0 = 0, row0 = 0, cols = 0, rows = 0;
+  std::size_t at(int col, int row) const {
+    return static_cast<std::size_t>(row - row0) * static_cast<std::size_t>(cols) +
+           static_cast<std::size_t>(col - col0);
+  }
+};
+
+// horizonFrom over the cells of `window` only (horizon_up_m: window.cols x window.rows, row-major; the
+// window's cells beyond the grid -infinity): the same values as the whole grid's at those cells. A cell's
+// horizon depends only on the cells between it and the eye, so the sweep covers the box about the window
+// and the eye's cell, not the whole grid.
+void horizonFrom(const DemGrid& terrain, const Vec3& eye_site, const GridWindow& window,
+                 std::vector<float>& horizon_up_m, bool widen);
+
+// The horizons held at once by forEachHorizon (made or in use, one per thread at most): a few windows of
+// a navcam truth DEM (5001^2 cells), well under the ground pass's peak, which the dense stage (the whole
+// cloud beside the pairs in matching) sets before any horizon is made.
+inline constexpr std::size_t kMaxHorizonBytes = std::size_t{256} << 20;
+
+// The horizon from each of `eyes` over its window (horizonFrom over windows[k]), made on threads (as many
+// at once as kMaxHorizonBytes holds) and handed to use(k, horizon) in the eyes' order, one call at a time:
+// the same calls as a loop over the eyes. `use` may run on any of the threads.
+void forEachHorizon(const DemGrid& terrain, const std::vector<Vec3>& eyes,
+                    const std::vector<GridWindow>& windows, bool widen,
+                    const std::function<void(std::size_t, const std::vector<float>&)>& use);
 
 // A camera's image bounds as a cone about its axis, for a quick rejection before the projection.
 struct ImageCone {

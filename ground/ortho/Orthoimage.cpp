@@ -133,10 +133,17 @@ TerrainVisibility terrainVisibility(const DemGrid& dem, const std::vector<OrthoS
       if (hiding.values[i] != dem.nodata && s != sigma->nodata && std::isfinite(s)) hiding.values[i] -= 2.0f * s;
     }
   }
-  std::vector<float> horizon;
+  std::vector<std::size_t> used;
+  std::vector<Vec3> eyes;
   for (std::size_t k = 0; k < sources.size(); ++k) {
     if (sources[k].grey.empty()) continue;
-    dem::horizonFrom(hiding, sources[k].model.c, horizon, true);
+    used.push_back(k);
+    eyes.push_back(sources[k].model.c);
+  }
+  // The sources' horizons made on threads, each source's bits set in the sources' order.
+  const std::vector<dem::GridWindow> whole(eyes.size(), dem::GridWindow{0, 0, dem.cols, dem.rows});
+  dem::forEachHorizon(hiding, eyes, whole, true, [&](std::size_t e, const std::vector<float>& horizon) {
+    const std::size_t k = used[e];
     cli::parallelFor(static_cast<std::size_t>(dem.rows), 0, [&](std::size_t r) {
       for (int c = 0; c < dem.cols; ++c) {
         const std::size_t i = r * dem.cols + c;
@@ -144,7 +151,7 @@ TerrainVisibility terrainVisibility(const DemGrid& dem, const std::vector<OrthoS
         if (v != dem.nodata && v >= horizon[i]) vis.bits[i * vis.words + k / 64] |= uint64_t{1} << (k % 64);
       }
     });
-  }
+  });
   return vis;
 }
 
@@ -177,7 +184,8 @@ SourceChoice chooseSources(const Vec3& ground, const std::vector<OrthoSource>& s
   return choice;
 }
 
-// Every cell with a DEM elevation takes its grey value from its best source (rows in parallel).
+// Every cell with a DEM elevation takes its grey value from its best source (rows in parallel, each set
+// empty first: the result and the candidates come allocated, not filled).
 void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, const OrthoOptions& options,
                OrthoResult& out, SeamCandidates& candidates) {
   const SourceGeometry geometry = sourceGeometry(sources);
@@ -186,6 +194,13 @@ void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, cons
   const int cols = out.grid.cols;
   cv::parallel_for_(cv::Range(0, out.grid.rows), [&](const cv::Range& range) {
     for (int r = range.start; r < range.end; ++r) {
+      // The row empty first: no image, no source, no second candidate.
+      out.image.row(r).setTo(0);
+      out.valid.row(r).setTo(0);
+      out.source.row(r).setTo(-1);
+      candidates.second.row(r).setTo(-1);
+      candidates.best_px.row(r).setTo(cv::Scalar(0, 0));
+      candidates.second_px.row(r).setTo(cv::Scalar(0, 0));
       for (int c = 0; c < cols; ++c) {
         const double north = out.grid.northOfRow(r);
         const double east = out.grid.eastOfCol(c);
@@ -311,25 +326,31 @@ void checkSeams(const DemGrid& dem, const std::vector<OrthoSource>& sources, con
                 const std::vector<cv::Point>& seam, OrthoResult& out, const SeamCandidates& candidates) {
   const std::size_t stride =
       std::max<std::size_t>(1, seam.size() / static_cast<std::size_t>(std::max(1, options.max_seam_samples)));
-  std::vector<double> grey_diff, geo;
   const int half = options.seam_patch_half_px;
   const int search = options.seam_search_px;
   const int span = half + search + 1;
   const int w = 2 * span + 1;
-  cv::Mat pa(w, w, CV_8U), pb(w, w, CV_8U);
-  for (std::size_t k = 0; k < seam.size(); k += stride) {
-    const cv::Point p = seam[k];
+  // The samples (every stride-th seam cell) checked on threads, each into its own slot, then taken in order.
+  const std::size_t samples = (seam.size() + stride - 1) / stride;
+  std::vector<double> grey_diff(samples), shifts(samples);
+  std::vector<uint8_t> shifted(samples, 0);
+  cli::parallelFor(samples, 0, [&](std::size_t j) {
+    const cv::Point p = seam[j * stride];
     const OrthoSource& a = sources[static_cast<std::size_t>(out.source.at<int16_t>(p))];
     const OrthoSource& b = sources[static_cast<std::size_t>(candidates.second.at<int16_t>(p))];
     const cv::Vec2f qa = candidates.best_px.at<cv::Vec2f>(p);
     const cv::Vec2f qb = candidates.second_px.at<cv::Vec2f>(p);
-    grey_diff.push_back(bilinear(a.grey, qa[0], qa[1]) - bilinear(b.grey, qb[0], qb[1]));
+    grey_diff[j] = bilinear(a.grey, qa[0], qa[1]) - bilinear(b.grey, qb[0], qb[1]);
     const double n0 = out.grid.northOfRow(p.y), e0 = out.grid.eastOfCol(p.x);
-    double z0 = 0, step_m = 0, shift = 0;
-    if (!demElevation(dem, n0, e0, z0) || !groundPixelM(a.model, n0, e0, z0, step_m)) continue;
-    if (!resampleSeamPatches(dem, a, b, n0, e0, step_m, span, pa, pb)) continue;
-    if (!patchShift(pa, pb, span, half, search, shift)) continue;
-    geo.push_back(shift);  // one sample is one pixel of the chosen image
+    double z0 = 0, step_m = 0;
+    if (!demElevation(dem, n0, e0, z0) || !groundPixelM(a.model, n0, e0, z0, step_m)) return;
+    cv::Mat pa(w, w, CV_8U), pb(w, w, CV_8U);
+    if (!resampleSeamPatches(dem, a, b, n0, e0, step_m, span, pa, pb)) return;
+    shifted[j] = patchShift(pa, pb, span, half, search, shifts[j]) ? 1 : 0;
+  });
+  std::vector<double> geo;  // one sample is one pixel of the chosen image
+  for (std::size_t j = 0; j < samples; ++j) {
+    if (shifted[j]) geo.push_back(shifts[j]);
   }
   double g2 = 0;
   for (double d : grey_diff) g2 += d * d;
@@ -374,12 +395,12 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
   out.grid.cols = dem.cols * s;
   out.grid.rows = dem.rows * s;
   const int cols = out.grid.cols, rows = out.grid.rows;
-  out.image = cv::Mat::zeros(rows, cols, CV_8U);
-  out.valid = cv::Mat::zeros(rows, cols, CV_8U);
-  out.source = cv::Mat(rows, cols, CV_16S, cv::Scalar(-1));
-  SeamCandidates candidates{cv::Mat(rows, cols, CV_16S, cv::Scalar(-1)),
-                            cv::Mat(rows, cols, CV_32FC2, cv::Scalar(0, 0)),
-                            cv::Mat(rows, cols, CV_32FC2, cv::Scalar(0, 0))};
+  // Allocated here, each row set to its empty value by fillCells on the thread that fills it.
+  out.image = cv::Mat(rows, cols, CV_8U);
+  out.valid = cv::Mat(rows, cols, CV_8U);
+  out.source = cv::Mat(rows, cols, CV_16S);
+  SeamCandidates candidates{cv::Mat(rows, cols, CV_16S), cv::Mat(rows, cols, CV_32FC2),
+                            cv::Mat(rows, cols, CV_32FC2)};
   fillCells(dem, sources, options, out, candidates);
   out.cells_filled = cv::countNonZero(out.valid);
   const std::vector<cv::Point> seam = seamCells(out.source, candidates.second);

@@ -21,19 +21,9 @@ long long polarBin(const dem::DemPoint& p, const Vec3& centre) {
   return r * 1000 + a;
 }
 
-// The cloud in chunks of kOutlierChunk points (a multiple of 64: a chunk's keep bits fill whole words),
-// handed to threads: fn(chunk, i, point) for the points of each chunk, in order.
+// The cloud's chunks for threads (dem::forEachChunk): a multiple of 64 points, so that a chunk's keep bits
+// fill whole words.
 constexpr std::size_t kOutlierChunk = std::size_t{1} << 20;
-
-template <class Fn>
-void forEachChunk(const dem::PackedCloud& cloud, const Fn& fn) {
-  cli::parallelFor((cloud.size() + kOutlierChunk - 1) / kOutlierChunk, 0, [&](std::size_t chunk) {
-    const std::size_t begin = chunk * kOutlierChunk, end = std::min(cloud.size(), begin + kOutlierChunk);
-    for (const dem::PackedCloud::Run& r : cloud.runs()) {
-      for (std::size_t i = std::max(begin, r.first); i < std::min(end, r.end); ++i) fn(chunk, i, cloud.at(r, i));
-    }
-  });
-}
 
 // Drops gross outliers before gridding: points whose height sigma exceeds `max_sigma_m`, and points far
 // from the median height of their polar bin (polarBin) more than max(0.3 m, 6 MAD-sigmas) away. Mismatches
@@ -53,7 +43,7 @@ void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long lon
   std::size_t counted = 0;
   {
     std::vector<std::vector<std::size_t>> per_chunk(chunks);
-    forEachChunk(cloud.dem, [&](std::size_t chunk, std::size_t, const dem::DemPoint& p) {
+    dem::forEachChunk(cloud.dem, kOutlierChunk, [&](std::size_t chunk, std::size_t, const dem::DemPoint& p) {
       if (!(p.sigma_m <= max_sigma_m)) return;
       const std::size_t m = static_cast<std::size_t>(std::min<double>(kMaxBand, std::sqrt(range2(p))));
       std::vector<std::size_t>& counts = per_chunk[chunk];
@@ -79,7 +69,7 @@ void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long lon
     const double far2 = static_cast<double>(hi + 2) * static_cast<double>(hi + 2);
     using Bins = std::unordered_map<long long, std::vector<float>>;
     std::vector<Bins> chunk_bins(chunks);
-    forEachChunk(cloud.dem, [&](std::size_t chunk, std::size_t, const dem::DemPoint& p) {
+    dem::forEachChunk(cloud.dem, kOutlierChunk, [&](std::size_t chunk, std::size_t, const dem::DemPoint& p) {
       if (!(p.sigma_m <= max_sigma_m)) return;
       const double r2 = range2(p);
       if (r2 < near2 || (!last && r2 >= far2)) return;
@@ -88,27 +78,29 @@ void dropOutliers(Cloud& cloud, const Vec3& centre, double max_sigma_m, long lon
       if (m >= static_cast<long long>(lo) && (last || m <= static_cast<long long>(hi)))
         chunk_bins[chunk][k].push_back(static_cast<float>(p.elevation_m));
     });
-    Bins bins;
-    for (Bins& b : chunk_bins) {
-      for (auto& kv : b) {
-        std::vector<float>& v = bins[kv.first];
-        v.insert(v.end(), kv.second.begin(), kv.second.end());
-      }
-      Bins().swap(b);
+    // Each bin's heights (its chunks' parts, in chunk order), median and MAD on threads, a bin per item.
+    using Parts = std::vector<const std::vector<float>*>;
+    std::unordered_map<long long, Parts> parts;
+    for (const Bins& b : chunk_bins) {
+      for (const auto& kv : b) parts[kv.first].push_back(&kv.second);
     }
-    for (auto& kv : bins) {
-      std::vector<float>& v = kv.second;
+    const std::vector<std::pair<long long, Parts>> bins(parts.begin(), parts.end());
+    std::vector<std::pair<float, float>> bin_stat(bins.size());
+    cli::parallelFor(bins.size(), 0, [&](std::size_t j) {
+      std::vector<float> v;
+      for (const std::vector<float>* part : bins[j].second) v.insert(v.end(), part->begin(), part->end());
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       const float med = v[v.size() / 2];
       for (float& x : v) x = std::fabs(x - med);
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       const float mad = v[v.size() / 2];
-      stat[kv.first] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
-    }
+      bin_stat[j] = {med, std::max(0.3f, 6.0f * 1.4826f * mad)};
+    });
+    for (std::size_t j = 0; j < bins.size(); ++j) stat[bins[j].first] = bin_stat[j];
     lo = hi + 1;
   }
   std::vector<uint64_t> keep((cloud.size() + 63) / 64, 0);
-  forEachChunk(cloud.dem, [&](std::size_t, std::size_t i, const dem::DemPoint& p) {
+  dem::forEachChunk(cloud.dem, kOutlierChunk, [&](std::size_t, std::size_t i, const dem::DemPoint& p) {
     if (p.sigma_m > max_sigma_m) return;
     const auto it = stat.find(polarBin(p, centre));
     const std::pair<float, float> st = it != stat.end() ? it->second : std::pair<float, float>{0.f, 0.f};

@@ -261,7 +261,7 @@ std::optional<ortho::OrthoResult> finishProducts(Context& ctx, const std::option
   const double t0 = cli::nowSeconds();
   const dem::KrigingResult* kr = dems && dems->dem ? &*dems->dem : nullptr;
   const dem::KrigingResult* near = dems && dems->near ? &*dems->near : nullptr;
-  const DemGrid* truth = kr != nullptr ? ctx.truthDem() : nullptr;
+  const DemGrid* truth = nullptr;  // read beside the ortho's making (task 1), for the RMSE
   std::vector<ortho::OrthoSource> sources;
   if (ctx.result.dem) sources = orthoSources(ctx);
   std::exception_ptr dem_error, near_error, ortho_error;
@@ -280,6 +280,7 @@ std::optional<ortho::OrthoResult> finishProducts(Context& ctx, const std::option
     }
     if (task == 1 && kr != nullptr) {
       coverage = coverageCounts(ctx.in, kr->elevation, kr->sigma);
+      truth = ctx.truthDem();
       if (truth != nullptr) rmse = rmseAgainst(kr->elevation, *truth);
     }
     if (task == 2 && kr != nullptr) {

@@ -8,6 +8,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "ground/cli/Parallel.hpp"
+
 namespace areomap::products {
 
 namespace {
@@ -128,6 +130,15 @@ std::string htmlEscape(const std::string& text) {
 }
 
 std::string reportHtml(const HtmlInputs& in, int max_px) {
+  // The images' data URIs (scaling and PNG encoding: most of the page's time) made on threads first, each
+  // placed in its figure below: the same page for any thread count.
+  const std::size_t n_products = in.products.size();
+  std::vector<std::string> uris(n_products + in.overlays.size());
+  cli::parallelFor(uris.size(), 0, [&](std::size_t k) {
+    const bool product = k < n_products;
+    const HtmlImage& im = product ? in.products[k] : in.overlays[k - n_products];
+    if (!im.image.empty()) uris[k] = dataUri(im.image, product ? max_px : 300);
+  });
   std::ostringstream s;
   s << "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'><title>areomap report: "
     << htmlEscape(in.site) << "</title>\n<style>body{font-family:sans-serif;margin:24px;background:#fafafa;color:#222}"
@@ -175,15 +186,17 @@ std::string reportHtml(const HtmlInputs& in, int max_px) {
   }
   s << "\n<h2>Products</h2>";
   if (in.products.empty()) s << "<p class='warn'>No DEM or orthoimage was made (see warnings).</p>";
-  for (const HtmlImage& im : in.products) {
+  for (std::size_t k = 0; k < n_products; ++k) {
+    const HtmlImage& im = in.products[k];
     if (im.image.empty()) continue;
-    s << "<figure><img alt='" << htmlEscape(im.caption) << "' src='" << dataUri(im.image, max_px)
-      << "'><figcaption>" << htmlEscape(im.caption) << "</figcaption></figure>\n";
+    s << "<figure><img alt='" << htmlEscape(im.caption) << "' src='" << uris[k] << "'><figcaption>"
+      << htmlEscape(im.caption) << "</figcaption></figure>\n";
   }
   s << "<h2>Tie points</h2><p>Blue: intra-stereo, red: inter-stereo.</p>";
-  for (const HtmlImage& im : in.overlays) {
+  for (std::size_t k = 0; k < in.overlays.size(); ++k) {
+    const HtmlImage& im = in.overlays[k];
     if (im.image.empty()) continue;
-    s << "<figure><img alt='" << htmlEscape(im.caption) << "' src='" << dataUri(im.image, 300)
+    s << "<figure><img alt='" << htmlEscape(im.caption) << "' src='" << uris[n_products + k]
       << "'><figcaption>" << htmlEscape(im.caption) << "</figcaption></figure>\n";
   }
   if (r != nullptr && !r->seconds.empty()) {

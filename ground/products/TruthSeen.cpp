@@ -96,6 +96,95 @@ void nodesAround(const DemGrid& truth, double north, double east, double cell, i
   r1 = std::min(r1, truth.rows - 1);
 }
 
+// The truth's four nodes about (north, east), for a bilinear value there: (bc, br) the first, (fc, fr) the
+// point in node units. False when one of them lies beyond the truth.
+bool prCentreNodes(const DemGrid& truth, double north, double east, double& fc, double& fr, int& bc,
+                   int& br) {
+  fc = (east - truth.east0_m) / truth.cell_m - 0.5;
+  fr = (truth.north0_m - north) / truth.cell_m - 0.5;
+  bc = static_cast<int>(std::floor(fc));
+  br = static_cast<int>(std::floor(fr));
+  return bc >= 0 && br >= 0 && bc + 1 < truth.cols && br + 1 < truth.rows;
+}
+
+// A box of the truth's nodes, grown by blocks of them (empty blocks add nothing).
+struct PrNodeBox {
+  int lo_c = std::numeric_limits<int>::max(), hi_c = -1, lo_r = std::numeric_limits<int>::max(), hi_r = -1;
+  void add(int c0, int c1, int r0, int r1) {
+    if (c1 < c0 || r1 < r0) return;
+    lo_c = std::min(lo_c, c0);
+    hi_c = std::max(hi_c, c1);
+    lo_r = std::min(lo_r, r0);
+    hi_r = std::max(hi_r, r1);
+  }
+  dem::GridWindow window() const {
+    return hi_c < lo_c ? dem::GridWindow{} : dem::GridWindow{lo_c, lo_r, hi_c - lo_c + 1, hi_r - lo_r + 1};
+  }
+};
+
+// The box of the truth's nodes that the cells (centres north, east in the truth's frame; NaN: none) read:
+// the four about each centre and those within its square. A camera's horizon is needed there only.
+dem::GridWindow prNodesRead(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
+                            const std::vector<double>& east) {
+  std::vector<PrNodeBox> rows(static_cast<std::size_t>(grid.rows));
+  cli::parallelFor(rows.size(), 0, [&](std::size_t row) {
+    for (int c = 0; c < grid.cols; ++c) {
+      const std::size_t i = row * grid.cols + c;
+      if (std::isnan(north[i])) continue;
+      int c0, c1, r0, r1;
+      nodesAround(truth, north[i], east[i], grid.cell_m, c0, c1, r0, r1);
+      rows[row].add(c0, c1, r0, r1);
+      double fc, fr;
+      int bc, br;
+      if (prCentreNodes(truth, north[i], east[i], fc, fr, bc, br)) rows[row].add(bc, bc + 1, br, br + 1);
+    }
+  });
+  PrNodeBox all;
+  for (const PrNodeBox& b : rows) all.add(b.lo_c, b.hi_c, b.lo_r, b.hi_r);
+  return all.window();
+}
+
+// The box of the nodes of `within` that camera `m` may see (dem::imageSees: inside its cone) and of the
+// four nodes about each cell centre it may see: no cell's verdict from `m` reads the horizon beyond it.
+// A looser cone than imageSees's (squares, a relative margin far above their rounding), so that no point
+// it accepts is left out; the whole of `within` when the cone is a half-space or wider.
+dem::GridWindow prCameraNodes(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
+                              const std::vector<double>& east, const std::vector<double>& centre_up,
+                              const CameraModel& m, const dem::ImageCone& cone,
+                              const dem::GridWindow& within) {
+  if (!(cone.min_cos > 0.0)) return within;
+  const double cos2 = cone.min_cos * cone.min_cos * (1.0 - 1e-9);
+  const auto inCone = [&](double n, double e, double down) {
+    const Vec3 d = Vec3(n, e, down) - m.c;
+    const double along = d.dot(cone.axis);
+    return along > 0.0 && along * along >= cos2 * d.squaredNorm();
+  };
+  // Items: the window's node rows, then the grid's rows of cell centres.
+  const std::size_t node_rows = static_cast<std::size_t>(std::max(0, within.rows));
+  std::vector<PrNodeBox> rows(node_rows + static_cast<std::size_t>(grid.rows));
+  cli::parallelFor(rows.size(), 0, [&](std::size_t j) {
+    if (j < node_rows) {
+      const int tr = within.row0 + static_cast<int>(j);
+      const double n = truth.northOfRow(tr);
+      for (int tc = within.col0; tc < within.col0 + within.cols; ++tc) {
+        const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
+        if (z != truth.nodata && inCone(n, truth.eastOfCol(tc), -z)) rows[j].add(tc, tc, tr, tr);
+      }
+      return;
+    }
+    for (std::size_t i = (j - node_rows) * grid.cols, end = i + grid.cols; i < end; ++i) {
+      double fc, fr;
+      int bc, br;
+      if (!std::isnan(north[i]) && inCone(north[i], east[i], -centre_up[i]) &&
+          prCentreNodes(truth, north[i], east[i], fc, fr, bc, br))
+        rows[j].add(bc, bc + 1, br, br + 1);
+    }
+  });
+  PrNodeBox all;
+  for (const PrNodeBox& b : rows) all.add(b.lo_c, b.hi_c, b.lo_r, b.hi_r);
+  return all.window();
+}
+
 }  // namespace
 
 TruthFrame truthFrame(const std::vector<CameraModel>& products_models, const std::vector<CameraModel>& truth_models,
@@ -126,27 +215,50 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
       centre_up[row * grid.cols + c] = -q.z();
     }
   });
-  std::vector<float> horizon;
+  const dem::GridWindow window = prNodesRead(grid, truth, north, east);
+  if (window.cols <= 0 || window.rows <= 0) return seen;
+  std::vector<std::size_t> cameras;
+  std::vector<Vec3> eyes;
+  std::vector<dem::ImageCone> cones;
+  std::vector<dem::GridWindow> windows;
   for (std::size_t k = 0; k < models.size() && k < images.size(); ++k) {
     if (images[k].empty()) continue;
-    const CameraModel& m = models[k];
-    dem::horizonFrom(truth, m.c, horizon, false);
-    const dem::ImageCone cone = dem::imageCone(m);
+    cameras.push_back(k);
+    eyes.push_back(models[k].c);
+    cones.push_back(dem::imageCone(models[k]));
+    windows.push_back(prCameraNodes(grid, truth, north, east, centre_up, models[k], cones.back(), window));
+  }
+  // A cell's verdict is the best of the cameras' (seen, marginal, unseen), so the cameras' horizons are
+  // made on threads and the cells checked against them in the cameras' order.
+  const auto check = [&](std::size_t e, const std::vector<float>& horizon) {
+    const CameraModel& m = models[cameras[e]];
+    const dem::ImageCone& cone = cones[e];
+    const dem::GridWindow& seen_by = windows[e];
+    const auto held = [&](int tc, int tr) {
+      return tc >= seen_by.col0 && tr >= seen_by.row0 && tc < seen_by.col0 + seen_by.cols &&
+             tr < seen_by.row0 + seen_by.rows;
+    };
     const double rad_per_px = 1.0 / cone.px_per_rad;
     cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
       for (int c = 0; c < grid.cols; ++c) {
         const std::size_t i = row * grid.cols + c;
         if (seen[i] == kTruthSeen || std::isnan(north[i])) continue;
-        const double tolerance = kTruthToleranceM + rad_per_px * std::hypot(north[i] - m.c.x(), east[i] - m.c.y());
         int c0, c1, r0, r1;
         nodesAround(truth, north[i], east[i], grid.cell_m, c0, c1, r0, r1);
+        // Nodes beyond the camera's window belong to points it cannot see: skipped, as imageSees would
+        // reject them, and so is a cell with none inside it.
+        double fc, fr;
+        int bc, br;
+        const bool centre =
+            prCentreNodes(truth, north[i], east[i], fc, fr, bc, br) && held(bc, br) && held(bc + 1, br + 1);
+        if (!centre && (c1 < seen_by.col0 || r1 < seen_by.row0 || c0 >= seen_by.col0 + seen_by.cols ||
+                        r0 >= seen_by.row0 + seen_by.rows))
+          continue;
         // The centre: the true surface there against the horizon between its four nodes (bilinear).
-        const double fc = (east[i] - truth.east0_m) / truth.cell_m - 0.5, fr = (truth.north0_m - north[i]) / truth.cell_m - 0.5;
-        const int bc = static_cast<int>(std::floor(fc)), br = static_cast<int>(std::floor(fr));
-        if (bc >= 0 && br >= 0 && bc + 1 < truth.cols && br + 1 < truth.rows) {
+        if (centre) {
           double h = 0.0, wsum = 0.0;
           for (int q = 0; q < 4; ++q) {
-            const float hq = horizon[static_cast<std::size_t>(br + q / 2) * truth.cols + bc + q % 2];
+            const float hq = horizon[seen_by.at(bc + q % 2, br + q / 2)];
             const double w = (q % 2 ? fc - bc : 1.0 - (fc - bc)) * (q / 2 ? fr - br : 1.0 - (fr - br));
             if (hq == -std::numeric_limits<float>::infinity()) continue;
             h += w * hq;
@@ -159,17 +271,19 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
           }
         }
         if (seen[i] == kTruthMarginal) continue;
+        const double tolerance =
+            kTruthToleranceM + rad_per_px * std::hypot(north[i] - m.c.x(), east[i] - m.c.y());
         for (int tr = r0; tr <= r1 && seen[i] == kTruthUnseen; ++tr) {
           for (int tc = c0; tc <= c1 && seen[i] == kTruthUnseen; ++tc) {
-            const std::size_t j = static_cast<std::size_t>(tr) * truth.cols + tc;
-            const float z = truth.values[j];
-            if (z == truth.nodata || z + tolerance < horizon[j]) continue;
+            const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
+            if (z == truth.nodata || !held(tc, tr) || z + tolerance < horizon[seen_by.at(tc, tr)]) continue;
             if (dem::imageSees(m, cone, Vec3(truth.northOfRow(tr), truth.eastOfCol(tc), -z))) seen[i] = kTruthMarginal;
           }
         }
       }
     });
-  }
+  };
+  dem::forEachHorizon(truth, eyes, windows, false, check);
   return seen;
 }
 
