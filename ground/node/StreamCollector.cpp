@@ -101,7 +101,9 @@ void StreamCollector::nextPanorama() {
   std::vector<site_t> sites = std::move(sites_);
   SequenceTracker site_sequences = std::move(site_sequences_);
   SiteStreamCounts site_counts = std::move(site_counts_);
+  std::map<std::string, site_pose_t> site_poses = std::move(rover_site_poses_);
   *this = StreamCollector();
+  rover_site_poses_ = std::move(site_poses);
   rover_sequences_ = std::move(rover_sequences);
   traverse_ = traverse;
   sites_ = std::move(sites);

@@ -113,7 +113,9 @@ class StreamCollector {
   // A final EO solution (not on a traverse), or a FINISHED status after a RUNNING one, arrived.
   bool roverFinished() const;
   // Ready for the next panorama (after its products are made): the camera stream's numbering starts
-  // again at 0; the rover's channels go on from where they were; everything else is forgotten.
+  // again at 0; the rover's channels go on from where they were; the traverse's sites and the rover's site
+  // poses are kept (the rover publishes a site's pose only while the site is in its window); everything
+  // else is forgotten.
   void nextPanorama();
   // The kept pairs' images and models, moved out of the collector, as the loaded panorama of `written`
   // (writeDataset's, in its pair order): the pass uses what arrived, not a re-read of the files it wrote.
@@ -128,7 +130,8 @@ class StreamCollector {
   // The rover's results (latest by sequence).
   const std::optional<eo_solution_t>& roverEo() const { return rover_eo_; }
   const std::optional<rover_status_t>& roverStatus() const { return rover_status_; }
-  // The rover's own site poses (AREOMAP_SITE_POSE): the latest message of each site, by site id.
+  // The rover's own site poses (AREOMAP_SITE_POSE): the latest message of each site, by site id, over every
+  // panorama so far.
   const std::map<std::string, site_pose_t>& roverSitePoses() const { return rover_site_poses_; }
   int32_t roverTiePointMessages() const { return rover_tie_messages_; }
   int32_t roverTieObservations() const { return rover_tie_observations_; }

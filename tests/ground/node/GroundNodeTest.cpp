@@ -18,6 +18,7 @@
 
 #include "areomap/product_t.hpp"
 #include "areomap/rover_status_t.hpp"
+#include "areomap/site_pose_t.hpp"
 #include "areomap/stereo_pair_t.hpp"
 #include "areomap/tiepoints_t.hpp"
 #include "ground/dataset/Dataset.hpp"
@@ -340,6 +341,30 @@ TEST(RoverTies, SequencesGoOnAcrossPanoramas) {
   CHECK(t.record(1) == ground::SequenceTracker::Arrival::kDuplicate);
   CHECK_EQUAL(1u, t.missing().size());  // 3
   CHECK_EQUAL(3, t.missing()[0]);
+}
+
+// The rover publishes a site's pose only while the site is in its window (its last few sites): the poses of
+// the sites of earlier panoramas stay in the collector across panoramas, the latest of each site.
+TEST(RoverTies, SitePosesAreKeptAcrossPanoramas) {
+  ground::StreamCollector c;
+  const auto send = [&c](const char* site, int64_t sequence, double x) {
+    site_pose_t p{};
+    p.site_id = site;
+    p.sequence = sequence;
+    p.position_m[0] = x;
+    std::vector<uint8_t> bytes(static_cast<std::size_t>(p.getEncodedSize()));
+    CHECK(p.encode(bytes.data(), 0, static_cast<int>(bytes.size())) == static_cast<int>(bytes.size()));
+    c.receive(channels::kSitePose, bytes.data(), bytes.size());
+  };
+  send("site01", 0, 0.0);
+  send("site02", 1, 10.0);
+  c.nextPanorama();
+  send("site02", 2, 11.0);
+  send("site03", 3, 20.0);
+  CHECK_EQUAL(3u, c.roverSitePoses().size());
+  DOUBLES_EQUAL(0.0, c.roverSitePoses().at("site01").position_m[0], 0.0);
+  DOUBLES_EQUAL(11.0, c.roverSitePoses().at("site02").position_m[0], 0.0);
+  DOUBLES_EQUAL(20.0, c.roverSitePoses().at("site03").position_m[0], 0.0);
 }
 
 // Two panoramas in one run through memq:// (panoramas = 2): the first with no rover (the ground matches its
