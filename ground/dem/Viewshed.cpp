@@ -95,7 +95,7 @@ void horizonFrom(const DemGrid& terrain, const Vec3& eye, const GridWindow& wind
       dist = std::hypot(terrain.northOfRow(row) - eye.x(), terrain.eastOfCol(col) - eye.y());
       const float z = terrain.at(col, row);
       if (z != terrain.nodata && std::isfinite(z) && dist > 0.0) own = static_cast<float>((z - eye_up) / dist);
-      if (before != kNone && col >= c0 && col <= c1 && row >= r0 && row <= r1)
+      if (before != kNone && window.holds(col, row))
         horizon[window.at(col, row)] = static_cast<float>(eye_up + before * dist);
     }
     outer[ringIndex(dx, dy, ring)] = std::max(before, own);

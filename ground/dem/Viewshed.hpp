@@ -34,6 +34,9 @@ struct GridWindow {
     return static_cast<std::size_t>(row - row0) * static_cast<std::size_t>(cols) +
            static_cast<std::size_t>(col - col0);
   }
+  bool holds(int col, int row) const {
+    return col >= col0 && row >= row0 && col < col0 + cols && row < row0 + rows;
+  }
 };
 
 // horizonFrom over the cells of `window` only (horizon_up_m: window.cols x window.rows, row-major; the

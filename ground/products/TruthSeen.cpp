@@ -234,10 +234,6 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
     const CameraModel& m = models[cameras[e]];
     const dem::ImageCone& cone = cones[e];
     const dem::GridWindow& seen_by = windows[e];
-    const auto held = [&](int tc, int tr) {
-      return tc >= seen_by.col0 && tr >= seen_by.row0 && tc < seen_by.col0 + seen_by.cols &&
-             tr < seen_by.row0 + seen_by.rows;
-    };
     const double rad_per_px = 1.0 / cone.px_per_rad;
     cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
       for (int c = 0; c < grid.cols; ++c) {
@@ -250,7 +246,7 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
         double fc, fr;
         int bc, br;
         const bool centre =
-            prCentreNodes(truth, north[i], east[i], fc, fr, bc, br) && held(bc, br) && held(bc + 1, br + 1);
+            prCentreNodes(truth, north[i], east[i], fc, fr, bc, br) && seen_by.holds(bc, br) && seen_by.holds(bc + 1, br + 1);
         if (!centre && (c1 < seen_by.col0 || r1 < seen_by.row0 || c0 >= seen_by.col0 + seen_by.cols ||
                         r0 >= seen_by.row0 + seen_by.rows))
           continue;
@@ -276,7 +272,7 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
         for (int tr = r0; tr <= r1 && seen[i] == kTruthUnseen; ++tr) {
           for (int tc = c0; tc <= c1 && seen[i] == kTruthUnseen; ++tc) {
             const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
-            if (z == truth.nodata || !held(tc, tr) || z + tolerance < horizon[seen_by.at(tc, tr)]) continue;
+            if (z == truth.nodata || !seen_by.holds(tc, tr) || z + tolerance < horizon[seen_by.at(tc, tr)]) continue;
             if (dem::imageSees(m, cone, Vec3(truth.northOfRow(tr), truth.eastOfCol(tc), -z))) seen[i] = kTruthMarginal;
           }
         }

@@ -63,6 +63,14 @@ int CrossTieResult::observationCount() const {
 
 namespace {
 
+// The first pass's matching parameters (its search radius) and the stride of its interest points.
+CrossTieParams firstPassParams(const CrossTieParams& params) {
+  CrossTieParams wide = params;
+  wide.patch.radius_px = params.second_pass ? params.first_radius_px : params.patch.radius_px;
+  return wide;
+}
+int firstPassStride(const CrossTieParams& params) { return params.second_pass ? params.first_pass_stride : 1; }
+
 // The first pass under out.registration (kOk): every first_pass_stride-th interest point, searched over the
 // registration's uncertainty (the registration's error is 10-30 cm on ground-pass DEMs, ten pixels and more
 // at navcam scale), and the geometric check of what it found.
@@ -70,10 +78,8 @@ void firstPass(const SiteProducts& a, const SiteProducts& b, const SourcePoints&
                const CrossTieParams& params, int64_t first_point, CrossTieResult& out) {
   out.a_from_b = out.registration.a_from_b;
   const RelativePose registered = out.registration.a_from_b;
-  CrossTieParams wide = params;
-  wide.patch.radius_px = params.second_pass ? params.first_radius_px : params.patch.radius_px;
-  matchTies(a, b, points, registered, out.registration.covariance, wide, first_point,
-            params.second_pass ? params.first_pass_stride : 1, out);
+  matchTies(a, b, points, registered, out.registration.covariance, firstPassParams(params), first_point,
+            firstPassStride(params), out);
   out.counts.ties_before_check = static_cast<int>(out.ties.size());
   checkTies(a, b, registered, params, out);
   out.first_pass_ties = static_cast<int>(out.ties.size());
@@ -128,20 +134,18 @@ constexpr double kPreemptRisk = 0.01;  // the chance of passing over a hypothesi
 bool halfCanConfirm(const SiteProducts& a, const SiteProducts& b, const SourcePoints& points,
                     const CrossTieParams& params, int64_t first_point, const DemRegistration& r, int need) {
   // As firstPass: its search radius, every other one of its points.
-  CrossTieParams half = params;
-  half.patch.radius_px = params.second_pass ? params.first_radius_px : params.patch.radius_px;
-  const int stride = 2 * (params.second_pass ? params.first_pass_stride : 1);
   CrossTieResult t;
   t.site_a = a.id;
   t.site_b = b.id;
-  matchTies(a, b, points, r.a_from_b, r.covariance, half, first_point, stride, t);
+  matchTies(a, b, points, r.a_from_b, r.covariance, firstPassParams(params), first_point,
+            2 * firstPassStride(params), t);
   const int seen = static_cast<int>(t.ties.size());
   if (seen >= need) return true;
-  double below = 0.0;  // P(X <= seen) for X ~ Binomial(need, 1/2), each term from its logarithm
-  for (int k = 0; k <= seen; ++k) {
-    below += std::exp(std::lgamma(need + 1.0) - std::lgamma(k + 1.0) - std::lgamma(need - k + 1.0) -
-                      need * std::log(2.0));
-  }
+  // P(X <= seen) for X ~ Binomial(need, 1/2), each term from its logarithm.
+  const double log_all = std::lgamma(need + 1.0) - need * std::log(2.0);
+  double below = 0.0;
+  for (int k = 0; k <= seen; ++k)
+    below += std::exp(log_all - std::lgamma(k + 1.0) - std::lgamma(need - k + 1.0));
   return below >= kPreemptRisk;
 }
 

@@ -62,7 +62,6 @@ wait_listening() {
   sleep 0.5
 }
 
-# wait_for FILE SECONDS PID: until FILE exists (0), PID exits (1) or SECONDS pass (2).
 # bg_start RCFILE COMMAND...: COMMAND in the background, its own pid in BG_PID; its exit status is written to
 # RCFILE when it ends (bg_wait). A long script's own short-lived children can be given a finished job's pid
 # again once the kernel's pids wrap, and bash's `wait PID` then no longer knows it ("not a child of this
@@ -86,6 +85,7 @@ bg_wait() {
   return "$(cat "$1")"
 }
 
+# wait_for FILE SECONDS PID: until FILE exists (0), PID exits (1) or SECONDS pass (2).
 wait_for() {
   local file=$1 limit=$2 pid=${3:-} start=$SECONDS
   while [[ ! -e "$file" ]]; do
