@@ -25,14 +25,15 @@ using json = nlohmann::json;
 
 namespace {
 
-// A 2-site tiny traverse, rendered once.
+// A 2-site tiny traverse of 4 pairs a site (the preset's 8 cost each run twice the site passes and the
+// cross-site matching, and nothing checked here needs them), rendered once.
 std::string traverseDataset() {
   static std::string dir;
   if (dir.empty()) {
     dir = areomap::test::scratchDir("traverse-tool") + "/ds";
     if (areomap::test::runTool(
             "areomap-sim",
-            "--preset traverse --camera tiny --sites 2 --seed 3 --leg-min-m 10 --leg-max-m 12 --out " +
+            "--preset traverse --camera tiny --pairs 4 --sites 2 --seed 3 --leg-min-m 10 --leg-max-m 12 --out " +
                 dir) != 0)
       dir = "";
   }
