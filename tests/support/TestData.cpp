@@ -23,11 +23,13 @@ std::string sharedDataDir() {
   return sourceDir() + "/../shared/data";
 }
 
-std::string scratchDir(const std::string& name) {
+std::string scratchPath(const std::string& name) {
   const char* env = std::getenv("AREOMAP_BINARY_DIR");
-  const std::string root =
-      (env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR)) + "/test-scratch";
-  const std::string dir = root + "/" + name;
+  return (env != nullptr ? std::string(env) : std::string(AREOMAP_BINARY_DIR)) + "/test-scratch/" + name;
+}
+
+std::string scratchDir(const std::string& name) {
+  const std::string dir = scratchPath(name);
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
   std::filesystem::create_directories(dir, ec);

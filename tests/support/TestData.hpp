@@ -12,6 +12,7 @@ namespace areomap::test {
 std::string sourceDir();                          // the repository root
 std::string sharedDataDir();                      // ../shared/data (or $AREOMAP_SHARED_DATA)
 std::string scratchDir(const std::string& name);  // an empty folder under the build tree for this test
+std::string scratchPath(const std::string& name);  // scratchDir(name)'s path, the folder left as it is
 bool requireSharedData(const std::string& folder);
 // Whether AREOMAP_LONG_TESTS=1 asks for the long groups; otherwise prints "SKIP: <what> run with ..." and the
 // group passes without running.
