@@ -39,10 +39,11 @@ set(_areomap_test_cost_powerpc
 # the DEM sigma on rendered scenes): in the order they were added, one of them could start last and run alone
 # on one core while the other waits. Rough seconds on a 2-core machine (only the order matters); the
 # process-level tests set theirs beside their add_test (ground_node_navcam_replay: its first run makes the
-# navcam dataset).
+# navcam dataset). TraverseTool is the fixture of StreamTraverseGround (tests/ground/node/CMakeLists.txt),
+# which waits for it: it starts among the first.
 set(_areomap_test_cost_native
-    ground_pass_tests.RealPairs 300 ground_traverse_tests.CrossSiteTies 200
-    ground_products_calibration_tests.SigmaFollowsNoise 120)
+    ground_pass_tests.RealPairs 300 ground_traverse_tests.TraverseTool 250 ground_traverse_tests.CrossSiteTies 200
+    ground_node_tests.StreamTraverseGround 150 ground_products_calibration_tests.SigmaFollowsNoise 120)
 
 # AREOMAP_TEST_GROUPS (a regular expression over `<executable>.<GROUP>`; empty: every group) builds a named
 # subset of the CppUTest groups, as the `asan-ci` configure preset does: only the sources that define a matching
@@ -126,6 +127,20 @@ function(areomap_cpputest name)
       math(EXPR _i "${_i} + 1")
       list(GET _costs ${_i} _cost)
       set_tests_properties(${name}.${g} PROPERTIES COST ${_cost})
+    endif()
+  endforeach()
+endfunction()
+
+# The `tiny` panorama of seed 3 that many ground groups read (tests/support/TestData.hpp makeTinyDataset):
+# rendered once per ctest run by the fixture tiny_dataset (tests/ground/CMakeLists.txt) into this folder.
+set(AREOMAP_TINY_DATASET_DIR ${CMAKE_BINARY_DIR}/test-scratch/tiny-seed3/sim)
+# areomap_tiny_dataset_groups(EXECUTABLE GROUP...): those groups (of the current folder) read the fixture's
+# panorama instead of rendering their own.
+function(areomap_tiny_dataset_groups exe)
+  foreach(g IN LISTS ARGN)
+    if(TEST ${exe}.${g})
+      set_tests_properties(${exe}.${g} PROPERTIES FIXTURES_REQUIRED tiny_dataset)
+      set_property(TEST ${exe}.${g} APPEND PROPERTY ENVIRONMENT "AREOMAP_TINY_DATASET=${AREOMAP_TINY_DATASET_DIR}")
     endif()
   endforeach()
 endfunction()

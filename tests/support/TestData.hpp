@@ -12,6 +12,7 @@ namespace areomap::test {
 std::string sourceDir();                          // the repository root
 std::string sharedDataDir();                      // ../shared/data (or $AREOMAP_SHARED_DATA)
 std::string scratchDir(const std::string& name);  // an empty folder under the build tree for this test
+std::string scratchPath(const std::string& name);  // scratchDir(name)'s path, the folder left as it is
 bool requireSharedData(const std::string& folder);
 // Whether AREOMAP_LONG_TESTS=1 asks for the long groups; otherwise prints "SKIP: <what> run with ..." and the
 // group passes without running.
@@ -29,8 +30,10 @@ std::string toolPath(const std::string& tool);
 int runTool(const std::string& tool, const std::string& args);
 // The six sigma columns of every row of an eo.csv (sigma_x_m .. sigma_rot_z_rad, its last six columns).
 std::vector<std::array<double, 6>> readEoSigmas(const std::string& eo_csv);
-// The `tiny` simulated panorama (areomap-sim --preset tiny --seed N) in scratchDir(name-PID)/sim; "" when the
-// simulator failed. Tests keep the result in a function-local static to make it once per process.
+// The `tiny` simulated panorama (areomap-sim --preset tiny --seed N) in scratchDir(name-PID)/sim, or seed 3
+// as CTest's fixture tiny_dataset made it (AREOMAP_TINY_DATASET, areomap_tiny_dataset_groups); "" when the
+// simulator failed. Tests keep the result in a function-local static to make it once per process, and do not
+// write into it.
 std::string makeTinyDataset(const std::string& name, int seed = 3);
 
 }  // namespace areomap::test

@@ -477,15 +477,15 @@ TEST(RoverMemq, TiePointsAtCapacityRejectedPanoramaKept) {
   if (heapCounterActive()) CHECK_EQUAL(0u, allocs);
 }
 
-// A two-site tiny traverse (areomap-pack of traverse.json: each site announced, then its pairs and end
-// marker) through the node in one run: both sites mapped, a final EO per site tagged with its panorama,
+// A two-site tiny traverse of 4 pairs a site (areomap-pack of traverse.json: each site announced, then its
+// pairs and end marker) through the node in one run: both sites mapped, a final EO per site tagged with its panorama,
 // zero heap allocations in the pipeline over both sites (the reset between sites included), endOfRun()
 // only after the last site; and the second site's final EO identical to the node's on that site alone
 // (nothing of the first site is left in the workspaces).
 TEST(RoverMemq, TwoSiteTraverseHeapFreeAndEachSiteAsAlone) {
   const std::string ds = test::scratchDir("rover-traverse") + "/ds";
   CHECK_EQUAL(0, test::runTool("areomap-sim",
-                               "--preset traverse --camera tiny --sites 2 --seed 3 --leg-min-m 10 "
+                               "--preset traverse --camera tiny --pairs 4 --sites 2 --seed 3 --leg-min-m 10 "
                                "--leg-max-m 12 --out " +
                                    ds));
   const Traverse traverse = readTraverse(ds);

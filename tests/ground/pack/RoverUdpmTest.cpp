@@ -62,12 +62,11 @@ std::string binDir() {
   return std::string(bin != nullptr ? bin : ".") + "/bin";
 }
 
-// Makes (once) the tiny dataset's stream; the dataset is made by areomap-sim like the other tests here.
+// The tiny dataset's stream; the dataset is the other tests' here (test::makeTinyDataset).
 std::vector<LogEvent> tinyEvents() {
-  const std::string dir = test::scratchDir("rover-udpm");
-  const std::string cmd = binDir() + "/areomap-sim --preset tiny --seed 3 --out " + dir + "/sim > /dev/null 2>&1";
-  CHECK_EQUAL(0, std::system(cmd.c_str()));
-  return packDataset(readDataset(dir + "/sim"), PackOptions{});
+  const std::string dir = test::makeTinyDataset("rover-udpm");
+  CHECK(!dir.empty());
+  return packDataset(readDataset(dir), PackOptions{});
 }
 
 // Returns "" on success, else why it failed; `no_network` when nothing could be exchanged at all.

@@ -188,11 +188,16 @@ TEST(WarpedPatchMatcher, RejectsAnotherPlaceAndARepeatedPattern) {
 TEST_GROUP(CrossSiteTies){};
 
 TEST(CrossSiteTies, DemRegistrationRecoversTheTrueRelativePose) {
+  // The registration the neighbours' ties were found under (registerDems with the tool's window,
+  // searchWindowOf: at least the default one, the relative tilt solved), made once for them; the levelled
+  // registration of the default parameters is refused in ARefusedDemRegistrationSaysWhyInTheDataFigures and
+  // checked on synthetic DEMs in DemRegistrationTest.
   const Fixture& f = fixture();
   for (int k = 1; k < 3; ++k) {
     const RelativePose apriori = relativePose(f.traverse.sites[k - 1].apriori, f.traverse.sites[k].apriori);
     const RelativePose truth = relativePose(f.truth.poses[k - 1], f.truth.poses[k]);
-    const DemRegistration g = registerDems(f.sites[k - 1], f.sites[k], apriori);
+    const DemRegistration& g = neighbourTies(k).registration;
+    CHECK(g.method == "dem");
     const double xy = (g.a_from_b.translation_m - truth.translation_m).head<2>().norm();
     const double z = std::fabs(g.a_from_b.translation_m.z() - truth.translation_m.z());
     const double heading_deg = std::fabs(g.a_from_b.heading_rad - truth.heading_rad) * 180.0 / kPi;
@@ -260,14 +265,13 @@ TEST(CrossSiteTies, ARefusedDemRegistrationSaysWhyInTheDataFigures) {
   if (g.difference_rms_m > 0.0) CHECK(g.difference_rms_m > 2.0 * g.dem_sigma_rms_m);
 }
 
-TEST_GROUP(CrossSiteHypotheses){};
-
+// (In the group CrossSiteTies, whose process renders the traverse and loads its truth once for every test.)
 // A registration the images do not confirm: sites 1 and 2's registration moved 0.3 m and 1.5 deg off the
 // truth with a 2 cm sigma, as a DEM registration ends where the DEMs' errors are as large as the relief they
 // share. Under it the first pass finds too few ties; among the poses the DEMs cannot tell from their best
 // (the truth products' DEMs: the grid pose nearest the truth) the images confirm one, and the ties place
 // site 2 at the truth. Without the hypotheses the pair ends too_few_ties at the wrong pose.
-TEST(CrossSiteHypotheses, AWrongButConfidentRegistrationGivesWayToThePoseTheImagesConfirm) {
+TEST(CrossSiteTies, AWrongButConfidentRegistrationGivesWayToThePoseTheImagesConfirm) {
   const Fixture& f = fixture();
   CrossTieParams params;
   params.registration = searchWindowOf(f.traverse, 0, 1);

@@ -25,14 +25,15 @@ using json = nlohmann::json;
 
 namespace {
 
-// A 2-site tiny traverse, rendered once.
+// A 2-site tiny traverse of 4 pairs a site (the preset's 8 cost each run twice the site passes and the
+// cross-site matching, and nothing checked here needs them), rendered once.
 std::string traverseDataset() {
   static std::string dir;
   if (dir.empty()) {
-    dir = areomap::test::scratchDir("traverse-tool") + "/ds";
+    dir = areomap::test::scratchDir(areomap::test::kTraverseToolDataset) + "/ds";
     if (areomap::test::runTool(
             "areomap-sim",
-            "--preset traverse --camera tiny --sites 2 --seed 3 --leg-min-m 10 --leg-max-m 12 --out " +
+            "--preset traverse --camera tiny --pairs 4 --sites 2 --seed 3 --leg-min-m 10 --leg-max-m 12 --out " +
                 dir) != 0)
       dir = "";
   }
@@ -76,7 +77,7 @@ TEST(TraverseTool, MapsEverySiteAndWritesThePosesAndTheReport) {
   CHECK_FALSE(ds.empty());
   // The whole default run: every site's pass with products, the cross-site matching between the sites'
   // products, the poses, the merged map.
-  const std::string out = areomap::test::scratchDir("traverse-tool-out");
+  const std::string out = areomap::test::scratchDir(areomap::test::kTraverseToolOut);
   CHECK_EQUAL(0, areomap::test::runTool("areomap-traverse", ds + " --out " + out + " --quiet"));
   CHECK_EQUAL(3, lines(out + "/poses.csv"));  // header + 2 sites
   for (const char* f : {"dem.tif", "dem_sigma.tif", "ortho.tif", "cross_ties.json", "sites/site02/dem.tif"})
