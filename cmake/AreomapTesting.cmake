@@ -134,15 +134,20 @@ endfunction()
 # The `tiny` panorama of seed 3 that many ground groups read (tests/support/TestData.hpp makeTinyDataset):
 # rendered once per ctest run by the fixture tiny_dataset (tests/ground/CMakeLists.txt) into this folder.
 set(AREOMAP_TINY_DATASET_DIR ${CMAKE_BINARY_DIR}/test-scratch/tiny-seed3/sim)
-# areomap_tiny_dataset_groups(EXECUTABLE GROUP...): those groups (of the current folder) read the fixture's
-# panorama instead of rendering their own.
-function(areomap_tiny_dataset_groups exe)
+# areomap_fixture_groups(EXECUTABLE FIXTURE VAR=VALUE GROUP...): those groups (of the current folder) require
+# the CTest fixture and get VAR=VALUE in their environment, which tells them to read what it made.
+function(areomap_fixture_groups exe fixture env)
   foreach(g IN LISTS ARGN)
     if(TEST ${exe}.${g})
-      set_tests_properties(${exe}.${g} PROPERTIES FIXTURES_REQUIRED tiny_dataset)
-      set_property(TEST ${exe}.${g} APPEND PROPERTY ENVIRONMENT "AREOMAP_TINY_DATASET=${AREOMAP_TINY_DATASET_DIR}")
+      set_tests_properties(${exe}.${g} PROPERTIES FIXTURES_REQUIRED ${fixture})
+      set_property(TEST ${exe}.${g} APPEND PROPERTY ENVIRONMENT "${env}")
     endif()
   endforeach()
+endfunction()
+# areomap_tiny_dataset_groups(EXECUTABLE GROUP...): those groups read the fixture's panorama instead of
+# rendering their own.
+function(areomap_tiny_dataset_groups exe)
+  areomap_fixture_groups(${exe} tiny_dataset "AREOMAP_TINY_DATASET=${AREOMAP_TINY_DATASET_DIR}" ${ARGN})
 endfunction()
 
 # areomap_test_folder(NAME LIBS... [LABELS ...]): all *Test.cpp in the current folder, one executable.

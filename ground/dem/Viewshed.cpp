@@ -15,15 +15,6 @@ namespace {
 
 constexpr float kNone = -std::numeric_limits<float>::infinity();
 
-// The working box: the window and the eye's cell, indices relative to the grid.
-struct RingBox {
-  int col0, row0, cols, rows;  // first column and row (may be negative), size
-  int eye_col, eye_row;
-  bool holds(int col, int row) const {
-    return col >= col0 && row >= row0 && col < col0 + cols && row < row0 + rows;
-  }
-};
-
 // The place of the cell (dx, dy) of ring `ring` (max(|dx|, |dy|) = ring >= 1, offsets from the eye's cell)
 // in that ring's 8 ring values: the top side, the bottom side, then the left and right sides without their
 // corners.
@@ -76,7 +67,8 @@ void horizonFrom(const DemGrid& terrain, const Vec3& eye, const GridWindow& wind
   if (c1 < c0 || r1 < r0) return;
   // The box of the window and the eye holds every cell between the eye and a window cell, and the two
   // inner-ring cells that bracket its line of sight: the window's values need no cell beyond it.
-  RingBox box{std::min(c0, eye_col), std::min(r0, eye_row), 0, 0, eye_col, eye_row};
+  // (Indices relative to the grid; its first column and row may be negative.)
+  GridWindow box{std::min(c0, eye_col), std::min(r0, eye_row), 0, 0};
   box.cols = std::max(c1, eye_col) - box.col0 + 1;
   box.rows = std::max(r1, eye_row) - box.row0 + 1;
   // Per cell of the last ring and of this one: the steepest slope (rise over horizontal distance from the

@@ -37,6 +37,10 @@ struct GridWindow {
   bool holds(int col, int row) const {
     return col >= col0 && row >= row0 && col < col0 + cols && row < row0 + rows;
   }
+  // Whether the block of columns c0 .. c1 and rows r0 .. r1 has a cell in the window.
+  bool meets(int c0, int c1, int r0, int r1) const {
+    return c1 >= col0 && r1 >= row0 && c0 < col0 + cols && r0 < row0 + rows;
+  }
 };
 
 // horizonFrom over the cells of `window` only (horizon_up_m: window.cols x window.rows, row-major; the

@@ -247,9 +247,7 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
         int bc, br;
         const bool centre =
             prCentreNodes(truth, north[i], east[i], fc, fr, bc, br) && seen_by.holds(bc, br) && seen_by.holds(bc + 1, br + 1);
-        if (!centre && (c1 < seen_by.col0 || r1 < seen_by.row0 || c0 >= seen_by.col0 + seen_by.cols ||
-                        r0 >= seen_by.row0 + seen_by.rows))
-          continue;
+        if (!centre && !seen_by.meets(c0, c1, r0, r1)) continue;
         // The centre: the true surface there against the horizon between its four nodes (bilinear).
         if (centre) {
           double h = 0.0, wsum = 0.0;
