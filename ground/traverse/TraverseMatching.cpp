@@ -68,6 +68,17 @@ std::vector<std::pair<int, int>> sitePairs(const Traverse& traverse, const std::
   return pairs;
 }
 
+std::vector<TraverseSite> truthSitesOf(const Traverse& traverse, const std::optional<Traverse>& folder) {
+  std::vector<TraverseSite> sites = traverse.sites;
+  if (!folder) return sites;
+  for (TraverseSite& site : sites) {
+    for (const TraverseSite& f : folder->sites) {
+      if (f.id == site.id) site = f;
+    }
+  }
+  return sites;
+}
+
 const char* pairStatusName(const SitePairMatch& m) {
   return m.error.empty() ? crossTieStatusName(m.result.status) : "not_matched";
 }
@@ -75,7 +86,9 @@ const char* pairStatusName(const SitePairMatch& m) {
 TraverseMatching matchTraverse(const Traverse& traverse, const std::vector<std::pair<int, int>>& pairs,
                                const SiteLoader& load, const CrossTieParams& base,
                                const std::optional<TraverseTruth>& truth,
-                               const std::function<void(const SitePairMatch&)>& on_pair) {
+                               const std::function<void(const SitePairMatch&)>& on_pair,
+                               const std::vector<TraverseSite>* truth_sites) {
+  const std::vector<TraverseSite>& truth_dirs = truth_sites ? *truth_sites : traverse.sites;
   TraverseMatching out;
   std::map<int, std::shared_ptr<const SiteProducts>> loaded;
   std::map<int, std::string> load_errors;
@@ -125,8 +138,7 @@ TraverseMatching matchTraverse(const Traverse& traverse, const std::vector<std::
     if (m.error.empty() && a && b) {
       if (truth) {
         try {
-          m.truth = checkAgainstTruth(m.result, traverse.sites[i], traverse.sites[j], truth->poses[i],
-                                      truth->poses[j]);
+          m.truth = checkAgainstTruth(m.result, truth_dirs[i], truth_dirs[j], truth->poses[i], truth->poses[j]);
         } catch (const std::exception&) {  // a truth that cannot be read checks nothing
           m.truth.reset();
         }

@@ -48,11 +48,18 @@ struct TraverseMatching {
 };
 
 // Matches every pair in order. A site is loaded once and released when no later pair needs it.
-// on_pair (optional) sees each pair when it is done (progress).
+// on_pair (optional) sees each pair when it is done (progress). With `truth`, each pair is checked against
+// the truth/ of its sites' folders: traverse.sites', or truth_sites' (one per traverse site, in its order)
+// where the sites' folders hold no truth (a stream's sites, whose truth is in the dataset packed).
 TraverseMatching matchTraverse(const Traverse& traverse, const std::vector<std::pair<int, int>>& pairs,
                                const SiteLoader& load, const CrossTieParams& base,
                                const std::optional<TraverseTruth>& truth,
-                               const std::function<void(const SitePairMatch&)>& on_pair = {});
+                               const std::function<void(const SitePairMatch&)>& on_pair = {},
+                               const std::vector<TraverseSite>* truth_sites = nullptr);
+
+// The folders whose truth/ checks each site of `traverse` (one per site, in its order): the site of the same
+// id in `folder` (the dataset a stream's sites were packed from) where it has one, else the site itself.
+std::vector<TraverseSite> truthSitesOf(const Traverse& traverse, const std::optional<Traverse>& folder);
 
 // One line per pair for the terminal: status, ties, observations, rms (and the truth figures).
 std::string pairMatchLine(const Traverse& traverse, const SitePairMatch& m);

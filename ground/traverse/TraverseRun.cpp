@@ -198,7 +198,7 @@ void warnTraverse(TraverseResult& result, const std::string& text) {
 
 // Cross-site ties matched between every pair of neighbouring sites that were mapped (their passes);
 // cross_ties.json says what each pair gave.
-std::vector<CrossSiteTie> matchSites(const Traverse& traverse, const std::optional<TraverseTruth>& truth,
+std::vector<CrossSiteTie> matchSites(const Traverse& traverse, const TraverseTruthInput& truth,
                                      const TraverseRunOptions& o, TraverseResult& result) {
   std::vector<int> all;
   for (int k = 0; k < static_cast<int>(traverse.sites.size()); ++k) all.push_back(k);
@@ -207,10 +207,13 @@ std::vector<CrossSiteTie> matchSites(const Traverse& traverse, const std::option
     return std::make_shared<const SiteProducts>(siteProducts(traverse.sites[k], *result.sites[k].pass));
   };
   if (o.progress) cli::info("cross-site tie points between neighbouring sites");
-  const TraverseMatching matching = matchTraverse(traverse, sitePairs(traverse, all, false), load,
-                                                  CrossTieParams{}, truth, [&](const SitePairMatch& m) {
-                                                    if (o.progress) cli::info(pairMatchLine(traverse, m));
-                                                  });
+  const std::vector<TraverseSite> truth_sites = truthSitesOf(traverse, truth.folder);
+  const TraverseMatching matching = matchTraverse(
+      traverse, sitePairs(traverse, all, false), load, CrossTieParams{}, truth.poses,
+      [&](const SitePairMatch& m) {
+        if (o.progress) cli::info(pairMatchLine(traverse, m));
+      },
+      &truth_sites);
   const std::string json_path = o.out_dir + "/cross_ties.json";
   try {
     cli::writeFileAtomic(json_path, matchingJson(traverse, o.out_dir + "/sites", matching).dump(2) + "\n");
@@ -502,7 +505,7 @@ TraverseResult finishTraverse(const Traverse& traverse, std::vector<SiteOutcome>
     result.warnings.push_back(
         "no cross-site matching without the sites' products (--no-products): the poses are the odometry's.");
   } else if (o.match_cross_ties && traverse.sites.size() > 1) {
-    ties = matchSites(traverse, truth.poses, o, result);
+    ties = matchSites(traverse, truth, o, result);
     result.cross_ties_source = "matched";
     if (ties.empty())
       result.warnings.push_back(

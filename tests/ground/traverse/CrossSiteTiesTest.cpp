@@ -423,3 +423,27 @@ TEST(TraverseMatching, NeighboursArePairedAndAcrossStopsBackToThePanoramaSite) {
   for (TraverseSite& site : t.sites) site.kind = P;
   CHECK((Pairs{{0, 1}, {1, 2}, {2, 3}, {3, 4}, {4, 5}, {5, 6}} == sitePairs(t, all, false)));
 }
+
+// A stream's sites (OUT/sites/<id>/stream: no truth/) are checked against the truth of the dataset's sites of
+// the same ids; a site the dataset lacks keeps its own folder, and without a dataset every site does.
+TEST(TraverseMatching, AStreamsSitesAreCheckedAgainstTheDatasetsTruth) {
+  Traverse stream, dataset;
+  for (const char* id : {"site02", "site03", "site09"}) {
+    TraverseSite site;
+    site.id = id;
+    site.dir = std::string("out/sites/") + id + "/stream";
+    stream.sites.push_back(site);
+  }
+  for (const char* id : {"site01", "site02", "site03"}) {
+    TraverseSite site;
+    site.id = id;
+    site.dir = std::string("ds/sites/") + id;
+    dataset.sites.push_back(site);
+  }
+  const std::vector<TraverseSite> sites = truthSitesOf(stream, dataset);
+  CHECK_EQUAL(3u, sites.size());
+  CHECK_EQUAL(std::string("ds/sites/site02"), sites[0].dir);
+  CHECK_EQUAL(std::string("ds/sites/site03"), sites[1].dir);
+  CHECK_EQUAL(std::string("out/sites/site09/stream"), sites[2].dir);
+  CHECK_EQUAL(std::string("out/sites/site02/stream"), truthSitesOf(stream, std::nullopt)[0].dir);
+}
