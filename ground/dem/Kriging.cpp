@@ -351,8 +351,12 @@ RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, in
     const uint8_t* wanted =
         in.wanted != nullptr ? in.wanted->data() + static_cast<std::size_t>(row) * grid.cols : nullptr;
     for (int col = 0; col < grid.cols; ++col) {
-      // The last searched cell's neighbours stay in idx: any k points bound the next cell's k-th distance.
-      if (wanted != nullptr && wanted[col] == 0) continue;
+      // After a skipped cell the last searched one may lie far away, and its neighbours would bound the
+      // next search loosely: that search starts afresh (the k-d tree).
+      if (wanted != nullptr && wanted[col] == 0) {
+        f = 0;
+        continue;
+      }
       const double qe = grid.eastOfCol(col);
       f = cellNeighbours(in, qn, qe, f, idx, d2);
       if (f == 0) continue;
