@@ -40,9 +40,8 @@ Status projectLinear(const CameraModel& m, const Vec3& pp, Vec2& pixel, Mat2x3* 
   return Status::kOk;
 }
 
-// CAHVOR: pp = p + mu * lambda (JPL cmod_cahvor_3d_to_2d).
-Status distortCahvor(const CameraModel& m, const Vec3& p, Vec3& pp, Mat3* d_pp_d_p) {
-  const Vec3 o = m.o.normalized();
+// CAHVOR: pp = p + mu * lambda (JPL cmod_cahvor_3d_to_2d), o = the model's O normalised.
+Status distortCahvorUnit(const CameraModel& m, const Vec3& o, const Vec3& p, Vec3& pp, Mat3* d_pp_d_p) {
   const double zeta = p.dot(o);
   if (!(zeta > 0.0) || !(p.dot(m.a) > 0.0)) {
     return Status::kBehindCamera;
@@ -59,6 +58,10 @@ Status distortCahvor(const CameraModel& m, const Vec3& p, Vec3& pp, Mat3* d_pp_d
     d_pp_d_p->noalias() = Mat3::Identity() + mu * d_lambda + lambda * d_mu.transpose();
   }
   return Status::kOk;
+}
+
+Status distortCahvor(const CameraModel& m, const Vec3& p, Vec3& pp, Mat3* d_pp_d_p) {
+  return distortCahvorUnit(m, m.o.normalized(), p, pp, d_pp_d_p);
 }
 
 // chi(theta) for linearity L, and d chi / d theta.
@@ -344,6 +347,19 @@ Status project(const CameraModel& model, const Vec3& point, Vec2& pixel, Mat2x3*
     d_pixel_d_point->noalias() = d_pixel_d_pp * d_pp;
   }
   return s2;
+}
+
+void projectPoints(const CameraModel& model, const Vec3* points, int32_t count, Vec2* pixels, Status* statuses) {
+  if (model.type != CameraType::kCahvor) {
+    for (int32_t i = 0; i < count; ++i) statuses[i] = project(model, points[i], pixels[i]);
+    return;
+  }
+  const Vec3 o = model.o.normalized();
+  for (int32_t i = 0; i < count; ++i) {
+    Vec3 pp;
+    statuses[i] = distortCahvorUnit(model, o, points[i] - model.c, pp, nullptr);
+    if (statuses[i] == Status::kOk) statuses[i] = projectLinear(model, pp, pixels[i], nullptr);
+  }
 }
 
 Status unproject(const CameraModel& model, const Vec2& pixel, Vec3& ray_origin, Vec3& ray_direction) {

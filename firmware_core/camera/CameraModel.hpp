@@ -52,6 +52,11 @@ double cahvoreLinearity(const CameraModel& model);
 [[nodiscard]] Status project(const CameraModel& model, const Vec3& point, Vec2& pixel,
                              Mat2x3* d_pixel_d_point = nullptr);
 
+// project() of `count` points through one model, without derivatives: the same pixels and statuses as a
+// call per point (a pixel is left as it is where its status is not kOk), the model's own terms (CAHVOR's
+// unit O) made once instead of per point.
+void projectPoints(const CameraModel& model, const Vec3* points, int32_t count, Vec2* pixels, Status* statuses);
+
 // Back-projects a pixel to a unit ray (origin = C for CAHV/CAHVOR; the entrance-pupil point for CAHVORE),
 // pointing along +A. Iterative for CAHVOR/CAHVORE with at most kMaxCameraInverseIterations steps.
 [[nodiscard]] Status unproject(const CameraModel& model, const Vec2& pixel, Vec3& ray_origin,

@@ -31,25 +31,43 @@ Status projectAll(const CameraModel* const* models, int32_t n, const Vec3& p, Vi
   return Status::kOk;
 }
 
+// The point and its six central-difference neighbours (p + h e_k, p - h e_k for k = 0, 1, 2, in that
+// order) projected into every view, each view's seven at once (projectPoints). The first failing status
+// in the order of a view loop per point (p, then p + h e_0, p - h e_0, ...) is returned, as
+// projectAll point after point would; else `uv` at p and column k of `j` from the pair k.
+Status projectStencil(const CameraModel* const* models, int32_t n, const Vec3& p, double h, ViewsVec& uv,
+                      ViewsJac& j) {
+  constexpr int32_t kStencil = 7;
+  Vec3 points[kStencil] = {p, p, p, p, p, p, p};
+  for (int32_t k = 0; k < 3; ++k) {
+    points[1 + 2 * k](k) += h;
+    points[2 + 2 * k](k) -= h;
+  }
+  Vec2 px[kMaxIntersectionViews][kStencil];
+  Status st[kMaxIntersectionViews][kStencil];
+  for (int32_t i = 0; i < n; ++i) projectPoints(*models[i], points, kStencil, px[i], st[i]);
+  for (int32_t q = 0; q < kStencil; ++q) {
+    for (int32_t i = 0; i < n; ++i) {
+      if (!ok(st[i][q])) return st[i][q];
+    }
+  }
+  uv.resize(2 * n);
+  for (int32_t i = 0; i < n; ++i) {
+    uv.segment<2>(2 * i) = px[i][0];
+    for (int32_t k = 0; k < 3; ++k) j.block<2, 1>(2 * i, k) = (px[i][1 + 2 * k] - px[i][2 + 2 * k]) / (2.0 * h);
+  }
+  return Status::kOk;
+}
+
 // Gauss-Newton on the reprojection error of `n` observations from `p`; `j` and `uv` at the solution.
 // `origin` (the first ray's) sets the scale of the derivatives' step.
 Status refineIntersection(const CameraModel* const* models, int32_t n, const ViewsVec& obs,
                           const Vec3& origin, Vec3& p, ViewsJac& j, ViewsVec& uv) {
   j.resize(2 * n, 3);
-  ViewsVec up, um;
   for (int32_t it = 0; it < kMaxGaussNewtonIterations; ++it) {
-    Status s = projectAll(models, n, p, uv);
-    if (!ok(s)) return s;
     const double h = kJacobianStepM * std::max(1.0, (p - origin).norm());
-    for (int32_t k = 0; k < 3; ++k) {
-      Vec3 pp = p, pm = p;
-      pp(k) += h;
-      pm(k) -= h;
-      s = projectAll(models, n, pp, up);
-      if (ok(s)) s = projectAll(models, n, pm, um);
-      if (!ok(s)) return s;
-      j.col(k) = (up - um) / (2.0 * h);
-    }
+    const Status s = projectStencil(models, n, p, h, uv, j);
+    if (!ok(s)) return s;
     const Vec3 step = (j.transpose() * j).ldlt().solve(j.transpose() * (obs - uv));
     if (!step.allFinite()) return Status::kNotFinite;
     p += step;

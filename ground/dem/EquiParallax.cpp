@@ -433,6 +433,29 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
   return out;
 }
 
+namespace {
+
+// The far range's weight in the blend at a cell of `g`.
+double farWeight(const DemGrid& g, int col, int row, const EquiParallaxOptions& o) {
+  const double r = std::hypot(g.northOfRow(row) - o.centre_north_m, g.eastOfCol(col) - o.centre_east_m);
+  return o.blend_m > 0.0 ? std::clamp((r - (o.seam_m - o.blend_m)) / (2.0 * o.blend_m), 0.0, 1.0)
+                         : (r >= o.seam_m ? 1.0 : 0.0);
+}
+
+}  // namespace
+
+// With weight 1 a kriged value kz becomes (1 - 1) kz + 1 fz = fz, as where there is none.
+std::vector<uint8_t> cellsBlendKeeps(const DemGrid& far, const EquiParallaxOptions& o) {
+  std::vector<uint8_t> keeps(static_cast<std::size_t>(far.cols) * far.rows, 1);
+  for (int row = 0; row < far.rows; ++row) {
+    for (int col = 0; col < far.cols; ++col) {
+      if (far.at(col, row) != far.nodata && farWeight(far, col, row, o) >= 1.0)
+        keeps[static_cast<std::size_t>(row) * far.cols + col] = 0;
+    }
+  }
+  return keeps;
+}
+
 void blendFarRange(KrigingResult& kriged, const DemGrid& far, const DemGrid* far_sigma,
                    const EquiParallaxOptions& o) {
   DemGrid& z = kriged.elevation;
@@ -440,10 +463,7 @@ void blendFarRange(KrigingResult& kriged, const DemGrid& far, const DemGrid* far
   if (far.cols != z.cols || far.rows != z.rows) throw std::invalid_argument("blendFarRange: grids differ");
   for (int row = 0; row < z.rows; ++row) {
     for (int col = 0; col < z.cols; ++col) {
-      const double r = std::hypot(z.northOfRow(row) - o.centre_north_m, z.eastOfCol(col) - o.centre_east_m);
-      const double w = o.blend_m > 0.0
-                           ? std::clamp((r - (o.seam_m - o.blend_m)) / (2.0 * o.blend_m), 0.0, 1.0)
-                           : (r >= o.seam_m ? 1.0 : 0.0);
+      const double w = farWeight(z, col, row, o);
       if (w <= 0.0) continue;
       const float fz = far.at(col, row);
       if (fz == far.nodata) continue;

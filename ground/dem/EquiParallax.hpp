@@ -49,4 +49,9 @@ DemGrid equiParallaxDem(const std::vector<DemPoint>& points, const DemGrid& grid
 void blendFarRange(KrigingResult& kriged, const DemGrid& far, const DemGrid* far_sigma,
                    const EquiParallaxOptions& o);
 
+// Per cell of `far` (row-major): 0 where blendFarRange with the far range's sigma replaces the kriged value
+// and sigma whole (the far range's weight 1 and a far value), 1 elsewhere: the cells whose kriging the
+// blend keeps (KrigingOptions::cells).
+std::vector<uint8_t> cellsBlendKeeps(const DemGrid& far, const EquiParallaxOptions& o);
+
 }  // namespace areomap::dem

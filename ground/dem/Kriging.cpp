@@ -275,6 +275,7 @@ struct CellInputs {
   const CorrelatedNoise& correlated;
   const std::vector<PointPairs>* point_pairs;  // with shared_error: KrigingOptions'
   const SharedHeightError* shared_error;
+  const std::vector<uint8_t>* wanted;  // KrigingOptions::cells (or none: every cell)
 
   Solver solver() const {
     return Solver{points, KrigingSystem(points, model, use_point_sigma), correlated, PairTable(), {}};
@@ -347,7 +348,15 @@ RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, in
   for (int row = first_row; row < grid.rows; row += row_step) {
     const double qn = grid.northOfRow(row);
     int f = 0;
+    const uint8_t* wanted =
+        in.wanted != nullptr ? in.wanted->data() + static_cast<std::size_t>(row) * grid.cols : nullptr;
     for (int col = 0; col < grid.cols; ++col) {
+      // After a skipped cell the last searched one may lie far away, and its neighbours would bound the
+      // next search loosely: that search starts afresh (the k-d tree).
+      if (wanted != nullptr && wanted[col] == 0) {
+        f = 0;
+        continue;
+      }
       const double qe = grid.eastOfCol(col);
       f = cellNeighbours(in, qn, qe, f, idx, d2);
       if (f == 0) continue;
@@ -450,6 +459,8 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   if (points.empty()) throw std::invalid_argument("kriging: no points");
   if (grid.cols <= 0 || grid.rows <= 0 || !(grid.cell_m > 0.0))
     throw std::invalid_argument("kriging: bad grid");
+  if (o.cells != nullptr && o.cells->size() != static_cast<std::size_t>(grid.cols) * grid.rows)
+    throw std::invalid_argument("kriging: the cell mask is not the grid's size");
   const int k = std::clamp(o.neighbours, 1, kMaxNeighbours);
   KrigingResult res;
   const double t0 = nowS();
@@ -521,7 +532,8 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
                          o.use_point_sigma,
                          correlated,
                          o.point_pairs,
-                         shared ? o.shared_error : nullptr};
+                         shared ? o.shared_error : nullptr,
+                         o.cells};
   // Not with correlated point errors: that sigma is a model of its own (the calibrated point sigmas, their
   // correlation and the signal variogram), and a point's leave-one-out error would need its covariance
   // with its neighbours' errors, which the independent-noise ratio leaves out.

@@ -81,6 +81,10 @@ struct KrigingOptions {
   const std::vector<PointPairs>* point_pairs = nullptr;
   const SharedHeightError* shared_error = nullptr;
   int threads = 0;  // threads for the cells (0: cli::threadCount()); the result is the same for any number
+  // Per cell of the grid (row-major, cols x rows): 0 where the caller discards the cell's value (left
+  // nodata, not searched), else kriged as usual; none: every cell. A cell's value does not depend on which
+  // others are kriged, so the wanted cells are the same as without the mask.
+  const std::vector<uint8_t>* cells = nullptr;
 };
 
 inline constexpr int kMaxKrigingThreads = 64;
@@ -100,7 +104,7 @@ struct KrigingResult {
   double max_local_gap_m = 0.0;  // the largest point reach (KrigingOptions::local_reach; 0: none)
   int min_cluster_points = 1;       // the support rule used (KrigingOptions::min_cluster_points)
   long long isolated_points = 0;    // points in clusters smaller than that
-  long long cells_unsupported = 0;  // cells within max_gap of a point, left nodata by the support rule
+  long long cells_unsupported = 0;  // wanted cells within max_gap of a point, left nodata by the support rule
   double sigma_scale = 1.0;  // leave-one-out calibration factor applied to the kriging sigma
   long long cells_kriged = 0;
   double variogram_seconds = 0.0;
@@ -119,7 +123,7 @@ double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px);
 double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px, double q);
 
 // `grid` gives the geometry (east0, north0, cell, cols, rows, nodata); its values are ignored.
-// Throws std::invalid_argument on an empty cloud or a bad grid.
+// Throws std::invalid_argument on an empty cloud, a bad grid or a cell mask not of its size.
 KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid, const KrigingOptions& options);
 
 // A grid covering the points' bounding box (plus a margin of one cell) at `cell_m`.

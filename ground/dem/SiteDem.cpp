@@ -200,15 +200,27 @@ SiteDem makeSiteDem(PackedCloud pts, const SiteDemOptions& o) {
         m.kriged = std::move(nk);
         return;
       }
-      KrigingResult kr =
-          krigeDem(binned.points, grid, binnedKrigingOptions(binned, grid, o.correlation_px, o.shared_error));
-      supportInfo("dem.tif", kr, m.log);
+      // The far range first: the cells whose kriged value the blend replaces whole, and those beyond
+      // max_range_m, which are emptied, are not kriged.
+      std::optional<DemGrid> far_dem;
+      DemGrid far_sigma;
+      std::vector<uint8_t> wanted(static_cast<std::size_t>(grid.cols) * grid.rows, 1);
       if (!far.empty()) {
-        DemGrid far_sigma;
-        const DemGrid far_dem = equiParallaxDem(far, grid, eo, &far_sigma);
-        blendFarRange(kr, far_dem, &far_sigma, eo);
+        far_dem = equiParallaxDem(far, grid, eo, &far_sigma);
+        wanted = cellsBlendKeeps(*far_dem, eo);
       }
       std::vector<DemPoint>().swap(far);
+      for (int r = 0; r < grid.rows; ++r) {
+        for (int c = 0; c < grid.cols; ++c) {
+          if (!in_range(grid.northOfRow(r), grid.eastOfCol(c)))
+            wanted[static_cast<std::size_t>(r) * grid.cols + c] = 0;
+        }
+      }
+      KrigingOptions ko = binnedKrigingOptions(binned, grid, o.correlation_px, o.shared_error);
+      ko.cells = &wanted;
+      KrigingResult kr = krigeDem(binned.points, grid, ko);
+      supportInfo("dem.tif", kr, m.log);
+      if (far_dem) blendFarRange(kr, *far_dem, &far_sigma, eo);
       for (int r = 0; r < grid.rows; ++r) {
         for (int c = 0; c < grid.cols; ++c) {
           if (in_range(grid.northOfRow(r), grid.eastOfCol(c))) continue;

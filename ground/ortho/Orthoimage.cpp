@@ -76,20 +76,37 @@ double parabolaOffset(double m, double c, double p) {
   return std::clamp(0.5 * (m - p) / den, -0.5, 0.5);
 }
 
-// Per source: its image centre (the nearest-centre rule) and its larger focal length in pixels (hs, vs).
+// Per source: its image centre (the nearest-centre rule), its larger focal length in pixels (hs, vs) and
+// its image's cone (ground/dem imageCone, of the image's size), outside which a point's projection is
+// either outside the image or folded into it by the distortion (which pixelSeesPoint refuses): such
+// points are passed over before the projection.
 struct SourceGeometry {
   std::vector<Vec2> centre;
   std::vector<double> px_per_rad;
+  std::vector<dem::ImageCone> cone;
 };
 
 SourceGeometry sourceGeometry(const std::vector<OrthoSource>& sources) {
-  SourceGeometry geometry{std::vector<Vec2>(sources.size()), std::vector<double>(sources.size())};
+  SourceGeometry geometry{std::vector<Vec2>(sources.size()), std::vector<double>(sources.size()),
+                          std::vector<dem::ImageCone>(sources.size())};
   for (std::size_t i = 0; i < sources.size(); ++i) {
     const CahvInternal internal = cahvInternal(sources[i].model);
     geometry.centre[i] = Vec2(0.5 * (sources[i].grey.cols - 1), 0.5 * (sources[i].grey.rows - 1));
     geometry.px_per_rad[i] = std::max(internal.hs_px, internal.vs_px);
+    if (sources[i].grey.empty()) continue;
+    CameraModel sized = sources[i].model;
+    sized.width = sources[i].grey.cols;
+    sized.height = sources[i].grey.rows;
+    geometry.cone[i] = dem::imageCone(sized);
   }
   return geometry;
+}
+
+// Whether `ground` lies within the cone of source i (SourceGeometry): outside it no pixel of the image
+// sees it.
+bool inCone(const SourceGeometry& geometry, std::size_t i, const CameraModel& m, const Vec3& ground) {
+  const Vec3 d = ground - m.c;
+  return !(d.dot(geometry.cone[i].axis) < geometry.cone[i].min_cos * d.norm());
 }
 
 // Per ortho cell, for the seam check: the second-best candidate (index, -1 none) and both candidates' pixels.
@@ -162,7 +179,7 @@ SourceChoice chooseSources(const Vec3& ground, const std::vector<OrthoSource>& s
   double best_d = 1e300, next_d = 1e300;
   for (std::size_t i = 0; i < sources.size(); ++i) {
     const cv::Mat& g = sources[i].grey;
-    if (g.empty() || !visibility.sees(dem_cell, i)) continue;
+    if (g.empty() || !visibility.sees(dem_cell, i) || !inCone(geometry, i, sources[i].model, ground)) continue;
     Vec2 px;
     if (project(sources[i].model, ground, px) != Status::kOk) continue;
     if (!inside(g, px, options.border_px)) continue;
@@ -213,6 +230,7 @@ void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, cons
           continue;
         }
         const std::size_t dem_cell = static_cast<std::size_t>(r / s) * dem.cols + static_cast<std::size_t>(c / s);
+        if (options.cells != nullptr && (*options.cells)[dem_cell] == 0) continue;
         const SourceChoice choice =
             chooseSources(Vec3(north, east, -elev), sources, geometry, options, visibility, dem_cell);
         if (choice.best < 0) continue;
@@ -387,6 +405,8 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
   if (dem.cols <= 0 || dem.rows <= 0 || dem.cell_m <= 0 || options.supersample < 1) {
     throw std::invalid_argument("makeOrthoimage: empty DEM grid or bad supersample");
   }
+  if (options.cells != nullptr && options.cells->size() != static_cast<std::size_t>(dem.cols) * dem.rows)
+    throw std::invalid_argument("makeOrthoimage: the cell mask is not the DEM's size");
   OrthoResult out;
   const int s = options.supersample;
   out.grid = dem;
@@ -405,7 +425,7 @@ OrthoResult makeOrthoimage(const DemGrid& dem, const std::vector<OrthoSource>& s
   out.cells_filled = cv::countNonZero(out.valid);
   const std::vector<cv::Point> seam = seamCells(out.source, candidates.second);
   out.seams.seam_cells = static_cast<long long>(seam.size());
-  if (seam.empty()) return out;
+  if (seam.empty() || !options.check_seams) return out;
   checkSeams(dem, sources, options, seam, out, candidates);
   return out;
 }

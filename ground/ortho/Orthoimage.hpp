@@ -35,6 +35,10 @@ struct OrthoOptions {
   // sigma, `dem_sigma` on the DEM's grid; none: by any amount).
   bool occlusion = true;
   const DemGrid* dem_sigma = nullptr;
+  // Per DEM cell (row-major, the DEM's size): 0 where the caller reads none of its ortho cells (left empty,
+  // not painted); none: every cell. A cell's ortho value does not depend on which others are painted.
+  const std::vector<uint8_t>* cells = nullptr;
+  bool check_seams = true;  // the seam statistics (OrthoResult::seams); false: seam_cells only
 };
 
 struct SeamStats {

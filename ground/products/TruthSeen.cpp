@@ -289,14 +289,34 @@ SeenTruth seenAgainstTruth(const DemGrid& dem, const cv::Mat* ortho_image, const
   const DemGrid truth = truthInProducts(truth_dem, dem, frame);
   out.seen = truthCellsSeen(dem, truth_dem, images, truth_models, frame);
   const std::vector<uint8_t>& seen = out.seen;
+  // A cell the true cameras see, with a true elevation, within max_range_m.
+  const auto comparable = [&](int r, int c) {
+    const std::size_t i = static_cast<std::size_t>(r) * dem.cols + c;
+    return truth.values[i] != truth.nodata && seen[i] != kTruthMarginal && seen[i] != kTruthUnseen &&
+           std::hypot(dem.northOfRow(r) - g.x(), dem.eastOfCol(c) - g.y()) <= max_range_m;
+  };
   cv::Mat truth_ortho;
   if (ortho_image != nullptr && ortho_image->rows == dem.rows && ortho_image->cols == dem.cols) {
     std::vector<ortho::OrthoSource> sources;
     const Mat3 back = frame.r.transpose();
     for (std::size_t k = 0; k < truth_models.size() && k < images.size(); ++k)
       sources.push_back(ortho::OrthoSource{images[k], movedModel(truth_models[k], back, frame.toProducts(truth_models[k].c))});
+    // Only the cells the agreement below reads (a compared cell and its eight neighbours) are painted,
+    // and the truth ortho's seams are not checked: the same values where they are read.
+    std::vector<uint8_t> read(seen.size(), 0);
+    for (int r = 0; r < dem.rows; ++r) {
+      for (int c = 0; c < dem.cols; ++c) {
+        if (!comparable(r, c) || ortho_image->at<uint8_t>(r, c) == 0) continue;
+        for (int rr = std::max(0, r - 1); rr <= std::min(dem.rows - 1, r + 1); ++rr) {
+          for (int cc = std::max(0, c - 1); cc <= std::min(dem.cols - 1, c + 1); ++cc)
+            read[static_cast<std::size_t>(rr) * dem.cols + cc] = 1;
+        }
+      }
+    }
     ortho::OrthoOptions options;
     options.supersample = kTruthOrthoSamples;
+    options.cells = &read;
+    options.check_seams = false;
     truth_ortho = ortho::makeOrthoimage(truth, sources, options).image;
   }
   long long empty = 0, filled = 0, agree = 0;

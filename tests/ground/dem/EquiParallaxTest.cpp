@@ -132,6 +132,45 @@ TEST(EquiParallax, BeatsKrigingBeyondTwentyMetres) {
   CHECK(rb < rk);
 }
 
+TEST(EquiParallax, KrigingOnlyTheCellsTheBlendKeepsGivesTheSameDem) {
+  std::vector<DemPoint> pts;  // every 4th of the rig's points: a few seconds at most
+  const std::vector<DemPoint> all = rigPoints(21);
+  for (std::size_t i = 0; i < all.size(); i += 4) pts.push_back(all[i]);
+  areomap::DemGrid grid;
+  grid.cell_m = 1.0;
+  grid.east0_m = -32.0;
+  grid.north0_m = 62.0;
+  grid.cols = 64;
+  grid.rows = 62;
+  EquiParallaxOptions o;
+  o.centre_up_m = 1.5;
+  areomap::DemGrid far_sigma;
+  const areomap::DemGrid far = equiParallaxDem(pts, grid, o, &far_sigma);
+  const std::vector<uint8_t> keeps = cellsBlendKeeps(far, o);
+  KrigingOptions ko;
+  const KrigingResult whole = krigeDem(pts, grid, ko);
+  ko.cells = &keeps;
+  const KrigingResult part = krigeDem(pts, grid, ko);
+  long long skipped = 0, kriged_skipped = 0;
+  for (std::size_t i = 0; i < keeps.size(); ++i) {
+    if (keeps[i] != 0) continue;
+    ++skipped;
+    kriged_skipped += whole.elevation.values[i] != grid.nodata;
+    CHECK_EQUAL(grid.nodata, part.elevation.values[i]);  // not kriged
+  }
+  std::printf("\n%lld of %zu cells left to the far range, %lld of them kriged without the mask\n", skipped,
+              keeps.size(), kriged_skipped);
+  CHECK(kriged_skipped > 100);
+  CHECK_EQUAL(whole.cells_kriged - kriged_skipped, part.cells_kriged);
+  KrigingResult a = whole, b = part;
+  blendFarRange(a, far, &far_sigma, o);
+  blendFarRange(b, far, &far_sigma, o);
+  for (std::size_t i = 0; i < keeps.size(); ++i) {  // bit for bit
+    CHECK_EQUAL(a.elevation.values[i], b.elevation.values[i]);
+    CHECK_EQUAL(a.sigma.values[i], b.sigma.values[i]);
+  }
+}
+
 TEST(EquiParallax, BlendIsContinuousAtTheSeam) {
   // Constant fields: kriging 1, far 3; the blend goes 1 -> 3 linearly across [18, 22] m.
   areomap::DemGrid g;

@@ -116,6 +116,31 @@ TEST(Orthoimage, FlatGroundFromTwoImages) {
   CHECK(bad.seams.geometric_rms_px > 0.8);
 }
 
+TEST(Orthoimage, PaintingOnlyTheMaskedCellsGivesTheirSameValues) {
+  std::vector<ortho::OrthoSource> src = {{cv::Mat(), camera(-0.25, -0.3)}, {cv::Mat(), camera(0.25, 0.3)}};
+  for (auto& s : src) s.grey = render(s.model);
+  const DemGrid dem = flatDem(0.0f);
+  ortho::OrthoOptions options;
+  options.supersample = 2;
+  const ortho::OrthoResult whole = ortho::makeOrthoimage(dem, src, options);
+  std::vector<uint8_t> cells(dem.values.size(), 0);
+  for (std::size_t i = 0; i < cells.size(); i += 3) cells[i] = 1;  // every third DEM cell
+  options.cells = &cells;
+  options.check_seams = false;
+  const ortho::OrthoResult part = ortho::makeOrthoimage(dem, src, options);
+  long long painted = 0;
+  for (int r = 0; r < whole.image.rows; ++r) {
+    for (int c = 0; c < whole.image.cols; ++c) {
+      const bool wanted = cells[static_cast<std::size_t>(r / 2) * dem.cols + c / 2] != 0;
+      CHECK_EQUAL(wanted ? whole.image.at<uint8_t>(r, c) : 0, part.image.at<uint8_t>(r, c));
+      painted += wanted && part.image.at<uint8_t>(r, c) != 0;
+    }
+  }
+  CHECK(painted > 10000);
+  CHECK(whole.seams.checked > 20);
+  CHECK_EQUAL(0, part.seams.checked);  // not checked
+}
+
 TEST(Orthoimage, ShiftBetweenOrthoimagesIsMeasured) {
   cv::Mat a(200, 200, CV_8U), b;
   for (int r = 0; r < a.rows; ++r)
