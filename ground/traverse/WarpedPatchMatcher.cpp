@@ -103,6 +103,24 @@ double nccOf(const std::vector<double>& t, const std::vector<double>& s) {
   return nccOfSamples(t.data(), s.data(), static_cast<int32_t>(t.size()), kMinVariance);
 }
 
+// The template's sums, made once for a search, and a window's NCC from its own sums: nccOf's (the same sums
+// in the same order).
+struct TemplateSums {
+  double n = 0.0, sum = 0.0, sq = 0.0;
+  explicit TemplateSums(const std::vector<double>& t) : n(static_cast<double>(t.size())) {
+    for (double v : t) {
+      sum += v;
+      sq += v * v;
+    }
+  }
+  double ncc(double ss, double sss, double sts) const {
+    const double var_t = n * sq - sum * sum;
+    return var_t <= kMinVariance
+               ? kNccInvalid
+               : nccFromSums(n, sum, var_t, ss, sss, sts, std::nextafter(kMinVariance, INFINITY));
+  }
+};
+
 // The search's windows where J is stepped by whole pixels at full resolution: each template sample's tap
 // is made once, the window's bounds are checked once per shift, and the template's sums once; a window's
 // score is nccOf's (the same sums in the same order).
@@ -111,21 +129,17 @@ struct WholePixelWindows {
   const std::vector<double>& tmpl;
   std::vector<BilinearTap> taps;
   int min_c = 0, max_c = 0, min_r = 0, max_r = 0;  // the taps' pixels
-  double t_sum = 0.0, t_sq = 0.0;
+  TemplateSums sums;
 
   WholePixelWindows(const cv::Mat& j, const Eigen::Vector2d& j_predicted_px,
                     const std::vector<Eigen::Vector2d>& off_j, const std::vector<double>& t)
-      : image(j), tmpl(t), taps(off_j.size()) {
+      : image(j), tmpl(t), taps(off_j.size()), sums(t) {
     for (std::size_t k = 0; k < off_j.size(); ++k) {
       taps[k] = BilinearTap(j_predicted_px + off_j[k]);
       min_c = k == 0 ? taps[k].c : std::min(min_c, taps[k].c);
       max_c = k == 0 ? taps[k].c : std::max(max_c, taps[k].c);
       min_r = k == 0 ? taps[k].r : std::min(min_r, taps[k].r);
       max_r = k == 0 ? taps[k].r : std::max(max_r, taps[k].r);
-    }
-    for (double v : tmpl) {
-      t_sum += v;
-      t_sq += v * v;
     }
   }
 
@@ -140,11 +154,129 @@ struct WholePixelWindows {
       sss += v * v;
       sts += tmpl[k] * v;
     }
-    const double n = static_cast<double>(taps.size());
-    const double var_t = n * t_sq - t_sum * t_sum;
-    score = var_t <= kMinVariance
-                ? kNccInvalid
-                : nccFromSums(n, t_sum, var_t, ss, sss, sts, std::nextafter(kMinVariance, INFINITY));
+    score = sums.ncc(ss, sss, sts);
+    return true;
+  }
+};
+
+// The footprint's low-pass on its level's pixel lattice over a box: each node the mean of the footprint's
+// taps about it, so that a sample through the footprint is one bilinear interpolation of the nodes instead
+// of one per tap (the box along the long axis taken before the interpolation instead of after it: the same
+// low-pass but for the interpolation's own smoothing, and the same values where there is one tap). NaN
+// where a tap leaves the image. Its nodes are kept from call to call (a search's buffer per thread).
+class FootprintGrid {
+ public:
+  // The nodes that the full-resolution box [lo, hi] reads.
+  void cover(const Footprint& fp, const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+    f_ = fp.f;
+    // A node of margin on every side: a position computed as the box's bound may round across it.
+    x0_ = static_cast<int>(std::floor(lo.x() * f_)) - 1;
+    y0_ = static_cast<int>(std::floor(lo.y() * f_)) - 1;
+    cols_ = static_cast<int>(std::floor(hi.x() * f_)) - x0_ + 3;
+    rows_ = static_cast<int>(std::floor(hi.y() * f_)) - y0_ + 3;
+    nodes_.resize(static_cast<std::size_t>(cols_) * rows_);
+    const cv::Mat& m = *fp.image;
+    for (int r = 0; r < rows_; ++r) {
+      double* row = &nodes_[static_cast<std::size_t>(r) * cols_];
+      for (int c = 0; c < cols_; ++c) {
+        const double x = x0_ + c, y = y0_ + r;
+        if (fp.taps == 1) {
+          const int cc = x0_ + c, rr = y0_ + r;
+          row[c] = cc < 0 || rr < 0 || cc >= m.cols || rr >= m.rows ? NAN : m.ptr<float>(rr)[cc];
+          continue;
+        }
+        double sum = 0.0;
+        for (int t = 0; t < fp.taps; ++t) {
+          const double along = (t + 0.5) / fp.taps - 0.5;
+          const double tx = x + along * fp.axis.x() * f_, ty = y + along * fp.axis.y() * f_;
+          sum += tx >= 0.0 && ty >= 0.0 ? BilinearTap(Eigen::Vector2d(tx, ty)).at(m, 0, 0) : NAN;
+        }
+        row[c] = sum / fp.taps;
+      }
+    }
+  }
+  // Level pixel coordinates of a full-resolution point, from the box's first node.
+  Eigen::Vector2d local(const Eigen::Vector2d& p_px) const {
+    return Eigen::Vector2d(p_px.x() * f_ - x0_, p_px.y() * f_ - y0_);
+  }
+  // The bilinear interpolation at local coordinates within the box (NaN where a node is).
+  double at(double x, double y) const {
+    const int c = static_cast<int>(x), r = static_cast<int>(y);
+    const double fx = x - c, fy = y - r;
+    const double* row0 = &nodes_[static_cast<std::size_t>(r) * cols_ + c];
+    const double* row1 = row0 + cols_;
+    return row0[0] * (1 - fx) * (1 - fy) + row0[1] * fx * (1 - fy) + row1[0] * (1 - fx) * fy + row1[1] * fx * fy;
+  }
+  double f() const { return f_; }
+
+ private:
+  std::vector<double> nodes_;
+  int x0_ = 0, y0_ = 0, cols_ = 0, rows_ = 0;
+  double f_ = 1.0;
+};
+
+// The search's windows where J is stepped by the grid map mj (J the finer view, sampled through its
+// footprint). Where the search's box has fewer of the footprint level's pixels than half the samples the
+// search reads, the footprint's low-pass is made once over it (FootprintGrid) and each sample is one
+// bilinear interpolation of that; else (a footprint much longer than wide, or a wide search) each sample
+// is taken through the footprint itself, as the least squares does. A window's score from the same sums
+// as nccOf's.
+struct GridWindows {
+  const std::vector<double>& tmpl;
+  const Footprint& footprint;
+  const FootprintGrid* grid = nullptr;  // null: each sample through the footprint
+  Eigen::Vector2d j_predicted_px;
+  const Eigen::Matrix2d& mj;
+  const std::vector<Eigen::Vector2d>& off_j;
+  std::vector<Eigen::Vector2d> base;  // with the grid: each sample's local position at the zero shift
+  Eigen::Vector2d step_x, step_y;     // and a grid step's move in local coordinates
+  TemplateSums sums;
+
+  GridWindows(FootprintGrid& g, const Footprint& fp, const Eigen::Vector2d& j_pred,
+              const Eigen::Matrix2d& m, const std::vector<Eigen::Vector2d>& off, int radius,
+              const std::vector<double>& t)
+      : tmpl(t), footprint(fp), j_predicted_px(j_pred), mj(m), off_j(off), sums(t) {
+    Eigen::Vector2d lo = j_predicted_px + off_j[0], hi = lo;
+    for (const Eigen::Vector2d& o : off_j) {
+      lo = lo.cwiseMin(j_predicted_px + o);
+      hi = hi.cwiseMax(j_predicted_px + o);
+    }
+    const Eigen::Vector2d reach = mj.cwiseAbs() * Eigen::Vector2d(radius, radius);
+    const Eigen::Vector2d box = (hi - lo + 2.0 * reach) * fp.f + Eigen::Vector2d(4.0, 4.0);
+    const double samples = static_cast<double>(off_j.size()) * (2 * radius + 1) * (2 * radius + 1);
+    if (box.x() * box.y() > 0.5 * samples) return;
+    g.cover(fp, lo - reach, hi + reach);
+    grid = &g;
+    base.resize(off_j.size());
+    for (std::size_t k = 0; k < off_j.size(); ++k) base[k] = g.local(j_predicted_px + off_j[k]);
+    step_x = mj.col(0) * g.f();
+    step_y = mj.col(1) * g.f();
+  }
+
+  // False when the window at shift (dx, dy) leaves the image; else its NCC in `score`.
+  bool score(int dx, int dy, double& score) const {
+    double ss = 0.0, sss = 0.0, sts = 0.0;
+    if (grid != nullptr) {
+      const Eigen::Vector2d shift = step_x * dx + step_y * dy;
+      for (std::size_t k = 0; k < base.size(); ++k) {
+        const double v = grid->at(base[k].x() + shift.x(), base[k].y() + shift.y());
+        ss += v;
+        sss += v * v;
+        sts += tmpl[k] * v;
+      }
+    } else {
+      const Eigen::Vector2d shift = j_predicted_px + mj * Eigen::Vector2d(dx, dy);
+      for (std::size_t k = 0; k < off_j.size(); ++k) {
+        const Eigen::Vector2d p = shift + off_j[k];
+        const double v = footprint.at(p.x(), p.y());
+        if (!std::isfinite(v)) return false;
+        ss += v;
+        sss += v * v;
+        sts += tmpl[k] * v;
+      }
+    }
+    if (!std::isfinite(ss)) return false;  // a sample's tap left the image
+    score = sums.ncc(ss, sss, sts);
     return true;
   }
 };
@@ -334,23 +466,19 @@ PatchMatch matchWarpedPatch(const std::vector<cv::Mat>& image_i, const Eigen::Ve
   // weights over the whole search, only its pixel moves.
   const bool whole_pixels = mj == Eigen::Matrix2d::Identity() && sample_j.level == 0 && sample_j.taps == 1;
   std::optional<WholePixelWindows> windows;
-  if (whole_pixels) windows.emplace(image_j[0], j_predicted_px, off_j, tmpl);
+  std::optional<GridWindows> grid_windows;
+  thread_local FootprintGrid grid;
+  if (whole_pixels) {
+    windows.emplace(image_j[0], j_predicted_px, off_j, tmpl);
+  } else {
+    grid_windows.emplace(grid, sample_j, j_predicted_px, mj, off_j, radius, tmpl);
+  }
   int best_k = -1;
   for (int sy = 0; sy < ns; ++sy) {
     for (int sx = 0; sx < ns; ++sx) {
       const int k = sy * ns + sx;
-      bool inside = true;
-      if (windows) {
-        inside = windows->score(sx - radius, sy - radius, score[k]);
-      } else {
-        const Eigen::Vector2d shift = j_predicted_px + mj * Eigen::Vector2d(sx - radius, sy - radius);
-        for (std::size_t n = 0; n < count && inside; ++n) {
-          const Eigen::Vector2d p = shift + off_j[n];
-          window[n] = sample_j.at(p.x(), p.y());
-          inside = std::isfinite(window[n]);
-        }
-        if (inside) score[k] = nccOf(tmpl, window);
-      }
+      const bool inside = windows ? windows->score(sx - radius, sy - radius, score[k])
+                                  : grid_windows->score(sx - radius, sy - radius, score[k]);
       // A shift whose window leaves the image is not scored (the search is clipped at the image's edge).
       if (!inside && !params.clip_at_edge) return out;
       if (!inside) score[k] = kUnscored;
