@@ -89,6 +89,17 @@ double disparityRms(const std::vector<DemPoint>& pts) {
   return std::sqrt(ss / std::max(1LL, n));
 }
 
+// An empty grid of `cols` x `rows` cells of `cell_m`, its north-west corner at (east0_m, north0_m).
+areomap::DemGrid emptyGrid(double cell_m, double east0_m, double north0_m, int cols, int rows) {
+  areomap::DemGrid g;
+  g.cell_m = cell_m;
+  g.east0_m = east0_m;
+  g.north0_m = north0_m;
+  g.cols = cols;
+  g.rows = rows;
+  return g;
+}
+
 }  // namespace
 
 TEST_GROUP(EquiParallax){};
@@ -136,12 +147,7 @@ TEST(EquiParallax, KrigingOnlyTheCellsTheBlendKeepsGivesTheSameDem) {
   std::vector<DemPoint> pts;  // every 4th of the rig's points: a few seconds at most
   const std::vector<DemPoint> all = rigPoints(21);
   for (std::size_t i = 0; i < all.size(); i += 4) pts.push_back(all[i]);
-  areomap::DemGrid grid;
-  grid.cell_m = 1.0;
-  grid.east0_m = -32.0;
-  grid.north0_m = 62.0;
-  grid.cols = 64;
-  grid.rows = 62;
+  const areomap::DemGrid grid = emptyGrid(1.0, -32.0, 62.0, 64, 62);
   EquiParallaxOptions o;
   o.centre_up_m = 1.5;
   areomap::DemGrid far_sigma;
@@ -173,12 +179,7 @@ TEST(EquiParallax, KrigingOnlyTheCellsTheBlendKeepsGivesTheSameDem) {
 
 TEST(EquiParallax, BlendIsContinuousAtTheSeam) {
   // Constant fields: kriging 1, far 3; the blend goes 1 -> 3 linearly across [18, 22] m.
-  areomap::DemGrid g;
-  g.cell_m = 1.0;
-  g.east0_m = -0.5;
-  g.north0_m = 30.0;
-  g.cols = 1;
-  g.rows = 30;
+  const areomap::DemGrid g = emptyGrid(1.0, -0.5, 30.0, 1, 30);
   KrigingResult k;
   k.elevation = g;
   k.elevation.values.assign(30, 1.0f);
