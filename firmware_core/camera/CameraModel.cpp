@@ -60,10 +60,6 @@ Status distortCahvorUnit(const CameraModel& m, const Vec3& o, const Vec3& p, Vec
   return Status::kOk;
 }
 
-Status distortCahvor(const CameraModel& m, const Vec3& p, Vec3& pp, Mat3* d_pp_d_p) {
-  return distortCahvorUnit(m, m.o.normalized(), p, pp, d_pp_d_p);
-}
-
 // chi(theta) for linearity L, and d chi / d theta.
 void chiOfTheta(double linearity, double theta, double& chi, double& d_chi) {
   if (linearity > 0.0) {
@@ -325,7 +321,16 @@ Status validateModel(const CameraModel& model, const char*& field) {
   return Status::kOk;
 }
 
-Status project(const CameraModel& model, const Vec3& point, Vec2& pixel, Mat2x3* d_pixel_d_point) {
+namespace {
+
+// CAHVOR's unit O (the zero vector for the other models, which do not read it).
+Vec3 unitO(const CameraModel& model) {
+  return model.type == CameraType::kCahvor ? Vec3(model.o.normalized()) : Vec3::Zero();
+}
+
+// project() with the model's unitO made by the caller (once for many points).
+Status projectUnitO(const CameraModel& model, const Vec3& o_unit, const Vec3& point, Vec2& pixel,
+                    Mat2x3* d_pixel_d_point) {
   const Vec3 p = point - model.c;
   if (model.type == CameraType::kCahv) {
     return projectLinear(model, p, pixel, d_pixel_d_point);
@@ -333,7 +338,7 @@ Status project(const CameraModel& model, const Vec3& point, Vec2& pixel, Mat2x3*
   Vec3 pp;
   Mat3 d_pp;
   Mat3* d_pp_ptr = d_pixel_d_point != nullptr ? &d_pp : nullptr;
-  const Status s = model.type == CameraType::kCahvor ? distortCahvor(model, p, pp, d_pp_ptr)
+  const Status s = model.type == CameraType::kCahvor ? distortCahvorUnit(model, o_unit, p, pp, d_pp_ptr)
                                                      : distortCahvore(model, p, pp, d_pp_ptr);
   if (s != Status::kOk) {
     return s;
@@ -349,17 +354,15 @@ Status project(const CameraModel& model, const Vec3& point, Vec2& pixel, Mat2x3*
   return s2;
 }
 
+}  // namespace
+
+Status project(const CameraModel& model, const Vec3& point, Vec2& pixel, Mat2x3* d_pixel_d_point) {
+  return projectUnitO(model, unitO(model), point, pixel, d_pixel_d_point);
+}
+
 void projectPoints(const CameraModel& model, const Vec3* points, int32_t count, Vec2* pixels, Status* statuses) {
-  if (model.type != CameraType::kCahvor) {
-    for (int32_t i = 0; i < count; ++i) statuses[i] = project(model, points[i], pixels[i]);
-    return;
-  }
-  const Vec3 o = model.o.normalized();
-  for (int32_t i = 0; i < count; ++i) {
-    Vec3 pp;
-    statuses[i] = distortCahvorUnit(model, o, points[i] - model.c, pp, nullptr);
-    if (statuses[i] == Status::kOk) statuses[i] = projectLinear(model, pp, pixels[i], nullptr);
-  }
+  const Vec3 o = unitO(model);
+  for (int32_t i = 0; i < count; ++i) statuses[i] = projectUnitO(model, o, points[i], pixels[i], nullptr);
 }
 
 Status unproject(const CameraModel& model, const Vec2& pixel, Vec3& ray_origin, Vec3& ray_direction) {

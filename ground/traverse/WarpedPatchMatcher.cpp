@@ -185,13 +185,9 @@ class FootprintGrid {
           row[c] = cc < 0 || rr < 0 || cc >= m.cols || rr >= m.rows ? NAN : m.ptr<float>(rr)[cc];
           continue;
         }
-        double sum = 0.0;
-        for (int t = 0; t < fp.taps; ++t) {
-          const double along = (t + 0.5) / fp.taps - 0.5;
-          const double tx = x + along * fp.axis.x() * f_, ty = y + along * fp.axis.y() * f_;
-          sum += tx >= 0.0 && ty >= 0.0 ? BilinearTap(Eigen::Vector2d(tx, ty)).at(m, 0, 0) : NAN;
-        }
-        row[c] = sum / fp.taps;
+        // The node in full-resolution pixels; f_ is a power of two, so the taps land on the same level
+        // coordinates, bit for bit, as they would from the node itself.
+        row[c] = fp.at(x / f_, y / f_);
       }
     }
   }
