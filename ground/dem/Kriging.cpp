@@ -493,13 +493,14 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   cli::parallelFor(3, 0, [&](std::size_t task) {
     if (task == 0 && o.model != nullptr) res.model = *o.model;
     if (task == 0 && o.model == nullptr) {
-      res.experimental = experimentalVariogram(xyz.x, xyz.y, xyz.z, max_lag);
+      res.experimental =
+          experimentalVariogram(xyz.x, xyz.y, xyz.z, max_lag, 20, 2000000, 1, {}, false, &tree);
       res.model = fitVariogram(res.experimental);
     }
     if (task == 1 && correlated.on()) {
       res.signal_experimental = experimentalVariogram(
           xyz.x, xyz.y, xyz.z, max_lag, 20, 2000000, 1,
-          [&](std::size_t i, std::size_t j) { return correlated.pairNoise(points, i, j); }, true);
+          [&](std::size_t i, std::size_t j) { return correlated.pairNoise(points, i, j); }, true, &tree);
       res.signal_model = fitVariogram(res.signal_experimental);
     }
     if (task == 2) {

@@ -11,6 +11,8 @@
 
 namespace areomap::dem {
 
+class KdTree2;
+
 enum class VariogramKind { kSpherical, kExponential, kGaussian };
 const char* variogramName(VariogramKind kind);
 
@@ -49,11 +51,13 @@ struct ExperimentalVariogram {
 // the cloud (near and far range) the precise pairs make it (fit_weight: each lag's information for the
 // fit). With pair noise each sampled point takes 63 neighbours (else 8), so that the dense, precise part
 // of the cloud has pairs at the lags of a few kriging neighbourhoods.
-ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const std::vector<double>& y,
-                                            const std::vector<double>& z, double max_lag_m, int bins = 20,
-                                            int64_t max_pairs = 2000000, uint32_t seed = 1,
-                                            const std::function<double(std::size_t, std::size_t)>& pair_noise_m2 = {},
-                                            bool robust = false);
+// `tree` (optional): a k-d tree built over x and y, used for the neighbours instead of building one (the
+// same tree: the same neighbours).
+ExperimentalVariogram experimentalVariogram(
+    const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& z,
+    double max_lag_m, int bins = 20, int64_t max_pairs = 2000000, uint32_t seed = 1,
+    const std::function<double(std::size_t, std::size_t)>& pair_noise_m2 = {}, bool robust = false,
+    const KdTree2* tree = nullptr);
 
 // Fits each kind (range by golden search on a grid, nugget and partial sill by non-negative weighted
 // least squares for each range) and returns the best.
