@@ -199,16 +199,41 @@ double automaticMaxLag(const std::vector<DemPoint>& points, double cell_m, doubl
                   kLagPerNeighbourhood * std::max(spacing_k_m, cell_m));
 }
 
+// The k nearest points of (qx, qy), nearest first, as KdTree2::nearest gives them; `f` holds the count of
+// the last query's neighbours on entry (in idx, d2), a query near this one. Those k neighbours lie within
+// `bound` of this query, so its k-th distance is at most that: the buckets within it give the neighbours
+// when they are unique (else the k-d tree, which also skips the nodes beyond the bound): the same
+// neighbours, found sooner.
+int nearestAfter(const KdTree2& tree, const PointBuckets& buckets, const PointCoordinates& xyz, int k,
+                 double qx, double qy, int f, int32_t* idx, double* d2) {
+  double bound = 1e300;
+  if (f == k) {
+    bound = 0.0;
+    for (int i = 0; i < f; ++i) {
+      const std::size_t j = static_cast<std::size_t>(idx[i]);
+      const double dn = xyz.x[j] - qx, de = xyz.y[j] - qy;
+      bound = std::max(bound, dn * dn + de * de);
+    }
+    f = buckets.nearestWithin(qx, qy, k, bound, idx, d2);
+  }
+  if (f != k) f = tree.nearest(qx, qy, k, idx, d2, bound);
+  return f;
+}
+
 // Per point: its reach, the distance from it within which it supports a cell (Kriging.hpp,
 // KrigingOptions::local_reach): kGapSpacings times its own spacing (the distance to its kSpacingNeighbour-th
 // neighbour, itself counted, as the whole cloud's spacing is taken), at least the cloud's gap limit `gap_m`.
-std::vector<float> pointReaches(const KdTree2& tree, const PointCoordinates& xyz, double gap_m) {
+// Each point's neighbours found from the point before it in its block (the binned points come cell by cell,
+// a point's neighbours near the last one's).
+std::vector<float> pointReaches(const KdTree2& tree, const PointBuckets& buckets, const PointCoordinates& xyz,
+                                double gap_m) {
   std::vector<float> reach(xyz.x.size(), static_cast<float>(gap_m));
   cli::parallelFor((xyz.x.size() + kReachBlock - 1) / kReachBlock, 0, [&](std::size_t block) {
     int32_t idx[kSpacingNeighbour];
     double d2[kSpacingNeighbour];
+    int f = 0;
     for (std::size_t i = block * kReachBlock; i < std::min(xyz.x.size(), (block + 1) * kReachBlock); ++i) {
-      const int f = tree.nearest(xyz.x[i], xyz.y[i], kSpacingNeighbour, idx, d2);
+      f = nearestAfter(tree, buckets, xyz, kSpacingNeighbour, xyz.x[i], xyz.y[i], f, idx, d2);
       if (f > 0) reach[i] = static_cast<float>(std::max(gap_m, kGapSpacings * std::sqrt(d2[f - 1])));
     }
   });
@@ -263,6 +288,7 @@ std::vector<double> localNoiseSd(const std::vector<DemPoint>& points, const std:
 // What every solve reads: the points, their search structures, their support and the variogram.
 struct CellInputs {
   const std::vector<DemPoint>& points;
+  const PointCoordinates& xyz;  // of the points
   const KdTree2& tree;
   const PointBuckets& buckets;
   const std::vector<uint8_t>& supported;
@@ -318,25 +344,6 @@ struct RowCounts {
   long long kriged = 0, unsupported = 0, factorisations = 0, reuses = 0;
 };
 
-// The neighbours of the cell at (qn, qe), nearest first; `f` holds the last cell's count on entry (its
-// neighbours in idx, d2). The last cell's k neighbours lie within `bound` of this one, so its k-th distance
-// is at most that: the buckets within it give the neighbours when they are unique (else the k-d tree, which
-// also skips the nodes beyond the bound): the same neighbours, found sooner.
-int cellNeighbours(const CellInputs& in, double qn, double qe, int f, int32_t* idx, double* d2) {
-  double bound = 1e300;
-  if (f == in.k) {
-    bound = 0.0;
-    for (int i = 0; i < f; ++i) {
-      const DemPoint& p = in.points[static_cast<std::size_t>(idx[i])];
-      const double dn = p.north_m - qn, de = p.east_m - qe;
-      bound = std::max(bound, dn * dn + de * de);
-    }
-    f = in.buckets.nearestWithin(qn, qe, in.k, bound, idx, d2);
-  }
-  if (f != in.k) f = in.tree.nearest(qn, qe, in.k, idx, d2, bound);
-  return f;
-}
-
 // Rows first_row, first_row + row_step, ... of the grid into res.elevation and res.sigma.
 RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, int row_step,
                     KrigingResult& res) {
@@ -358,7 +365,7 @@ RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, in
         continue;
       }
       const double qe = grid.eastOfCol(col);
-      f = cellNeighbours(in, qn, qe, f, idx, d2);
+      f = nearestAfter(in.tree, in.buckets, in.xyz, in.k, qn, qe, f, idx, d2);  // the last cell's: near
       if (f == 0) continue;
       bool near = false, support = false;  // a neighbour within its reach; one in a large cluster
       // Neighbours come nearest first: beyond the largest reach none is near.
@@ -504,7 +511,7 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
       res.signal_model = fitVariogram(res.signal_experimental);
     }
     if (task == 2) {
-      if (automatic_gap && o.local_reach) reach = pointReaches(tree, xyz, gap);
+      if (automatic_gap && o.local_reach) reach = pointReaches(tree, buckets, xyz, gap);
       supported = supportedPoints(xyz, gap, res.min_cluster_points, res.isolated_points);
     }
   });
@@ -522,6 +529,7 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   const bool shared =
       o.shared_error != nullptr && o.point_pairs != nullptr && o.point_pairs->size() == points.size();
   const CellInputs cells{points,
+                         xyz,
                          tree,
                          buckets,
                          supported,
