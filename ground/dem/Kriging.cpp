@@ -77,7 +77,7 @@ struct CorrelatedNoise {
   }
 
   // The signal's semivariance without its nugget (filtered kriging: the nugget is measurement error).
-  double filtered(double h) const { return signal.partial_sill_m2 * (1.0 - signal.correlation(h)); }
+  double filtered(double h) const { return signal.partial_sill_m2 * (1.0 - signal.correlationFast(h)); }
 
   // A pair's part of the double sum: Cov(e_i, e_j) - g(d_ij) (symmetric in i and j, bit for bit).
   double pairTerm(const std::vector<DemPoint>& points, std::size_t pi, std::size_t pj) const {
@@ -224,8 +224,8 @@ int nearestAfter(const KdTree2& tree, const PointBuckets& buckets, const PointCo
 // Per point: its reach, the distance from it within which it supports a cell (Kriging.hpp,
 // KrigingOptions::local_reach): kGapSpacings times its own spacing (the distance to its kSpacingNeighbour-th
 // neighbour, itself counted, as the whole cloud's spacing is taken), at least the cloud's gap limit `gap_m`.
-// Each point's neighbours found from the point before it in its block (the binned points come cell by cell,
-// a point's neighbours near the last one's).
+// The points taken in the k-d tree's leaf order, each one's neighbours found from the one before it in its
+// block (a leaf's points lie near each other: a point's neighbours near the last one's).
 std::vector<float> pointReaches(const KdTree2& tree, const PointBuckets& buckets, const PointCoordinates& xyz,
                                 double gap_m) {
   std::vector<float> reach(xyz.x.size(), static_cast<float>(gap_m));
@@ -233,7 +233,8 @@ std::vector<float> pointReaches(const KdTree2& tree, const PointBuckets& buckets
     int32_t idx[kSpacingNeighbour];
     double d2[kSpacingNeighbour];
     int f = 0;
-    for (std::size_t i = block * kReachBlock; i < std::min(xyz.x.size(), (block + 1) * kReachBlock); ++i) {
+    for (std::size_t j = block * kReachBlock; j < std::min(xyz.x.size(), (block + 1) * kReachBlock); ++j) {
+      const std::size_t i = static_cast<std::size_t>(tree.leafIndex(j));
       f = nearestAfter(tree, buckets, xyz, kSpacingNeighbour, xyz.x[i], xyz.y[i], f, idx, d2);
       if (f > 0) reach[i] = static_cast<float>(std::max(gap_m, kGapSpacings * std::sqrt(d2[f - 1])));
     }

@@ -62,20 +62,6 @@ const char* variogramName(VariogramKind kind) {
   return "?";
 }
 
-double VariogramModel::correlation(double h) const {
-  const double a = std::max(range_m, 1e-12);
-  switch (kind) {
-    case VariogramKind::kSpherical: {
-      if (h >= a) return 0.0;
-      const double t = h / a;
-      return 1.0 - 1.5 * t + 0.5 * t * t * t;
-    }
-    case VariogramKind::kExponential: return std::exp(-3.0 * h / a);
-    case VariogramKind::kGaussian: return std::exp(-3.0 * (h * h) / (a * a));
-  }
-  return 0.0;
-}
-
 double VariogramModel::gamma(double h) const {
   if (h <= 0.0) return 0.0;
   return nugget_m2 + partial_sill_m2 * (1.0 - correlation(h));

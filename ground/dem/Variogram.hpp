@@ -3,11 +3,15 @@
 // shared/reference/camera-models.md "kriging".
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
+
+#include "ground/dem/FastExp.hpp"
 
 namespace areomap::dem {
 
@@ -24,10 +28,32 @@ struct VariogramModel {
   double fit_error = 0.0;  // weighted residual sum of the fit (comparable between kinds)
 
   // Correlation part rho(h) in [0, 1], 1 at h = 0.
-  double correlation(double h_m) const;
+  double correlation(double h_m) const {
+    return correlationWith(h_m, [](double x) { return std::exp(x); });
+  }
+  // The same with fastExp (FastExp.hpp, within a few units in the last place of std::exp's): the kriging's
+  // covariances, a few hundred per cell.
+  double correlationFast(double h_m) const { return correlationWith(h_m, fastExp); }
   // gamma(h) = nugget + psill (1 - rho(h)) for h > 0, 0 at h = 0.
   double gamma(double h_m) const;
   double sill() const { return nugget_m2 + partial_sill_m2; }
+
+  template <class Exp>
+  double correlationWith(double h_m, const Exp& exp_of) const {
+    const double a = std::max(range_m, 1e-12);
+    switch (kind) {
+      case VariogramKind::kSpherical: {
+        if (h_m >= a) return 0.0;
+        const double t = h_m / a;
+        return 1.0 - 1.5 * t + 0.5 * t * t * t;
+      }
+      case VariogramKind::kExponential:
+        return exp_of(-3.0 * h_m / a);
+      case VariogramKind::kGaussian:
+        return exp_of(-3.0 * (h_m * h_m) / (a * a));
+    }
+    return 0.0;
+  }
 };
 
 struct ExperimentalVariogram {
