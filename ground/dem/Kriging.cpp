@@ -432,15 +432,16 @@ double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px) {
   return patchCorrelation(dx_px, dy_px, m_px, l_px, l_px > 0.0 ? std::exp(-1.0 / l_px) : 0.0);
 }
 
+// Its exponentials by fastExp: evaluated for every new pair of neighbours of a cell.
 double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px, double q) {
   if (!(l_px > 0.0)) return dx_px == 0.0 && dy_px == 0.0 ? 1.0 : 0.0;
-  const double m = std::max(1.0, m_px), qm = std::exp(-m / l_px);
+  const double m = std::max(1.0, m_px), qm = fastExp(-m / l_px);
   const double a = (1.0 - qm) / (1.0 - q);
   const double at_m = q * a * a / (m * m) / segmentVariance(m, q, qm);
   const bool far_x = dx_px >= m, far_y = dy_px >= m;
-  if (far_x && far_y) return at_m * at_m * std::exp(-(dx_px + dy_px - 2.0 * m) / l_px);
+  if (far_x && far_y) return at_m * at_m * fastExp(-(dx_px + dy_px - 2.0 * m) / l_px);
   const auto axis = [&](double d, bool far) {
-    return far ? at_m * std::exp(-(d - m) / l_px) : 1.0 + (at_m - 1.0) * d / m;
+    return far ? at_m * fastExp(-(d - m) / l_px) : 1.0 + (at_m - 1.0) * d / m;
   };
   return axis(dx_px, far_x) * axis(dy_px, far_y);
 }
