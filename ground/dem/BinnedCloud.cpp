@@ -10,6 +10,8 @@
 #include <utility>
 
 #include "ground/cli/Parallel.hpp"
+#include "ground/dem/KeyOrder.hpp"
+#include "ground/dem/MedianCrossing.hpp"
 #include "ground/dense/LineId.hpp"
 
 namespace areomap::dem {
@@ -55,7 +57,6 @@ constexpr double kMinOverlapPoints = 4;  // points of each of the two pairs in t
 constexpr int kBlockCells = 5;           // a block is 5 x 5 cells: about one kriging neighbourhood
 constexpr int kMinBlockBins = 8;         // bins the two pairs share in a block
 constexpr long long kMinOverlapBlocks = 50;
-constexpr double kChiSquare1Median = 0.454936;  // median of chi-square with one degree of freedom
 constexpr long long kCellKeyStride = 1000003LL;  // cell key = row * stride + column (binPoints)
 
 // A pair's points in a bin (count n, in its `fraction` slot until normaliseShares): kept when among the
@@ -121,34 +122,6 @@ void overlapBins(const Bins& by_cell, long long pair_slots, double l_px, std::ve
     out.push_back({cell, slot[0], slot[1], d, p.s2 / p.n, q.s2 / q.n,
                    patchVarianceFactor(std::sqrt(p.n), l_px), patchVarianceFactor(std::sqrt(q.n), l_px)});
   }
-}
-
-// The value x in [lo, hi] at which the median of ratio(k, x) over k = 0..n-1 is chi-square's median (one
-// degree of freedom), the median moving the other way from `falls` (true: it falls as x grows);
-// bisection to 1e-4 relative. lo when the median is already on the far side at lo.
-template <class Ratio>
-double medianCrossing(std::size_t n, double lo, double hi, bool falls, const Ratio& ratio_of) {
-  std::vector<double> ratio(n);
-  const auto medianAt = [&](double x) {
-    for (std::size_t k = 0; k < n; ++k) ratio[k] = ratio_of(k, x);
-    const auto mid = ratio.begin() + static_cast<std::ptrdiff_t>(n / 2);
-    std::nth_element(ratio.begin(), mid, ratio.end());
-    return *mid;
-  };
-  const auto beyond = [&](double x) {
-    return falls ? medianAt(x) > kChiSquare1Median : medianAt(x) < kChiSquare1Median;
-  };
-  if (!beyond(lo)) return lo;
-  if (falls) {
-    for (int k = 0; k < 60 && beyond(hi); ++k) hi *= 4.0;
-  } else if (beyond(hi)) {
-    return hi;
-  }
-  for (int k = 0; k < 40 && hi - lo > 1e-4 * hi; ++k) {
-    const double mid = 0.5 * (lo + hi);
-    (beyond(mid) ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
 }
 
 double sharedNoiseFraction(const std::vector<OverlapBin>& bins, long long pair_slots,
@@ -336,7 +309,10 @@ std::vector<KeyedBin> bandSums(const PackedCloud& cloud, const SlotRuns& slots,
         }
       }
     }
-    std::sort(keyed.begin(), keyed.end());
+    // By cell (row, column: the key's order, its slot the same throughout), then place in the cloud.
+    const long long slot = slots[k].first, width = grid.cols + 1;
+    const auto cell = [&](const Keyed& q) { return q.row * width + (q.key - slot) / kBinPairSlots; };
+    keyOrder(keyed, cell, std::less<Keyed>());
     std::vector<KeyedBin>& out = bins_of_slot[k];
     for (std::size_t j = 0; j < keyed.size(); ++j) {
       const Keyed& q = keyed[j];

@@ -223,11 +223,9 @@ DemSeen classifyDemCells(KrigingResult& dem, const std::vector<uint8_t>& measure
   if (!cameras.empty()) {
     // Every camera's depth buffer, then the rows: a cell is interpolated when any camera sees it, so the
     // cameras' order and the rows' split between threads do not change the classes.
-    std::vector<MeasuredDepth> depths(cameras.size());
-    cli::parallelFor(cameras.size(), 0,
-                     [&](std::size_t k) { depths[k] = measuredDepth(cameras[k], z, measured); });
     // Measured cells that every camera holding them shows behind a nearer measured surface (hiddenBehind)
-    // are unseen, and the depth buffers are made again without them.
+    // are unseen first, and the depth buffers are made without them (once: with none hidden, of every
+    // measured cell).
     std::vector<MeasuredDepth> centres(cameras.size());
     cli::parallelFor(cameras.size(), 0,
                      [&](std::size_t k) { centres[k] = measuredDepth(cameras[k], z, measured, false); });
@@ -257,9 +255,10 @@ DemSeen classifyDemCells(KrigingResult& dem, const std::vector<uint8_t>& measure
       }
     });
     for (long long h : hidden_rows) out.hidden += h;
-    if (out.hidden > 0)
-      cli::parallelFor(cameras.size(), 0,
-                       [&](std::size_t k) { depths[k] = measuredDepth(cameras[k], z, visible); });
+    std::vector<MeasuredDepth>().swap(centres);
+    std::vector<MeasuredDepth> depths(cameras.size());
+    cli::parallelFor(cameras.size(), 0,
+                     [&](std::size_t k) { depths[k] = measuredDepth(cameras[k], z, visible); });
     cli::parallelFor(static_cast<std::size_t>(z.rows), 0, [&](std::size_t row_index) {
       const int row = static_cast<int>(row_index);
       for (int col = 0; col < z.cols; ++col) {

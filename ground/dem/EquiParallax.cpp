@@ -136,30 +136,106 @@ double columnStep(const std::vector<RayPoint>& row) {
   return d[d.size() / 2];
 }
 
-struct WindowPoint {
-  double col, row, q, w;  // column and row offsets from the centre point, inverse distance, weight
+// A point's window: its neighbours in the rows within +-row_half (each row's points one run, in row order),
+// as columns of their own (col: column offset from the centre point, q: inverse distance, w: weight).
+struct FitWindow {
+  struct Run {
+    int row;                 // row offset from the centre point's row
+    std::size_t begin, end;  // its points
+  };
+  std::vector<Run> runs;
+  std::vector<double> col, q, w;
+  void clear() {
+    runs.clear();
+    col.clear();
+    q.clear();
+    w.clear();
+  }
+  std::size_t size() const { return q.size(); }
 };
 
-// The lower triangle of sum w x x^T and sum w q x over the window, x = (1, col, row, row^2) with only its
-// first Used terms (the others stay 0), each term (w x_i) x_j as the outer product forms it, in the
-// window's order. A template on Used so that the loops unroll.
-template <int Used>
-void epNormalEquations(const std::vector<WindowPoint>& win, Eigen::Matrix4d& ata, Eigen::Vector4d& atb) {
-  double a[4][4] = {}, b[4] = {};
-  for (const WindowPoint& p : win) {
-    const double x[4] = {1.0, p.col, Used >= 3 ? p.row : 0.0, Used >= 4 ? p.row * p.row : 0.0};
-    double wx[4];
-    for (int i = 0; i < Used; ++i) wx[i] = p.w * x[i];
-    for (int j = 0; j < Used; ++j) {
-      for (int i = j; i < Used; ++i) a[i][j] += wx[i] * x[j];
+// One run's weighted sums: sum w, w col, w col^2, w q, w q col.
+struct RunSums {
+  double w, wc, wcc, wq, wqc;
+};
+
+// The normal equations of q = c0 + c1 col + c2 row + c3 row^2 (the first row_terms + 2 terms; the others'
+// diagonal 1, their rows 0) from each run's sums: the row being constant along a run, every sum over the
+// window is a sum over the runs of a power of the run's row times one of its five sums. The lower triangle,
+// which LDLT reads.
+void epNormalEquations(const FitWindow& win, const std::vector<RunSums>& sums, int row_terms,
+                       Eigen::Matrix4d& ata, Eigen::Vector4d& atb) {
+  double a00 = 0, a10 = 0, a11 = 0, b0 = 0, b1 = 0;
+  double a20 = 0, a21 = 0, a22 = 0, a31 = 0, a32 = 0, a33 = 0, b2 = 0, b3 = 0;
+  for (std::size_t g = 0; g < sums.size(); ++g) {
+    const RunSums& s = sums[g];
+    const double d = win.runs[g].row, d2 = d * d;
+    a00 += s.w;
+    a10 += s.wc;
+    a11 += s.wcc;
+    b0 += s.wq;
+    b1 += s.wqc;
+    a20 += d * s.w;
+    a21 += d * s.wc;
+    a22 += d2 * s.w;
+    a31 += d2 * s.wc;
+    a32 += d2 * d * s.w;
+    a33 += d2 * d2 * s.w;
+    b2 += d * s.wq;
+    b3 += d2 * s.wq;
+  }
+  ata.setZero();
+  atb.setZero();
+  ata(0, 0) = a00;
+  ata(1, 0) = a10;
+  ata(1, 1) = a11;
+  atb(0) = b0;
+  atb(1) = b1;
+  if (row_terms >= 1) {
+    ata(2, 0) = a20;
+    ata(2, 1) = a21;
+    ata(2, 2) = a22;
+    atb(2) = b2;
+  }
+  if (row_terms >= 2) {
+    ata(3, 0) = a22;
+    ata(3, 1) = a31;
+    ata(3, 2) = a32;
+    ata(3, 3) = a33;
+    atb(3) = b3;
+  }
+  for (int k = row_terms + 2; k < 4; ++k) ata(k, k) = 1.0;  // unused terms
+}
+
+// Each run's weighted sums into `sums`.
+void epRunSums(const FitWindow& win, std::vector<RunSums>& sums) {
+  sums.resize(win.runs.size());
+  for (std::size_t g = 0; g < win.runs.size(); ++g) {
+    double sw = 0, swc = 0, swcc = 0, swq = 0, swqc = 0;
+    for (std::size_t k = win.runs[g].begin; k < win.runs[g].end; ++k) {
+      const double w = win.w[k], wc = w * win.col[k];
+      sw += w;
+      swc += wc;
+      swcc += wc * win.col[k];
+      swq += w * win.q[k];
+      swqc += wc * win.q[k];
     }
-    const double wq = p.w * p.q;
-    for (int i = 0; i < Used; ++i) b[i] += wq * x[i];
+    sums[g] = RunSums{sw, swc, swcc, swq, swqc};
   }
-  for (int j = 0; j < Used; ++j) {
-    for (int i = j; i < Used; ++i) ata(i, j) = a[i][j];
-    atb(j) = b[j];
-  }
+}
+
+// The weighted least-squares coefficients c of the run sums' normal equations, their factorisation in
+// `ldlt`; false when the window cannot be fitted (too little weight, not positive definite, not finite).
+bool epSolve(const FitWindow& win, const std::vector<RunSums>& sums, int row_terms,
+             Eigen::LDLT<Eigen::Matrix4d>& ldlt, Eigen::Vector4d& c) {
+  Eigen::Matrix4d ata;
+  Eigen::Vector4d atb;
+  epNormalEquations(win, sums, row_terms, ata, atb);
+  if (ata(0, 0) < 3.0) return false;
+  ldlt.compute(ata);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
+  c = ldlt.solve(atb);
+  return c.allFinite();
 }
 
 // Fit q = c0 + c1 col [+ c2 row [+ c3 row^2]] (row_terms 0, 1 or 2) of the window, then `iterations`
@@ -167,53 +243,46 @@ void epNormalEquations(const std::vector<WindowPoint>& win, Eigen::Matrix4d& ata
 // residual): mismatches (the disparity errors are heavy-tailed, ~6 % above 1 px on a rendered navcam pair)
 // get no weight. With row_terms 2 the row^2 term is dropped at the end unless it is significant. False
 // when the window cannot be fitted. The weights are left in `win`.
-bool robustAffineFit(std::vector<WindowPoint>& win, int row_terms, int iterations, std::vector<double>& res,
-                     MedianGuess& guess, double& c0) {
+bool robustAffineFit(FitWindow& win, int row_terms, int iterations, std::vector<double>& res,
+                     std::vector<RunSums>& sums, MedianGuess& guess, double& c0) {
   if (win.size() < 5) return false;
-  // c . (1, col, row, row^2), the unused terms 0, summed in the order of Eigen's 4-vector dot product (the
-  // lanes 0 + 2 and 1 + 3, then their sum): the same bits, without building the basis vector per point.
-  const auto model = [row_terms](const Eigen::Vector4d& c, const WindowPoint& p) {
-    const double x2 = row_terms >= 1 ? p.row : 0.0, x3 = row_terms >= 2 ? p.row * p.row : 0.0;
-    return (c(0) * 1.0 + c(2) * x2) + (c(1) * p.col + c(3) * x3);
-  };
   Eigen::Vector4d c = Eigen::Vector4d::Zero();
   for (int iter = 0; iter <= iterations; ++iter) {
-    // The lower triangle (what LDLT reads) of sum w x x^T, each term (w x_i) x_j as the outer product
-    // forms it, over the used terms only (the others stay 0, their diagonal 1 below).
-    Eigen::Matrix4d ata = Eigen::Matrix4d::Zero();
-    Eigen::Vector4d atb = Eigen::Vector4d::Zero();
-    switch (row_terms) {
-      case 0: epNormalEquations<2>(win, ata, atb); break;
-      case 1: epNormalEquations<3>(win, ata, atb); break;
-      default: epNormalEquations<4>(win, ata, atb); break;
-    }
-    for (int k = row_terms + 2; k < 4; ++k) ata(k, k) = 1.0;  // unused terms
-    if (ata(0, 0) < 3.0) return false;
-    const Eigen::LDLT<Eigen::Matrix4d> ldlt(ata);
-    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return false;
-    c = ldlt.solve(atb);
-    if (!c.allFinite()) return false;
+    epRunSums(win, sums);
+    Eigen::LDLT<Eigen::Matrix4d> ldlt;
+    if (!epSolve(win, sums, row_terms, ldlt, c)) return false;
     if (iter == iterations && row_terms == 2) {
       // The row^2 term only where the curvature is significant (|c3| > 2 of its standard deviations, from
-      // the weighted residuals); elsewhere it would only add variance: refit without it, same weights.
+      // the weighted residuals); elsewhere it would only add variance: refit without it, same weights (the
+      // same run sums).
       double ss = 0.0, sw = 0.0;
-      for (const WindowPoint& p : win) {
-        const double r = p.q - model(c, p);
-        ss += p.w * r * r;
-        sw += p.w;
+      for (const FitWindow::Run& run : win.runs) {
+        const double base = c(0) + run.row * (c(2) + run.row * c(3));
+        for (std::size_t k = run.begin; k < run.end; ++k) {
+          const double r = win.q[k] - (base + c(1) * win.col[k]);
+          ss += win.w[k] * r * r;
+          sw += win.w[k];
+        }
       }
       const double var_c3 = ss / std::max(1.0, sw - 4.0) * ldlt.solve(Eigen::Vector4d::UnitW())(3);
       if (c(3) * c(3) > 4.0 * var_c3) break;
-      return robustAffineFit(win, 1, 0, res, guess, c0);
+      if (!epSolve(win, sums, 1, ldlt, c)) return false;
+      break;
     }
     if (iter == iterations) break;
     res.resize(win.size());
-    for (std::size_t k = 0; k < win.size(); ++k) res[k] = std::fabs(win[k].q - model(c, win[k]));
+    for (const FitWindow::Run& run : win.runs) {
+      const double base = c(0) + run.row * (c(2) + run.row * c(3));
+      for (std::size_t k = run.begin; k < run.end; ++k)
+        res[k] = std::fabs(win.q[k] - (base + c(1) * win.col[k]));
+    }
     const double scale = 4.685 * 1.4826 * guess.median(res, iter);
     if (scale <= 0.0) break;
+    const double inv_scale = 1.0 / scale;
     for (std::size_t k = 0; k < win.size(); ++k) {
-      const double u = res[k] / scale;
-      win[k].w = u < 1.0 ? (1.0 - u * u) * (1.0 - u * u) : 0.0;
+      const double u = res[k] * inv_scale;
+      const double v = std::max(0.0, 1.0 - u * u);  // 0 from u = 1 on (and for NaN)
+      win.w[k] = v * v;
     }
   }
   c0 = c(0);
@@ -240,8 +309,9 @@ void fitInverseDistance(PairRows& pr, int col_half, int row_half, bool quadratic
   const int threads =
       static_cast<int>(std::min<std::size_t>(cli::threadCount(), std::max<std::size_t>(1, order.size())));
   const auto work = [&](std::size_t t) {
-    std::vector<WindowPoint> window;
+    FitWindow window;
     std::vector<double> residuals;
+    std::vector<RunSums> sums;
     for (std::size_t k = t; k < order.size(); k += static_cast<std::size_t>(threads)) {
       const auto& kv = *order[k];
       const std::vector<RayPoint>& row = kv.second;
@@ -262,18 +332,23 @@ void fitInverseDistance(PairRows& pr, int col_half, int row_half, bool quadratic
           auto lo = std::lower_bound(nb.begin(), nb.end(), a - w,
                                      [](const RayPoint& p, double v) { return p.az < v; });
           const int d = static_cast<int>(it->first - kv.first);
+          const std::size_t begin = window.size();
           for (auto p = lo; p != nb.end() && p->az <= a + w; ++p) {
-            window.push_back({(p->az - a) / step, static_cast<double>(d), p->q, 1.0});
-            below = std::max(below, -d);
-            above = std::max(above, d);
+            window.col.push_back((p->az - a) / step);
+            window.q.push_back(p->q);
+            window.w.push_back(1.0);
           }
+          if (window.size() == begin) continue;
+          window.runs.push_back(FitWindow::Run{d, begin, window.size()});
+          below = std::max(below, -d);
+          above = std::max(above, d);
         }
         // Rows used: 1 = this row only, fit along it; 2 = affine across rows; 3 or more = a row^2 term too,
         // kept only where it is significant.
         const int spread = below + above;
         const int row_terms = spread >= 2 && quadratic_in_row ? 2 : std::min(spread, 1);
         double c0 = 0.0;
-        if (robustAffineFit(window, row_terms, robust_iterations, residuals, guess, c0)) out[i] = c0;
+        if (robustAffineFit(window, row_terms, robust_iterations, residuals, sums, guess, c0)) out[i] = c0;
       }
     }
   };

@@ -19,6 +19,9 @@ class KdTree2 {
   int nearest(double qx, double qy, int k, int32_t* index, double* dist2,
               double max_dist2 = 1e300) const;
   std::size_t size() const { return points_.size(); }
+  // The input index of the j-th point in leaf order (0 <= j < size()): neighbours in this order lie near
+  // each other, as a leaf's points do.
+  int32_t leafIndex(std::size_t j) const { return points_[j].index; }
 
  private:
   struct Node {

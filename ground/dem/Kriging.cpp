@@ -77,12 +77,13 @@ struct CorrelatedNoise {
   }
 
   // The signal's semivariance without its nugget (filtered kriging: the nugget is measurement error).
-  double filtered(double h) const { return signal.partial_sill_m2 * (1.0 - signal.correlation(h)); }
+  double filtered(double h) const { return signal.partial_sill_m2 * (1.0 - signal.correlationFast(h)); }
 
   // A pair's part of the double sum: Cov(e_i, e_j) - g(d_ij) (symmetric in i and j, bit for bit).
   double pairTerm(const std::vector<DemPoint>& points, std::size_t pi, std::size_t pj) const {
     const DemPoint &a = points[pi], &b = points[pj];
-    const double h = std::hypot(a.north_m - b.north_m, a.east_m - b.east_m);
+    const double dn = a.north_m - b.north_m, de = a.east_m - b.east_m;
+    const double h = std::sqrt(dn * dn + de * de);  // not std::hypot: no overflow to guard, a fraction of its cost
     return noiseCovariance(points, pi, pj) - filtered(h);
   }
 
@@ -199,16 +200,42 @@ double automaticMaxLag(const std::vector<DemPoint>& points, double cell_m, doubl
                   kLagPerNeighbourhood * std::max(spacing_k_m, cell_m));
 }
 
+// The k nearest points of (qx, qy), nearest first, as KdTree2::nearest gives them; `f` holds the count of
+// the last query's neighbours on entry (in idx, d2), a query near this one. Those k neighbours lie within
+// `bound` of this query, so its k-th distance is at most that: the buckets within it give the neighbours
+// when they are unique (else the k-d tree, which also skips the nodes beyond the bound): the same
+// neighbours, found sooner.
+int nearestAfter(const KdTree2& tree, const PointBuckets& buckets, const PointCoordinates& xyz, int k,
+                 double qx, double qy, int f, int32_t* idx, double* d2) {
+  double bound = 1e300;
+  if (f == k) {
+    bound = 0.0;
+    for (int i = 0; i < f; ++i) {
+      const std::size_t j = static_cast<std::size_t>(idx[i]);
+      const double dn = xyz.x[j] - qx, de = xyz.y[j] - qy;
+      bound = std::max(bound, dn * dn + de * de);
+    }
+    f = buckets.nearestWithin(qx, qy, k, bound, idx, d2);
+  }
+  if (f != k) f = tree.nearest(qx, qy, k, idx, d2, bound);
+  return f;
+}
+
 // Per point: its reach, the distance from it within which it supports a cell (Kriging.hpp,
 // KrigingOptions::local_reach): kGapSpacings times its own spacing (the distance to its kSpacingNeighbour-th
 // neighbour, itself counted, as the whole cloud's spacing is taken), at least the cloud's gap limit `gap_m`.
-std::vector<float> pointReaches(const KdTree2& tree, const PointCoordinates& xyz, double gap_m) {
+// The points taken in the k-d tree's leaf order, each one's neighbours found from the one before it in its
+// block (a leaf's points lie near each other: a point's neighbours near the last one's).
+std::vector<float> pointReaches(const KdTree2& tree, const PointBuckets& buckets, const PointCoordinates& xyz,
+                                double gap_m) {
   std::vector<float> reach(xyz.x.size(), static_cast<float>(gap_m));
   cli::parallelFor((xyz.x.size() + kReachBlock - 1) / kReachBlock, 0, [&](std::size_t block) {
     int32_t idx[kSpacingNeighbour];
     double d2[kSpacingNeighbour];
-    for (std::size_t i = block * kReachBlock; i < std::min(xyz.x.size(), (block + 1) * kReachBlock); ++i) {
-      const int f = tree.nearest(xyz.x[i], xyz.y[i], kSpacingNeighbour, idx, d2);
+    int f = 0;
+    for (std::size_t j = block * kReachBlock; j < std::min(xyz.x.size(), (block + 1) * kReachBlock); ++j) {
+      const std::size_t i = static_cast<std::size_t>(tree.leafIndex(j));
+      f = nearestAfter(tree, buckets, xyz, kSpacingNeighbour, xyz.x[i], xyz.y[i], f, idx, d2);
       if (f > 0) reach[i] = static_cast<float>(std::max(gap_m, kGapSpacings * std::sqrt(d2[f - 1])));
     }
   });
@@ -263,6 +290,7 @@ std::vector<double> localNoiseSd(const std::vector<DemPoint>& points, const std:
 // What every solve reads: the points, their search structures, their support and the variogram.
 struct CellInputs {
   const std::vector<DemPoint>& points;
+  const PointCoordinates& xyz;  // of the points
   const KdTree2& tree;
   const PointBuckets& buckets;
   const std::vector<uint8_t>& supported;
@@ -318,25 +346,6 @@ struct RowCounts {
   long long kriged = 0, unsupported = 0, factorisations = 0, reuses = 0;
 };
 
-// The neighbours of the cell at (qn, qe), nearest first; `f` holds the last cell's count on entry (its
-// neighbours in idx, d2). The last cell's k neighbours lie within `bound` of this one, so its k-th distance
-// is at most that: the buckets within it give the neighbours when they are unique (else the k-d tree, which
-// also skips the nodes beyond the bound): the same neighbours, found sooner.
-int cellNeighbours(const CellInputs& in, double qn, double qe, int f, int32_t* idx, double* d2) {
-  double bound = 1e300;
-  if (f == in.k) {
-    bound = 0.0;
-    for (int i = 0; i < f; ++i) {
-      const DemPoint& p = in.points[static_cast<std::size_t>(idx[i])];
-      const double dn = p.north_m - qn, de = p.east_m - qe;
-      bound = std::max(bound, dn * dn + de * de);
-    }
-    f = in.buckets.nearestWithin(qn, qe, in.k, bound, idx, d2);
-  }
-  if (f != in.k) f = in.tree.nearest(qn, qe, in.k, idx, d2, bound);
-  return f;
-}
-
 // Rows first_row, first_row + row_step, ... of the grid into res.elevation and res.sigma.
 RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, int row_step,
                     KrigingResult& res) {
@@ -358,7 +367,7 @@ RowCounts krigeRows(const CellInputs& in, const DemGrid& grid, int first_row, in
         continue;
       }
       const double qe = grid.eastOfCol(col);
-      f = cellNeighbours(in, qn, qe, f, idx, d2);
+      f = nearestAfter(in.tree, in.buckets, in.xyz, in.k, qn, qe, f, idx, d2);  // the last cell's: near
       if (f == 0) continue;
       bool near = false, support = false;  // a neighbour within its reach; one in a large cluster
       // Neighbours come nearest first: beyond the largest reach none is near.
@@ -423,15 +432,16 @@ double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px) {
   return patchCorrelation(dx_px, dy_px, m_px, l_px, l_px > 0.0 ? std::exp(-1.0 / l_px) : 0.0);
 }
 
+// Its exponentials by fastExp: evaluated for every new pair of neighbours of a cell.
 double patchCorrelation(double dx_px, double dy_px, double m_px, double l_px, double q) {
   if (!(l_px > 0.0)) return dx_px == 0.0 && dy_px == 0.0 ? 1.0 : 0.0;
-  const double m = std::max(1.0, m_px), qm = std::exp(-m / l_px);
+  const double m = std::max(1.0, m_px), qm = fastExp(-m / l_px);
   const double a = (1.0 - qm) / (1.0 - q);
   const double at_m = q * a * a / (m * m) / segmentVariance(m, q, qm);
   const bool far_x = dx_px >= m, far_y = dy_px >= m;
-  if (far_x && far_y) return at_m * at_m * std::exp(-(dx_px + dy_px - 2.0 * m) / l_px);
+  if (far_x && far_y) return at_m * at_m * fastExp(-(dx_px + dy_px - 2.0 * m) / l_px);
   const auto axis = [&](double d, bool far) {
-    return far ? at_m * std::exp(-(d - m) / l_px) : 1.0 + (at_m - 1.0) * d / m;
+    return far ? at_m * fastExp(-(d - m) / l_px) : 1.0 + (at_m - 1.0) * d / m;
   };
   return axis(dx_px, far_x) * axis(dy_px, far_y);
 }
@@ -493,17 +503,18 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   cli::parallelFor(3, 0, [&](std::size_t task) {
     if (task == 0 && o.model != nullptr) res.model = *o.model;
     if (task == 0 && o.model == nullptr) {
-      res.experimental = experimentalVariogram(xyz.x, xyz.y, xyz.z, max_lag);
+      res.experimental =
+          experimentalVariogram(xyz.x, xyz.y, xyz.z, max_lag, 20, 2000000, 1, {}, false, &tree);
       res.model = fitVariogram(res.experimental);
     }
     if (task == 1 && correlated.on()) {
       res.signal_experimental = experimentalVariogram(
           xyz.x, xyz.y, xyz.z, max_lag, 20, 2000000, 1,
-          [&](std::size_t i, std::size_t j) { return correlated.pairNoise(points, i, j); }, true);
+          [&](std::size_t i, std::size_t j) { return correlated.pairNoise(points, i, j); }, true, &tree);
       res.signal_model = fitVariogram(res.signal_experimental);
     }
     if (task == 2) {
-      if (automatic_gap && o.local_reach) reach = pointReaches(tree, xyz, gap);
+      if (automatic_gap && o.local_reach) reach = pointReaches(tree, buckets, xyz, gap);
       supported = supportedPoints(xyz, gap, res.min_cluster_points, res.isolated_points);
     }
   });
@@ -521,6 +532,7 @@ KrigingResult krigeDem(const std::vector<DemPoint>& points, const DemGrid& grid,
   const bool shared =
       o.shared_error != nullptr && o.point_pairs != nullptr && o.point_pairs->size() == points.size();
   const CellInputs cells{points,
+                         xyz,
                          tree,
                          buckets,
                          supported,

@@ -104,13 +104,13 @@ bool KrigingSystem::solve(int f, const int32_t* idx, const double* d2, double* w
       if (a == b) return psill_ + noise(pa) + jitter_;
       const DemPoint& pb = points_[static_cast<std::size_t>(b)];
       const double dn = pa.north_m - pb.north_m, de = pa.east_m - pb.east_m;
-      return psill_ * model_.correlation(std::sqrt(dn * dn + de * de));
+      return psill_ * model_.correlationFast(std::sqrt(dn * dn + de * de));
     });
     cached_ok_ = factorise(f, keep);
     if (!cached_ok_) return false;
   }
   // x = C^-1 c in the canonical order (c in the caller's order); with a new factorisation y = C^-1 1 too.
-  for (int i = 0; i < f; ++i) c[i] = psill_ * model_.correlation(std::sqrt(d2[i]));
+  for (int i = 0; i < f; ++i) c[i] = psill_ * model_.correlationFast(std::sqrt(d2[i]));
   for (int i = 0; i < f; ++i) x[i] = c[order[i]];
   if (same) {
     solveInPlace<1>(u_, f, {x});

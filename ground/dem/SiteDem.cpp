@@ -15,6 +15,22 @@ namespace areomap::dem {
 
 namespace {
 
+// The side of r that std::hypot(dn, de) lies on, -1 or 1, where the squares show it clear of r^2 by far more
+// than the rounding of either (a relative 1e-12); 0 about the boundary (and for NaN), where hypot itself
+// decides: the same verdicts as hypot's, without a hypot for each of the cloud's points.
+int rangeSide(double dn, double de, double r) {
+  const double s = dn * dn + de * de, r2 = r * r;
+  return s < r2 * (1.0 - 1e-12) ? -1 : s > r2 * (1.0 + 1e-12) ? 1 : 0;
+}
+bool hypotAtMost(double dn, double de, double r) {
+  const int side = rangeSide(dn, de, r);
+  return side != 0 ? side < 0 : std::hypot(dn, de) <= r;
+}
+bool hypotAbove(double dn, double de, double r) {
+  const int side = rangeSide(dn, de, r);
+  return side != 0 ? side > 0 : std::hypot(dn, de) > r;
+}
+
 // The cloud's chunks for threads (forEachChunk): each chunk's part is merged in chunk order afterwards.
 constexpr std::size_t kSiteChunk = std::size_t{1} << 20;
 
@@ -123,7 +139,7 @@ SiteDem makeSiteDem(PackedCloud pts, const SiteDemOptions& o) {
   const Vec3& g = o.gimbal_site_m;
   // The grid covers the points within max_range_m (those beyond only support it).
   const auto in_range = [&](double north_m, double east_m) {
-    return std::hypot(north_m - g.x(), east_m - g.y()) <= o.max_range_m;
+    return hypotAtMost(north_m - g.x(), east_m - g.y(), o.max_range_m);
   };
   const auto in_range_point = [&](const DemPoint& p) { return in_range(p.north_m, p.east_m); };
   std::vector<DemPoint> box = boundingCorners(pts, in_range_point);
@@ -154,8 +170,8 @@ SiteDem makeSiteDem(PackedCloud pts, const SiteDemOptions& o) {
   eo.centre_up_m = -g.z();
   eo.seam_m = o.seam_m;
   std::vector<DemPoint> far = pointsWhere(pts, [&](const DemPoint& p) {
-    return std::hypot(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m) >
-           eo.seam_m - eo.blend_m - 1.0;
+    return hypotAbove(p.north_m - eo.centre_north_m, p.east_m - eo.centre_east_m,
+                      eo.seam_m - eo.blend_m - 1.0);
   });
   // The finer DEM near the rover (DESIGN.md fixes dem.tif as one grid): when dem.tif is coarser than
   // near_cell_m, the points within near_range_m are kriged again at near_cell_m into dem_near.tif. Its

@@ -62,30 +62,15 @@ const char* variogramName(VariogramKind kind) {
   return "?";
 }
 
-double VariogramModel::correlation(double h) const {
-  const double a = std::max(range_m, 1e-12);
-  switch (kind) {
-    case VariogramKind::kSpherical: {
-      if (h >= a) return 0.0;
-      const double t = h / a;
-      return 1.0 - 1.5 * t + 0.5 * t * t * t;
-    }
-    case VariogramKind::kExponential: return std::exp(-3.0 * h / a);
-    case VariogramKind::kGaussian: return std::exp(-3.0 * (h * h) / (a * a));
-  }
-  return 0.0;
-}
-
 double VariogramModel::gamma(double h) const {
   if (h <= 0.0) return 0.0;
   return nugget_m2 + partial_sill_m2 * (1.0 - correlation(h));
 }
 
-ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const std::vector<double>& y,
-                                            const std::vector<double>& z, double max_lag_m, int bins,
-                                            int64_t max_pairs, uint32_t seed,
-                                            const std::function<double(std::size_t, std::size_t)>& pair_noise_m2,
-                                            bool robust) {
+ExperimentalVariogram experimentalVariogram(
+    const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& z,
+    double max_lag_m, int bins, int64_t max_pairs, uint32_t seed,
+    const std::function<double(std::size_t, std::size_t)>& pair_noise_m2, bool robust, const KdTree2* tree) {
   if (x.size() != y.size() || x.size() != z.size()) throw std::invalid_argument("variogram: sizes differ");
   if (bins < 1 || !(max_lag_m > 0.0)) throw std::invalid_argument("variogram: bins and max lag must be > 0");
   const std::size_t n = x.size();
@@ -126,7 +111,11 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
       for (std::size_t b = a + 1; b < pick.size(); ++b) add(pick[a], pick[b]);
     }
     // Short lags: each point of a second subset with its nearest neighbours.
-    const KdTree2 tree(x, y);
+    KdTree2 own;
+    if (tree == nullptr) {
+      own = KdTree2(x, y);
+      tree = &own;
+    }
     std::vector<std::size_t> order(n);
     for (std::size_t i = 0; i < n; ++i) order[i] = i;
     std::shuffle(order.begin(), order.end(), rng);
@@ -135,7 +124,7 @@ ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const 
     int32_t idx[kNoisyNeighbourPairs + 1];
     double d2[kNoisyNeighbourPairs + 1];
     for (std::size_t i : order) {
-      const int f = tree.nearest(x[i], y[i], kn + 1, idx, d2);
+      const int f = tree->nearest(x[i], y[i], kn + 1, idx, d2);
       for (int k = 0; k < f; ++k) {
         if (static_cast<std::size_t>(idx[k]) != i) add(i, static_cast<std::size_t>(idx[k]));
       }

@@ -3,13 +3,19 @@
 // shared/reference/camera-models.md "kriging".
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
 
+#include "ground/dem/FastExp.hpp"
+
 namespace areomap::dem {
+
+class KdTree2;
 
 enum class VariogramKind { kSpherical, kExponential, kGaussian };
 const char* variogramName(VariogramKind kind);
@@ -22,10 +28,32 @@ struct VariogramModel {
   double fit_error = 0.0;  // weighted residual sum of the fit (comparable between kinds)
 
   // Correlation part rho(h) in [0, 1], 1 at h = 0.
-  double correlation(double h_m) const;
+  double correlation(double h_m) const {
+    return correlationWith(h_m, [](double x) { return std::exp(x); });
+  }
+  // The same with fastExp (FastExp.hpp, within a few units in the last place of std::exp's): the kriging's
+  // covariances, a few hundred per cell.
+  double correlationFast(double h_m) const { return correlationWith(h_m, fastExp); }
   // gamma(h) = nugget + psill (1 - rho(h)) for h > 0, 0 at h = 0.
   double gamma(double h_m) const;
   double sill() const { return nugget_m2 + partial_sill_m2; }
+
+  template <class Exp>
+  double correlationWith(double h_m, const Exp& exp_of) const {
+    const double a = std::max(range_m, 1e-12);
+    switch (kind) {
+      case VariogramKind::kSpherical: {
+        if (h_m >= a) return 0.0;
+        const double t = h_m / a;
+        return 1.0 - 1.5 * t + 0.5 * t * t * t;
+      }
+      case VariogramKind::kExponential:
+        return exp_of(-3.0 * h_m / a);
+      case VariogramKind::kGaussian:
+        return exp_of(-3.0 * (h_m * h_m) / (a * a));
+    }
+    return 0.0;
+  }
 };
 
 struct ExperimentalVariogram {
@@ -49,11 +77,13 @@ struct ExperimentalVariogram {
 // the cloud (near and far range) the precise pairs make it (fit_weight: each lag's information for the
 // fit). With pair noise each sampled point takes 63 neighbours (else 8), so that the dense, precise part
 // of the cloud has pairs at the lags of a few kriging neighbourhoods.
-ExperimentalVariogram experimentalVariogram(const std::vector<double>& x, const std::vector<double>& y,
-                                            const std::vector<double>& z, double max_lag_m, int bins = 20,
-                                            int64_t max_pairs = 2000000, uint32_t seed = 1,
-                                            const std::function<double(std::size_t, std::size_t)>& pair_noise_m2 = {},
-                                            bool robust = false);
+// `tree` (optional): a k-d tree built over x and y, used for the neighbours instead of building one (the
+// same tree: the same neighbours).
+ExperimentalVariogram experimentalVariogram(
+    const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& z,
+    double max_lag_m, int bins = 20, int64_t max_pairs = 2000000, uint32_t seed = 1,
+    const std::function<double(std::size_t, std::size_t)>& pair_noise_m2 = {}, bool robust = false,
+    const KdTree2* tree = nullptr);
 
 // Fits each kind (range by golden search on a grid, nugget and partial sill by non-negative weighted
 // least squares for each range) and returns the best.
