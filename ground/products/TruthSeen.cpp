@@ -9,6 +9,7 @@
 #include "ground/cli/Parallel.hpp"
 #include "ground/dem/DemSeen.hpp"
 #include "ground/dem/Viewshed.hpp"
+#include "ground/ortho/ConeBlock.hpp"
 #include "ground/ortho/Orthoimage.hpp"
 
 namespace areomap::products {
@@ -144,21 +145,21 @@ dem::GridWindow prNodesRead(const DemGrid& grid, const DemGrid& truth, const std
   return all.window();
 }
 
-// A block of points (truth nodes or cell centres) for prCameraNodes: their bounds in the site frame
-// (down = -up) and the box of nodes they add when every one of them lies in a camera's cone. A camera's
-// cone is tested on the block's bounds first: a block wholly outside it adds nothing, one wholly inside it
-// adds `all`, and only a block across the cone's edge is tested point by point. The same box as testing
-// every point, for a small part of the cost (the cones are narrow against the window).
+// A block of points (truth nodes or cell centres) for prCameraNodes: their bounds and the box of nodes
+// they add when every one of them lies in a camera's cone. A camera's cone is tested on the block's bounds
+// first (ortho::blockAgainstCone): a block wholly outside it adds nothing, one wholly inside it adds `all`,
+// and only a block across the cone's edge is tested point by point. The same box as testing every point,
+// for a small part of the cost (the cones are narrow against the window).
 struct PrBlock {
   int row0 = 0, rows = 0, col0 = 0, cols = 0;  // in the points' own grid
-  double n_lo = 0, n_hi = 0, e_lo = 0, e_hi = 0, d_lo = 0, d_hi = 0;
+  ortho::PointBounds bounds;
   PrNodeBox all;
 };
 
 constexpr int kPrBlockSide = 32;  // points per block side: a few hundred blocks over a navcam window
 
-// Blocks of kPrBlockSide^2 over rows x cols points; point(r, c, n, e, down, box) gives a point's place and
-// the nodes it adds (false: none, it is skipped). Blocks without points are left out.
+// Blocks of kPrBlockSide^2 over rows x cols points; point(r, c, x, box) gives a point's place (site frame)
+// and the nodes it adds (false: none, it is skipped). Blocks without points are left out.
 template <typename Point>
 std::vector<PrBlock> prBlocks(int rows, int cols, const Point& point) {
   const int block_rows = (rows + kPrBlockSide - 1) / kPrBlockSide, block_cols = (cols + kPrBlockSide - 1) / kPrBlockSide;
@@ -169,48 +170,19 @@ std::vector<PrBlock> prBlocks(int rows, int cols, const Point& point) {
     b.col0 = static_cast<int>(k % block_cols) * kPrBlockSide;
     b.rows = std::min(kPrBlockSide, rows - b.row0);
     b.cols = std::min(kPrBlockSide, cols - b.col0);
-    b.n_lo = b.e_lo = b.d_lo = std::numeric_limits<double>::infinity();
-    b.n_hi = b.e_hi = b.d_hi = -std::numeric_limits<double>::infinity();
     for (int r = b.row0; r < b.row0 + b.rows; ++r) {
       for (int c = b.col0; c < b.col0 + b.cols; ++c) {
-        double n, e, down;
+        Vec3 x;
         PrNodeBox adds;
-        if (!point(r, c, n, e, down, adds)) continue;
-        b.n_lo = std::min(b.n_lo, n), b.n_hi = std::max(b.n_hi, n);
-        b.e_lo = std::min(b.e_lo, e), b.e_hi = std::max(b.e_hi, e);
-        b.d_lo = std::min(b.d_lo, down), b.d_hi = std::max(b.d_hi, down);
+        if (!point(r, c, x, adds)) continue;
+        b.bounds.add(x);
         b.all.add(adds.lo_c, adds.hi_c, adds.lo_r, adds.hi_r);
       }
     }
   });
-  blocks.erase(std::remove_if(blocks.begin(), blocks.end(), [](const PrBlock& b) { return !(b.n_lo <= b.n_hi); }),
+  blocks.erase(std::remove_if(blocks.begin(), blocks.end(), [](const PrBlock& b) { return b.bounds.empty(); }),
                blocks.end());
   return blocks;
-}
-
-// Where a block lies against a camera's cone (axis, squared cosine cos2) from `eye`: -1 wholly outside, 1
-// wholly inside, 0 across its edge or too close to it to tell (a relative margin far above the rounding of
-// the points' own tests).
-int prBlockAgainstCone(const PrBlock& b, const Vec3& eye, const Vec3& axis, double cos2) {
-  double along_lo = std::numeric_limits<double>::infinity(), along_hi = -along_lo, far2 = 0.0, scale = 0.0;
-  for (int k = 0; k < 8; ++k) {
-    const Vec3 d = Vec3(k & 1 ? b.n_hi : b.n_lo, k & 2 ? b.e_hi : b.e_lo, k & 4 ? b.d_hi : b.d_lo) - eye;
-    const double along = d.dot(axis);
-    along_lo = std::min(along_lo, along);
-    along_hi = std::max(along_hi, along);
-    far2 = std::max(far2, d.squaredNorm());
-    scale = std::max(scale, d.cwiseAbs().sum());
-  }
-  const Vec3 nearest(std::clamp(eye.x(), b.n_lo, b.n_hi), std::clamp(eye.y(), b.e_lo, b.e_hi),
-                     std::clamp(eye.z(), b.d_lo, b.d_hi));
-  const double near2 = (nearest - eye).squaredNorm();
-  constexpr double kMargin = 1e-6;
-  const double slack = kMargin * scale;
-  // Every point's along <= along_hi and |d|^2 >= near2 (along is linear: its extremes are at corners).
-  if (along_hi + slack <= 0.0) return -1;
-  if ((along_hi + slack) * (along_hi + slack) < cos2 * near2 * (1.0 - kMargin)) return -1;
-  if (along_lo - slack > 0.0 && (along_lo - slack) * (along_lo - slack) >= cos2 * far2 * (1.0 + kMargin)) return 1;
-  return 0;
 }
 
 // The camera-independent part of prCameraNodes: the window's nodes and the cells' centres in blocks.
@@ -224,24 +196,20 @@ PrPoints prPoints(const DemGrid& grid, const DemGrid& truth, const std::vector<d
                   const dem::GridWindow& within) {
   PrPoints p;
   p.within = within;
-  p.nodes = prBlocks(within.rows, within.cols, [&](int r, int c, double& n, double& e, double& down, PrNodeBox& adds) {
+  p.nodes = prBlocks(within.rows, within.cols, [&](int r, int c, Vec3& x, PrNodeBox& adds) {
     const int tr = within.row0 + r, tc = within.col0 + c;
     const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
     if (z == truth.nodata) return false;
-    n = truth.northOfRow(tr);
-    e = truth.eastOfCol(tc);
-    down = -z;
+    x = Vec3(truth.northOfRow(tr), truth.eastOfCol(tc), -z);
     adds.add(tc, tc, tr, tr);
     return true;
   });
-  p.centres = prBlocks(grid.rows, grid.cols, [&](int r, int c, double& n, double& e, double& down, PrNodeBox& adds) {
+  p.centres = prBlocks(grid.rows, grid.cols, [&](int r, int c, Vec3& x, PrNodeBox& adds) {
     const std::size_t i = static_cast<std::size_t>(r) * grid.cols + c;
     double fc, fr;
     int bc, br;
     if (std::isnan(north[i]) || !prCentreNodes(truth, north[i], east[i], fc, fr, bc, br)) return false;
-    n = north[i];
-    e = east[i];
-    down = -centre_up[i];
+    x = Vec3(north[i], east[i], -centre_up[i]);
     adds.add(bc, bc + 1, br, br + 1);
     return true;
   });
@@ -252,7 +220,7 @@ PrPoints prPoints(const DemGrid& grid, const DemGrid& truth, const std::vector<d
 // four nodes about each cell centre it may see: no cell's verdict from `m` reads the horizon beyond it.
 // A looser cone than imageSees's (squares, a relative margin far above their rounding), so that no point
 // it accepts is left out; the whole of `within` when the cone is a half-space or wider. The points are
-// taken a block at a time (prBlockAgainstCone).
+// taken a block at a time (PrBlock).
 dem::GridWindow prCameraNodes(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
                               const std::vector<double>& east, const std::vector<double>& centre_up,
                               const CameraModel& m, const dem::ImageCone& cone, const PrPoints& points) {
@@ -270,9 +238,9 @@ dem::GridWindow prCameraNodes(const DemGrid& grid, const DemGrid& truth, const s
   cli::parallelFor(boxes.size(), 0, [&](std::size_t j) {
     const bool node = j < node_blocks;
     const PrBlock& b = node ? points.nodes[j] : points.centres[j - node_blocks];
-    const int where = prBlockAgainstCone(b, m.c, cone.axis, cos2);
-    if (where < 0) return;
-    if (where > 0) {
+    const int where = ortho::blockAgainstCone(b.bounds, m.c, cone.axis, cos2);
+    if (where == ortho::kConeOutside) return;
+    if (where == ortho::kConeInside) {
       boxes[j] = b.all;
       return;
     }
