@@ -16,55 +16,46 @@
 namespace areomap {
 
 // a.ldlt().solve(b) (the lower triangle of `a` is read; diagonal pivoting; a zero pivot's component of
-// the solution set to zero, as Eigen's pseudo-inverse of D does).
+// the solution set to zero, as Eigen's pseudo-inverse of D does). Eigen picks the pivot of step k among
+// the diagonal entries k..2, which no earlier step has changed: the pivoting is a symmetric permutation p
+// of `a` known from its diagonal alone, followed by the unpivoted factorization written out here.
 inline Vec3 ldltSolve3(const Mat3& a, const Vec3& b) {
-  double m[3][3];  // m[row][col], lower triangle in use
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c <= r; ++c) m[r][c] = a(r, c);
-  }
-  int t[3] = {0, 1, 2};
-  for (int k = 0; k < 3; ++k) {
-    // The largest remaining diagonal (the first of equals).
-    int big = k;
+  int p[3] = {0, 1, 2};
+  for (int k = 0; k < 2; ++k) {
+    int big = k;  // the largest remaining |diagonal|, the first of equals
     for (int i = k + 1; i < 3; ++i) {
-      if (std::fabs(m[i][i]) > std::fabs(m[big][big])) big = i;
+      if (std::fabs(a(p[i], p[i])) > std::fabs(a(p[big], p[big]))) big = i;
     }
-    t[k] = big;
-    if (big != k) {
-      for (int j = 0; j < k; ++j) std::swap(m[k][j], m[big][j]);
-      for (int i = big + 1; i < 3; ++i) std::swap(m[i][k], m[i][big]);
-      std::swap(m[k][k], m[big][big]);
-      for (int i = k + 1; i < big; ++i) std::swap(m[i][k], m[big][i]);
-    }
-    double temp[3];
-    if (k > 0) {
-      for (int j = 0; j < k; ++j) temp[j] = m[j][j] * m[k][j];
-      double dot = m[k][0] * temp[0];
-      if (k == 2) dot = dot + m[k][1] * temp[1];
-      m[k][k] -= dot;
-      if (k == 1) m[2][1] -= m[2][0] * temp[0];
-    }
-    const double akk = m[k][k];
-    const bool valid = std::fabs(akk) > 0.0;
-    if (k == 0 && !valid) break;  // the whole diagonal is zero (no swap was made): the matrix as given
-    if (valid) {
-      for (int i = k + 1; i < 3; ++i) m[i][k] /= akk;
-    }
+    std::swap(p[k], p[big]);
   }
-  double x[3] = {b(0), b(1), b(2)};
-  for (int k = 0; k < 3; ++k) std::swap(x[k], x[t[k]]);
-  x[1] -= m[1][0] * x[0];
-  x[2] -= m[2][0] * x[0] + m[2][1] * x[1];
-  for (int i = 0; i < 3; ++i) {
-    if (std::fabs(m[i][i]) > std::numeric_limits<double>::min())
-      x[i] /= m[i][i];
-    else
-      x[i] = 0.0;
+  const auto lower = [&a, &p](int i, int j) { return p[i] >= p[j] ? a(p[i], p[j]) : a(p[j], p[i]); };
+  const double d0 = a(p[0], p[0]);
+  double d1 = a(p[1], p[1]), d2 = a(p[2], p[2]);
+  double l10 = lower(1, 0), l20 = lower(2, 0), l21 = lower(2, 1);
+  if (std::fabs(d0) > 0.0) {  // else the whole diagonal is zero: Eigen leaves the matrix as it is
+    l10 /= d0;
+    l20 /= d0;
+    const double t0 = d0 * l10;
+    d1 -= l10 * t0;
+    l21 -= l20 * t0;
+    if (std::fabs(d1) > 0.0) l21 /= d1;
+    const double u0 = d0 * l20, u1 = d1 * l21;
+    d2 -= l20 * u0 + l21 * u1;
   }
-  x[1] -= m[2][1] * x[2];
-  x[0] -= m[1][0] * x[1] + m[2][0] * x[2];
-  for (int k = 2; k >= 0; --k) std::swap(x[k], x[t[k]]);
-  return Vec3(x[0], x[1], x[2]);
+  double x0 = b(p[0]), x1 = b(p[1]), x2 = b(p[2]);
+  x1 -= l10 * x0;
+  x2 -= l20 * x0 + l21 * x1;
+  constexpr double kTiny = std::numeric_limits<double>::min();
+  x0 = std::fabs(d0) > kTiny ? x0 / d0 : 0.0;
+  x1 = std::fabs(d1) > kTiny ? x1 / d1 : 0.0;
+  x2 = std::fabs(d2) > kTiny ? x2 / d2 : 0.0;
+  x1 -= l21 * x2;
+  x0 -= l10 * x1 + l20 * x2;
+  Vec3 x;
+  x(p[0]) = x0;
+  x(p[1]) = x1;
+  x(p[2]) = x2;
+  return x;
 }
 
 // FullPivLU<Mat3>(a): false when it is not invertible (rank below 3 at Eigen's default threshold), else
