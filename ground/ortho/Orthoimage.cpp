@@ -275,12 +275,33 @@ void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, cons
   std::vector<BlockSources> blocks(static_cast<std::size_t>(bands) * per_band);
   cli::parallelFor(blocks.size(), 0, [&](std::size_t b) {
     const int r0 = static_cast<int>(b / per_band) * kOrthoBlockCells, c0 = static_cast<int>(b % per_band) * kOrthoBlockCells;
+    const int r1 = std::min(rows, r0 + kOrthoBlockCells) - 1, c1 = std::min(cols, c0 + kOrthoBlockCells) - 1;
     PointBounds bounds;
-    for (int r = r0; r < std::min(rows, r0 + kOrthoBlockCells); ++r) {
-      for (int c = c0; c < std::min(cols, c0 + kOrthoBlockCells); ++c) {
-        double elev = 0.0;
-        if (orthoCellElevation(dem, out, options, r, c, elev))
-          bounds.add(Vec3(out.grid.northOfRow(r), out.grid.eastOfCol(c), -elev));
+    {
+      // A cell's elevation (its DEM cell's, or bilinear) lies within the values of the DEM nodes about
+      // it: the block's cells (those the caller reads) lie within the bounds of their places and of those
+      // nodes.
+      bool read = options.cells == nullptr;
+      for (int dr = r0 / s; dr <= r1 / s && !read; ++dr) {
+        for (int dc = c0 / s; dc <= c1 / s && !read; ++dc) read = (*options.cells)[static_cast<std::size_t>(dr) * dem.cols + dc] != 0;
+      }
+      const auto node = [&dem](double index) { return static_cast<int>(std::floor(index)); };
+      const int n_c0 = std::max(0, node((out.grid.eastOfCol(c0) - dem.east0_m) / dem.cell_m - 0.5));
+      const int n_c1 = std::min(dem.cols - 1, node((out.grid.eastOfCol(c1) - dem.east0_m) / dem.cell_m - 0.5) + 1);
+      const int n_r0 = std::max(0, node((dem.north0_m - out.grid.northOfRow(r0)) / dem.cell_m - 0.5));
+      const int n_r1 = std::min(dem.rows - 1, node((dem.north0_m - out.grid.northOfRow(r1)) / dem.cell_m - 0.5) + 1);
+      double lo = 1e300, hi = -1e300;
+      for (int nr = n_r0; read && nr <= n_r1; ++nr) {
+        for (int nc = n_c0; nc <= n_c1; ++nc) {
+          const float v = dem.at(nc, nr);
+          if (v == dem.nodata) continue;
+          lo = std::min<double>(lo, v);
+          hi = std::max<double>(hi, v);
+        }
+      }
+      if (lo <= hi) {
+        bounds.add(Vec3(out.grid.northOfRow(r0), out.grid.eastOfCol(c0), -hi));
+        bounds.add(Vec3(out.grid.northOfRow(r1), out.grid.eastOfCol(c1), -lo));
       }
     }
     blockSources(sources, geometry, bounds, blocks[b]);

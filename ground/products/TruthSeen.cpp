@@ -156,7 +156,7 @@ struct PrBlock {
   PrNodeBox all;
 };
 
-constexpr int kPrBlockSide = 32;  // points per block side: a few hundred blocks over a navcam window
+constexpr int kPrBlockSide = 16;  // points per block side: tens of thousands of blocks over a navcam window
 
 // Blocks of kPrBlockSide^2 over rows x cols points; point(r, c, x, box) gives a point's place (site frame)
 // and the nodes it adds (false: none, it is skipped). Blocks without points are left out.
