@@ -316,16 +316,23 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
     int32_t c0 = 0, c1 = -1, r0 = 0, r1 = -1, bc = -1, br = -1;
   };
   std::vector<CellNodes> cell_nodes(n);
+  // And per run of kPrBlockSide cells of a row, the box of every node its cells read: a camera whose
+  // window misses it has no verdict on them.
+  const std::size_t runs = static_cast<std::size_t>((grid.cols + kPrBlockSide - 1) / kPrBlockSide);
+  std::vector<PrNodeBox> run_nodes(static_cast<std::size_t>(grid.rows) * runs);
   cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
-    for (std::size_t i = row * grid.cols, end = i + grid.cols; i < end; ++i) {
+    for (int c = 0; c < grid.cols; ++c) {
+      const std::size_t i = row * grid.cols + c;
       if (std::isnan(north[i])) continue;
       CellNodes& k = cell_nodes[i];
       int c0, c1, r0, r1;
       nodesAround(truth, north[i], east[i], grid.cell_m, c0, c1, r0, r1);
       k = CellNodes{c0, c1, r0, r1, -1, -1};
+      PrNodeBox& run = run_nodes[row * runs + c / kPrBlockSide];
+      run.add(c0, c1, r0, r1);
       double fc, fr;
       int bc, br;
-      if (prCentreNodes(truth, north[i], east[i], fc, fr, bc, br)) k.bc = bc, k.br = br;
+      if (prCentreNodes(truth, north[i], east[i], fc, fr, bc, br)) k.bc = bc, k.br = br, run.add(bc, bc + 1, br, br + 1);
     }
   });
   // A cell's verdict is the best of the cameras' (seen, marginal, unseen), so the cameras' horizons are
@@ -337,6 +344,11 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
     const double rad_per_px = 1.0 / cone.px_per_rad;
     cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
       for (int c = 0; c < grid.cols; ++c) {
+        const PrNodeBox& run = run_nodes[row * runs + c / kPrBlockSide];
+        if (c % kPrBlockSide == 0 && !seen_by.meets(run.lo_c, run.hi_c, run.lo_r, run.hi_r)) {
+          c += kPrBlockSide - 1;
+          continue;
+        }
         const std::size_t i = row * grid.cols + c;
         if (seen[i] == kTruthSeen || std::isnan(north[i])) continue;
         const CellNodes& k = cell_nodes[i];
