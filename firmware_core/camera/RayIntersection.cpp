@@ -5,6 +5,8 @@
 
 #include <Eigen/Eigenvalues>  // fixed-size 3x3 eigen solver (no heap)
 
+#include "firmware_core/base/Solve3.hpp"
+
 namespace areomap {
 
 namespace {
@@ -68,7 +70,9 @@ Status refineIntersection(const CameraModel* const* models, int32_t n, const Vie
     const double h = kJacobianStepM * std::max(1.0, (p - origin).norm());
     const Status s = projectStencil(models, n, p, h, uv, j);
     if (!ok(s)) return s;
-    const Vec3 step = (j.transpose() * j).ldlt().solve(j.transpose() * (obs - uv));
+    const Mat3 normal = j.transpose() * j;
+    const Vec3 gradient = j.transpose() * (obs - uv);
+    const Vec3 step = ldltSolve3(normal, gradient);  // normal.ldlt().solve(gradient)
     if (!step.allFinite()) return Status::kNotFinite;
     p += step;
     if (step.norm() < kStepToleranceM) break;

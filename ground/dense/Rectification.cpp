@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
@@ -13,23 +14,35 @@ namespace areomap::dense {
 
 namespace {
 
-// The map of one camera: rectified pixel -> ray of the CAHV model -> original (distorted) pixel.
+// The map of one camera: rectified pixel -> ray of the CAHV model -> original (distorted) pixel. A row's
+// rays are projected together (projectPoints: the model's own terms made once, the same pixels).
 cv::Mat buildMap(const CameraModel& original, const CameraModel& rectified) {
   cv::Mat map(rectified.height, rectified.width, CV_32FC2);
   cv::parallel_for_(cv::Range(0, map.rows), [&](const cv::Range& range) {
+    const std::size_t cols = static_cast<std::size_t>(map.cols);
+    std::vector<Vec3> points(cols);
+    std::vector<Vec2> pixels(cols);
+    std::vector<Status> status(cols);
+    std::vector<int> at(cols);  // the columns whose rectified pixel has a ray
     for (int y = range.start; y < range.end; ++y) {
       cv::Vec2f* row = map.ptr<cv::Vec2f>(y);
+      int32_t n = 0;
       for (int x = 0; x < map.cols; ++x) {
         row[x] = cv::Vec2f(-1.f, -1.f);
         Vec3 origin, dir;
         if (unproject(rectified, Vec2(x, y), origin, dir) != Status::kOk) continue;
-        Vec2 px;
-        if (project(original, original.c + dir, px) != Status::kOk) continue;
+        points[n] = original.c + dir;
+        at[n++] = x;
+      }
+      projectPoints(original, points.data(), n, pixels.data(), status.data());
+      for (int32_t k = 0; k < n; ++k) {
+        const Vec2& px = pixels[k];
+        if (status[k] != Status::kOk) continue;
         if (px.x() < -0.5 || px.y() < -0.5 || px.x() > original.width - 0.5 ||
             px.y() > original.height - 0.5) {
           continue;
         }
-        row[x] = cv::Vec2f(static_cast<float>(px.x()), static_cast<float>(px.y()));
+        row[at[k]] = cv::Vec2f(static_cast<float>(px.x()), static_cast<float>(px.y()));
       }
     }
   });

@@ -7,8 +7,7 @@
 #include <fstream>
 #include <stdexcept>
 
-#include <Eigen/Dense>
-
+#include "firmware_core/base/Solve3.hpp"
 #include "ground/dense/LineId.hpp"
 
 namespace areomap::dense {
@@ -19,10 +18,10 @@ bool triangulate(const CameraModel& left, const CameraModel& right, const Vec2& 
   const Vec2 pixels[2] = {left_px, right_px};
   PixelIntersection x;
   if (!ok(intersectPixels(models, pixels, 2, x))) return false;
-  const Eigen::FullPivLU<Mat3> lu(x.normal);
-  if (!lu.isInvertible()) return false;
+  Mat3 inverse;
+  if (!fullPivInverse3(x.normal, inverse)) return false;  // Eigen::FullPivLU's verdict and inverse
   out.site_m = x.point_m;
-  out.covariance_m2 = sigma_px * sigma_px * lu.inverse();
+  out.covariance_m2 = sigma_px * sigma_px * inverse;
   out.residual_px = x.rms_px;
   return true;
 }

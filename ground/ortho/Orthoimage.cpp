@@ -9,6 +9,7 @@
 #include "firmware_core/camera/CahvInternal.hpp"
 #include "ground/cli/Parallel.hpp"
 #include "ground/dem/Viewshed.hpp"
+#include "ground/ortho/ConeBlock.hpp"
 
 namespace areomap::ortho {
 
@@ -134,9 +135,11 @@ struct TerrainVisibility {
 };
 
 // The DEM, each filled cell lowered by twice its sigma (when given on the same grid), hides; a cell is
-// seen from a source's centre when its elevation clears the horizon there (ground/dem Viewshed).
+// seen from a source's centre when its elevation clears the horizon there (ground/dem Viewshed). Source
+// k's bits are set over windows[k] only (the DEM cells it may paint; an empty window: none): a horizon
+// costs the box about its window and its eye, not the whole grid.
 TerrainVisibility terrainVisibility(const DemGrid& dem, const std::vector<OrthoSource>& sources,
-                                    const OrthoOptions& options) {
+                                    const OrthoOptions& options, const std::vector<dem::GridWindow>& windows) {
   TerrainVisibility vis;
   if (!options.occlusion) return vis;
   vis.on = true;
@@ -152,100 +155,208 @@ TerrainVisibility terrainVisibility(const DemGrid& dem, const std::vector<OrthoS
   }
   std::vector<std::size_t> used;
   std::vector<Vec3> eyes;
+  std::vector<dem::GridWindow> used_windows;
   for (std::size_t k = 0; k < sources.size(); ++k) {
-    if (sources[k].grey.empty()) continue;
+    if (sources[k].grey.empty() || windows[k].cols <= 0 || windows[k].rows <= 0) continue;
     used.push_back(k);
     eyes.push_back(sources[k].model.c);
+    used_windows.push_back(windows[k]);
   }
   // The sources' horizons made on threads, each source's bits set in the sources' order.
-  const std::vector<dem::GridWindow> whole(eyes.size(), dem::GridWindow{0, 0, dem.cols, dem.rows});
-  dem::forEachHorizon(hiding, eyes, whole, true, [&](std::size_t e, const std::vector<float>& horizon) {
+  dem::forEachHorizon(hiding, eyes, used_windows, true, [&](std::size_t e, const std::vector<float>& horizon) {
     const std::size_t k = used[e];
-    cli::parallelFor(static_cast<std::size_t>(dem.rows), 0, [&](std::size_t r) {
-      for (int c = 0; c < dem.cols; ++c) {
-        const std::size_t i = r * dem.cols + c;
+    const dem::GridWindow& w = used_windows[e];
+    cli::parallelFor(static_cast<std::size_t>(w.rows), 0, [&](std::size_t wr) {
+      const int r = w.row0 + static_cast<int>(wr);
+      for (int c = w.col0; c < w.col0 + w.cols; ++c) {
+        const std::size_t i = static_cast<std::size_t>(r) * dem.cols + c;
         const float v = dem.values[i];
-        if (v != dem.nodata && v >= horizon[i]) vis.bits[i * vis.words + k / 64] |= uint64_t{1} << (k % 64);
+        if (v != dem.nodata && v >= horizon[w.at(c, r)]) vis.bits[i * vis.words + k / 64] |= uint64_t{1} << (k % 64);
       }
     });
   });
   return vis;
 }
 
+// The sources that may see a block of cells (ConeBlock.hpp): in index order, each with whether its cone
+// surely holds every cell of the block (its per-cell cone test is then skipped).
+struct BlockSources {
+  std::vector<std::size_t> index;
+  std::vector<uint8_t> all_in_cone;
+};
+
+void blockSources(const std::vector<OrthoSource>& sources, const SourceGeometry& geometry, const PointBounds& bounds,
+                  BlockSources& out) {
+  out.index.clear();
+  out.all_in_cone.clear();
+  if (bounds.empty()) return;
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    if (sources[i].grey.empty()) continue;
+    const dem::ImageCone& cone = geometry.cone[i];
+    const int where = cone.min_cos > 0.0
+                          ? blockAgainstCone(bounds, sources[i].model.c, cone.axis, cone.min_cos * cone.min_cos)
+                          : kConeAcross;
+    if (where == kConeOutside) continue;
+    out.index.push_back(i);
+    out.all_in_cone.push_back(where == kConeInside ? 1 : 0);
+  }
+}
+
+// The best and next source of a ground point among `candidates` (a block's, blockSources): the same as
+// over every source, since the others' cones do not hold it. The two nearest their image centres of the
+// sources whose pixel sees the point (pixelSeesPoint), ties to the lower index: the sources that hold it
+// taken in that order until two see it, so that the costly check runs about twice per cell.
 SourceChoice chooseSources(const Vec3& ground, const std::vector<OrthoSource>& sources,
                            const SourceGeometry& geometry, const OrthoOptions& options,
-                           const TerrainVisibility& visibility, std::size_t dem_cell) {
-  SourceChoice choice;
-  double best_d = 1e300, next_d = 1e300;
-  for (std::size_t i = 0; i < sources.size(); ++i) {
-    const cv::Mat& g = sources[i].grey;
-    if (g.empty() || !visibility.sees(dem_cell, i) || !inCone(geometry, i, sources[i].model, ground)) continue;
+                           const TerrainVisibility& visibility, std::size_t dem_cell, const BlockSources& candidates) {
+  struct Held {
+    double d;
+    std::size_t i;
     Vec2 px;
-    if (project(sources[i].model, ground, px) != Status::kOk) continue;
-    if (!inside(g, px, options.border_px)) continue;
-    const double d = (px - geometry.centre[i]).squaredNorm();
-    if (d >= next_d || !pixelSeesPoint(sources[i].model, ground, px, geometry.px_per_rad[i])) continue;
-    if (d < best_d) {
-      choice.next = choice.best;
-      next_d = best_d;
-      choice.next_px = choice.best_px;
-      choice.best = static_cast<int>(i);
-      best_d = d;
-      choice.best_px = px;
+  };
+  thread_local std::vector<Held> held;
+  held.clear();
+  for (std::size_t k = 0; k < candidates.index.size(); ++k) {
+    const std::size_t i = candidates.index[k];
+    if (!visibility.sees(dem_cell, i) || (!candidates.all_in_cone[k] && !inCone(geometry, i, sources[i].model, ground)))
+      continue;
+    Vec2 px;
+    if (project(sources[i].model, ground, px) != Status::kOk || !inside(sources[i].grey, px, options.border_px)) continue;
+    held.push_back({(px - geometry.centre[i]).squaredNorm(), i, px});
+  }
+  SourceChoice choice;
+  for (std::size_t taken = 0; taken < held.size() && choice.next < 0; ++taken) {
+    std::size_t first = taken;
+    for (std::size_t k = taken + 1; k < held.size(); ++k) {
+      if (held[k].d < held[first].d || (held[k].d == held[first].d && held[k].i < held[first].i)) first = k;
+    }
+    std::swap(held[taken], held[first]);
+    const Held& h = held[taken];
+    if (!pixelSeesPoint(sources[h.i].model, ground, h.px, geometry.px_per_rad[h.i])) continue;
+    if (choice.best < 0) {
+      choice.best = static_cast<int>(h.i);
+      choice.best_px = h.px;
     } else {
-      choice.next = static_cast<int>(i);
-      next_d = d;
-      choice.next_px = px;
+      choice.next = static_cast<int>(h.i);
+      choice.next_px = h.px;
     }
   }
   return choice;
 }
 
-// Every cell with a DEM elevation takes its grey value from its best source (rows in parallel, each set
-// empty first: the result and the candidates come allocated, not filled).
+// Ortho cells per side of the blocks whose sources are found together (blockSources).
+constexpr int kOrthoBlockCells = 16;
+
+// A cell's ground elevation for the ortho (false: none, or the caller reads none of its DEM cell).
+bool orthoCellElevation(const DemGrid& dem, const OrthoResult& out, const OrthoOptions& options, int r, int c,
+                        double& elev) {
+  const int s = options.supersample;
+  const std::size_t dem_cell = static_cast<std::size_t>(r / s) * dem.cols + static_cast<std::size_t>(c / s);
+  if (options.cells != nullptr && (*options.cells)[dem_cell] == 0) return false;
+  if (s == 1) {
+    const float v = dem.at(c, r);
+    if (v == dem.nodata) return false;
+    elev = v;
+    return true;
+  }
+  return demElevation(dem, out.grid.northOfRow(r), out.grid.eastOfCol(c), elev);
+}
+
+// Every cell with a DEM elevation takes its grey value from its best source (bands of rows in parallel,
+// each row set empty first: the result and the candidates come allocated, not filled). First the blocks'
+// sources (blockSources) and from them each source's window of DEM cells for its horizon.
 void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, const OrthoOptions& options,
                OrthoResult& out, SeamCandidates& candidates) {
   const SourceGeometry geometry = sourceGeometry(sources);
-  const TerrainVisibility visibility = terrainVisibility(dem, sources, options);
   const int s = options.supersample;
-  const int cols = out.grid.cols;
-  cv::parallel_for_(cv::Range(0, out.grid.rows), [&](const cv::Range& range) {
-    for (int r = range.start; r < range.end; ++r) {
-      // The row empty first: no image, no source, no second candidate.
-      out.image.row(r).setTo(0);
-      out.valid.row(r).setTo(0);
-      out.source.row(r).setTo(-1);
-      candidates.second.row(r).setTo(-1);
-      candidates.best_px.row(r).setTo(cv::Scalar(0, 0));
-      candidates.second_px.row(r).setTo(cv::Scalar(0, 0));
-      for (int c = 0; c < cols; ++c) {
-        const double north = out.grid.northOfRow(r);
-        const double east = out.grid.eastOfCol(c);
-        double elev = 0;
-        if (s == 1) {
-          const float v = dem.at(c, r);
+  const int cols = out.grid.cols, rows = out.grid.rows;
+  const int bands = (rows + kOrthoBlockCells - 1) / kOrthoBlockCells;
+  const int per_band = (cols + kOrthoBlockCells - 1) / kOrthoBlockCells;
+  std::vector<BlockSources> blocks(static_cast<std::size_t>(bands) * per_band);
+  cli::parallelFor(blocks.size(), 0, [&](std::size_t b) {
+    const int r0 = static_cast<int>(b / per_band) * kOrthoBlockCells, c0 = static_cast<int>(b % per_band) * kOrthoBlockCells;
+    const int r1 = std::min(rows, r0 + kOrthoBlockCells) - 1, c1 = std::min(cols, c0 + kOrthoBlockCells) - 1;
+    PointBounds bounds;
+    {
+      // A cell's elevation (its DEM cell's, or bilinear) lies within the values of the DEM nodes about
+      // it: the block's cells (those the caller reads) lie within the bounds of their places and of those
+      // nodes.
+      bool read = options.cells == nullptr;
+      for (int dr = r0 / s; dr <= r1 / s && !read; ++dr) {
+        for (int dc = c0 / s; dc <= c1 / s && !read; ++dc) read = (*options.cells)[static_cast<std::size_t>(dr) * dem.cols + dc] != 0;
+      }
+      const auto node = [&dem](double index) { return static_cast<int>(std::floor(index)); };
+      const int n_c0 = std::max(0, node((out.grid.eastOfCol(c0) - dem.east0_m) / dem.cell_m - 0.5));
+      const int n_c1 = std::min(dem.cols - 1, node((out.grid.eastOfCol(c1) - dem.east0_m) / dem.cell_m - 0.5) + 1);
+      const int n_r0 = std::max(0, node((dem.north0_m - out.grid.northOfRow(r0)) / dem.cell_m - 0.5));
+      const int n_r1 = std::min(dem.rows - 1, node((dem.north0_m - out.grid.northOfRow(r1)) / dem.cell_m - 0.5) + 1);
+      double lo = 1e300, hi = -1e300;
+      for (int nr = n_r0; read && nr <= n_r1; ++nr) {
+        for (int nc = n_c0; nc <= n_c1; ++nc) {
+          const float v = dem.at(nc, nr);
           if (v == dem.nodata) continue;
-          elev = v;
-        } else if (!demElevation(dem, north, east, elev)) {
-          continue;
+          lo = std::min<double>(lo, v);
+          hi = std::max<double>(hi, v);
         }
-        const std::size_t dem_cell = static_cast<std::size_t>(r / s) * dem.cols + static_cast<std::size_t>(c / s);
-        if (options.cells != nullptr && (*options.cells)[dem_cell] == 0) continue;
-        const SourceChoice choice =
-            chooseSources(Vec3(north, east, -elev), sources, geometry, options, visibility, dem_cell);
-        if (choice.best < 0) continue;
-        const Vec2& bp = choice.best_px;
-        out.image.at<uint8_t>(r, c) = static_cast<uint8_t>(
-            std::clamp(std::lround(bilinear(sources[choice.best].grey, bp.x(), bp.y())), 1L, 255L));
-        out.valid.at<uint8_t>(r, c) = 255;
-        out.source.at<int16_t>(r, c) = static_cast<int16_t>(choice.best);
-        candidates.best_px.at<cv::Vec2f>(r, c) =
-            cv::Vec2f(static_cast<float>(bp.x()), static_cast<float>(bp.y()));
-        if (choice.next >= 0) {
-          const Vec2& np = choice.next_px;
-          candidates.second.at<int16_t>(r, c) = static_cast<int16_t>(choice.next);
-          candidates.second_px.at<cv::Vec2f>(r, c) =
-              cv::Vec2f(static_cast<float>(np.x()), static_cast<float>(np.y()));
+      }
+      if (lo <= hi) {
+        bounds.add(Vec3(out.grid.northOfRow(r0), out.grid.eastOfCol(c0), -hi));
+        bounds.add(Vec3(out.grid.northOfRow(r1), out.grid.eastOfCol(c1), -lo));
+      }
+    }
+    blockSources(sources, geometry, bounds, blocks[b]);
+  });
+  std::vector<dem::GridWindow> windows(sources.size());
+  {
+    std::vector<int> lo_c(sources.size(), dem.cols), hi_c(sources.size(), -1), lo_r(sources.size(), dem.rows),
+        hi_r(sources.size(), -1);
+    for (std::size_t b = 0; b < blocks.size(); ++b) {
+      const int r0 = static_cast<int>(b / per_band) * kOrthoBlockCells, c0 = static_cast<int>(b % per_band) * kOrthoBlockCells;
+      const int r1 = std::min(rows, r0 + kOrthoBlockCells) - 1, c1 = std::min(cols, c0 + kOrthoBlockCells) - 1;
+      for (std::size_t i : blocks[b].index) {
+        lo_c[i] = std::min(lo_c[i], c0 / s), hi_c[i] = std::max(hi_c[i], c1 / s);
+        lo_r[i] = std::min(lo_r[i], r0 / s), hi_r[i] = std::max(hi_r[i], r1 / s);
+      }
+    }
+    for (std::size_t i = 0; i < sources.size(); ++i) {
+      if (hi_c[i] >= lo_c[i]) windows[i] = dem::GridWindow{lo_c[i], lo_r[i], hi_c[i] - lo_c[i] + 1, hi_r[i] - lo_r[i] + 1};
+    }
+  }
+  const TerrainVisibility visibility = terrainVisibility(dem, sources, options, windows);
+  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
+    for (int band = range.start; band < range.end; ++band) {
+      const int r0 = band * kOrthoBlockCells, r1 = std::min(rows, r0 + kOrthoBlockCells);
+      for (int r = r0; r < r1; ++r) {
+        // The row empty first: no image, no source, no second candidate.
+        out.image.row(r).setTo(0);
+        out.valid.row(r).setTo(0);
+        out.source.row(r).setTo(-1);
+        candidates.second.row(r).setTo(-1);
+        candidates.best_px.row(r).setTo(cv::Scalar(0, 0));
+        candidates.second_px.row(r).setTo(cv::Scalar(0, 0));
+      }
+      for (int r = r0; r < r1; ++r) {
+        for (int c = 0; c < cols; ++c) {
+          const BlockSources& block = blocks[static_cast<std::size_t>(band) * per_band + c / kOrthoBlockCells];
+          double elev = 0.0;
+          if (block.index.empty() || !orthoCellElevation(dem, out, options, r, c, elev)) continue;
+          const double north = out.grid.northOfRow(r);
+          const double east = out.grid.eastOfCol(c);
+          const std::size_t dem_cell = static_cast<std::size_t>(r / s) * dem.cols + static_cast<std::size_t>(c / s);
+          const SourceChoice choice =
+              chooseSources(Vec3(north, east, -elev), sources, geometry, options, visibility, dem_cell, block);
+          if (choice.best < 0) continue;
+          const Vec2& bp = choice.best_px;
+          out.image.at<uint8_t>(r, c) = static_cast<uint8_t>(
+              std::clamp(std::lround(bilinear(sources[choice.best].grey, bp.x(), bp.y())), 1L, 255L));
+          out.valid.at<uint8_t>(r, c) = 255;
+          out.source.at<int16_t>(r, c) = static_cast<int16_t>(choice.best);
+          candidates.best_px.at<cv::Vec2f>(r, c) = cv::Vec2f(static_cast<float>(bp.x()), static_cast<float>(bp.y()));
+          if (choice.next >= 0) {
+            const Vec2& np = choice.next_px;
+            candidates.second.at<int16_t>(r, c) = static_cast<int16_t>(choice.next);
+            candidates.second_px.at<cv::Vec2f>(r, c) = cv::Vec2f(static_cast<float>(np.x()), static_cast<float>(np.y()));
+          }
         }
       }
     }

@@ -9,6 +9,7 @@
 #include "ground/cli/Parallel.hpp"
 #include "ground/dem/DemSeen.hpp"
 #include "ground/dem/Viewshed.hpp"
+#include "ground/ortho/ConeBlock.hpp"
 #include "ground/ortho/Orthoimage.hpp"
 
 namespace areomap::products {
@@ -144,14 +145,86 @@ dem::GridWindow prNodesRead(const DemGrid& grid, const DemGrid& truth, const std
   return all.window();
 }
 
+// A block of points (truth nodes or cell centres) for prCameraNodes: their bounds and the box of nodes
+// they add when every one of them lies in a camera's cone. A camera's cone is tested on the block's bounds
+// first (ortho::blockAgainstCone): a block wholly outside it adds nothing, one wholly inside it adds `all`,
+// and only a block across the cone's edge is tested point by point. The same box as testing every point,
+// for a small part of the cost (the cones are narrow against the window).
+struct PrBlock {
+  int row0 = 0, rows = 0, col0 = 0, cols = 0;  // in the points' own grid
+  ortho::PointBounds bounds;
+  PrNodeBox all;
+};
+
+constexpr int kPrBlockSide = 16;  // points per block side: tens of thousands of blocks over a navcam window
+
+// Blocks of kPrBlockSide^2 over rows x cols points; point(r, c, x, box) gives a point's place (site frame)
+// and the nodes it adds (false: none, it is skipped). Blocks without points are left out.
+template <typename Point>
+std::vector<PrBlock> prBlocks(int rows, int cols, const Point& point) {
+  const int block_rows = (rows + kPrBlockSide - 1) / kPrBlockSide, block_cols = (cols + kPrBlockSide - 1) / kPrBlockSide;
+  std::vector<PrBlock> blocks(static_cast<std::size_t>(std::max(0, block_rows)) * std::max(0, block_cols));
+  cli::parallelFor(blocks.size(), 0, [&](std::size_t k) {
+    PrBlock& b = blocks[k];
+    b.row0 = static_cast<int>(k / block_cols) * kPrBlockSide;
+    b.col0 = static_cast<int>(k % block_cols) * kPrBlockSide;
+    b.rows = std::min(kPrBlockSide, rows - b.row0);
+    b.cols = std::min(kPrBlockSide, cols - b.col0);
+    for (int r = b.row0; r < b.row0 + b.rows; ++r) {
+      for (int c = b.col0; c < b.col0 + b.cols; ++c) {
+        Vec3 x;
+        PrNodeBox adds;
+        if (!point(r, c, x, adds)) continue;
+        b.bounds.add(x);
+        b.all.add(adds.lo_c, adds.hi_c, adds.lo_r, adds.hi_r);
+      }
+    }
+  });
+  blocks.erase(std::remove_if(blocks.begin(), blocks.end(), [](const PrBlock& b) { return b.bounds.empty(); }),
+               blocks.end());
+  return blocks;
+}
+
+// The camera-independent part of prCameraNodes: the window's nodes and the cells' centres in blocks.
+struct PrPoints {
+  dem::GridWindow within;
+  std::vector<PrBlock> nodes, centres;
+};
+
+PrPoints prPoints(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
+                  const std::vector<double>& east, const std::vector<double>& centre_up,
+                  const dem::GridWindow& within) {
+  PrPoints p;
+  p.within = within;
+  p.nodes = prBlocks(within.rows, within.cols, [&](int r, int c, Vec3& x, PrNodeBox& adds) {
+    const int tr = within.row0 + r, tc = within.col0 + c;
+    const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
+    if (z == truth.nodata) return false;
+    x = Vec3(truth.northOfRow(tr), truth.eastOfCol(tc), -z);
+    adds.add(tc, tc, tr, tr);
+    return true;
+  });
+  p.centres = prBlocks(grid.rows, grid.cols, [&](int r, int c, Vec3& x, PrNodeBox& adds) {
+    const std::size_t i = static_cast<std::size_t>(r) * grid.cols + c;
+    double fc, fr;
+    int bc, br;
+    if (std::isnan(north[i]) || !prCentreNodes(truth, north[i], east[i], fc, fr, bc, br)) return false;
+    x = Vec3(north[i], east[i], -centre_up[i]);
+    adds.add(bc, bc + 1, br, br + 1);
+    return true;
+  });
+  return p;
+}
+
 // The box of the nodes of `within` that camera `m` may see (dem::imageSees: inside its cone) and of the
 // four nodes about each cell centre it may see: no cell's verdict from `m` reads the horizon beyond it.
 // A looser cone than imageSees's (squares, a relative margin far above their rounding), so that no point
-// it accepts is left out; the whole of `within` when the cone is a half-space or wider.
+// it accepts is left out; the whole of `within` when the cone is a half-space or wider. The points are
+// taken a block at a time (PrBlock).
 dem::GridWindow prCameraNodes(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
                               const std::vector<double>& east, const std::vector<double>& centre_up,
-                              const CameraModel& m, const dem::ImageCone& cone,
-                              const dem::GridWindow& within) {
+                              const CameraModel& m, const dem::ImageCone& cone, const PrPoints& points) {
+  const dem::GridWindow& within = points.within;
   if (!(cone.min_cos > 0.0)) return within;
   const double cos2 = cone.min_cos * cone.min_cos * (1.0 - 1e-9);
   const auto inCone = [&](double n, double e, double down) {
@@ -159,29 +232,37 @@ dem::GridWindow prCameraNodes(const DemGrid& grid, const DemGrid& truth, const s
     const double along = d.dot(cone.axis);
     return along > 0.0 && along * along >= cos2 * d.squaredNorm();
   };
-  // Items: the window's node rows, then the grid's rows of cell centres.
-  const std::size_t node_rows = static_cast<std::size_t>(std::max(0, within.rows));
-  std::vector<PrNodeBox> rows(node_rows + static_cast<std::size_t>(grid.rows));
-  cli::parallelFor(rows.size(), 0, [&](std::size_t j) {
-    if (j < node_rows) {
-      const int tr = within.row0 + static_cast<int>(j);
-      const double n = truth.northOfRow(tr);
-      for (int tc = within.col0; tc < within.col0 + within.cols; ++tc) {
-        const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
-        if (z != truth.nodata && inCone(n, truth.eastOfCol(tc), -z)) rows[j].add(tc, tc, tr, tr);
-      }
+  // Items: the node blocks, then the centre blocks.
+  const std::size_t node_blocks = points.nodes.size();
+  std::vector<PrNodeBox> boxes(node_blocks + points.centres.size());
+  cli::parallelFor(boxes.size(), 0, [&](std::size_t j) {
+    const bool node = j < node_blocks;
+    const PrBlock& b = node ? points.nodes[j] : points.centres[j - node_blocks];
+    const int where = ortho::blockAgainstCone(b.bounds, m.c, cone.axis, cos2);
+    if (where == ortho::kConeOutside) return;
+    if (where == ortho::kConeInside) {
+      boxes[j] = b.all;
       return;
     }
-    for (std::size_t i = (j - node_rows) * grid.cols, end = i + grid.cols; i < end; ++i) {
-      double fc, fr;
-      int bc, br;
-      if (!std::isnan(north[i]) && inCone(north[i], east[i], -centre_up[i]) &&
-          prCentreNodes(truth, north[i], east[i], fc, fr, bc, br))
-        rows[j].add(bc, bc + 1, br, br + 1);
+    for (int r = b.row0; r < b.row0 + b.rows; ++r) {
+      for (int c = b.col0; c < b.col0 + b.cols; ++c) {
+        if (node) {
+          const int tr = within.row0 + r, tc = within.col0 + c;
+          const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
+          if (z != truth.nodata && inCone(truth.northOfRow(tr), truth.eastOfCol(tc), -z)) boxes[j].add(tc, tc, tr, tr);
+          continue;
+        }
+        const std::size_t i = static_cast<std::size_t>(r) * grid.cols + c;
+        double fc, fr;
+        int bc, br;
+        if (!std::isnan(north[i]) && inCone(north[i], east[i], -centre_up[i]) &&
+            prCentreNodes(truth, north[i], east[i], fc, fr, bc, br))
+          boxes[j].add(bc, bc + 1, br, br + 1);
+      }
     }
   });
   PrNodeBox all;
-  for (const PrNodeBox& b : rows) all.add(b.lo_c, b.hi_c, b.lo_r, b.hi_r);
+  for (const PrNodeBox& b : boxes) all.add(b.lo_c, b.hi_c, b.lo_r, b.hi_r);
   return all.window();
 }
 
@@ -221,13 +302,39 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
   std::vector<Vec3> eyes;
   std::vector<dem::ImageCone> cones;
   std::vector<dem::GridWindow> windows;
+  const PrPoints points = prPoints(grid, truth, north, east, centre_up, window);
   for (std::size_t k = 0; k < models.size() && k < images.size(); ++k) {
     if (images[k].empty()) continue;
     cameras.push_back(k);
     eyes.push_back(models[k].c);
     cones.push_back(dem::imageCone(models[k]));
-    windows.push_back(prCameraNodes(grid, truth, north, east, centre_up, models[k], cones.back(), window));
+    windows.push_back(prCameraNodes(grid, truth, north, east, centre_up, models[k], cones.back(), points));
   }
+  // The truth's nodes each cell reads, the same from every camera: those within its square
+  // (nodesAround) and the four about its centre (bc, br the first; bc = -1: none, prCentreNodes).
+  struct CellNodes {
+    int32_t c0 = 0, c1 = -1, r0 = 0, r1 = -1, bc = -1, br = -1;
+  };
+  std::vector<CellNodes> cell_nodes(n);
+  // And per run of kPrBlockSide cells of a row, the box of every node its cells read: a camera whose
+  // window misses it has no verdict on them.
+  const std::size_t runs = static_cast<std::size_t>((grid.cols + kPrBlockSide - 1) / kPrBlockSide);
+  std::vector<PrNodeBox> run_nodes(static_cast<std::size_t>(grid.rows) * runs);
+  cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
+    for (int c = 0; c < grid.cols; ++c) {
+      const std::size_t i = row * grid.cols + c;
+      if (std::isnan(north[i])) continue;
+      CellNodes& k = cell_nodes[i];
+      int c0, c1, r0, r1;
+      nodesAround(truth, north[i], east[i], grid.cell_m, c0, c1, r0, r1);
+      k = CellNodes{c0, c1, r0, r1, -1, -1};
+      PrNodeBox& run = run_nodes[row * runs + c / kPrBlockSide];
+      run.add(c0, c1, r0, r1);
+      double fc, fr;
+      int bc, br;
+      if (prCentreNodes(truth, north[i], east[i], fc, fr, bc, br)) k.bc = bc, k.br = br, run.add(bc, bc + 1, br, br + 1);
+    }
+  });
   // A cell's verdict is the best of the cameras' (seen, marginal, unseen), so the cameras' horizons are
   // made on threads and the cells checked against them in the cameras' order.
   const auto check = [&](std::size_t e, const std::vector<float>& horizon) {
@@ -237,19 +344,23 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
     const double rad_per_px = 1.0 / cone.px_per_rad;
     cli::parallelFor(static_cast<std::size_t>(grid.rows), 0, [&](std::size_t row) {
       for (int c = 0; c < grid.cols; ++c) {
+        const PrNodeBox& run = run_nodes[row * runs + c / kPrBlockSide];
+        if (c % kPrBlockSide == 0 && !seen_by.meets(run.lo_c, run.hi_c, run.lo_r, run.hi_r)) {
+          c += kPrBlockSide - 1;
+          continue;
+        }
         const std::size_t i = row * grid.cols + c;
         if (seen[i] == kTruthSeen || std::isnan(north[i])) continue;
-        int c0, c1, r0, r1;
-        nodesAround(truth, north[i], east[i], grid.cell_m, c0, c1, r0, r1);
+        const CellNodes& k = cell_nodes[i];
         // Nodes beyond the camera's window belong to points it cannot see: skipped, as imageSees would
         // reject them, and so is a cell with none inside it.
-        double fc, fr;
-        int bc, br;
-        const bool centre =
-            prCentreNodes(truth, north[i], east[i], fc, fr, bc, br) && seen_by.holds(bc, br) && seen_by.holds(bc + 1, br + 1);
-        if (!centre && !seen_by.meets(c0, c1, r0, r1)) continue;
+        const bool centre = k.bc >= 0 && seen_by.holds(k.bc, k.br) && seen_by.holds(k.bc + 1, k.br + 1);
+        if (!centre && (seen[i] == kTruthMarginal || !seen_by.meets(k.c0, k.c1, k.r0, k.r1))) continue;
         // The centre: the true surface there against the horizon between its four nodes (bilinear).
         if (centre) {
+          double fc, fr;
+          int bc, br;
+          prCentreNodes(truth, north[i], east[i], fc, fr, bc, br);
           double h = 0.0, wsum = 0.0;
           for (int q = 0; q < 4; ++q) {
             const float hq = horizon[seen_by.at(bc + q % 2, br + q / 2)];
@@ -265,12 +376,14 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
           }
         }
         if (seen[i] == kTruthMarginal) continue;
-        const double tolerance =
-            kTruthToleranceM + rad_per_px * std::hypot(north[i] - m.c.x(), east[i] - m.c.y());
-        for (int tr = r0; tr <= r1 && seen[i] == kTruthUnseen; ++tr) {
-          for (int tc = c0; tc <= c1 && seen[i] == kTruthUnseen; ++tc) {
+        double tolerance = -1.0;  // made for the first node that needs it
+        for (int tr = k.r0; tr <= k.r1 && seen[i] == kTruthUnseen; ++tr) {
+          for (int tc = k.c0; tc <= k.c1 && seen[i] == kTruthUnseen; ++tc) {
             const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
-            if (z == truth.nodata || !seen_by.holds(tc, tr) || z + tolerance < horizon[seen_by.at(tc, tr)]) continue;
+            if (z == truth.nodata || !seen_by.holds(tc, tr)) continue;
+            if (tolerance < 0.0)
+              tolerance = kTruthToleranceM + rad_per_px * std::hypot(north[i] - m.c.x(), east[i] - m.c.y());
+            if (z + tolerance < horizon[seen_by.at(tc, tr)]) continue;
             if (dem::imageSees(m, cone, Vec3(truth.northOfRow(tr), truth.eastOfCol(tc), -z))) seen[i] = kTruthMarginal;
           }
         }
