@@ -394,7 +394,12 @@ bool matchIntoImage(const Pass& pass, const SiteImage& source, const SiteProduct
   const PatchMatch back = matchWarpedPatch(target.pyramid, m.j_px, source.pyramid, c.q, map.inverse(),
                                            back_patch, use_surface ? &backward : nullptr);
   const double tolerance = params.lr_tolerance_px * std::max(1.0, 1.0 / scale);
-  if (back.result != PatchResult::kOk || (back.j_px - c.q).norm() > tolerance) {
+  // The round trip's miss counts in the target's pixels too (the local map carries it there): where one
+  // source pixel spans several target pixels, a miss within the source's tolerance is still a disagreement
+  // of the two matches that the geometric check, whose residual floor is in the observations' pixels, could
+  // not tell from a blunder.
+  if (back.result != PatchResult::kOk || (back.j_px - c.q).norm() > tolerance ||
+      (map * (back.j_px - c.q)).norm() > params.residual_floor_px) {
     bump(&CrossTieCounts::back_failed);
     return false;
   }

@@ -339,6 +339,9 @@ bool edgePeak(const std::vector<double>& score, int ns, int bx, int by) {
   return clipped || bx == 0 || by == 0 || bx == ns - 1 || by == ns - 1;
 }
 
+// The least squares stop once no unknown moves by this many of its own standard deviations.
+constexpr double kSettledSigmas = 0.1;
+
 // Least squares from the integer peak d (grid steps): translation d, with an affine correction B of the
 // warp (J offset of grid sample g: mj (d + B g) + the warp's offset) when params.lsm_affine, and gain and
 // offset (template and window normalised); the search image resampled at each step. B absorbs what the
@@ -394,8 +397,13 @@ PatchResult refineLeastSquares(const Footprint& sample_j, const Eigen::Vector2d&
     // The translation's covariance (grid steps): the residuals' variance over the redundancy times the
     // inverse normal matrix.
     const double s2 = rr / std::max(1.0, static_cast<double>(tmpl.size()) - unknowns);
-    d_cov = unknowns == 6 ? Eigen::Matrix2d(s2 * n.inverse().topLeftCorner<2, 2>())
-                          : Eigen::Matrix2d(s2 * n.topLeftCorner<2, 2>().inverse());
+    Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
+    if (unknowns == 6) {
+      cov = s2 * n.inverse();
+    } else {
+      cov.topLeftCorner<2, 2>() = s2 * n.topLeftCorner<2, 2>().inverse();
+    }
+    d_cov = cov.topLeftCorner<2, 2>();
     Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
     if (unknowns == 6) {
       step = n.ldlt().solve(rhs);
@@ -414,6 +422,12 @@ PatchResult refineLeastSquares(const Footprint& sample_j, const Eigen::Vector2d&
       return PatchResult::kLsmDiverged;
     }
     if (step.head<2>().norm() < 1e-3 && db.cwiseAbs().maxCoeff() < 1e-4) break;
+    // Converged when no unknown moves by a tenth of its own standard deviation: a further step changes
+    // nothing the match's precision resolves.
+    bool settled = step.head<2>().norm() < kSettledSigmas * std::sqrt(d_cov.trace());
+    for (int k = 2; k < unknowns; ++k)
+      settled = settled && std::fabs(step[k]) < kSettledSigmas * std::sqrt(cov(k, k));
+    if (settled) break;
   }
   return PatchResult::kOk;
 }
