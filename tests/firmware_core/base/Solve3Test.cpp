@@ -20,7 +20,7 @@ bool sameBits(const double* a, const double* b, int n) { return std::memcmp(a, b
 // A matrix of the kind the tests feed: k = the case (cycled), from `rng`.
 Mat3 solve3Case(int k, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::uniform_int_distribution<int> e(-12, 12), small(-2, 2);
+  std::uniform_int_distribution<int> e(-12, 12), small(-2, 2), index(0, 2);
   Mat3 m;
   switch (k % 6) {
     case 0: {  // J^T J of two views: 4 rows, columns of very different size (range vs across)
@@ -50,8 +50,8 @@ Mat3 solve3Case(int k, std::mt19937_64& rng) {
       break;
     default:  // zero rows and columns
       m = Mat3::Zero();
-      m(small(rng) + 2, small(rng) + 2) = u(rng);
-      m(small(rng) + 2, small(rng) + 2) = u(rng);
+      m(index(rng), index(rng)) = u(rng);
+      m(index(rng), index(rng)) = u(rng);
       break;
   }
   return m;
