@@ -1,6 +1,7 @@
 #include "ground/ortho/Orthoimage.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -273,9 +274,13 @@ void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, cons
   const int bands = (rows + kOrthoBlockCells - 1) / kOrthoBlockCells;
   const int per_band = (cols + kOrthoBlockCells - 1) / kOrthoBlockCells;
   std::vector<BlockSources> blocks(static_cast<std::size_t>(bands) * per_band);
-  cli::parallelFor(blocks.size(), 0, [&](std::size_t b) {
+  // Block b's first and last rows and columns of cells.
+  const auto span = [&](std::size_t b) {
     const int r0 = static_cast<int>(b / per_band) * kOrthoBlockCells, c0 = static_cast<int>(b % per_band) * kOrthoBlockCells;
-    const int r1 = std::min(rows, r0 + kOrthoBlockCells) - 1, c1 = std::min(cols, c0 + kOrthoBlockCells) - 1;
+    return std::array<int, 4>{r0, c0, std::min(rows, r0 + kOrthoBlockCells) - 1, std::min(cols, c0 + kOrthoBlockCells) - 1};
+  };
+  cli::parallelFor(blocks.size(), 0, [&](std::size_t b) {
+    const auto [r0, c0, r1, c1] = span(b);
     PointBounds bounds;
     {
       // A cell's elevation (its DEM cell's, or bilinear) lies within the values of the DEM nodes about
@@ -311,8 +316,7 @@ void fillCells(const DemGrid& dem, const std::vector<OrthoSource>& sources, cons
     std::vector<int> lo_c(sources.size(), dem.cols), hi_c(sources.size(), -1), lo_r(sources.size(), dem.rows),
         hi_r(sources.size(), -1);
     for (std::size_t b = 0; b < blocks.size(); ++b) {
-      const int r0 = static_cast<int>(b / per_band) * kOrthoBlockCells, c0 = static_cast<int>(b % per_band) * kOrthoBlockCells;
-      const int r1 = std::min(rows, r0 + kOrthoBlockCells) - 1, c1 = std::min(cols, c0 + kOrthoBlockCells) - 1;
+      const auto [r0, c0, r1, c1] = span(b);
       for (std::size_t i : blocks[b].index) {
         lo_c[i] = std::min(lo_c[i], c0 / s), hi_c[i] = std::max(hi_c[i], c1 / s);
         lo_r[i] = std::min(lo_r[i], r0 / s), hi_r[i] = std::max(hi_r[i], r1 / s);

@@ -29,14 +29,15 @@ long long floorNear(double estimate, double error, const Exact& exact) {
 long long polarBin(const dem::DemPoint& p, const Vec3& centre) {
   const double dn = p.north_m - centre.x(), de = p.east_m - centre.y();
   constexpr double kBinRad = 2.0 * M_PI / 180.0;
+  const auto exact_range = [&] { return std::hypot(dn, de); };
+  const auto exact_bin = [&] { return (std::atan2(de, dn) + M_PI) / kBinRad; };
   const double range = std::sqrt(dn * dn + de * de);
   if (!(range > 1e-20 && range < 1e20)) {  // beyond a float's range: the exact values
-    return static_cast<long long>(std::floor(std::hypot(dn, de))) * 1000 +
-           static_cast<long long>(std::floor((std::atan2(de, dn) + M_PI) / kBinRad));
+    return static_cast<long long>(std::floor(exact_range())) * 1000 + static_cast<long long>(std::floor(exact_bin()));
   }
-  const long long r = floorNear(range, 1e-12 * (1.0 + range), [&] { return std::hypot(dn, de); });
+  const long long r = floorNear(range, 1e-12 * (1.0 + range), exact_range);
   const double azimuth = std::atan2(static_cast<float>(de), static_cast<float>(dn));
-  const long long a = floorNear((azimuth + M_PI) / kBinRad, 1e-4, [&] { return (std::atan2(de, dn) + M_PI) / kBinRad; });
+  const long long a = floorNear((azimuth + M_PI) / kBinRad, 1e-4, exact_bin);
   return r * 1000 + a;
 }
 

@@ -185,26 +185,28 @@ std::vector<PrBlock> prBlocks(int rows, int cols, const Point& point) {
   return blocks;
 }
 
-// The camera-independent part of prCameraNodes: the window's nodes and the cells' centres in blocks.
+// The camera-independent part of prCameraNodes: the window's nodes and the cells' centres, each point's
+// place (site frame) and the nodes it adds (false: none), and both sets of points in blocks.
 struct PrPoints {
+  const DemGrid& grid;
+  const DemGrid& truth;
+  const std::vector<double>& north;
+  const std::vector<double>& east;
+  const std::vector<double>& centre_up;
   dem::GridWindow within;
   std::vector<PrBlock> nodes, centres;
-};
 
-PrPoints prPoints(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
-                  const std::vector<double>& east, const std::vector<double>& centre_up,
-                  const dem::GridWindow& within) {
-  PrPoints p;
-  p.within = within;
-  p.nodes = prBlocks(within.rows, within.cols, [&](int r, int c, Vec3& x, PrNodeBox& adds) {
+  // Node (r, c) of `within`.
+  bool node(int r, int c, Vec3& x, PrNodeBox& adds) const {
     const int tr = within.row0 + r, tc = within.col0 + c;
     const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
     if (z == truth.nodata) return false;
     x = Vec3(truth.northOfRow(tr), truth.eastOfCol(tc), -z);
     adds.add(tc, tc, tr, tr);
     return true;
-  });
-  p.centres = prBlocks(grid.rows, grid.cols, [&](int r, int c, Vec3& x, PrNodeBox& adds) {
+  }
+  // The centre of the grid's cell (r, c): the four nodes about it.
+  bool centre(int r, int c, Vec3& x, PrNodeBox& adds) const {
     const std::size_t i = static_cast<std::size_t>(r) * grid.cols + c;
     double fc, fr;
     int bc, br;
@@ -212,7 +214,17 @@ PrPoints prPoints(const DemGrid& grid, const DemGrid& truth, const std::vector<d
     x = Vec3(north[i], east[i], -centre_up[i]);
     adds.add(bc, bc + 1, br, br + 1);
     return true;
-  });
+  }
+};
+
+PrPoints prPoints(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
+                  const std::vector<double>& east, const std::vector<double>& centre_up,
+                  const dem::GridWindow& within) {
+  PrPoints p{grid, truth, north, east, centre_up, within, {}, {}};
+  p.nodes = prBlocks(within.rows, within.cols,
+                     [&p](int r, int c, Vec3& x, PrNodeBox& adds) { return p.node(r, c, x, adds); });
+  p.centres = prBlocks(grid.rows, grid.cols,
+                       [&p](int r, int c, Vec3& x, PrNodeBox& adds) { return p.centre(r, c, x, adds); });
   return p;
 }
 
@@ -221,14 +233,11 @@ PrPoints prPoints(const DemGrid& grid, const DemGrid& truth, const std::vector<d
 // A looser cone than imageSees's (squares, a relative margin far above their rounding), so that no point
 // it accepts is left out; the whole of `within` when the cone is a half-space or wider. The points are
 // taken a block at a time (PrBlock).
-dem::GridWindow prCameraNodes(const DemGrid& grid, const DemGrid& truth, const std::vector<double>& north,
-                              const std::vector<double>& east, const std::vector<double>& centre_up,
-                              const CameraModel& m, const dem::ImageCone& cone, const PrPoints& points) {
-  const dem::GridWindow& within = points.within;
-  if (!(cone.min_cos > 0.0)) return within;
+dem::GridWindow prCameraNodes(const CameraModel& m, const dem::ImageCone& cone, const PrPoints& points) {
+  if (!(cone.min_cos > 0.0)) return points.within;
   const double cos2 = cone.min_cos * cone.min_cos * (1.0 - 1e-9);
-  const auto inCone = [&](double n, double e, double down) {
-    const Vec3 d = Vec3(n, e, down) - m.c;
+  const auto inCone = [&](const Vec3& x) {
+    const Vec3 d = x - m.c;
     const double along = d.dot(cone.axis);
     return along > 0.0 && along * along >= cos2 * d.squaredNorm();
   };
@@ -246,18 +255,10 @@ dem::GridWindow prCameraNodes(const DemGrid& grid, const DemGrid& truth, const s
     }
     for (int r = b.row0; r < b.row0 + b.rows; ++r) {
       for (int c = b.col0; c < b.col0 + b.cols; ++c) {
-        if (node) {
-          const int tr = within.row0 + r, tc = within.col0 + c;
-          const float z = truth.values[static_cast<std::size_t>(tr) * truth.cols + tc];
-          if (z != truth.nodata && inCone(truth.northOfRow(tr), truth.eastOfCol(tc), -z)) boxes[j].add(tc, tc, tr, tr);
-          continue;
-        }
-        const std::size_t i = static_cast<std::size_t>(r) * grid.cols + c;
-        double fc, fr;
-        int bc, br;
-        if (!std::isnan(north[i]) && inCone(north[i], east[i], -centre_up[i]) &&
-            prCentreNodes(truth, north[i], east[i], fc, fr, bc, br))
-          boxes[j].add(bc, bc + 1, br, br + 1);
+        Vec3 x;
+        PrNodeBox adds;
+        if ((node ? points.node(r, c, x, adds) : points.centre(r, c, x, adds)) && inCone(x))
+          boxes[j].add(adds.lo_c, adds.hi_c, adds.lo_r, adds.hi_r);
       }
     }
   });
@@ -308,7 +309,7 @@ std::vector<uint8_t> truthCellsSeen(const DemGrid& grid, const DemGrid& truth, c
     cameras.push_back(k);
     eyes.push_back(models[k].c);
     cones.push_back(dem::imageCone(models[k]));
-    windows.push_back(prCameraNodes(grid, truth, north, east, centre_up, models[k], cones.back(), points));
+    windows.push_back(prCameraNodes(models[k], cones.back(), points));
   }
   // The truth's nodes each cell reads, the same from every camera: those within its square
   // (nodesAround) and the four about its centre (bc, br the first; bc = -1: none, prCentreNodes).
