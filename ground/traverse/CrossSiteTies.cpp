@@ -38,6 +38,7 @@ CrossTieCounts& CrossTieCounts::operator+=(const CrossTieCounts& o) {
                                      &CrossTieCounts::grazing,
                                      &CrossTieCounts::occluded,
                                      &CrossTieCounts::scale_gate,
+                                     &CrossTieCounts::coarse_source,
                                      &CrossTieCounts::too_uncertain,
                                      &CrossTieCounts::patch_outside,
                                      &CrossTieCounts::low_ncc,

@@ -99,6 +99,7 @@ struct CrossTieCounts {
   int grazing = 0;        // the ray meets the ground plane under min_incidence_deg
   int occluded = 0;       // the ray meets the site's DEM first
   int scale_gate = 0;     // the views' footprints differ by more than max_scale_ratio
+  int coarse_source = 0;  // a source pixel spans too much of the target for the check's residual floor
   int too_uncertain = 0;  // the derived search radius is beyond the widest search (counted in predicted)
   // Searched predictions refused by the patch matcher, by cause.
   int patch_outside = 0;  // the patch or its search window leaves the image, or is flat

@@ -297,6 +297,12 @@ bool derivedRadius(const SiteImage& target, const Eigen::Vector3d& p, bool in_a,
   return true;
 }
 
+// The largest singular value of a 2x2 map: how far it carries a unit step in the worst direction.
+double largestStretch(const Eigen::Matrix2d& m) {
+  const double f2 = m.squaredNorm(), det = m.determinant();
+  return std::sqrt(0.5 * (f2 + std::sqrt(std::max(0.0, f2 * f2 - 4.0 * det * det))));
+}
+
 // What one candidate's predictions refused, matched and back-matched: over every target image and over A's
 // alone.
 struct Tally {
@@ -357,6 +363,15 @@ bool matchIntoImage(const Pass& pass, const SiteImage& source, const SiteProduct
   const double scale = std::sqrt(std::fabs(map.determinant()));
   if (!(scale <= pass.max_scale && scale >= 1.0 / pass.max_scale)) {
     bump(&CrossTieCounts::scale_gate);
+    return false;
+  }
+  // The observation is the target's image of the ground that the source point's pixel sees; where the map
+  // stretches that pixel over several target pixels, where in its span the ground lies is not known to the
+  // match. The source point is known to within its pixel (uniform, sigma 1/sqrt(12) of a pixel): the map's
+  // largest stretch carries that into the target, and its 3 sigma must stay within the geometric check's
+  // residual floor, or a gross observation there could not be told from a good one.
+  if (3.0 * largestStretch(map) / std::sqrt(12.0) > params.residual_floor_px) {
+    bump(&CrossTieCounts::coarse_source);
     return false;
   }
   bump(&CrossTieCounts::predicted);

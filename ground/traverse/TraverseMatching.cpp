@@ -24,6 +24,7 @@ json countsJson(const CrossTieCounts& c) {
               {"grazing", c.grazing},
               {"occluded", c.occluded},
               {"scale_gate", c.scale_gate},
+              {"coarse_source", c.coarse_source},
               {"too_uncertain", c.too_uncertain},
               {"predicted", c.predicted},
               {"patch_outside", c.patch_outside},

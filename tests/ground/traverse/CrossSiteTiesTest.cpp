@@ -313,7 +313,9 @@ TEST(CrossSiteTies, TiesAreWithinAFewTenthsOfAPixelOfTheTruth) {
         c.rejected_observations, c.rejected_ties, r.rms_px, t.median_px, t.p90_px, t.gross,
         t.errors_px.size(), t.ties_xy_m, t.ties_heading_deg);
     CHECK(r.status == CrossTieStatus::kOk);
-    CHECK(r.ties.size() >= 150u);
+    // Ties enough for the bundle to place B (checked below); the count itself is not the aim: observations
+    // that the source's pixel cannot localise within the check's floor are refused, not counted.
+    CHECK(r.ties.size() >= 100u);
     // On these coarse images (3-4 cm a pixel where the sites overlap) a match may still sit on a
     // neighbouring texture element along the source ray, where neither the back-match nor the geometry can
     // tell (both images of a stereo pair of A move together): ~1-2 % here (6-7 % with the plane warp and a
