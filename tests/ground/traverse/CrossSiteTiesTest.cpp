@@ -316,6 +316,9 @@ TEST(CrossSiteTies, TiesAreWithinAFewTenthsOfAPixelOfTheTruth) {
     // Ties enough for the bundle to place B (checked below); the count itself is not the aim: observations
     // that the source's pixel cannot localise within the check's floor are refused, not counted.
     CHECK(r.ties.size() >= 100u);
+    // Where B's views are steeper than A's, a source pixel spans several of A's: those predictions are not
+    // searched (a largest stretch beyond what the 1 px floor resolves).
+    CHECK(c.coarse_source > 0);
     // On these coarse images (3-4 cm a pixel where the sites overlap) a match may still sit on a
     // neighbouring texture element along the source ray, where neither the back-match nor the geometry can
     // tell (both images of a stereo pair of A move together): ~1-2 % here (6-7 % with the plane warp and a
