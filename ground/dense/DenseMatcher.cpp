@@ -261,19 +261,7 @@ float rightSubpixel(const BandVolume& v, const std::vector<uint16_t>& sum, int y
 // `interior` marks the pixels inside their band whose aggregated winner lies strictly inside it: at a band's
 // end the evidence points beyond the band (the coarse pass's range does not hold the match), and the fill
 // pass, which searches the same band, has nothing to find there.
-// Each pixel's winner (the aggregated minimum) and its own matching cost, gathered so that the cost volume
-// can be freed before the winners are checked: its own cost is all of it that is read after the aggregation.
-std::vector<uint16_t> winnerCosts(const BandVolume& v, const std::vector<uint16_t>& sum) {
-  std::vector<uint16_t> own(static_cast<std::size_t>(v.rows) * static_cast<std::size_t>(v.cols));
-  for (std::size_t p = 0; p < own.size(); ++p) {
-    const std::size_t at = static_cast<std::size_t>(v.offset[p]);
-    own[p] = v.cost[at + static_cast<std::size_t>(argminCost(&sum[at], v.count[p]))];
-  }
-  return own;
-}
-
-void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum,
-                   const std::vector<uint16_t>& own_costs, const std::vector<uint8_t>& no_band,
+void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum, const std::vector<uint8_t>& no_band,
                    const cv::Mat& texture, const DenseOptions& o, DenseResult& res, cv::Mat& occluded,
                    cv::Mat& interior) {
   const int rows = v.rows, cols = v.cols;
@@ -309,7 +297,7 @@ void selectWinners(const BandVolume& v, const std::vector<uint16_t>& sum,
       if (best > 0 && best < n - 1) interior_row[x] = 255;
       // The winner's own census cost: above chance level the pixel's window gives no evidence for it, only
       // the aggregation does (sky, parts of the left image the right one does not see).
-      const uint16_t own_cost = own_costs[p];
+      const uint16_t own_cost = v.cost[static_cast<std::size_t>(v.offset[p]) + best];
       if (!texture_row[x] || own_cost > o.max_census_cost_bits) continue;
       if (!uniqueMinimum(s, n, best, o.uniqueness_percent)) continue;
       drow[x] = parabolaDisparity(s, lo, n, best);
@@ -423,13 +411,13 @@ DenseResult matchRectified(const cv::Mat& left, const cv::Mat& right, const Dens
   fineCosts(cl, cr, no_band, o.fine_block_px / 2, v);
   std::vector<uint16_t> sum;
   aggregateSemiGlobal(v, left, o.fine_sgm, sum);
-  const std::vector<uint16_t> own_costs = winnerCosts(v, sum);
-  std::vector<uint16_t>().swap(v.cost);  // of the costs only the winners' (own_costs) are read from here on
   const cv::Mat texture = textureMask(left, o);
   cv::Mat occluded = cv::Mat::zeros(rows, cols, CV_8UC1);
   cv::Mat interior = cv::Mat::zeros(rows, cols, CV_8UC1);
-  selectWinners(v, sum, own_costs, no_band, texture, o, res, occluded, interior);
-  std::vector<uint16_t>().swap(sum);  // the block fill and the refinement read the band's layout only
+  selectWinners(v, sum, no_band, texture, o, res, occluded, interior);
+  // The two largest buffers of a pair in flight: the block fill and the refinement read the band's layout only.
+  std::vector<uint16_t>().swap(v.cost);
+  std::vector<uint16_t>().swap(sum);
   res.block = cv::Mat::zeros(rows, cols, CV_8UC1);
   res.block_lr_diff_px = cv::Mat(rows, cols, CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   const double t_fill = seconds();
