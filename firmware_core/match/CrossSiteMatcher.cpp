@@ -1,5 +1,6 @@
 #include "firmware_core/match/CrossSiteMatcher.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "firmware_core/base/Angles.hpp"
@@ -159,33 +160,67 @@ bool CrossSiteMatcher::matchOne(const CrossSiteRecord& a, const CrossSiteCandida
     return false;
   }
   counts.predicted += 1;
-  // The template: B's pixels about the prediction, through the ground plane, sampled from A.
-  Vec2 a_first = Vec2::Zero(), a_last = Vec2::Zero();
-  int32_t n = 0;
-  for (int32_t dy = -kCrossTemplateHalf; dy <= kCrossTemplateHalf; ++dy) {
-    for (int32_t dx = -kCrossTemplateHalf; dx <= kCrossTemplateHalf; ++dx) {
-      Vec3 o, d;
-      if (!ok(unproject(bi.model, Vec2(ub_x + dx, ub_y + dy), o, d))) break;
-      const double den = normal_b.dot(d);
-      if (std::fabs(den) < 1e-9) break;
-      const double t = normal_b.dot(x_b - o) / den;
-      if (t <= 0.0) break;
-      const Vec3 on_a = r * (o + t * d) + a_from_b.translation_m;
-      Vec2 u_a;
-      if (!ok(project(ai.model, on_a, u_a)) || !keptSample(ai, u_a.x(), u_a.y(), template_[n])) break;
-      if (dy == 0 && dx == -kCrossTemplateHalf) a_first = u_a;
-      if (dy == 0 && dx == kCrossTemplateHalf) a_last = u_a;
-      ++n;
-    }
-    if (n != (dy + kCrossTemplateHalf + 1) * kCrossTemplateSide) break;
-  }
-  if (n != kCrossTemplatePixels) {
+  // B's pixel px through the ground plane under the point into A's kept image.
+  const auto warp = [&](const Vec2& px, Vec2& u_a) {
+    Vec3 o, d;
+    if (!ok(unproject(bi.model, px, o, d))) return false;
+    const double den = normal_b.dot(d);
+    if (std::fabs(den) < 1e-9) return false;
+    const double t = normal_b.dot(x_b - o) / den;
+    if (t <= 0.0) return false;
+    return ok(project(ai.model, r * (o + t * d) + a_from_b.translation_m, u_a));
+  };
+  // The local map of B's pixels into A's at the prediction. Its first column gates the pair of views: a
+  // pixel's step across the line of sight is its range times the pixel angle in either view, so this is
+  // the ratio of the two footprints' widths (along the line of sight the ground's foreshortening adds to
+  // it, which the template's averaging below takes). Its longer column sets that averaging.
+  const Vec2 ub(ub_x, ub_y);
+  Vec2 u0, ux, uy;
+  if (!warp(ub, u0) || !warp(ub + Vec2(1.0, 0.0), ux) || !warp(ub + Vec2(0.0, 1.0), uy)) {
     counts.warp_failed += 1;
     return false;
   }
-  const double scale = (a_last - a_first).norm() / (2.0 * kCrossTemplateHalf);
-  if (scale > params.max_scale_ratio || scale < 1.0 / params.max_scale_ratio) {
+  Mat2 map;
+  map.col(0) = ux - u0;
+  map.col(1) = uy - u0;
+  const double scale = map.col(0).norm();
+  if (!(scale <= params.max_scale_ratio && scale >= 1.0 / params.max_scale_ratio)) {
     counts.scale_gate += 1;
+    return false;
+  }
+  // The template: B's pixels about the prediction, each the mean of A over that pixel's footprint (an
+  // s x s grid of bilinear samples, s the map's longer column rounded up): A sampled at B's spacing alone
+  // aliases where A sees the ground finer than B does.
+  const double stretch = std::sqrt(std::max(map.col(0).squaredNorm(), map.col(1).squaredNorm()));
+  const int32_t sub =
+      std::min<int32_t>(kCrossMaxSubsamples, std::max<int32_t>(1, static_cast<int32_t>(std::ceil(stretch))));
+  int32_t n = 0;
+  for (int32_t dy = -kCrossTemplateHalf; dy <= kCrossTemplateHalf && n >= 0; ++dy) {
+    for (int32_t dx = -kCrossTemplateHalf; dx <= kCrossTemplateHalf; ++dx) {
+      Vec2 u_a;
+      if (!warp(ub + Vec2(dx, dy), u_a)) {
+        n = -1;
+        break;
+      }
+      double sum = 0.0;
+      bool inside = true;
+      for (int32_t j = 0; j < sub && inside; ++j) {
+        for (int32_t i = 0; i < sub && inside; ++i) {
+          const Vec2 q = u_a + map * Vec2((i + 0.5) / sub - 0.5, (j + 0.5) / sub - 0.5);
+          double v = 0.0;
+          inside = keptSample(ai, q.x(), q.y(), v);
+          sum += v;
+        }
+      }
+      if (!inside) {
+        n = -1;
+        break;
+      }
+      template_[n++] = sum / (sub * sub);
+    }
+  }
+  if (n != kCrossTemplatePixels) {
+    counts.warp_failed += 1;
     return false;
   }
   // The search: NCC at every integer shift.
@@ -233,7 +268,9 @@ bool CrossSiteMatcher::matchOne(const CrossSiteRecord& a, const CrossSiteCandida
   };
   const double ox = parabolaOffset(at(bx - 1, by), best, at(bx + 1, by));
   const double oy = parabolaOffset(at(bx, by - 1), best, at(bx, by + 1));
-  tie.matcher_px = Vec2(fullResolutionPx(ub_x + bx + ox, bi.bin), fullResolutionPx(ub_y + by + oy, bi.bin));
+  // The template's centre is A's image of the ground at B's integer pixel ub, so the peak places that
+  // pixel; the candidate itself lies at the unrounded prediction u_b, the same shift away.
+  tie.matcher_px = Vec2(fullResolutionPx(u_b.x() + bx + ox, bi.bin), fullResolutionPx(u_b.y() + by + oy, bi.bin));
   tie.ncc = best;
   counts.matched += 1;
   return true;

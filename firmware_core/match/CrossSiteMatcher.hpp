@@ -41,9 +41,12 @@ constexpr int32_t kMaxStoredImages = 24;
 // a few centimetres a pixel at 10-30 m, which 4x binning of Navcam still resolves.
 constexpr int32_t kStoredImageSide = 256;
 constexpr int32_t kStoredImagePixels = kStoredImageSide * kStoredImageSide;
-// Candidates per image: one per cell of a 4 x 4 grid; per site at most 256 (a pose needs far fewer ties).
-constexpr int32_t kCandidateGrid = 4;
-constexpr int32_t kMaxSiteCandidates = 256;
+// Candidates per image: one per cell of an 8 x 8 grid; per site at most 1024. A candidate ties a leg only
+// where both sites see it at a like scale, which the next leg's length decides, unknown when the site is
+// kept: a site keeps candidates over all the ranges its images show, and most of them (its near field from
+// a leg's length away) fail the scale gate.
+constexpr int32_t kCandidateGrid = 8;
+constexpr int32_t kMaxSiteCandidates = 1024;
 constexpr int32_t kMaxCandidateObservations = 4;  // the stereo pair's two rays, and two of a neighbour pair
 // The template: 11 x 11 pixels on B's grid; the search: +-8 pixels of the kept images (the registration of
 // the rover's coarse DEMs leaves about 0.1 m and a few tenths of a degree: 3-5 pixels of the tiny camera at
@@ -52,6 +55,9 @@ constexpr int32_t kCrossTemplateHalf = 5;
 constexpr int32_t kCrossTemplateSide = 2 * kCrossTemplateHalf + 1;
 constexpr int32_t kCrossTemplatePixels = kCrossTemplateSide * kCrossTemplateSide;
 constexpr int32_t kCrossSearchRadiusPx = 8;
+// A template pixel averages at most 4 x 4 samples of A (the scale gate keeps the stretch within 2.5 but for
+// a footprint much longer than wide).
+constexpr int32_t kCrossMaxSubsamples = 4;
 // Ties of one pair of sites: each candidate in at most two of B's images.
 constexpr int32_t kMaxCrossSiteTiesPerLeg = 2 * kMaxSiteCandidates;
 

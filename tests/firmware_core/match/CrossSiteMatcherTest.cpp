@@ -104,9 +104,13 @@ void matchUnder(TwoSites& s, const LevelledPose& pose, int32_t& count, double& w
   std::unique_ptr<RoverCrossTie[]> ties(new RoverCrossTie[kMaxCrossSiteTiesPerLeg]);
   const auto t0 = std::chrono::steady_clock::now();
   matcher->match(*s.a, *s.b, pose, CrossMatchParams{}, ties.get(), kMaxCrossSiteTiesPerLeg, count, counts);
-  std::printf("\ncross-site matching: %.4f s for %d predictions\n",
+  std::printf("\ncross-site matching: %.4f s for %d predictions (refused: %d low NCC, %d ambiguous, %d peak on "
+              "the edge, %d scale, %d grazing, %d warp, %d off the DEM)\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-              static_cast<int>(counts.predicted));
+              static_cast<int>(counts.predicted), static_cast<int>(counts.low_ncc),
+              static_cast<int>(counts.ambiguous), static_cast<int>(counts.edge_peak),
+              static_cast<int>(counts.scale_gate), static_cast<int>(counts.grazing),
+              static_cast<int>(counts.warp_failed), static_cast<int>(counts.outside));
   worst_px = 0.0;
   double sum2 = 0.0;
   for (int32_t t = 0; t < count; ++t) {
@@ -132,9 +136,13 @@ TEST(CrossSiteMatcher, TiesLandOnTheTruePixelsOfTheOtherSite) {
   std::printf("\ncross-site matcher, true pose: %d candidates, %d predicted, %d ties, RMS %.3f px, worst %.3f px\n",
               static_cast<int>(s.a->candidateCount()), static_cast<int>(counts.predicted),
               static_cast<int>(count), rms, worst);
-  CHECK_TRUE(count >= s.a->candidateCount() / 2);
-  CHECK_TRUE(rms < 0.5);
-  CHECK_TRUE(worst < 1.0);
+  // Every prediction that passes the geometric gates is matched; a tie places the candidate, not the
+  // integer pixel its template is centred on (that alone would leave 0.41 px RMS).
+  const int32_t searched = counts.predicted - counts.scale_gate - counts.warp_failed;
+  CHECK_TRUE(searched >= 12);
+  CHECK_TRUE(count >= searched * 9 / 10);
+  CHECK_TRUE(rms < 0.2);
+  CHECK_TRUE(worst < 0.5);
 }
 
 TEST(CrossSiteMatcher, AnOffsetPoseStillFindsTheTruePixels) {
@@ -148,7 +156,8 @@ TEST(CrossSiteMatcher, AnOffsetPoseStillFindsTheTruePixels) {
   matchUnder(s, off, count, worst, rms, counts);
   std::printf("\ncross-site matcher, offset pose: %d ties of %d predictions, RMS %.3f px, worst %.3f px\n",
               static_cast<int>(count), static_cast<int>(counts.predicted), rms, worst);
-  CHECK_TRUE(count >= s.a->candidateCount() / 3);  // the wrong pose warps the templates a little wrongly
-  CHECK_TRUE(rms < 0.5);
-  CHECK_TRUE(worst < 1.0);
+  const int32_t searched = counts.predicted - counts.scale_gate - counts.warp_failed;
+  CHECK_TRUE(count >= searched * 2 / 3);  // the wrong pose warps the templates a little wrongly
+  CHECK_TRUE(rms < 0.3);
+  CHECK_TRUE(worst < 0.6);
 }
