@@ -221,6 +221,9 @@ GroundNodeResult runGroundNode(platform::Transport& transport, const std::string
     if (done) done(result);
     last = std::move(result);
     collector.nextPanorama();
+    // What the pass freed on its threads' heaps goes back to the system while the node waits: between
+    // panoramas its resident memory is what it holds, not each pass's high-water mark.
+    cli::releaseFreedMemory();
     if (last_site) break;  // the traverse's last site is mapped
   }
   last.sites = collector.sites();
