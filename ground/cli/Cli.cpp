@@ -222,15 +222,6 @@ void Progress::print(bool final) {
   std::fflush(stderr);
 }
 
-void keepFreedMemory() {
-#if defined(__GLIBC__)
-  constexpr int kHeapBlockBytes = 32 << 20;  // glibc's largest mmap threshold on 64-bit hosts
-  constexpr int kKeptTopBytes = 64 << 20;
-  mallopt(M_MMAP_THRESHOLD, kHeapBlockBytes);
-  mallopt(M_TRIM_THRESHOLD, kKeptTopBytes);
-#endif
-}
-
 void releaseFreedMemory() {
 #if defined(__GLIBC__)
   malloc_trim(0);

@@ -86,16 +86,9 @@ int runTool(const char* name, int argc, char** argv, const char* usage, const st
 // N >= 1; absent: every core. Set before any work; returns the count that will be used.
 int threadsOption(Args& args);
 
-// The allocator's policy for a ground pass, set by a tool's main before any work: blocks below 32 MiB come
-// from the heaps, and up to 64 MiB free at a heap's top stay mapped. glibc's own policy (blocks above a
-// threshold that starts at 128 KiB mapped on their own, a heap's free top beyond twice it returned) gives the
-// pass's buffers of a few MiB per pair, band of rows and tile back to the kernel as they are freed, and
-// the next ones are mapped and zeroed afresh, page by page. Nothing elsewhere than glibc.
-void keepFreedMemory();
-// Hands the heaps' free memory back to the kernel (glibc's malloc_trim; nothing elsewhere). Under
-// keepFreedMemory a worker thread's heap keeps what its blocks freed (a thread's heap never grows past
-// 64 MiB, so its free top never exceeds the threshold): called after a stage whose threads freed large
-// buffers, before one that allocates on other threads.
+// Hands the heaps' free memory back to the kernel (glibc's malloc_trim over every arena; nothing
+// elsewhere): after a stage whose threads freed large buffers, before one that allocates on other threads,
+// and by a node between panoramas, so that what stays resident is what the process holds.
 void releaseFreedMemory();
 
 // "name: warning: text" on stderr.

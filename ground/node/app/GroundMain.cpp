@@ -179,7 +179,6 @@ GroundArgs parseArgs(cli::Args& args) {
   options.first_message_timeout_s = args.number("--first-timeout-s", 600.0);
   a.summary_json = args.flag("--summary-json");
   cli::threadsOption(args);
-  cli::keepFreedMemory();
   const double panoramas = args.number("--panoramas", 1.0);
   a.no_record = args.flag("--no-record");
   options.pass.products = !args.flag("--no-products");

@@ -87,7 +87,6 @@ traverse::TraverseRunOptions runOptions(cli::Args& args) {
   o.cell_m = args.number("--cell-m", -1.0);
   o.progress = !args.flag("--quiet");
   cli::threadsOption(args);
-  cli::keepFreedMemory();
   o.reuse_sites = args.flag("--reuse-sites");
   o.resume = args.flag("--resume");
   o.cross_ties_csv = args.option("--cross-ties", "");

@@ -1,5 +1,3 @@
-#include <sys/resource.h>
-
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -70,28 +68,3 @@ TEST(Cli, InputErrorNamesFileAndField) {
   STRCMP_EQUAL("models/p000_L.cahvor: A: |A| = 0.5, expected 1", e.what());
 }
 
-TEST_GROUP(KeepFreedMemory){};
-
-// A buffer of a few MiB freed and asked for again comes back without new pages (minor faults), as the
-// pass's buffers per pair, band and tile do: glibc's own policy maps the second one afresh. Not under
-// AddressSanitizer: its allocator replaces glibc's, whose settings keepFreedMemory makes.
-#if defined(__SANITIZE_ADDRESS__)
-IGNORE_TEST(KeepFreedMemory, AFreedBufferIsReusedWithoutNewPages) {
-#else
-TEST(KeepFreedMemory, AFreedBufferIsReusedWithoutNewPages) {
-#endif
-  areomap::cli::keepFreedMemory();
-  constexpr std::size_t kBytes = std::size_t{8} << 20;
-  const auto touch = [] {
-    const std::vector<unsigned char> v(kBytes, 1);  // every page written
-    return v.back();
-  };
-  CHECK_EQUAL(1, touch());
-  rusage before{};
-  getrusage(RUSAGE_SELF, &before);
-  CHECK_EQUAL(1, touch());
-  rusage after{};
-  getrusage(RUSAGE_SELF, &after);
-  const long pages = static_cast<long>(kBytes / 4096);
-  CHECK(after.ru_minflt - before.ru_minflt < pages / 4);
-}

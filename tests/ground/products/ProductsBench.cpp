@@ -38,7 +38,6 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[k], "--reference") == 0) reference = true;
     if (std::strcmp(argv[k], "--threads") == 0 && k + 1 < argc) threads = std::atoi(argv[++k]);
   }
-  cli::keepFreedMemory();  // as the ground's tools run the pass
   const double t0 = cli::nowSeconds();
   const Dataset ds = readDataset(root);
   products::ProductInputs in;
