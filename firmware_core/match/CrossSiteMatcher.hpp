@@ -10,12 +10,14 @@
 // Matching: every candidate of A is moved into B by the registered pose and projected into each stored image
 // of B that sees it (in range, in the image, not grazing the ground plane under it, a footprint of like scale
 // in both views). The template is B's (2 kCrossTemplateHalf + 1)^2 pixel grid about the prediction, each
-// pixel's ray cut with the ground plane under the point (normal from B's DEM), moved into A and sampled from
-// A's stored image (bilinear): A's patch warped into B's view. It is correlated (nccOfSamples) with B's
-// stored image at every integer shift within +-kCrossSearchRadiusPx; the best NCC must reach min_ncc, a second
-// peak (two pixels or more away) must stay below max_second_ratio of it, the peak must not lie on the search's
-// edge; the sub-pixel position is a parabola in x and in y. A tie is the candidate and B's pixel in the
-// matcher's frame of that image (the one the site's network works in).
+// pixel's ray cut with the ground plane under the point (normal from B's DEM), moved into A and A's stored
+// image averaged over that pixel's footprint there (bilinear samples on a grid as fine as the footprint is
+// long, at most kCrossMaxSubsamples a side): A's patch warped into B's view. It is correlated (nccOfSamples)
+// with B's stored image at every integer shift within +-kCrossSearchRadiusPx; the best NCC must reach
+// min_ncc, a second peak (two pixels or more away) must stay below max_second_ratio of it, the peak must not
+// lie on the search's edge; the sub-pixel position is a parabola in x and in y. A tie is the candidate and
+// B's pixel in the matcher's frame of that image (the one the site's network works in): the unrounded
+// prediction moved by the peak's shift.
 //
 // Memory: fixed (a record ~1.6 MiB); no heap; every loop bounded.
 #pragma once
