@@ -580,19 +580,9 @@ void RoverNode::finishTraverseSite(bool mapped) {
   counters_.traverse_seconds += now() - t;
   const RoverLegReport& leg = traverse_.lastLeg();
   if (options_.log_to_stderr && leg.candidates_a > 0) {
-    std::fprintf(stderr,
-                 "areomap-rover: site %s: DEM registration %s (%d samples, %.3f m RMS), %d cross-site ties "
-                 "(%d candidates, %d predictions; refused: %d low NCC, %d ambiguous, %d peak on the edge, %d "
-                 "scale, %d grazing, %d beyond range, %d off the DEM, %d warp), %d observations into the "
-                 "site-pose adjustment\n",
-                 site_in_.site_id.c_str(), demRegistrationStatusName(leg.registration.status),
-                 static_cast<int>(leg.registration.overlap), leg.registration.rms_m, static_cast<int>(leg.ties),
-                 static_cast<int>(leg.candidates_a), static_cast<int>(leg.counts.predicted),
-                 static_cast<int>(leg.counts.low_ncc), static_cast<int>(leg.counts.ambiguous),
-                 static_cast<int>(leg.counts.edge_peak), static_cast<int>(leg.counts.scale_gate),
-                 static_cast<int>(leg.counts.grazing), static_cast<int>(leg.counts.beyond_range),
-                 static_cast<int>(leg.counts.outside), static_cast<int>(leg.counts.warp_failed),
-                 static_cast<int>(leg.observations_added));
+    char text[384];
+    describeLeg(leg, text, static_cast<int32_t>(sizeof(text)));
+    std::fprintf(stderr, "areomap-rover: site %s: %s\n", site_in_.site_id.c_str(), text);
   }
   if (!ok(s)) {
     std::snprintf(last_error_, sizeof(last_error_), "site %s: %s: not in the site-pose adjustment",

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <cstdio>
 #include <cstring>
 
 #include "firmware_core/base/Angles.hpp"
@@ -195,6 +197,21 @@ void RoverTraverse::solveWindow() {
 }  // namespace areomap
 
 namespace areomap {
+
+void describeLeg(const RoverLegReport& leg, char* out, int32_t size) {
+  if (size <= 0) return;
+  const CrossMatchCounts& c = leg.counts;
+  std::snprintf(out, static_cast<std::size_t>(size),
+                "DEM registration %s (%d samples, %.3f m RMS), %d cross-site ties (%d candidates, %d "
+                "predictions; refused: %d low NCC, %d ambiguous, %d peak on the edge, %d scale, %d grazing, %d "
+                "beyond range, %d off the DEM, %d warp), %d observations into the site-pose adjustment",
+                demRegistrationStatusName(leg.registration.status), static_cast<int>(leg.registration.overlap),
+                leg.registration.rms_m, static_cast<int>(leg.ties), static_cast<int>(leg.candidates_a),
+                static_cast<int>(c.predicted), static_cast<int>(c.low_ncc), static_cast<int>(c.ambiguous),
+                static_cast<int>(c.edge_peak), static_cast<int>(c.scale_gate), static_cast<int>(c.grazing),
+                static_cast<int>(c.beyond_range), static_cast<int>(c.outside), static_cast<int>(c.warp_failed),
+                static_cast<int>(leg.observations_added));
+}
 
 void RoverTraverse::capture(const Network& net, const NetworkBuilder& builder) {
   CrossSiteRecord& rec = records_[current_];

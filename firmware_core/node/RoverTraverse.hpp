@@ -64,6 +64,9 @@ struct RoverLegReport {
   int32_t observations_refused = 0;
   int32_t candidates_a = 0, kept_images_b = 0;
 };
+// The leg in a sentence (registration, ties, the matcher's refusals, observations), into `out`
+// (NUL-terminated, at most `size` bytes).
+void describeLeg(const RoverLegReport& leg, char* out, int32_t size);
 
 struct RoverTraverseCounters {
   int32_t sites_adjusted = 0;
