@@ -191,19 +191,15 @@ bool CrossSiteMatcher::matchOne(const CrossSiteRecord& a, const CrossSiteCandida
   // The template: B's pixels about the prediction, each the mean of A over that pixel's footprint (an
   // s x s grid of bilinear samples, s the map's longer column rounded up): A sampled at B's spacing alone
   // aliases where A sees the ground finer than B does.
-  const double stretch = std::sqrt(std::max(map.col(0).squaredNorm(), map.col(1).squaredNorm()));
+  const double stretch = std::max(scale, map.col(1).norm());
   const int32_t sub =
       std::min<int32_t>(kCrossMaxSubsamples, std::max<int32_t>(1, static_cast<int32_t>(std::ceil(stretch))));
   int32_t n = 0;
-  for (int32_t dy = -kCrossTemplateHalf; dy <= kCrossTemplateHalf && n >= 0; ++dy) {
+  for (int32_t dy = -kCrossTemplateHalf; dy <= kCrossTemplateHalf; ++dy) {
     for (int32_t dx = -kCrossTemplateHalf; dx <= kCrossTemplateHalf; ++dx) {
       Vec2 u_a;
-      if (!warp(ub + Vec2(dx, dy), u_a)) {
-        n = -1;
-        break;
-      }
+      bool inside = warp(ub + Vec2(dx, dy), u_a);
       double sum = 0.0;
-      bool inside = true;
       for (int32_t j = 0; j < sub && inside; ++j) {
         for (int32_t i = 0; i < sub && inside; ++i) {
           const Vec2 q = u_a + map * Vec2((i + 0.5) / sub - 0.5, (j + 0.5) / sub - 0.5);
@@ -213,15 +209,11 @@ bool CrossSiteMatcher::matchOne(const CrossSiteRecord& a, const CrossSiteCandida
         }
       }
       if (!inside) {
-        n = -1;
-        break;
+        counts.warp_failed += 1;
+        return false;
       }
       template_[n++] = sum / (sub * sub);
     }
-  }
-  if (n != kCrossTemplatePixels) {
-    counts.warp_failed += 1;
-    return false;
   }
   // The search: NCC at every integer shift.
   double best = kNccInvalid;
